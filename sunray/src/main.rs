@@ -1,0 +1,15 @@
+//! The `sunray` command: parses flags and hands over to [`sunray::cli`].
+
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = sunray::cli::Cli::parse();
+    match sunray::cli::run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("sunray: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,12 @@
+//! OFF (Object File Format) to YARI: the thesis's `off2gfx`. (Being written.)
+
+use crate::ast::Scene;
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::span::{Source, Span};
+
+/// Reads an OFF file into a YARI syntax tree.
+pub fn parse(_src: &Source) -> Result<Scene, Diagnostics> {
+    let mut d = Diagnostics::default();
+    d.push(Diagnostic::error(Span::default(), "OFF input is not supported yet"));
+    Err(d)
+}
