@@ -1,1 +1,24 @@
-//! modeler: the command-line successor of the thesis's "Scene" editor (section 2.4).
+//! modeler: the command-line successor of the thesis's "Scene" editor (section 2.4). A scene
+//! is edited step by step (or rebuilt from a script) in a project file that keeps names and
+//! structure, previewed in the editor's four views, and exported as plain YARI.
+//!
+//! # Layout
+//! - [`project`]: the project (settings, skeletons, object tree), saved atomically as JSON.
+//! - [`error`]: typed errors and name rules.
+//! - [`skeleton`]: points, line segments and Bézier curves in a principal plane.
+//! - [`mesh`]: polygon meshes and the closed/oriented checks.
+//! - [`sweep`]: revolve (surfaces of revolution) and extrude.
+//! - [`tree`]: the object tree; combine, explode, copy, world-space transformations.
+//! - [`export`]: project to YARI (names as comments).
+//! - [`import`]: YARI to project (names from comments).
+//! - [`preview`]: the four views as one PNG, wireframe or flat shaded (z-buffer).
+
+pub mod error;
+pub mod export;
+pub mod import;
+pub mod mesh;
+pub mod preview;
+pub mod project;
+pub mod skeleton;
+pub mod sweep;
+pub mod tree;

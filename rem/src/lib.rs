@@ -1,1 +1,101 @@
-//! REM, the remote execution manager (thesis section 4.2.4.1).
+//! REM, the remote execution manager (thesis section 4.2.4.1): a daemon (`remd`) on every
+//! eligible host starts processes on the least-loaded hosts, carries their messages (so
+//! applications open no sockets of their own), keeps checkpoints on more than one host and
+//! reports load and failures. `rem` is the administrator's client; this library is also the
+//! client that job owners (the SunRay III controller) and spawned processes (its workers) use.
+//!
+//! # Using REM from a program
+//!
+//! A job owner connects to its local remd, attaches to the relay (which gives it a process id
+//! of its own), spawns workers owned by that id, then trades messages and receives events:
+//!
+//! ```no_run
+//! # async fn demo() -> Result<(), rem::Error> {
+//! use rem::{RemClient, Secret, SpawnRequest, Incoming};
+//! let client = RemClient::connect("127.0.0.1:7077", Secret::new("s3cret")?).await?;
+//! let mut relay = client.attach(Some("job-1")).await?;
+//! let job = client
+//!     .spawn(SpawnRequest {
+//!         program: "/usr/local/bin/sunray".into(),
+//!         args: vec!["worker".into()],
+//!         nice: Some(10),
+//!         count: 4,
+//!         job: Some("job-1".into()),
+//!         owner: Some(relay.id().clone()),
+//!         ..SpawnRequest::default()
+//!     })
+//!     .await?;
+//! relay.send(&job.processes[0].proc_id, b"hello".to_vec()).await?;
+//! while let Some(incoming) = relay.recv().await {
+//!     match incoming {
+//!         Incoming::Message { from, payload } => { /* a worker's reply */ }
+//!         Incoming::Event(ev) => { /* Started, Exited, Lost */ }
+//!         Incoming::Undeliverable { to, reason } => { /* the target is gone */ }
+//!     }
+//! }
+//! client.put_checkpoint("job-1", b"progress".to_vec()).await?;
+//! # Ok(()) }
+//! ```
+//!
+//! A spawned process attaches with one call, `Relay::attach_from_env()`, which reads
+//! `REM_ADDR`, `REM_PROC_ID`, `REM_JOB_ID`, `REM_OWNER_ID`, `REM_SECRET_FILE` or `REM_SECRET`,
+//! and (with TLS) `REM_TLS_CA` / `REM_TLS_DOMAIN` (see [`process::env`]).
+//!
+//! Messages are opaque bytes up to the daemon's limit (default 16 MiB, `--max-message`).
+//! Delivery is in order per sender and receiver, with back-pressure through bounded queues;
+//! what was in flight when a host or link fails may be lost (the owner gets `Lost` events).
+//!
+//! # Layout
+//!
+//! - [`proto`]: generated gRPC types (`proto/rem.proto`).
+//! - [`error`]: [`Error`], and its mapping to gRPC status codes.
+//! - [`ids`]: host names, job ids, [`ProcId`].
+//! - [`auth`]: the cluster [`Secret`] and the interceptors that send and check it.
+//! - [`transport`]: channels, plain or TLS (rustls).
+//! - [`config`]: remd settings from flags, environment and TOML.
+//! - [`load`]: this host's load (sysinfo) and REM process count.
+//! - [`placement`]: ranking hosts by load per core.
+//! - [`membership`]: heartbeats, joining, lost and returning hosts.
+//! - [`peers`]: cached connections to other daemons.
+//! - [`process`]: the OS processes REM runs here; the environment they get.
+//! - [`logbuf`]: bounded stdout / stderr keepers.
+//! - [`relay`]: mailboxes and daemon-to-daemon links.
+//! - [`attach`]: one process's relay stream.
+//! - [`jobs`]: job owners and `Lost` reports.
+//! - [`checkpoint`]: atomic checkpoint files.
+//! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
+//! - [`client`]: [`RemClient`]; [`relay_client`]: [`Relay`] for job owners and processes.
+
+pub mod attach;
+pub mod auth;
+pub mod checkpoint;
+pub mod client;
+pub mod config;
+pub mod daemon;
+pub mod error;
+pub mod ids;
+pub mod jobs;
+pub mod load;
+pub mod logbuf;
+pub mod membership;
+pub mod peers;
+pub mod placement;
+pub mod process;
+pub mod relay;
+pub mod relay_client;
+pub mod server;
+pub mod service;
+pub mod transport;
+
+/// Generated from `proto/rem.proto`.
+#[allow(clippy::all, missing_docs)]
+pub mod proto {
+    tonic::include_proto!("rem.v1");
+}
+
+pub use auth::Secret;
+pub use client::{ConnectOptions, Job, RemClient, SpawnRequest};
+pub use error::{Error, Result};
+pub use ids::ProcId;
+pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, ProcessInfo};
+pub use relay_client::{Incoming, Relay, RelayReceiver, RelaySender};

@@ -103,6 +103,10 @@ pub enum AttrField {
     Translucency(f64),
     /// Extension: transmissivity per unit length T (Table 3.1), 1 = no absorption.
     Transmissivity(f64),
+    /// Extension: `texture_space = m00 m01 m02 m03 m10 ... m23`, the world-to-texture map
+    /// (3x4, row by row) given explicitly instead of the inverse of the current transform.
+    /// The writer uses it to print a compiled world exactly.
+    TextureSpace([f64; 12]),
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -132,4 +136,7 @@ pub enum Transform {
     /// Extension: the following primitives in this scope move by this world-space
     /// displacement while the shutter is open (motion blur).
     Motion(Vec3),
+    /// Extension: `transform(m00 m01 m02 m03 m10 ... m23)`, a general affine map (3x4, row
+    /// by row: x' = m00 x + m01 y + m02 z + m03, ...), combined like the others.
+    Matrix([f64; 12]),
 }

@@ -6,11 +6,40 @@
 //! - [`diag`]: diagnostics rendered as `file:line:col: error: ...` with a caret.
 //! - [`ast`]: the syntax tree as written.
 //! - [`model`]: the compiled world-space model a renderer loads.
+//! - [`lexer`]: the byte scanner (numbers, names, punctuation, `/* */` comments).
+//! - [`parse`]: the parser from source text to [`ast::Scene`], with error recovery.
+//! - [`writer`]: the syntax tree (or a compiled world) printed back as YARI text.
+//! - [`colour`]: named colours, built in and from a user file.
+//! - [`compile`]: the compiler (`yc`) from [`ast::Scene`] to [`model::World`].
+//! - [`modelfile`]: the compiled model in binary (`.srw`), for workers.
+//! - [`load`]: any scene file (YARI, NFF, OFF, model) to a compiled world.
 //! - [`nff`], [`off`]: converters from NFF and OFF to the syntax tree (`nff2gfx`, `off2gfx`).
+//! - [`spd`]: Haines's Standard Procedural Databases (`tetra`, `mount`, `balls`) and `check`
+//!   checkerboards, generated as NFF scenes.
+//!
+//! The language (with our extensions), the compiler's rules and the model file format are
+//! described in `docs/yari.md`.
+//!
+//! ```
+//! use yari::{colour::ColourTable, compile::compile, parse::parse, span::Source};
+//! let src = Source::new("s.yari", "begin attribute(color = red); sphere(center = 0,0,0; radius = 1); end");
+//! let scene = parse(&src).expect("parses");
+//! let compiled = compile(&scene, &ColourTable::builtin()).expect("compiles");
+//! assert_eq!(compiled.world.features.spheres, 1);
+//! assert_eq!(compiled.warnings.warnings().count(), 3); // no resolution, camera or light
+//! ```
 
 pub mod ast;
 pub mod diag;
 pub mod model;
 pub mod span;
+pub mod lexer;
+pub mod parse;
+pub mod writer;
+pub mod colour;
+pub mod compile;
+pub mod modelfile;
+pub mod load;
 pub mod nff;
 pub mod off;
+pub mod spd;

@@ -1,12 +1,38 @@
-//! NFF (Haines's Neutral File Format) to YARI: the thesis's `nff2gfx`. (Being written.)
+//! NFF (Haines's Neutral File Format) to YARI: the thesis's `nff2gfx`.
+//!
+//! Reading is split from mapping so the SPD generators ([`crate::spd`]) can build the same
+//! [`NffScene`] in code, print it in Haines's format ([`write()`]) or map it to YARI
+//! ([`to_yari()`]). The mapping rules are in `docs/nff-mapping.md`.
+//!
+//! # Layout
+//! - [`scene`]: the NFF entities as written ([`NffScene`], [`Entity`], [`Fill`], [`View`]).
+//! - [`read`]: text to entities, with spanned diagnostics.
+//! - [`to_yari`]: entities to the YARI syntax tree (the Hall-model mapping).
+//! - [`cone`]: NFF cones and cylinders as clipped world-space quadrics.
+//! - [`write`]: entities back to NFF text with C's `%g` number format.
+
+pub mod cone;
+pub mod read;
+pub mod scene;
+pub mod to_yari;
+pub mod write;
+
+pub use read::read;
+pub use scene::{Entity, Fill, NffScene, View};
+pub use to_yari::to_yari;
+pub use write::write;
 
 use crate::ast::Scene;
-use crate::diag::{Diagnostic, Diagnostics};
-use crate::span::{Source, Span};
+use crate::diag::Diagnostics;
+use crate::span::Source;
 
-/// Reads an NFF file into a YARI syntax tree.
-pub fn parse(_src: &Source) -> Result<Scene, Diagnostics> {
-    let mut d = Diagnostics::default();
-    d.push(Diagnostic::error(Span::default(), "NFF input is not supported yet"));
-    Err(d)
+/// Reads an NFF file into a YARI syntax tree (warnings are dropped; see [`parse_with_warnings`]).
+pub fn parse(src: &Source) -> Result<Scene, Diagnostics> {
+    parse_with_warnings(src).map(|(scene, _)| scene)
+}
+
+/// Reads an NFF file into a YARI syntax tree, returning the warnings with it.
+pub fn parse_with_warnings(src: &Source) -> Result<(Scene, Diagnostics), Diagnostics> {
+    let (nff, warnings) = read(src)?;
+    Ok((to_yari(&nff), warnings))
 }

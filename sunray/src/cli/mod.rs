@@ -1,11 +1,23 @@
 //! The `sunray` subcommands. Each lives in its own module with its clap `Args` struct and a
 //! `run` function returning the process exit code.
 
+pub mod bench;
+pub mod check;
+pub mod check_board;
+pub mod compile;
+pub mod convert;
+pub mod render;
+pub mod spd;
+
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
-#[command(name = "sunray", version, about = "SunRay: a Hall-model ray tracer and its SunRay III render farm")]
+#[command(
+    name = "sunray",
+    version,
+    about = "SunRay: a Hall-model ray tracer and its SunRay III render farm"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -13,9 +25,31 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Parse and compile a scene; print a summary and any warnings, or the errors.
+    Check(check::CheckArgs),
+    /// Compile a scene into a model file that workers load without parsing (`yc`).
+    Compile(compile::CompileArgs),
+    /// Convert an NFF or OFF scene to YARI (the thesis's nff2gfx / off2gfx).
+    Convert(convert::ConvertArgs),
+    /// Generate one of Haines's Standard Procedural Databases (tetra, mount, balls).
+    Spd(spd::SpdArgs),
+    /// Generate a checkerboard of polygons (the thesis's `check`).
+    CheckBoard(check_board::CheckBoardArgs),
+    /// Render a scene on this machine with all cores.
+    Render(render::RenderArgs),
+    /// Benchmarks: the thesis's Tables 4.1 and 4.2 with our numbers, throughput, build time.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    match cli.command {}
+    match cli.command {
+        Command::Check(args) => check::run(args),
+        Command::Compile(args) => compile::run(args),
+        Command::Convert(args) => convert::run(args),
+        Command::Spd(args) => spd::run(args),
+        Command::CheckBoard(args) => check_board::run(args),
+        Command::Render(args) => render::run(args),
+        Command::Bench(args) => bench::run(args),
+    }
 }

@@ -1,0 +1,12 @@
+//! Compiles `proto/rem.proto` with protox (pure Rust, no `protoc`) and tonic-prost-build.
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let proto_dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../proto");
+    let proto = format!("{proto_dir}/rem.proto");
+    println!("cargo:rerun-if-changed={proto}");
+    let files = protox::compile([proto.as_str()], [proto_dir])?;
+    tonic_prost_build::configure()
+        .build_server(true)
+        .build_client(true)
+        .compile_fds(files)?;
+    Ok(())
+}

@@ -1,0 +1,269 @@
+//! `rem`: looks at and drives a REM cluster through one remd.
+//!
+//! `rem [--remd ADDR] [--secret-file PATH] hosts|ps|spawn|kill|logs ...`; `--json` on listings.
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use clap::{Parser, Subcommand};
+use rem::client::ConnectOptions;
+use rem::transport::ClientTls;
+use rem::{EventKind, Incoming, ProcId, RemClient, Secret, SpawnRequest};
+use serde_json::json;
+
+#[derive(Parser, Debug)]
+#[command(name = "rem", version, about = "Look at and drive a REM cluster")]
+struct Cli {
+    /// Address of a remd (usually the local one).
+    #[arg(long, env = "REM_ADDR", default_value = rem::config::DEFAULT_ADDR, global = true)]
+    remd: String,
+    /// File holding the cluster secret (or set REM_SECRET).
+    #[arg(long, env = "REM_SECRET_FILE", global = true)]
+    secret_file: Option<PathBuf>,
+    /// CA certificate (PEM) to verify remd's TLS certificate; enables TLS.
+    #[arg(long, env = "REM_TLS_CA", global = true)]
+    tls_ca: Option<PathBuf>,
+    /// Name to verify in remd's certificate (default: the address's host).
+    #[arg(long, env = "REM_TLS_DOMAIN", global = true)]
+    tls_domain: Option<String>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// The hosts of the cluster and their load.
+    Hosts {
+        #[arg(long)]
+        json: bool,
+    },
+    /// The processes REM runs on the live hosts.
+    Ps {
+        #[arg(long)]
+        json: bool,
+    },
+    /// Start processes on the least-loaded hosts.
+    Spawn {
+        #[arg(long, short = 'n', default_value_t = 1)]
+        count: u32,
+        #[arg(long)]
+        nice: Option<i32>,
+        /// Allow more than one process per host.
+        #[arg(long)]
+        allow_same_host: bool,
+        #[arg(long)]
+        job: Option<String>,
+        /// Environment variable for the processes (repeatable).
+        #[arg(long = "env", value_name = "KEY=VALUE")]
+        env: Vec<String>,
+        /// Stay attached as the job's owner, print its events, exit with the first non-zero code.
+        #[arg(long)]
+        wait: bool,
+        #[arg(long)]
+        json: bool,
+        /// Absolute path of the program (on the hosts' allow-lists).
+        program: String,
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
+    /// End a process.
+    Kill { proc_id: String },
+    /// Print a process's kept stdout (to stdout) and stderr (to stderr).
+    Logs { proc_id: String },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("rem: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    match runtime.block_on(run(cli)) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("rem: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
+    let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
+    let mut opts = ConnectOptions::new(cli.remd.clone(), secret);
+    if let Some(ca) = &cli.tls_ca {
+        opts.tls = Some(ClientTls::from_file(ca, cli.tls_domain.clone())?);
+    }
+    RemClient::connect_with(opts).await.with_context(|| format!("cannot reach remd at {}", cli.remd))
+}
+
+async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    let client = connect(&cli).await?;
+    let out = &mut std::io::stdout().lock();
+    match cli.command {
+        Command::Hosts { json } => {
+            let hosts = client.hosts().await?;
+            if json {
+                let v: Vec<_> = hosts.iter().map(host_json).collect();
+                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+            } else {
+                print_hosts(out, &hosts)?;
+            }
+        }
+        Command::Ps { json } => {
+            let procs = client.ps().await?;
+            if json {
+                let v: Vec<_> = procs.iter().map(proc_json).collect();
+                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+            } else {
+                writeln!(out, "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} program", "PROCESS", "HOST", "JOB", "PID", "NICE", "STATE")?;
+                for p in &procs {
+                    let state = match (p.state.as_str(), p.exit_code, p.signal) {
+                        ("exited", Some(c), _) => format!("exit {c}"),
+                        ("exited", None, Some(s)) => format!("signal {s}"),
+                        (s, _, _) => s.to_string(),
+                    };
+                    let nice = p.nice.map_or("-".to_string(), |n| n.to_string());
+                    writeln!(out, "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}", p.proc_id, p.host, p.job, p.pid, nice, state, p.program, p.args.join(" "))?;
+                }
+            }
+        }
+        Command::Spawn { count, nice, allow_same_host, job, env, wait, json, program, args } => {
+            let mut envs = BTreeMap::new();
+            for kv in env {
+                let Some((k, v)) = kv.split_once('=') else { bail!("--env {kv:?} is not KEY=VALUE") };
+                envs.insert(k.to_string(), v.to_string());
+            }
+            let mut relay = if wait { Some(client.attach(job.as_deref()).await?) } else { None };
+            let req = SpawnRequest {
+                program,
+                args,
+                env: envs,
+                nice,
+                count,
+                allow_same_host,
+                job,
+                owner: relay.as_ref().map(|r| r.id().clone()),
+            };
+            let spawned = client.spawn(req).await?;
+            if json {
+                let v: Vec<_> = spawned
+                    .processes
+                    .iter()
+                    .map(|p| json!({"job": spawned.id, "proc_id": p.proc_id.to_string(), "host": p.host, "pid": p.pid}))
+                    .collect();
+                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+            } else {
+                for p in &spawned.processes {
+                    writeln!(out, "{} {} {} pid {}", spawned.id, p.proc_id, p.host, p.pid)?;
+                }
+            }
+            out.flush()?;
+            if let Some(relay) = relay.as_mut() {
+                return wait_for_exits(out, relay, spawned.processes.len()).await;
+            }
+        }
+        Command::Kill { proc_id } => {
+            let id: ProcId = proc_id.parse()?;
+            client.kill(&id).await?;
+        }
+        Command::Logs { proc_id } => {
+            let id: ProcId = proc_id.parse()?;
+            let logs = client.logs(&id).await?;
+            out.write_all(&logs.stdout)?;
+            std::io::stderr().write_all(&logs.stderr)?;
+            if logs.truncated {
+                eprintln!("rem: (older output was dropped)");
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+async fn wait_for_exits(out: &mut impl Write, relay: &mut rem::Relay, mut left: usize) -> anyhow::Result<ExitCode> {
+    let mut code = 0u8;
+    while left > 0 {
+        match relay.recv().await? {
+            Incoming::Event(ev) => {
+                let kind = EventKind::try_from(ev.kind).unwrap_or(EventKind::Unspecified);
+                match kind {
+                    EventKind::Started => writeln!(out, "{} started on {}", ev.proc_id, ev.host)?,
+                    EventKind::Exited => {
+                        left -= 1;
+                        match (ev.exit_code, ev.signal) {
+                            (Some(c), _) => writeln!(out, "{} exited with code {c}", ev.proc_id)?,
+                            (None, Some(s)) => writeln!(out, "{} killed by signal {s}", ev.proc_id)?,
+                            _ => writeln!(out, "{} exited", ev.proc_id)?,
+                        }
+                        let c = ev.exit_code.map_or(1, |c| c.clamp(0, 255) as u8);
+                        if code == 0 && c != 0 {
+                            code = c;
+                        }
+                    }
+                    EventKind::Lost => {
+                        left -= 1;
+                        writeln!(out, "{} lost: {}", ev.proc_id, ev.message)?;
+                        code = code.max(1);
+                    }
+                    EventKind::Unspecified => {}
+                }
+                out.flush()?;
+            }
+            Incoming::Message { from, payload } => writeln!(out, "message from {from}: {} bytes", payload.len())?,
+            Incoming::Undeliverable { .. } => {}
+        }
+    }
+    Ok(ExitCode::from(code))
+}
+
+fn host_json(h: &rem::HostInfo) -> serde_json::Value {
+    let l = h.load.clone().unwrap_or_default();
+    json!({
+        "name": h.name, "addr": h.addr, "cores": l.cores, "load_avg_1m": l.load_avg_1m,
+        "load_per_core": l.load_per_core, "cpu_busy": l.cpu_busy, "mem_free_bytes": l.mem_free_bytes,
+        "mem_total_bytes": l.mem_total_bytes, "rem_processes": l.rem_processes, "alive": h.alive,
+        "accepting": h.accepting,
+        "last_heard_ms": if h.last_heard_ms == u64::MAX { None } else { Some(h.last_heard_ms) },
+    })
+}
+
+fn proc_json(p: &rem::ProcessInfo) -> serde_json::Value {
+    json!({
+        "proc_id": p.proc_id, "host": p.host, "job": p.job, "owner": p.owner, "program": p.program,
+        "args": p.args, "pid": p.pid, "nice": p.nice, "state": p.state, "exit_code": p.exit_code,
+        "signal": p.signal, "started_unix_ms": p.started_unix_ms,
+    })
+}
+
+fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result<()> {
+    writeln!(out, "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10}", "NAME", "ADDRESS", "CORES", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD")?;
+    for h in hosts {
+        let l = h.load.clone().unwrap_or_default();
+        let state = match (h.alive, h.accepting, h.last_heard_ms) {
+            (true, true, _) => "alive",
+            (true, false, _) => "draining",
+            (false, _, u64::MAX) => "joining",
+            (false, _, _) => "lost",
+        };
+        let heard = match h.last_heard_ms {
+            0 => "self".to_string(),
+            u64::MAX => "never".to_string(),
+            ms => format!("{:.1}s ago", ms as f64 / 1000.0),
+        };
+        writeln!(
+            out,
+            "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:<9} {:>10}",
+            h.name, h.addr, l.cores, l.load_per_core, l.cpu_busy * 100.0, mib(l.mem_free_bytes), l.rem_processes, state, heard
+        )?;
+    }
+    Ok(())
+}
+
+fn mib(bytes: u64) -> String {
+    format!("{} MiB", bytes >> 20)
+}

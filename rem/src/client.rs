@@ -1,0 +1,235 @@
+//! `RemClient`: a connection to a (usually the local) remd, for the `rem` command, job
+//! owners and spawned processes.
+
+use std::collections::BTreeMap;
+
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+
+use crate::auth::{Secret, SendSecret};
+use crate::config::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE};
+use crate::error::{Error, Result};
+use crate::ids::ProcId;
+use crate::process::env;
+use crate::proto::{self, rem_client};
+use crate::relay_client::Relay;
+use crate::server::FRAME_OVERHEAD;
+use crate::transport::{self, ClientTls};
+
+/// The generated client, with the secret attached to every call (for raw access).
+pub type RemRpc = rem_client::RemClient<InterceptedService<Channel, SendSecret>>;
+
+/// Where and how to connect.
+#[derive(Clone, Debug)]
+pub struct ConnectOptions {
+    /// `HOST:PORT` (or an `http(s)://` URL).
+    pub addr: String,
+    pub secret: Secret,
+    /// Verify the daemon's TLS certificate with this; `None` = plain HTTP/2.
+    pub tls: Option<ClientTls>,
+    /// Largest relay payload this side sends (the daemon has its own limit).
+    pub max_message: usize,
+}
+
+impl ConnectOptions {
+    pub fn new(addr: impl Into<String>, secret: Secret) -> Self {
+        ConnectOptions { addr: addr.into(), secret, tls: None, max_message: DEFAULT_MAX_MESSAGE }
+    }
+
+    /// From the environment a spawned process gets: `REM_ADDR` (default `127.0.0.1:7077`),
+    /// `REM_SECRET_FILE` or `REM_SECRET`, `REM_TLS_CA` / `REM_TLS_DOMAIN`, `REM_MAX_MESSAGE`.
+    pub fn from_env() -> Result<Self> {
+        let addr = std::env::var(env::ADDR).ok().filter(|a| !a.is_empty()).unwrap_or_else(|| DEFAULT_ADDR.into());
+        let (secret, _) = Secret::resolve(None)?;
+        let mut opts = ConnectOptions::new(addr, secret);
+        opts.tls = ClientTls::from_env()?;
+        if let Some(m) = std::env::var(env::MAX_MESSAGE).ok().and_then(|m| m.parse().ok()) {
+            opts.max_message = m;
+        }
+        Ok(opts)
+    }
+}
+
+/// What to spawn. `count` defaults to 1.
+#[derive(Clone, Debug)]
+pub struct SpawnRequest {
+    /// Absolute path; must be on the allow-list of every chosen host.
+    pub program: String,
+    pub args: Vec<String>,
+    pub env: BTreeMap<String, String>,
+    /// Nice value applied with setpriority (-20..19); `None` = inherit remd's.
+    pub nice: Option<i32>,
+    pub count: u32,
+    /// Allow more than one process per host.
+    pub allow_same_host: bool,
+    /// Job id; `None` = the daemon makes one.
+    pub job: Option<String>,
+    /// Who receives Started / Exited / Lost events (a relay id from `RemClient::attach`).
+    pub owner: Option<ProcId>,
+}
+
+impl Default for SpawnRequest {
+    fn default() -> Self {
+        SpawnRequest {
+            program: String::new(),
+            args: Vec::new(),
+            env: BTreeMap::new(),
+            nice: None,
+            count: 1,
+            allow_same_host: false,
+            job: None,
+            owner: None,
+        }
+    }
+}
+
+/// One started process.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Spawned {
+    pub proc_id: ProcId,
+    pub host: String,
+    /// OS process id on its host.
+    pub pid: u32,
+}
+
+/// The result of a spawn.
+#[derive(Clone, Debug)]
+pub struct Job {
+    pub id: String,
+    pub processes: Vec<Spawned>,
+}
+
+/// A kept checkpoint.
+#[derive(Clone, Debug)]
+pub struct StoredCheckpoint {
+    pub version: u64,
+    /// Hosts that hold it.
+    pub stored_on: Vec<String>,
+}
+
+/// A process's kept output.
+#[derive(Clone, Debug)]
+pub struct Logs {
+    pub stdout: Vec<u8>,
+    pub stderr: Vec<u8>,
+    pub truncated: bool,
+}
+
+/// A connection to a remd. Cheap to clone.
+#[derive(Clone, Debug)]
+pub struct RemClient {
+    rpc: RemRpc,
+    opts: ConnectOptions,
+}
+
+impl RemClient {
+    /// Connects to `addr` (plain HTTP/2) with the cluster secret.
+    pub async fn connect(addr: &str, secret: Secret) -> Result<Self> {
+        RemClient::connect_with(ConnectOptions::new(addr, secret)).await
+    }
+
+    /// Connects with full options (TLS, message limit).
+    pub async fn connect_with(opts: ConnectOptions) -> Result<Self> {
+        let channel = transport::connect(&opts.addr, opts.tls.as_ref()).await?;
+        let frame = opts.max_message + FRAME_OVERHEAD;
+        let rpc = rem_client::RemClient::with_interceptor(channel, SendSecret::new(&opts.secret))
+            .max_decoding_message_size(frame)
+            .max_encoding_message_size(frame);
+        Ok(RemClient { rpc, opts })
+    }
+
+    /// Connects as described by the environment (see [`ConnectOptions::from_env`]).
+    pub async fn from_env() -> Result<Self> {
+        RemClient::connect_with(ConnectOptions::from_env()?).await
+    }
+
+    pub fn options(&self) -> &ConnectOptions {
+        &self.opts
+    }
+
+    /// The generated client, for calls this wrapper does not cover.
+    pub fn rpc(&self) -> RemRpc {
+        self.rpc.clone()
+    }
+
+    /// Every host known to the daemon, itself first.
+    pub async fn hosts(&self) -> Result<Vec<proto::HostInfo>> {
+        Ok(self.rpc.clone().hosts(proto::HostsRequest {}).await?.into_inner().hosts)
+    }
+
+    /// Places and starts processes; all or nothing.
+    pub async fn spawn(&self, req: SpawnRequest) -> Result<Job> {
+        let req = proto::SpawnRequest {
+            program: req.program,
+            args: req.args,
+            env: req.env.into_iter().collect(),
+            nice: req.nice,
+            count: req.count,
+            allow_same_host: req.allow_same_host,
+            job: req.job.unwrap_or_default(),
+            owner: req.owner.map(|o| o.to_string()).unwrap_or_default(),
+        };
+        let reply = self.rpc.clone().spawn(req).await?.into_inner();
+        let processes = reply
+            .processes
+            .into_iter()
+            .map(|p| {
+                let proc_id = ProcId::parse(&p.proc_id)
+                    .ok_or_else(|| Error::Invalid(format!("daemon sent a bad process id {:?}", p.proc_id)))?;
+                Ok(Spawned { proc_id, host: p.host, pid: p.pid })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Job { id: reply.job, processes })
+    }
+
+    /// Every REM process on the live hosts.
+    pub async fn ps(&self) -> Result<Vec<proto::ProcessInfo>> {
+        Ok(self.rpc.clone().ps(proto::PsRequest {}).await?.into_inner().processes)
+    }
+
+    /// Ends a process (SIGTERM to its process group, SIGKILL after the grace period).
+    pub async fn kill(&self, id: &ProcId) -> Result<()> {
+        self.rpc.clone().kill(proto::KillRequest { proc_id: id.to_string() }).await?;
+        Ok(())
+    }
+
+    /// The kept stdout and stderr of a process.
+    pub async fn logs(&self, id: &ProcId) -> Result<Logs> {
+        let r = self.rpc.clone().logs(proto::LogsRequest { proc_id: id.to_string() }).await?.into_inner();
+        Ok(Logs { stdout: r.stdout, stderr: r.stderr, truncated: r.truncated })
+    }
+
+    /// Stores `data` as the checkpoint of `job`, on this daemon's host and one more.
+    pub async fn put_checkpoint(&self, job: &str, data: Vec<u8>) -> Result<StoredCheckpoint> {
+        if data.len() > self.opts.max_message {
+            return Err(Error::TooLarge { size: data.len(), limit: self.opts.max_message });
+        }
+        let r = self
+            .rpc
+            .clone()
+            .put_checkpoint(proto::PutCheckpointRequest { job: job.to_string(), data })
+            .await?
+            .into_inner();
+        Ok(StoredCheckpoint { version: r.version, stored_on: r.stored_on })
+    }
+
+    /// The newest checkpoint of `job` on any live host.
+    pub async fn get_checkpoint(&self, job: &str) -> Result<Option<Vec<u8>>> {
+        let r = self.rpc.clone().get_checkpoint(proto::GetCheckpointRequest { job: job.to_string() }).await?;
+        Ok(r.into_inner().checkpoint.map(|c| c.data))
+    }
+
+    /// Attaches to the relay as a new process (a job owner); `job` is informational.
+    pub async fn attach(&self, job: Option<&str>) -> Result<Relay> {
+        Relay::open(self, None, job.unwrap_or_default(), None).await
+    }
+
+    /// Attaches as an already spawned process `id` (what [`Relay::attach_from_env`] does).
+    pub async fn attach_as(&self, id: &ProcId, job: &str) -> Result<Relay> {
+        Relay::open(self, Some(id), job, None).await
+    }
+
+    pub(crate) fn rpc_mut(&self) -> RemRpc {
+        self.rpc.clone()
+    }
+}

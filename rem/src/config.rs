@@ -1,0 +1,271 @@
+//! remd's settings: command line, environment variables and a TOML file (`--config`), in that
+//! order of precedence.
+//!
+//! | flag | environment | file key | default |
+//! |---|---|---|---|
+//! | `--name` | `REMD_NAME` | `name` | the host name |
+//! | `--listen` | `REMD_LISTEN` | `listen` | `127.0.0.1:7077` |
+//! | `--advertise` | `REMD_ADVERTISE` | `advertise` | the bound address |
+//! | `--join` (comma list) | `REMD_JOIN` | `join` (array) | none |
+//! | `--secret-file` | `REM_SECRET_FILE` (or the secret in `REM_SECRET`) | `secret_file` | required |
+//! | `--allow` (repeatable) | `REMD_ALLOW` (comma list) | `allow` (array) | nothing may be spawned |
+//! | `--state-dir` | `REMD_STATE_DIR` | `state_dir` | a fresh temporary directory |
+//! | `--heartbeat-ms` | `REMD_HEARTBEAT_MS` | `heartbeat_ms` | 250 |
+//! | `--lost-after-ms` | `REMD_LOST_AFTER_MS` | `lost_after_ms` | 1500 |
+//! | `--max-message` | `REMD_MAX_MESSAGE` | `max_message` | 16 MiB |
+//! | `--kill-grace-ms` | `REMD_KILL_GRACE_MS` | `kill_grace_ms` | 2000 |
+//! | `--tls-cert`, `--tls-key`, `--tls-ca`, `--tls-domain` | `REMD_TLS_*` | `tls_*` | no TLS |
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use clap::Parser;
+use serde::Deserialize;
+
+use crate::auth::Secret;
+use crate::error::{Error, Result};
+use crate::transport::ServerTlsFiles;
+
+/// Default address of remd and of the `rem` client.
+pub const DEFAULT_ADDR: &str = "127.0.0.1:7077";
+/// Default relay message size limit.
+pub const DEFAULT_MAX_MESSAGE: usize = 16 << 20;
+
+/// remd's command line.
+#[derive(Parser, Debug, Default, Clone)]
+#[command(name = "remd", version, about = "REM daemon: runs processes for the cluster and relays their messages")]
+pub struct RemdArgs {
+    /// TOML file with the same settings (flags and environment win).
+    #[arg(long, env = "REMD_CONFIG")]
+    pub config: Option<PathBuf>,
+    /// This host's name in the cluster ([A-Za-z0-9._-]).
+    #[arg(long, env = "REMD_NAME")]
+    pub name: Option<String>,
+    /// Address to listen on (port 0 picks one; the bound address is printed).
+    #[arg(long, env = "REMD_LISTEN")]
+    pub listen: Option<SocketAddr>,
+    /// Address other daemons and processes use to reach this one.
+    #[arg(long, env = "REMD_ADVERTISE")]
+    pub advertise: Option<String>,
+    /// Members to join through (any one live member is enough).
+    #[arg(long, env = "REMD_JOIN", value_delimiter = ',')]
+    pub join: Vec<String>,
+    /// File holding the cluster secret.
+    #[arg(long, env = "REM_SECRET_FILE")]
+    pub secret_file: Option<PathBuf>,
+    /// Absolute path of a program that may be spawned (repeatable).
+    #[arg(long = "allow", env = "REMD_ALLOW", value_delimiter = ',')]
+    pub allow: Vec<PathBuf>,
+    /// Directory for checkpoints.
+    #[arg(long, env = "REMD_STATE_DIR")]
+    pub state_dir: Option<PathBuf>,
+    #[arg(long, env = "REMD_HEARTBEAT_MS")]
+    pub heartbeat_ms: Option<u64>,
+    #[arg(long, env = "REMD_LOST_AFTER_MS")]
+    pub lost_after_ms: Option<u64>,
+    /// Largest relay message payload in bytes.
+    #[arg(long, env = "REMD_MAX_MESSAGE")]
+    pub max_message: Option<usize>,
+    #[arg(long, env = "REMD_KILL_GRACE_MS")]
+    pub kill_grace_ms: Option<u64>,
+    #[arg(long, env = "REMD_TLS_CERT")]
+    pub tls_cert: Option<PathBuf>,
+    #[arg(long, env = "REMD_TLS_KEY")]
+    pub tls_key: Option<PathBuf>,
+    #[arg(long, env = "REMD_TLS_CA")]
+    pub tls_ca: Option<PathBuf>,
+    #[arg(long, env = "REMD_TLS_DOMAIN")]
+    pub tls_domain: Option<String>,
+}
+
+/// The TOML file: the same keys as the flags (with `_`), all optional.
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub struct FileConfig {
+    pub name: Option<String>,
+    pub listen: Option<SocketAddr>,
+    pub advertise: Option<String>,
+    #[serde(default)]
+    pub join: Vec<String>,
+    pub secret_file: Option<PathBuf>,
+    #[serde(default)]
+    pub allow: Vec<PathBuf>,
+    pub state_dir: Option<PathBuf>,
+    pub heartbeat_ms: Option<u64>,
+    pub lost_after_ms: Option<u64>,
+    pub max_message: Option<usize>,
+    pub kill_grace_ms: Option<u64>,
+    pub tls_cert: Option<PathBuf>,
+    pub tls_key: Option<PathBuf>,
+    pub tls_ca: Option<PathBuf>,
+    pub tls_domain: Option<String>,
+}
+
+/// Everything a daemon runs with.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub name: String,
+    pub listen: SocketAddr,
+    pub advertise: Option<String>,
+    pub join: Vec<String>,
+    pub secret: Secret,
+    /// Where the secret came from (handed to children as `REM_SECRET_FILE`).
+    pub secret_file: Option<PathBuf>,
+    pub allow: Vec<PathBuf>,
+    pub state_dir: Option<PathBuf>,
+    pub heartbeat: Duration,
+    pub lost_after: Duration,
+    pub load_interval: Duration,
+    pub max_message: usize,
+    /// Capacity of every relay queue (envelopes).
+    pub queue: usize,
+    pub kill_grace: Duration,
+    /// Bytes of stdout and of stderr kept per process.
+    pub log_bytes: usize,
+    pub tls: Option<ServerTlsFiles>,
+}
+
+impl Settings {
+    /// Settings with defaults for `name` and `secret` (used by tests and embedders).
+    pub fn new(name: &str, secret: Secret) -> Self {
+        Settings {
+            name: name.to_string(),
+            listen: DEFAULT_ADDR.parse().expect("constant address"),
+            advertise: None,
+            join: Vec::new(),
+            secret,
+            secret_file: None,
+            allow: Vec::new(),
+            state_dir: None,
+            heartbeat: Duration::from_millis(250),
+            lost_after: Duration::from_millis(1500),
+            load_interval: Duration::from_secs(1),
+            max_message: DEFAULT_MAX_MESSAGE,
+            queue: 4096,
+            kill_grace: Duration::from_secs(2),
+            log_bytes: 1 << 20,
+            tls: None,
+        }
+    }
+
+    /// Resolves flags + environment (already in `args`) over the file named by `--config`.
+    pub fn from_args(args: RemdArgs) -> Result<Self> {
+        let file = match &args.config {
+            Some(path) => load_file(path)?,
+            None => FileConfig::default(),
+        };
+        let name = match args.name.or(file.name) {
+            Some(n) => n,
+            None => sysinfo::System::host_name()
+                .map(|h| h.split('.').next().unwrap_or_default().to_string())
+                .unwrap_or_default(),
+        };
+        if !crate::ids::is_valid_name(&name) {
+            return Err(Error::Config(format!(
+                "bad host name {name:?}: use 1 to 128 of [A-Za-z0-9._-]"
+            )));
+        }
+        let secret_path = args.secret_file.or(file.secret_file);
+        let (secret, secret_file) = Secret::resolve(secret_path.as_deref())?;
+        let mut s = Settings::new(&name, secret);
+        s.secret_file = secret_file;
+        s.listen = args.listen.or(file.listen).unwrap_or(s.listen);
+        s.advertise = args.advertise.or(file.advertise);
+        s.join = pick(args.join, file.join);
+        s.allow = pick(args.allow, file.allow);
+        for p in &s.allow {
+            if !p.is_absolute() {
+                return Err(Error::Config(format!("--allow {} is not an absolute path", p.display())));
+            }
+        }
+        s.state_dir = args.state_dir.or(file.state_dir);
+        if let Some(ms) = args.heartbeat_ms.or(file.heartbeat_ms) {
+            s.heartbeat = Duration::from_millis(ms.max(10));
+        }
+        if let Some(ms) = args.lost_after_ms.or(file.lost_after_ms) {
+            s.lost_after = Duration::from_millis(ms.max(20));
+        }
+        if s.lost_after <= s.heartbeat {
+            return Err(Error::Config("lost-after must be longer than the heartbeat interval".into()));
+        }
+        if let Some(m) = args.max_message.or(file.max_message) {
+            s.max_message = m.max(1);
+        }
+        if let Some(ms) = args.kill_grace_ms.or(file.kill_grace_ms) {
+            s.kill_grace = Duration::from_millis(ms);
+        }
+        let cert = args.tls_cert.or(file.tls_cert);
+        let key = args.tls_key.or(file.tls_key);
+        s.tls = match (cert, key) {
+            (Some(cert), Some(key)) => Some(ServerTlsFiles {
+                cert,
+                key,
+                ca: args.tls_ca.or(file.tls_ca),
+                domain: args.tls_domain.or(file.tls_domain),
+            }),
+            (None, None) => None,
+            _ => return Err(Error::Config("TLS needs both --tls-cert and --tls-key".into())),
+        };
+        Ok(s)
+    }
+}
+
+fn pick<T>(flags: Vec<T>, file: Vec<T>) -> Vec<T> {
+    if flags.is_empty() {
+        file
+    } else {
+        flags
+    }
+}
+
+fn load_file(path: &Path) -> Result<FileConfig> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::Config(format!("cannot read {}: {e}", path.display())))?;
+    toml::from_str(&text).map_err(|e| Error::Config(format!("{}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_fills_what_flags_leave_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let secret = dir.path().join("secret");
+        std::fs::write(&secret, "s3cret\n").unwrap();
+        let cfg = dir.path().join("remd.toml");
+        std::fs::write(
+            &cfg,
+            format!(
+                "name = \"filehost\"\nlisten = \"127.0.0.1:9000\"\nsecret_file = {:?}\n\
+                 allow = [\"/bin/true\"]\nheartbeat_ms = 100\nlost_after_ms = 600\n",
+                secret
+            ),
+        )
+        .unwrap();
+        let args = RemdArgs::parse_from(["remd", "--config", cfg.to_str().unwrap(), "--name", "flaghost"]);
+        let s = Settings::from_args(args).unwrap();
+        assert_eq!(s.name, "flaghost");
+        assert_eq!(s.listen, "127.0.0.1:9000".parse().unwrap());
+        assert_eq!(s.allow, vec![PathBuf::from("/bin/true")]);
+        assert_eq!(s.heartbeat, Duration::from_millis(100));
+        assert!(s.secret.matches(b"s3cret"));
+    }
+
+    #[test]
+    fn rejects_bad_settings() {
+        let dir = tempfile::tempdir().unwrap();
+        let secret = dir.path().join("secret");
+        std::fs::write(&secret, "x").unwrap();
+        let sf = secret.to_str().unwrap();
+        let bad_name = RemdArgs::parse_from(["remd", "--name", "a/b", "--secret-file", sf]);
+        assert!(Settings::from_args(bad_name).is_err());
+        let relative = RemdArgs::parse_from(["remd", "--name", "a", "--secret-file", sf, "--allow", "bin/x"]);
+        assert!(Settings::from_args(relative).is_err());
+        let cfg = dir.path().join("bad.toml");
+        std::fs::write(&cfg, "nmae = 1\n").unwrap();
+        let unknown = RemdArgs::parse_from(["remd", "--config", cfg.to_str().unwrap(), "--secret-file", sf]);
+        assert!(Settings::from_args(unknown).is_err());
+    }
+}

@@ -1,0 +1,302 @@
+//! The daemon's operations, in library terms (typed errors): what the gRPC services call.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::task::JoinSet;
+use tokio_util::sync::CancellationToken;
+
+use crate::checkpoint::CheckpointStore;
+use crate::error::{Error, Result};
+use crate::ids::{is_valid_name, ProcId};
+use crate::jobs::Jobs;
+use crate::membership::Membership;
+use crate::peers::PeerPool;
+use crate::placement::{self, Candidate};
+use crate::process::{ProcessTable, StartSpec};
+use crate::proto::{
+    job_event, Checkpoint, JobEvent, KillRequest, LogsReply, LogsRequest, Placement, ProcessInfo,
+    PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
+};
+use crate::relay::Router;
+
+/// Time allowed for a call to another daemon that does real work (start, kill, replica).
+pub const PEER_CALL: Duration = Duration::from_secs(5);
+
+/// Shared state of one running daemon.
+pub struct Daemon {
+    pub name: String,
+    pub max_message: usize,
+    pub allow: Vec<std::path::PathBuf>,
+    pub membership: Membership,
+    pub router: Router,
+    pub processes: ProcessTable,
+    pub jobs: Jobs,
+    pub checkpoints: CheckpointStore,
+    pub peers: PeerPool,
+    pub accepting: Arc<AtomicBool>,
+    /// Numbers process ids (spawned and attached-only alike).
+    pub seq: Arc<AtomicU64>,
+    /// Fires when the daemon shuts down (ends relay streams).
+    pub stop: CancellationToken,
+}
+
+impl Daemon {
+    fn check_accepting(&self) -> Result<()> {
+        if self.accepting.load(Ordering::Relaxed) {
+            Ok(())
+        } else {
+            Err(Error::ShuttingDown)
+        }
+    }
+
+    /// A fresh process id on this host.
+    pub fn new_proc_id(&self) -> ProcId {
+        ProcId::new(&self.name, self.seq.fetch_add(1, Ordering::Relaxed))
+    }
+
+    pub async fn spawn(&self, req: SpawnRequest) -> Result<SpawnReply> {
+        self.check_accepting()?;
+        if !req.program.starts_with('/') {
+            return Err(Error::Invalid(format!("program {:?} is not an absolute path", req.program)));
+        }
+        if !self.allow.iter().any(|a| a.as_os_str() == req.program.as_str()) {
+            return Err(Error::NotAllowed(req.program, self.name.clone()));
+        }
+        if let Some(n) = req.nice {
+            if !(-20..=19).contains(&n) {
+                return Err(Error::Invalid(format!("nice {n} is outside -20..19")));
+            }
+        }
+        if !req.owner.is_empty() && ProcId::parse(&req.owner).is_none() {
+            return Err(Error::Invalid(format!("bad owner id {:?}", req.owner)));
+        }
+        let job = if req.job.is_empty() {
+            format!("{}-{}", self.name, self.seq.fetch_add(1, Ordering::Relaxed))
+        } else if is_valid_name(&req.job) {
+            req.job.clone()
+        } else {
+            return Err(Error::Invalid(format!("bad job id {:?}", req.job)));
+        };
+        let candidates: Vec<Candidate> = self
+            .membership
+            .hosts()
+            .into_iter()
+            .filter(|h| h.alive && h.accepting)
+            .map(|h| {
+                let load = h.load.unwrap_or_default();
+                Candidate { name: h.name, load_per_core: load.load_per_core, cores: load.cores }
+            })
+            .collect();
+        let chosen = placement::place(&candidates, req.count, req.allow_same_host)?;
+        let mut per_host: BTreeMap<String, u32> = BTreeMap::new();
+        for h in chosen {
+            *per_host.entry(h).or_default() += 1;
+        }
+        let mut tasks = JoinSet::new();
+        for (host, count) in per_host {
+            let spec = StartSpec {
+                job: job.clone(),
+                owner: req.owner.clone(),
+                program: req.program.clone(),
+                args: req.args.clone(),
+                env: req.env.clone().into_iter().collect(),
+                nice: req.nice,
+                count,
+            };
+            let processes = self.processes.clone();
+            let remote = (host != self.name).then(|| self.membership.live_addr(&host));
+            let peers = self.peers.clone();
+            tasks.spawn(async move {
+                match remote {
+                    None => processes.start_local(spec).await,
+                    Some(None) => Err(Error::Unreachable { host, reason: "lost".into() }),
+                    Some(Some(addr)) => start_remote(&peers, &host, &addr, spec).await,
+                }
+            });
+        }
+        let mut placed = Vec::new();
+        let mut failure = None;
+        while let Some(r) = tasks.join_next().await {
+            match r {
+                Ok(Ok(p)) => placed.extend(p),
+                Ok(Err(e)) => failure = failure.or(Some(e)),
+                Err(e) => failure = failure.or(Some(Error::Io(std::io::Error::other(e)))),
+            }
+        }
+        if let Some(e) = failure {
+            for p in &placed {
+                if let Some(id) = ProcId::parse(&p.proc_id) {
+                    let _ = self.kill(id).await;
+                }
+            }
+            return Err(e);
+        }
+        placed.sort_by(|a, b| a.proc_id.cmp(&b.proc_id));
+        if !req.owner.is_empty() {
+            self.jobs.record(&job, &req.owner, &placed).await;
+            for p in &placed {
+                let event = JobEvent {
+                    job: job.clone(),
+                    proc_id: p.proc_id.clone(),
+                    host: p.host.clone(),
+                    kind: job_event::Kind::Started as i32,
+                    owner: req.owner.clone(),
+                    ..JobEvent::default()
+                };
+                let _ = self.router.route_event(event).await;
+            }
+        }
+        Ok(SpawnReply { job, processes: placed })
+    }
+
+    pub async fn start_local(&self, req: StartLocalRequest) -> Result<Vec<Placement>> {
+        self.check_accepting()?;
+        self.processes
+            .start_local(StartSpec {
+                job: req.job,
+                owner: req.owner,
+                program: req.program,
+                args: req.args,
+                env: req.env.into_iter().collect(),
+                nice: req.nice,
+                count: req.count,
+            })
+            .await
+    }
+
+    fn peer_for(&self, id: &ProcId) -> Result<Option<String>> {
+        if id.host() == self.name {
+            return Ok(None);
+        }
+        self.membership
+            .live_addr(id.host())
+            .map(Some)
+            .ok_or_else(|| Error::Unreachable { host: id.host().to_string(), reason: "unknown or lost".into() })
+    }
+
+    pub async fn kill(&self, id: ProcId) -> Result<()> {
+        match self.peer_for(&id)? {
+            None => self.processes.kill(id).await,
+            Some(addr) => {
+                let mut c = self.peers.client(&addr)?;
+                let req = KillRequest { proc_id: id.to_string() };
+                timed(id.host(), c.kill_local(req)).await.map(|_| ())
+            }
+        }
+    }
+
+    pub async fn logs(&self, id: ProcId) -> Result<LogsReply> {
+        match self.peer_for(&id)? {
+            None => self.processes.logs(id).await,
+            Some(addr) => {
+                let mut c = self.peers.client(&addr)?;
+                let req = LogsRequest { proc_id: id.to_string() };
+                timed(id.host(), c.logs_local(req)).await
+            }
+        }
+    }
+
+    /// The processes of every live host (hosts that do not answer are skipped).
+    pub async fn ps(&self) -> Result<Vec<ProcessInfo>> {
+        let mut out = self.processes.list().await?;
+        let mut tasks = JoinSet::new();
+        for h in self.membership.hosts().into_iter().skip(1).filter(|h| h.alive) {
+            let Ok(mut c) = self.peers.client(&h.addr) else { continue };
+            tasks.spawn(async move { timed(&h.name, c.ps_local(PsRequest {})).await });
+        }
+        while let Some(r) = tasks.join_next().await {
+            if let Ok(Ok(reply)) = r {
+                out.extend(reply.processes);
+            }
+        }
+        out.sort_by(|a, b| (&a.host, &a.proc_id).cmp(&(&b.host, &b.proc_id)));
+        Ok(out)
+    }
+
+    /// Stores a checkpoint here and on one more live host; returns (version, hosts).
+    pub async fn put_checkpoint(&self, job: String, data: Vec<u8>) -> Result<(u64, Vec<String>)> {
+        if data.len() > self.max_message {
+            return Err(Error::TooLarge { size: data.len(), limit: self.max_message });
+        }
+        if !is_valid_name(&job) {
+            return Err(Error::Invalid(format!("bad job id {job:?}")));
+        }
+        let cp = Checkpoint { job, data, version: self.checkpoints.next_version(), written_by: self.name.clone() };
+        self.checkpoints.put(&cp).await?;
+        let mut stored = vec![self.name.clone()];
+        let mut others: Vec<_> = self.membership.hosts().into_iter().skip(1).filter(|h| h.alive).collect();
+        others.sort_by(|a, b| {
+            let la = a.load.as_ref().map_or(0.0, |l| l.load_per_core);
+            let lb = b.load.as_ref().map_or(0.0, |l| l.load_per_core);
+            la.total_cmp(&lb).then_with(|| a.name.cmp(&b.name))
+        });
+        let had_peers = !others.is_empty();
+        for h in others {
+            let Ok(mut c) = self.peers.client(&h.addr) else { continue };
+            if timed(&h.name, c.store_replica(cp.clone())).await.is_ok() {
+                stored.push(h.name);
+                break;
+            }
+        }
+        if had_peers && stored.len() < 2 {
+            return Err(Error::Unreachable {
+                host: "any peer".into(),
+                reason: "the checkpoint is stored only on this host: no live peer took a replica".into(),
+            });
+        }
+        Ok((cp.version, stored))
+    }
+
+    /// The newest checkpoint of `job` on this or any live host.
+    pub async fn get_checkpoint(&self, job: String) -> Result<Option<Checkpoint>> {
+        let mut best = self.checkpoints.get(&job).await?;
+        let mut tasks = JoinSet::new();
+        for h in self.membership.hosts().into_iter().skip(1).filter(|h| h.alive) {
+            let Ok(mut c) = self.peers.client(&h.addr) else { continue };
+            let req = crate::proto::GetCheckpointRequest { job: job.clone() };
+            tasks.spawn(async move { timed(&h.name, c.fetch_replica(req)).await });
+        }
+        while let Some(r) = tasks.join_next().await {
+            if let Ok(Ok(reply)) = r {
+                if let Some(cp) = reply.checkpoint {
+                    if best.as_ref().is_none_or(|b| cp.version > b.version) {
+                        best = Some(cp);
+                    }
+                }
+            }
+        }
+        Ok(best)
+    }
+}
+
+async fn start_remote(peers: &PeerPool, host: &str, addr: &str, spec: StartSpec) -> Result<Vec<Placement>> {
+    let mut c = peers.client(addr)?;
+    let req = StartLocalRequest {
+        job: spec.job,
+        owner: spec.owner,
+        program: spec.program,
+        args: spec.args,
+        env: spec.env.into_iter().collect(),
+        nice: spec.nice,
+        count: spec.count,
+    };
+    Ok(timed(host, c.start_local(req)).await?.processes)
+}
+
+/// Awaits a peer call with the `PEER_CALL` bound.
+async fn timed<T>(
+    host: &str,
+    call: impl std::future::Future<Output = std::result::Result<tonic::Response<T>, tonic::Status>>,
+) -> Result<T> {
+    match tokio::time::timeout(PEER_CALL, call).await {
+        Ok(Ok(r)) => Ok(r.into_inner()),
+        Ok(Err(status)) if status.code() == tonic::Code::Unavailable => {
+            Err(Error::Unreachable { host: host.to_string(), reason: status.message().to_string() })
+        }
+        Ok(Err(status)) => Err(Error::Rpc(status)),
+        Err(_) => Err(Error::Unreachable { host: host.to_string(), reason: "timed out".into() }),
+    }
+}

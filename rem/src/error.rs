@@ -1,0 +1,82 @@
+//! The library's error type, and its mapping to a gRPC status at the service boundary.
+
+use tonic::{Code, Status};
+
+/// What went wrong in REM.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The request is malformed (bad id, count 0, relative program path ...).
+    #[error("invalid request: {0}")]
+    Invalid(String),
+    /// The program is not on the daemon's allow-list.
+    #[error("program {0:?} is not on the allow-list of host {1}")]
+    NotAllowed(String, String),
+    /// No such process, job or host.
+    #[error("not found: {0}")]
+    NotFound(String),
+    /// Fewer eligible hosts than processes asked for.
+    #[error("cannot place {wanted} process(es): only {eligible} eligible host(s) ({detail})")]
+    NotEnoughHosts {
+        wanted: u32,
+        eligible: u32,
+        detail: String,
+    },
+    /// A message is larger than the relay's limit.
+    #[error("message of {size} bytes exceeds the limit of {limit} bytes")]
+    TooLarge { size: usize, limit: usize },
+    /// A host did not answer.
+    #[error("host {host} is unreachable: {reason}")]
+    Unreachable { host: String, reason: String },
+    /// The daemon is shutting down and takes no new work.
+    #[error("the daemon is shutting down")]
+    ShuttingDown,
+    /// Starting the OS process failed.
+    #[error("cannot start {program}: {reason}")]
+    Spawn { program: String, reason: String },
+    /// Configuration is missing or wrong.
+    #[error("configuration: {0}")]
+    Config(String),
+    /// The relay stream ended.
+    #[error("the relay connection is closed")]
+    Closed,
+    #[error("i/o: {0}")]
+    Io(#[from] std::io::Error),
+    /// A daemon answered with an error status.
+    #[error("{:?}: {}", .0.code(), .0.message())]
+    Rpc(#[from] Status),
+    #[error("transport: {0}")]
+    Transport(#[from] tonic::transport::Error),
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// The gRPC status this error is reported as.
+    pub fn to_status(&self) -> Status {
+        let code = match self {
+            Error::Invalid(_) => Code::InvalidArgument,
+            Error::NotAllowed(..) => Code::PermissionDenied,
+            Error::NotFound(_) => Code::NotFound,
+            Error::NotEnoughHosts { .. } => Code::FailedPrecondition,
+            Error::TooLarge { .. } => Code::ResourceExhausted,
+            Error::Unreachable { .. } | Error::ShuttingDown | Error::Closed => Code::Unavailable,
+            Error::Spawn { .. } | Error::Io(_) | Error::Transport(_) | Error::Config(_) => {
+                Code::Internal
+            }
+            Error::Rpc(status) => return Status::new(status.code(), status.message().to_string()),
+        };
+        Status::new(code, self.to_string())
+    }
+
+    /// The gRPC code, if this error came from or maps to one.
+    pub fn code(&self) -> Code {
+        self.to_status().code()
+    }
+}
+
+impl From<Error> for Status {
+    fn from(e: Error) -> Status {
+        e.to_status()
+    }
+}

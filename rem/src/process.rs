@@ -1,0 +1,388 @@
+//! The processes REM runs on this host: starting them (allow-list, environment, nice value,
+//! captured output), ending them, reporting their exit to the job's owner.
+//!
+//! Each child gets its own process group (so `kill` reaches its children too), the requested
+//! nice value through `setpriority` in the child between fork and exec (remd itself keeps
+//! its normal priority), and `PR_SET_PDEATHSIG` so it dies if remd dies.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::process::Stdio;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use tokio::sync::{mpsc, oneshot};
+
+use crate::error::{Error, Result};
+use crate::ids::ProcId;
+use crate::logbuf::{self, Output};
+use crate::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
+use crate::relay::Router;
+
+/// Environment variables every spawned process receives.
+pub mod env {
+    /// Address (`HOST:PORT`) of the local remd.
+    pub const ADDR: &str = "REM_ADDR";
+    /// This host's name.
+    pub const HOST: &str = "REM_HOST";
+    /// The process's own id (`HOST/NUMBER`).
+    pub const PROC_ID: &str = "REM_PROC_ID";
+    /// The job id.
+    pub const JOB_ID: &str = "REM_JOB_ID";
+    /// The process id of the job's owner (empty when the job has none).
+    pub const OWNER_ID: &str = "REM_OWNER_ID";
+    /// Largest relay payload in bytes.
+    pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
+    pub use crate::auth::{ENV_SECRET as SECRET, ENV_SECRET_FILE as SECRET_FILE};
+    pub use crate::transport::{ENV_TLS_CA as TLS_CA, ENV_TLS_DOMAIN as TLS_DOMAIN};
+}
+
+/// What a process table needs from the daemon's settings.
+#[derive(Clone, Debug)]
+pub struct ProcessConfig {
+    pub host: String,
+    pub addr: String,
+    pub allow: Vec<PathBuf>,
+    /// Environment handed to every child besides the per-process variables (secret, TLS, limits).
+    pub base_env: Vec<(String, String)>,
+    pub log_bytes: usize,
+    pub kill_grace: Duration,
+}
+
+/// One start request, already placed on this host.
+#[derive(Clone, Debug, Default)]
+pub struct StartSpec {
+    pub job: String,
+    pub owner: String,
+    pub program: String,
+    pub args: Vec<String>,
+    pub env: BTreeMap<String, String>,
+    pub nice: Option<i32>,
+    pub count: u32,
+}
+
+struct Entry {
+    info: ProcessInfo,
+    output: Output,
+}
+
+enum Cmd {
+    Start(StartSpec, oneshot::Sender<Result<Vec<Placement>>>),
+    Kill(ProcId, oneshot::Sender<Result<()>>),
+    Logs(ProcId, oneshot::Sender<Result<LogsReply>>),
+    List(oneshot::Sender<Vec<ProcessInfo>>),
+    Exited { id: ProcId, code: Option<i32>, signal: Option<i32> },
+    /// An exit event has been handed to the relay.
+    Reported,
+    Shutdown(oneshot::Sender<()>),
+}
+
+/// Cloneable handle to the process table actor.
+#[derive(Clone)]
+pub struct ProcessTable {
+    tx: mpsc::Sender<Cmd>,
+}
+
+impl ProcessTable {
+    /// `seq` numbers process ids (shared with relay-only attachments, so ids never clash).
+    pub fn start(cfg: ProcessConfig, router: Router, counter: Arc<AtomicU32>, seq: Arc<AtomicU64>) -> Self {
+        let (tx, rx) = mpsc::channel(256);
+        let actor = Actor {
+            cfg,
+            router,
+            counter,
+            entries: BTreeMap::new(),
+            seq,
+            self_tx: tx.downgrade(),
+            accepting: true,
+            drained: Vec::new(),
+            reporting: 0,
+        };
+        tokio::spawn(actor.run(rx));
+        ProcessTable { tx }
+    }
+
+    async fn ask<T>(&self, make: impl FnOnce(oneshot::Sender<T>) -> Cmd) -> Result<T> {
+        let (tx, rx) = oneshot::channel();
+        self.tx.send(make(tx)).await.map_err(|_| Error::ShuttingDown)?;
+        rx.await.map_err(|_| Error::ShuttingDown)
+    }
+
+    /// Starts `spec.count` processes here.
+    pub async fn start_local(&self, spec: StartSpec) -> Result<Vec<Placement>> {
+        self.ask(|tx| Cmd::Start(spec, tx)).await?
+    }
+
+    /// SIGTERM to the process group, SIGKILL after the grace period.
+    pub async fn kill(&self, id: ProcId) -> Result<()> {
+        self.ask(|tx| Cmd::Kill(id, tx)).await?
+    }
+
+    pub async fn logs(&self, id: ProcId) -> Result<LogsReply> {
+        self.ask(|tx| Cmd::Logs(id, tx)).await?
+    }
+
+    pub async fn list(&self) -> Result<Vec<ProcessInfo>> {
+        self.ask(Cmd::List).await
+    }
+
+    /// Refuses new starts, ends every child (SIGTERM, then SIGKILL after the grace period)
+    /// and returns when all have exited (their Exited events sent).
+    pub async fn shutdown(&self) -> Result<()> {
+        self.ask(Cmd::Shutdown).await
+    }
+}
+
+struct Actor {
+    cfg: ProcessConfig,
+    router: Router,
+    counter: Arc<AtomicU32>,
+    entries: BTreeMap<ProcId, Entry>,
+    seq: Arc<AtomicU64>,
+    self_tx: mpsc::WeakSender<Cmd>,
+    accepting: bool,
+    drained: Vec<oneshot::Sender<()>>,
+    /// Exit events being routed.
+    reporting: usize,
+}
+
+impl Actor {
+    async fn run(mut self, mut rx: mpsc::Receiver<Cmd>) {
+        while let Some(cmd) = rx.recv().await {
+            match cmd {
+                Cmd::Start(spec, reply) => {
+                    let _ = reply.send(self.start(spec));
+                }
+                Cmd::Kill(id, reply) => {
+                    let _ = reply.send(self.kill(&id));
+                }
+                Cmd::Logs(id, reply) => {
+                    let r = self.entries.get(&id).ok_or_else(|| Error::NotFound(format!("process {id}")));
+                    let _ = reply.send(r.map(|e| {
+                        let (stdout, stderr, truncated) = e.output.snapshot();
+                        LogsReply { stdout, stderr, truncated }
+                    }));
+                }
+                Cmd::List(reply) => {
+                    let _ = reply.send(self.entries.values().map(|e| e.info.clone()).collect());
+                }
+                Cmd::Exited { id, code, signal } => self.exited(id, code, signal),
+                Cmd::Reported => {
+                    self.reporting -= 1;
+                    self.notify_drained();
+                }
+                Cmd::Shutdown(reply) => self.shutdown(reply),
+            }
+        }
+    }
+
+    fn running(&self) -> impl Iterator<Item = &Entry> {
+        self.entries.values().filter(|e| e.info.state == "running")
+    }
+
+    fn start(&mut self, spec: StartSpec) -> Result<Vec<Placement>> {
+        if !self.accepting {
+            return Err(Error::ShuttingDown);
+        }
+        let program = PathBuf::from(&spec.program);
+        if !self.cfg.allow.iter().any(|a| a == &program) {
+            return Err(Error::NotAllowed(spec.program.clone(), self.cfg.host.clone()));
+        }
+        let mut placed = Vec::new();
+        for _ in 0..spec.count.max(1) {
+            match self.start_one(&spec) {
+                Ok(p) => placed.push(p),
+                Err(e) => {
+                    for p in &placed {
+                        if let Some(id) = ProcId::parse(&p.proc_id) {
+                            let _ = self.kill(&id);
+                        }
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        Ok(placed)
+    }
+
+    fn start_one(&mut self, spec: &StartSpec) -> Result<Placement> {
+        let id = ProcId::new(&self.cfg.host, self.seq.fetch_add(1, Ordering::Relaxed));
+        let mut cmd = tokio::process::Command::new(&spec.program);
+        cmd.args(&spec.args)
+            .envs(&spec.env)
+            .envs(self.cfg.base_env.iter().map(|(k, v)| (k, v)))
+            .env(env::ADDR, &self.cfg.addr)
+            .env(env::HOST, &self.cfg.host)
+            .env(env::PROC_ID, id.as_str())
+            .env(env::JOB_ID, &spec.job)
+            .env(env::OWNER_ID, &spec.owner)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .process_group(0);
+        let nice = spec.nice;
+        // SAFETY: only async-signal-safe calls (setpriority, prctl) between fork and exec.
+        unsafe {
+            cmd.pre_exec(move || {
+                if let Some(n) = nice {
+                    if libc::setpriority(libc::PRIO_PROCESS, 0, n) != 0 {
+                        return Err(std::io::Error::last_os_error());
+                    }
+                }
+                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong, 0, 0, 0);
+                Ok(())
+            });
+        }
+        self.router.register(&id);
+        let mut child = match cmd.spawn() {
+            Ok(c) => c,
+            Err(e) => {
+                self.router.unregister(&id);
+                return Err(Error::Spawn { program: spec.program.clone(), reason: e.to_string() });
+            }
+        };
+        let pid = child.id().unwrap_or(0);
+        let output = Output::new(self.cfg.log_bytes);
+        let mut collectors = Vec::new();
+        if let Some(out) = child.stdout.take() {
+            collectors.push(tokio::spawn(logbuf::collect(out, output.stdout.clone())));
+        }
+        if let Some(err) = child.stderr.take() {
+            collectors.push(tokio::spawn(logbuf::collect(err, output.stderr.clone())));
+        }
+        let tx = self.self_tx.clone();
+        let wait_id = id.clone();
+        tokio::spawn(async move {
+            use std::os::unix::process::ExitStatusExt;
+            let (code, signal) = match child.wait().await {
+                Ok(st) => (st.code(), st.signal()),
+                Err(_) => (None, None),
+            };
+            // Let the output be read to its end before the exit is reported (bounded: a
+            // grandchild may hold the pipes open).
+            let _ = tokio::time::timeout(Duration::from_millis(500), async {
+                for c in collectors {
+                    let _ = c.await;
+                }
+            })
+            .await;
+            if let Some(tx) = tx.upgrade() {
+                let _ = tx.send(Cmd::Exited { id: wait_id, code, signal }).await;
+            }
+        });
+        self.counter.fetch_add(1, Ordering::Relaxed);
+        let info = ProcessInfo {
+            proc_id: id.to_string(),
+            host: self.cfg.host.clone(),
+            job: spec.job.clone(),
+            owner: spec.owner.clone(),
+            program: spec.program.clone(),
+            args: spec.args.clone(),
+            pid,
+            nice: spec.nice,
+            state: "running".into(),
+            exit_code: None,
+            signal: None,
+            started_unix_ms: SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64),
+            attached: false,
+        };
+        tracing::info!(proc = %id, pid, program = %spec.program, "started");
+        self.entries.insert(id.clone(), Entry { info, output });
+        Ok(Placement { proc_id: id.to_string(), host: self.cfg.host.clone(), pid })
+    }
+
+    fn kill(&mut self, id: &ProcId) -> Result<()> {
+        let e = self.entries.get(id).ok_or_else(|| Error::NotFound(format!("process {id}")))?;
+        if e.info.state != "running" {
+            return Ok(());
+        }
+        signal_group(e.info.pid, libc::SIGTERM);
+        let tx = self.self_tx.clone();
+        let (pid, grace, id) = (e.info.pid, self.cfg.kill_grace, id.clone());
+        tokio::spawn(async move {
+            tokio::time::sleep(grace).await;
+            // Only if the table still says running (the pid was not reused).
+            if let Some(tx) = tx.upgrade() {
+                let (rtx, rrx) = oneshot::channel();
+                if tx.send(Cmd::List(rtx)).await.is_ok() {
+                    if let Ok(list) = rrx.await {
+                        if list.iter().any(|p| p.proc_id == id.as_str() && p.state == "running") {
+                            signal_group(pid, libc::SIGKILL);
+                        }
+                    }
+                }
+            }
+        });
+        Ok(())
+    }
+
+    fn exited(&mut self, id: ProcId, code: Option<i32>, signal: Option<i32>) {
+        let Some(e) = self.entries.get_mut(&id) else { return };
+        e.info.state = "exited".into();
+        e.info.exit_code = code;
+        e.info.signal = signal;
+        self.counter.fetch_sub(1, Ordering::Relaxed);
+        self.router.unregister(&id);
+        tracing::info!(proc = %id, ?code, ?signal, "exited");
+        if !e.info.owner.is_empty() {
+            let event = JobEvent {
+                job: e.info.job.clone(),
+                proc_id: id.to_string(),
+                host: self.cfg.host.clone(),
+                kind: job_event::Kind::Exited as i32,
+                exit_code: code,
+                signal,
+                message: String::new(),
+                owner: e.info.owner.clone(),
+            };
+            let router = self.router.clone();
+            let tx = self.self_tx.clone();
+            self.reporting += 1;
+            tokio::spawn(async move {
+                if let Err(reason) = router.route_event(event).await {
+                    tracing::debug!(%reason, "exit event not delivered");
+                }
+                if let Some(tx) = tx.upgrade() {
+                    let _ = tx.send(Cmd::Reported).await;
+                }
+            });
+        }
+        // Keep the record of exited processes bounded.
+        let exited: Vec<ProcId> =
+            self.entries.iter().filter(|(_, e)| e.info.state != "running").map(|(k, _)| k.clone()).collect();
+        if exited.len() > 1000 {
+            for k in exited.iter().take(exited.len() - 1000) {
+                self.entries.remove(k);
+            }
+        }
+        self.notify_drained();
+    }
+
+    fn notify_drained(&mut self) {
+        if self.running().next().is_none() && self.reporting == 0 {
+            for d in self.drained.drain(..) {
+                let _ = d.send(());
+            }
+        }
+    }
+
+    fn shutdown(&mut self, reply: oneshot::Sender<()>) {
+        self.accepting = false;
+        let ids: Vec<ProcId> = self.entries.iter().filter(|(_, e)| e.info.state == "running").map(|(k, _)| k.clone()).collect();
+        for id in ids {
+            let _ = self.kill(&id);
+        }
+        self.drained.push(reply);
+        self.notify_drained();
+    }
+}
+
+fn signal_group(pid: u32, sig: libc::c_int) {
+    if pid > 0 {
+        // SAFETY: plain syscall; a negative pid addresses the child's process group.
+        unsafe {
+            libc::kill(-(pid as libc::pid_t), sig);
+        }
+    }
+}

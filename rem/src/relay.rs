@@ -1,0 +1,274 @@
+//! The relay's router: local mailboxes of attached (or about to attach) processes, and one
+//! ordered link per remote daemon.
+//!
+//! Order per sender and receiver holds because every hop is a single FIFO: the sender's attach
+//! stream, one link task and one `Forward` stream per daemon pair, the receiver's mailbox.
+//! Queues are bounded (`Settings::queue`): a full mailbox of an attached process holds the
+//! link, which holds the sender (back-pressure). A mailbox whose process has not attached yet
+//! buffers up to the bound and then drops, so a process that never attaches cannot stall
+//! the link. Envelopes to a lost or unknown host come back to the sender as `Undeliverable`.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, RwLock};
+
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::ReceiverStream;
+use tokio_util::sync::CancellationToken;
+
+use crate::ids::ProcId;
+use crate::membership::{MemberEvent, Membership};
+use crate::peers::PeerPool;
+use crate::proto::{peer_item, Envelope, JobEvent, PeerBatch, PeerItem, Undeliverable};
+
+/// Largest number of items sent in one batch.
+pub const BATCH: usize = 512;
+
+/// What a mailbox holds.
+#[derive(Clone, Debug)]
+pub enum Delivery {
+    Envelope(Envelope),
+    Event(JobEvent),
+    Undeliverable(Undeliverable),
+}
+
+struct Mailbox {
+    tx: mpsc::Sender<Delivery>,
+    rx: Option<mpsc::Receiver<Delivery>>,
+    attached: bool,
+}
+
+struct Link {
+    tx: mpsc::Sender<PeerItem>,
+    cancel: CancellationToken,
+    task: tokio::task::JoinHandle<()>,
+}
+
+/// Cloneable handle to the router.
+#[derive(Clone)]
+pub struct Router {
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    host: String,
+    queue: usize,
+    mailboxes: RwLock<HashMap<String, Mailbox>>,
+    links: Mutex<HashMap<String, Link>>,
+    membership: Membership,
+    peers: PeerPool,
+    /// Every job event delivered here is also shown to the job table.
+    observer: mpsc::UnboundedSender<JobEvent>,
+}
+
+impl Router {
+    pub fn new(
+        queue: usize,
+        membership: Membership,
+        peers: PeerPool,
+        observer: mpsc::UnboundedSender<JobEvent>,
+    ) -> Self {
+        let router = Router {
+            inner: Arc::new(Inner {
+                host: membership.name().to_string(),
+                queue: queue.max(1),
+                mailboxes: RwLock::default(),
+                links: Mutex::default(),
+                membership: membership.clone(),
+                peers,
+                observer,
+            }),
+        };
+        let mut events = membership.subscribe();
+        let weak = Arc::downgrade(&router.inner);
+        tokio::spawn(async move {
+            while let Ok(ev) = events.recv().await {
+                let Some(inner) = weak.upgrade() else { break };
+                if let MemberEvent::Lost(host) = ev {
+                    let link = inner.links.lock().unwrap_or_else(|e| e.into_inner()).remove(&host);
+                    if let Some(link) = link {
+                        link.cancel.cancel();
+                    }
+                }
+            }
+        });
+        router
+    }
+
+    pub fn host(&self) -> &str {
+        &self.inner.host
+    }
+
+    /// Creates the mailbox of a local process (before it starts, so nothing sent early is lost).
+    pub fn register(&self, id: &ProcId) {
+        let (tx, rx) = mpsc::channel(self.inner.queue);
+        self.mailboxes_mut().insert(id.to_string(), Mailbox { tx, rx: Some(rx), attached: false });
+    }
+
+    /// Hands the mailbox to the process attaching as `id`; `None` if unknown or taken.
+    pub fn take_mailbox(&self, id: &ProcId) -> Option<(mpsc::Sender<Delivery>, mpsc::Receiver<Delivery>)> {
+        let mut map = self.mailboxes_mut();
+        let mb = map.get_mut(id.as_str())?;
+        let rx = mb.rx.take()?;
+        mb.attached = true;
+        Some((mb.tx.clone(), rx))
+    }
+
+    /// Removes a local mailbox (process exited or owner detached).
+    pub fn unregister(&self, id: &ProcId) {
+        self.mailboxes_mut().remove(id.as_str());
+    }
+
+    fn mailboxes_mut(&self) -> std::sync::RwLockWriteGuard<'_, HashMap<String, Mailbox>> {
+        self.inner.mailboxes.write().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Closes every link after sending what is queued (bounded by `timeout`); used at shutdown
+    /// so that the last events (children's exits) reach their owners.
+    pub async fn flush_links(&self, timeout: std::time::Duration) {
+        let links: Vec<Link> = self.inner.links.lock().unwrap_or_else(|e| e.into_inner()).drain().map(|(_, l)| l).collect();
+        let tasks: Vec<_> = links.into_iter().map(|l| l.task).collect();
+        let _ = tokio::time::timeout(timeout, async {
+            for t in tasks {
+                let _ = t.await;
+            }
+        })
+        .await;
+    }
+
+    /// Sends an envelope towards `env.to`. `Err` = why it cannot be delivered.
+    pub async fn route(&self, env: Envelope) -> Result<(), String> {
+        let to = ProcId::parse(&env.to).ok_or_else(|| format!("bad process id {:?}", env.to))?;
+        if to.host() == self.inner.host {
+            self.deliver_local(to.as_str(), Delivery::Envelope(env)).await
+        } else {
+            self.send_remote(to.host(), PeerItem { item: Some(peer_item::Item::Envelope(env)) }).await
+        }
+    }
+
+    /// Sends a job event to its owner.
+    pub async fn route_event(&self, event: JobEvent) -> Result<(), String> {
+        let owner = ProcId::parse(&event.owner).ok_or_else(|| "the job has no owner".to_string())?;
+        if owner.host() == self.inner.host {
+            let _ = self.inner.observer.send(event.clone());
+            self.deliver_local(owner.as_str(), Delivery::Event(event)).await
+        } else {
+            self.send_remote(owner.host(), PeerItem { item: Some(peer_item::Item::Event(event)) }).await
+        }
+    }
+
+    /// Delivers an item that came in from another daemon.
+    pub async fn deliver_from_peer(&self, item: PeerItem) {
+        let result = match item.item {
+            Some(peer_item::Item::Envelope(env)) => {
+                let to = env.to.clone();
+                self.deliver_local(&to, Delivery::Envelope(env)).await
+            }
+            Some(peer_item::Item::Event(ev)) => {
+                let _ = self.inner.observer.send(ev.clone());
+                let owner = ev.owner.clone();
+                self.deliver_local(&owner, Delivery::Event(ev)).await
+            }
+            None => Ok(()),
+        };
+        if let Err(reason) = result {
+            tracing::debug!(%reason, "dropped an item from a peer");
+        }
+    }
+
+    async fn deliver_local(&self, to: &str, d: Delivery) -> Result<(), String> {
+        let (tx, attached) = {
+            let map = self.inner.mailboxes.read().unwrap_or_else(|e| e.into_inner());
+            let mb = map.get(to).ok_or_else(|| format!("no process {to} on {}", self.inner.host))?;
+            (mb.tx.clone(), mb.attached)
+        };
+        if attached {
+            tx.send(d).await.map_err(|_| format!("process {to} has detached"))
+        } else {
+            tx.try_send(d).map_err(|_| format!("process {to} has not attached and its queue is full"))
+        }
+    }
+
+    async fn send_remote(&self, host: &str, item: PeerItem) -> Result<(), String> {
+        let (tx, cancel) = self.link(host)?;
+        tokio::select! {
+            r = tx.send(item) => r.map_err(|_| format!("link to {host} closed")),
+            _ = cancel.cancelled() => Err(format!("host {host} is lost")),
+        }
+    }
+
+    fn link(&self, host: &str) -> Result<(mpsc::Sender<PeerItem>, CancellationToken), String> {
+        let mut links = self.inner.links.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(l) = links.get(host) {
+            if !l.cancel.is_cancelled() {
+                return Ok((l.tx.clone(), l.cancel.clone()));
+            }
+        }
+        let view = self.inner.membership.view();
+        match view.hosts.get(host) {
+            None => return Err(format!("unknown host {host}")),
+            Some(e) if !e.alive => return Err(format!("host {host} is lost")),
+            Some(_) => {}
+        }
+        let (tx, rx) = mpsc::channel(self.inner.queue);
+        let cancel = CancellationToken::new();
+        let task = tokio::spawn(run_link(host.to_string(), rx, cancel.clone(), self.inner.clone()));
+        links.insert(host.to_string(), Link { tx: tx.clone(), cancel: cancel.clone(), task });
+        Ok((tx, cancel))
+    }
+}
+
+/// Drains one link's queue into `Forward` streams to the host, batching what is queued.
+async fn run_link(host: String, mut rx: mpsc::Receiver<PeerItem>, cancel: CancellationToken, inner: Arc<Inner>) {
+    let mut stream: Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> = None;
+    loop {
+        let first = tokio::select! {
+            _ = cancel.cancelled() => return,
+            item = rx.recv() => match item {
+                Some(i) => i,
+                None => {
+                    // Closed: let the open stream finish sending, then end.
+                    if let Some((tx, call)) = stream.take() {
+                        drop(tx);
+                        let _ = call.await;
+                    }
+                    return;
+                }
+            },
+        };
+        let mut items = vec![first];
+        while items.len() < BATCH {
+            match rx.try_recv() {
+                Ok(i) => items.push(i),
+                Err(_) => break,
+            }
+        }
+        if stream.as_ref().is_none_or(|(s, _)| s.is_closed()) {
+            stream = open_stream(&host, &inner);
+        }
+        let batch = PeerBatch { from_host: inner.host.clone(), items };
+        let sent = match &stream {
+            Some((s, _)) => tokio::select! {
+                r = s.send(batch) => r.is_ok(),
+                _ = cancel.cancelled() => return,
+            },
+            None => false,
+        };
+        if !sent {
+            tracing::warn!(%host, "relay link broken; a batch was dropped");
+            stream = None;
+        }
+    }
+}
+
+fn open_stream(host: &str, inner: &Inner) -> Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> {
+    let addr = inner.membership.live_addr(host)?;
+    let mut client = inner.peers.client(&addr).ok()?;
+    let (tx, rx) = mpsc::channel(16);
+    let host = host.to_string();
+    let call = tokio::spawn(async move {
+        if let Err(status) = client.forward(ReceiverStream::new(rx)).await {
+            tracing::warn!(%host, %status, "relay link ended");
+        }
+    });
+    Some((tx, call))
+}

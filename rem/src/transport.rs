@@ -1,0 +1,105 @@
+//! Channels to daemons: plain HTTP/2 or TLS (rustls), with the same settings for clients,
+//! processes and daemons talking to their peers.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use tonic::transport::{Certificate, Channel, ClientTlsConfig, Endpoint, Identity, ServerTlsConfig};
+
+use crate::error::{Error, Result};
+
+/// Environment variable: PEM file of the CA that signed the daemons' certificates.
+pub const ENV_TLS_CA: &str = "REM_TLS_CA";
+/// Environment variable: the name to verify in a daemon's certificate.
+pub const ENV_TLS_DOMAIN: &str = "REM_TLS_DOMAIN";
+
+/// How a client checks a daemon's certificate.
+#[derive(Clone, Debug)]
+pub struct ClientTls {
+    /// PEM of the CA (or the self-signed certificate itself).
+    pub ca_pem: Vec<u8>,
+    /// Name to verify; `None` = the host part of the address.
+    pub domain: Option<String>,
+}
+
+impl ClientTls {
+    /// Reads the CA from a PEM file.
+    pub fn from_file(ca: &std::path::Path, domain: Option<String>) -> Result<Self> {
+        let ca_pem = std::fs::read(ca)
+            .map_err(|e| Error::Config(format!("cannot read {}: {e}", ca.display())))?;
+        Ok(ClientTls { ca_pem, domain })
+    }
+
+    /// From `REM_TLS_CA` / `REM_TLS_DOMAIN`; `None` when `REM_TLS_CA` is unset.
+    pub fn from_env() -> Result<Option<Self>> {
+        match std::env::var_os(ENV_TLS_CA).filter(|v| !v.is_empty()) {
+            Some(ca) => Ok(Some(ClientTls::from_file(
+                std::path::Path::new(&ca),
+                std::env::var(ENV_TLS_DOMAIN).ok().filter(|d| !d.is_empty()),
+            )?)),
+            None => Ok(None),
+        }
+    }
+}
+
+/// A daemon's certificate and key (PEM files), and the CA its clients should trust.
+#[derive(Clone, Debug)]
+pub struct ServerTlsFiles {
+    pub cert: PathBuf,
+    pub key: PathBuf,
+    /// CA for talking to peers; default: the daemon's own certificate (a shared self-signed one).
+    pub ca: Option<PathBuf>,
+    pub domain: Option<String>,
+}
+
+impl ServerTlsFiles {
+    pub fn server_config(&self) -> Result<ServerTlsConfig> {
+        let cert = read(&self.cert)?;
+        let key = read(&self.key)?;
+        Ok(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
+    }
+
+    pub fn client_tls(&self) -> Result<ClientTls> {
+        let ca = self.ca.as_ref().unwrap_or(&self.cert);
+        ClientTls::from_file(ca, self.domain.clone())
+    }
+}
+
+fn read(path: &PathBuf) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| Error::Config(format!("cannot read {}: {e}", path.display())))
+}
+
+/// An endpoint for `addr` (`HOST:PORT`, or a full `http(s)://` URL).
+pub fn endpoint(addr: &str, tls: Option<&ClientTls>) -> Result<Endpoint> {
+    let url = if addr.contains("://") {
+        addr.to_string()
+    } else if tls.is_some() {
+        format!("https://{addr}")
+    } else {
+        format!("http://{addr}")
+    };
+    let mut ep = Endpoint::from_shared(url)
+        .map_err(|e| Error::Config(format!("bad address {addr:?}: {e}")))?
+        .connect_timeout(Duration::from_secs(2))
+        .tcp_nodelay(true)
+        .http2_keep_alive_interval(Duration::from_secs(10))
+        .keep_alive_timeout(Duration::from_secs(5));
+    if let Some(tls) = tls {
+        let mut cfg = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(&tls.ca_pem));
+        if let Some(domain) = &tls.domain {
+            cfg = cfg.domain_name(domain.clone());
+        }
+        ep = ep.tls_config(cfg)?;
+    }
+    Ok(ep)
+}
+
+/// Connects now (fails if the daemon is not there).
+pub async fn connect(addr: &str, tls: Option<&ClientTls>) -> Result<Channel> {
+    Ok(endpoint(addr, tls)?.connect().await?)
+}
+
+/// A channel that connects on first use (and reconnects after failures).
+pub fn connect_lazy(addr: &str, tls: Option<&ClientTls>) -> Result<Channel> {
+    Ok(endpoint(addr, tls)?.connect_lazy())
+}

@@ -1,0 +1,149 @@
+//! Three real remd processes on loopback: membership, load, placement, processes.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use rem::{EventKind, ProcId, SpawnRequest};
+
+const T: Duration = Duration::from_secs(10);
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn membership_converges_and_load_figures_appear() {
+    let cluster = Cluster::start(3, &[]);
+    cluster.converge(T).await;
+    // b and c joined through a only; they still learned each other.
+    let c = cluster.client(2).await;
+    let hosts = c.hosts().await.unwrap();
+    let names: Vec<_> = hosts.iter().map(|h| h.name.as_str()).collect();
+    assert_eq!(names, ["c", "a", "b"]);
+    for h in &hosts {
+        let load = h.load.clone().expect("load figures");
+        assert!(load.cores >= 1, "{h:?}");
+        assert!(load.mem_total_bytes > 0 && load.mem_free_bytes <= load.mem_total_bytes, "{h:?}");
+        assert!((0.0..=1.0).contains(&load.cpu_busy));
+        let expect = (load.load_avg_1m + load.rem_processes as f64) / load.cores as f64;
+        assert!((load.load_per_core - expect).abs() < 1e-9);
+        assert_eq!(h.addr, cluster.daemons.iter().find(|d| d.name == h.name).unwrap().addr);
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn placement_avoids_the_host_running_rem_work() {
+    let cluster = Cluster::start(3, &[]);
+    cluster.converge(T).await;
+    let client = cluster.client(0).await;
+    let spin = |count| SpawnRequest {
+        program: ECHO.into(),
+        args: vec!["spin".into(), "30".into()],
+        count,
+        ..SpawnRequest::default()
+    };
+    // Load one host with a busy REM process.
+    let busy = client.spawn(spin(1)).await.unwrap();
+    let busy_host = busy.processes[0].host.clone();
+    // Wait until the placing daemon sees that host carrying it.
+    wait_hosts(&client, T, |hs| {
+        hs.iter().any(|h| h.name == busy_host && h.load.as_ref().is_some_and(|l| l.rem_processes == 1))
+    })
+    .await;
+    // The next two single spawns go elsewhere, and to different hosts.
+    let next = client.spawn(spin(1)).await.unwrap();
+    assert_ne!(next.processes[0].host, busy_host);
+    let hosts = client.spawn(spin(1)).await.unwrap().processes[0].host.clone();
+    assert_ne!(hosts, busy_host);
+    // Three hosts, three more one-per-host processes: possible; four: a clear error.
+    let err = client.spawn(spin(4)).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::FailedPrecondition, "{err}");
+    let many = client.spawn(SpawnRequest { allow_same_host: true, ..spin(4) }).await.unwrap();
+    assert_eq!(many.processes.len(), 4);
+    let ps = client.ps().await.unwrap();
+    assert_eq!(ps.iter().filter(|p| p.state == "running").count(), 7);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn spawned_process_is_niced_and_its_output_and_exit_arrive() {
+    let cluster = Cluster::start(2, &[]);
+    cluster.converge(T).await;
+    let client = cluster.client(0).await;
+    let mut owner = client.attach(Some("job-nice")).await.unwrap();
+    let job = client
+        .spawn(SpawnRequest {
+            program: ECHO.into(),
+            args: vec!["spin".into(), "30".into()],
+            nice: Some(7),
+            count: 2,
+            job: Some("job-nice".into()),
+            owner: Some(owner.id().clone()),
+            ..SpawnRequest::default()
+        })
+        .await
+        .unwrap();
+    assert_eq!(job.id, "job-nice");
+    for p in &job.processes {
+        next_event(&mut owner, T, |e| e.proc_id == p.proc_id.as_str() && e.kind == EventKind::Started as i32).await;
+        // Field 19 of /proc/PID/stat is the nice value.
+        assert_eq!(proc_stat_field(p.pid, 19), "7");
+    }
+    // remd itself was not reniced.
+    assert_eq!(proc_stat_field(cluster.daemons[0].pid() as u32, 19), "0");
+    // Kill one (on the other host, through this daemon): the owner hears SIGTERM.
+    let victim = job.processes.iter().find(|p| p.host == "b").unwrap();
+    client.kill(&victim.proc_id).await.unwrap();
+    let ev = next_event(&mut owner, T, |e| e.kind == EventKind::Exited as i32).await;
+    assert_eq!(ev.proc_id, victim.proc_id.as_str());
+    assert_eq!(ev.signal, Some(libc::SIGTERM));
+    assert_eq!(ev.exit_code, None);
+
+    // A process that prints and exits with a code.
+    let job = client
+        .spawn(SpawnRequest {
+            program: ECHO.into(),
+            args: vec!["exit".into(), "3".into()],
+            owner: Some(owner.id().clone()),
+            ..SpawnRequest::default()
+        })
+        .await
+        .unwrap();
+    let id: &ProcId = &job.processes[0].proc_id;
+    let ev = next_event(&mut owner, T, |e| e.proc_id == id.as_str() && e.kind == EventKind::Exited as i32).await;
+    assert_eq!(ev.exit_code, Some(3));
+    let logs = client.logs(id).await.unwrap();
+    assert_eq!(String::from_utf8_lossy(&logs.stdout), format!("rem-echo stdout {id}\n"));
+    assert_eq!(String::from_utf8_lossy(&logs.stderr), "rem-echo stderr\n");
+    let ps = client.ps().await.unwrap();
+    let entry = ps.iter().find(|p| p.proc_id == id.as_str()).unwrap();
+    assert_eq!((entry.state.as_str(), entry.exit_code), ("exited", Some(3)));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rem_command_lists_hosts_as_json_and_table() {
+    let cluster = Cluster::start(2, &[]);
+    cluster.converge(T).await;
+    let rem = env!("CARGO_BIN_EXE_rem");
+    let out = std::process::Command::new(rem)
+        .args(["--remd", &cluster.daemons[1].addr, "hosts", "--json"])
+        .env("REM_SECRET_FILE", &cluster.secret_file)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let arr = v.as_array().unwrap();
+    assert_eq!(arr.len(), 2);
+    for h in arr {
+        for key in ["name", "addr", "cores", "load_per_core"] {
+            assert!(h.get(key).is_some(), "{key} missing in {h}");
+        }
+        assert_eq!(h["alive"], serde_json::Value::Bool(true));
+    }
+    let out = std::process::Command::new(rem)
+        .args(["hosts"])
+        .env("REM_ADDR", &cluster.daemons[0].addr)
+        .env("REM_SECRET_FILE", &cluster.secret_file)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.starts_with("NAME"), "{text}");
+    assert_eq!(text.lines().filter(|l| l.contains("alive")).count(), 2, "{text}");
+}

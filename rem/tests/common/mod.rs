@@ -1,0 +1,162 @@
+//! Test harness: real `remd` processes on loopback.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use rem::{HostInfo, Incoming, Relay, RemClient, Secret};
+
+pub const REMD: &str = env!("CARGO_BIN_EXE_remd");
+pub const ECHO: &str = env!("CARGO_BIN_EXE_rem-echo");
+pub const SECRET: &str = "test-cluster-secret";
+
+/// One remd process; killed (SIGCONT + SIGKILL) when dropped.
+pub struct Remd {
+    pub name: String,
+    pub addr: String,
+    pub child: Child,
+}
+
+impl Remd {
+    pub fn pid(&self) -> i32 {
+        self.child.id() as i32
+    }
+
+    pub fn signal(&self, sig: i32) {
+        unsafe {
+            libc::kill(self.pid(), sig);
+        }
+    }
+
+    /// Waits for the process to exit (bounded).
+    pub fn wait_exit(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            if let Ok(Some(st)) = self.child.try_wait() {
+                return Some(st);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        None
+    }
+}
+
+impl Drop for Remd {
+    fn drop(&mut self) {
+        self.signal(libc::SIGCONT);
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A cluster of remd processes sharing a secret file and a temp dir.
+pub struct Cluster {
+    pub dir: tempfile::TempDir,
+    pub secret_file: PathBuf,
+    pub daemons: Vec<Remd>,
+}
+
+impl Cluster {
+    /// `n` daemons named a, b, c ...; each after the first joins through the first.
+    pub fn start(n: usize, extra: &[&str]) -> Cluster {
+        let dir = tempfile::tempdir().unwrap();
+        let secret_file = dir.path().join("secret");
+        std::fs::write(&secret_file, format!("{SECRET}\n")).unwrap();
+        let mut c = Cluster { dir, secret_file, daemons: Vec::new() };
+        for i in 0..n {
+            let name = ((b'a' + i as u8) as char).to_string();
+            let join = c.daemons.first().map(|d| d.addr.clone());
+            let d = c.start_daemon(&name, join.as_deref(), extra);
+            c.daemons.push(d);
+        }
+        c
+    }
+
+    /// Starts one more remd (not added to `daemons`).
+    pub fn start_daemon(&self, name: &str, join: Option<&str>, extra: &[&str]) -> Remd {
+        let state = self.dir.path().join(format!("state-{name}"));
+        let mut cmd = Command::new(REMD);
+        cmd.args(["--name", name, "--listen", "127.0.0.1:0", "--allow", ECHO])
+            .arg("--secret-file")
+            .arg(&self.secret_file)
+            .arg("--state-dir")
+            .arg(&state)
+            .args(extra)
+            .env_remove("REM_SECRET")
+            .env_remove("REM_SECRET_FILE")
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+        if let Some(j) = join {
+            cmd.args(["--join", j]);
+        }
+        let mut child = cmd.spawn().expect("start remd");
+        let addr = read_addr(&mut child);
+        Remd { name: name.to_string(), addr, child }
+    }
+
+    pub fn secret(&self) -> Secret {
+        Secret::new(SECRET).unwrap()
+    }
+
+    pub async fn client(&self, i: usize) -> RemClient {
+        RemClient::connect(&self.daemons[i].addr, self.secret()).await.unwrap()
+    }
+
+    /// Waits until every daemon sees every other alive.
+    pub async fn converge(&self, timeout: Duration) {
+        let n = self.daemons.len();
+        for i in 0..n {
+            let c = self.client(i).await;
+            wait_hosts(&c, timeout, |hosts| hosts.len() == n && hosts.iter().all(|h| h.alive)).await;
+        }
+    }
+}
+
+fn read_addr(child: &mut Child) -> String {
+    let out = child.stdout.take().unwrap();
+    let mut line = String::new();
+    BufReader::new(out).read_line(&mut line).unwrap();
+    line.trim().strip_prefix("remd listening on ").unwrap_or_else(|| panic!("bad first line {line:?}")).to_string()
+}
+
+/// Polls `rem hosts` until `pred` holds; panics after `timeout`. Returns the hosts.
+pub async fn wait_hosts(c: &RemClient, timeout: Duration, pred: impl Fn(&[HostInfo]) -> bool) -> Vec<HostInfo> {
+    let end = Instant::now() + timeout;
+    loop {
+        let hosts = c.hosts().await.unwrap();
+        if pred(&hosts) {
+            return hosts;
+        }
+        assert!(Instant::now() < end, "condition not reached in {timeout:?}: {hosts:#?}");
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+}
+
+/// The next job event on `relay` matching `pred` (bounded).
+pub async fn next_event(relay: &mut Relay, timeout: Duration, pred: impl Fn(&rem::JobEvent) -> bool) -> rem::JobEvent {
+    tokio::time::timeout(timeout, async {
+        loop {
+            match relay.recv().await.unwrap() {
+                Incoming::Event(e) if pred(&e) => return e,
+                _ => {}
+            }
+        }
+    })
+    .await
+    .expect("event did not arrive in time")
+}
+
+/// The `/proc/PID/stat` fields (1-based numbering as in proc(5)).
+pub fn proc_stat_field(pid: u32, field: usize) -> String {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    // Field 2 (comm) may hold spaces; it ends at the last ')'.
+    let rest = &stat[stat.rfind(')').unwrap() + 2..];
+    rest.split_whitespace().nth(field - 3).unwrap().to_string()
+}
+
+pub fn exists(p: &Path) -> bool {
+    p.exists()
+}

@@ -1,0 +1,99 @@
+//! Failures: a killed daemon, a hung (SIGSTOPped) daemon, a restart, SIGTERM.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::*;
+use rem::{EventKind, SpawnRequest};
+
+const T: Duration = Duration::from_secs(10);
+/// The bound on failure detection (default heartbeat settings are used here).
+const DETECT: Duration = Duration::from_secs(2);
+
+fn spin(owner: &rem::Relay, count: u32) -> SpawnRequest {
+    SpawnRequest {
+        program: ECHO.into(),
+        args: vec!["spin".into(), "60".into()],
+        nice: Some(10),
+        count,
+        owner: Some(owner.id().clone()),
+        ..SpawnRequest::default()
+    }
+}
+
+/// Kills or stops daemon c, checks a and b mark it lost within 2 s and the owner (on a)
+/// gets LOST for c's process; returns the time to the LOST event.
+async fn host_failure_is_detected(sig: i32) -> (Cluster, Duration) {
+    let mut cluster = Cluster::start(3, &[]);
+    cluster.converge(T).await;
+    let client = cluster.client(0).await;
+    let mut owner = client.attach(None).await.unwrap();
+    let job = client.spawn(spin(&owner, 3)).await.unwrap();
+    let on_c = job.processes.iter().find(|p| p.host == "c").unwrap().proc_id.clone();
+    for _ in 0..3 {
+        next_event(&mut owner, T, |e| e.kind == EventKind::Started as i32).await;
+    }
+    let victim = cluster.daemons.last_mut().unwrap();
+    let t0 = Instant::now();
+    victim.signal(sig);
+    let ev = next_event(&mut owner, DETECT + Duration::from_millis(500), |e| e.kind == EventKind::Lost as i32).await;
+    let detected = t0.elapsed();
+    assert_eq!(ev.proc_id, on_c.as_str());
+    assert_eq!(ev.host, "c");
+    assert!(detected < DETECT, "lost after {detected:?}");
+    let b = cluster.client(1).await;
+    wait_hosts(&b, DETECT.saturating_sub(t0.elapsed()) + Duration::from_millis(100), |hs| {
+        hs.iter().any(|h| h.name == "c" && !h.alive)
+    })
+    .await;
+    // New work avoids the lost host: two hosts left, three one-per-host is an error.
+    let err = client.spawn(spin(&owner, 3)).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::FailedPrecondition);
+    (cluster, detected)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn killed_daemon_is_lost_within_2s_and_rejoins_after_restart() {
+    let (mut cluster, detected) = host_failure_is_detected(libc::SIGKILL).await;
+    eprintln!("kill -9: LOST reported after {detected:?}");
+    // Restart c (new port), joining through b: everyone sees it alive again.
+    let old = cluster.daemons.pop().unwrap();
+    drop(old);
+    let join = cluster.daemons[1].addr.clone();
+    let c = cluster.start_daemon("c", Some(&join), &[]);
+    cluster.daemons.push(c);
+    cluster.converge(T).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stopped_daemon_is_lost_within_2s_and_comes_back_on_sigcont() {
+    let (cluster, detected) = host_failure_is_detected(libc::SIGSTOP).await;
+    eprintln!("kill -STOP: LOST reported after {detected:?}");
+    cluster.daemons[2].signal(libc::SIGCONT);
+    cluster.converge(T).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
+    let mut cluster = Cluster::start(2, &["--kill-grace-ms", "500"]);
+    cluster.converge(T).await;
+    let client = cluster.client(0).await;
+    let mut owner = client.attach(None).await.unwrap();
+    let job = client.spawn(spin(&owner, 2)).await.unwrap();
+    let on_b = job.processes.iter().find(|p| p.host == "b").unwrap().clone();
+    next_event(&mut owner, T, |e| e.proc_id == on_b.proc_id.as_str() && e.kind == EventKind::Started as i32).await;
+    cluster.daemons[1].signal(libc::SIGTERM);
+    let ev = next_event(&mut owner, T, |e| e.proc_id == on_b.proc_id.as_str() && e.kind != EventKind::Started as i32).await;
+    assert_eq!(ev.kind, EventKind::Exited as i32, "{ev:?}");
+    assert_eq!(ev.signal, Some(libc::SIGTERM));
+    let status = cluster.daemons[1].wait_exit(T).expect("remd did not exit");
+    assert!(status.success(), "{status:?}");
+    assert!(!std::path::Path::new(&format!("/proc/{}", on_b.pid)).exists() || proc_stat_field(on_b.pid, 3) == "Z");
+    // a marks it lost, and a restarted b rejoins.
+    wait_hosts(&client, T, |hs| hs.iter().any(|h| h.name == "b" && !h.alive)).await;
+    let join = cluster.daemons[0].addr.clone();
+    let b = cluster.start_daemon("b", Some(&join), &[]);
+    cluster.daemons[1] = b;
+    cluster.converge(T).await;
+}

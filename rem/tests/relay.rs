@@ -1,0 +1,102 @@
+//! The relay: two processes on two daemons exchange 100,000 messages in order; checkpoints
+//! survive the writing host.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::*;
+use rem::{EventKind, Incoming, SpawnRequest};
+
+const T: Duration = Duration::from_secs(10);
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hundred_thousand_messages_between_two_daemons_in_order() {
+    const N: u64 = 100_000;
+    let cluster = Cluster::start(2, &[]);
+    cluster.converge(T).await;
+    let client = cluster.client(0).await;
+    let mut owner = client.attach(Some("relay-test")).await.unwrap();
+    // One echo per host; use the one on b (the other daemon).
+    let job = client
+        .spawn(SpawnRequest {
+            program: ECHO.into(),
+            args: vec!["echo".into()],
+            count: 2,
+            owner: Some(owner.id().clone()),
+            ..SpawnRequest::default()
+        })
+        .await
+        .unwrap();
+    let echo = job.processes.iter().find(|p| p.host == "b").unwrap().proc_id.clone();
+    assert_eq!(owner.host(), "a");
+
+    let sender = owner.sender();
+    let to = echo.clone();
+    let t0 = Instant::now();
+    let send_all = tokio::spawn(async move {
+        for i in 0..N {
+            sender.send(&to, i.to_le_bytes().to_vec()).await.unwrap();
+        }
+    });
+    let mut next = 0u64;
+    tokio::time::timeout(Duration::from_secs(60), async {
+        while next < N {
+            match owner.recv().await.unwrap() {
+                Incoming::Message { from, payload } => {
+                    assert_eq!(from, echo.as_str());
+                    let got = u64::from_le_bytes(payload.as_slice().try_into().unwrap());
+                    assert_eq!(got, next, "out of order or lost");
+                    next += 1;
+                }
+                Incoming::Event(e) => assert_ne!(e.kind, EventKind::Lost as i32, "{e:?}"),
+                Incoming::Undeliverable { to, reason } => panic!("undeliverable to {to}: {reason}"),
+            }
+        }
+    })
+    .await
+    .expect("all echoes within 60 s");
+    send_all.await.unwrap();
+    let secs = t0.elapsed().as_secs_f64();
+    eprintln!("{N} messages there and back in {secs:.2} s ({:.0} round trips/s, debug build)", N as f64 / secs);
+
+    // An envelope to a process that does not exist comes back as undeliverable.
+    let ghost: rem::ProcId = "b/1".parse().unwrap();
+    owner.send(&ghost, b"x".to_vec()).await.unwrap();
+    let nowhere: rem::ProcId = "nohost/1".parse().unwrap();
+    owner.send(&nowhere, b"x".to_vec()).await.unwrap();
+    let got = tokio::time::timeout(T, async {
+        loop {
+            if let Incoming::Undeliverable { to, reason } = owner.recv().await.unwrap() {
+                return (to, reason);
+            }
+        }
+    })
+    .await
+    .unwrap();
+    assert_eq!(got.0, "nohost/1", "{got:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn checkpoint_is_kept_on_two_hosts_and_survives_the_writer() {
+    let mut cluster = Cluster::start(3, &[]);
+    cluster.converge(T).await;
+    let writer = cluster.client(0).await;
+    assert_eq!(writer.get_checkpoint("job-ck").await.unwrap(), None);
+    writer.put_checkpoint("job-ck", b"first".to_vec()).await.unwrap();
+    let stored = writer.put_checkpoint("job-ck", b"second".to_vec()).await.unwrap();
+    assert_eq!(stored.stored_on.len(), 2, "{stored:?}");
+    assert_eq!(stored.stored_on[0], "a");
+    // The writing host dies; the others still serve the newest version.
+    cluster.daemons[0].signal(libc::SIGKILL);
+    for i in 1..3 {
+        let c = cluster.client(i).await;
+        wait_hosts(&c, T, |hs| hs.iter().any(|h| h.name == "a" && !h.alive)).await;
+        assert_eq!(c.get_checkpoint("job-ck").await.unwrap().as_deref(), Some(&b"second"[..]));
+    }
+    // Bad job ids are refused.
+    let c = cluster.client(1).await;
+    let err = c.put_checkpoint("../x", b"y".to_vec()).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::InvalidArgument);
+    drop(cluster.daemons.remove(0));
+}

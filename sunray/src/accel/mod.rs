@@ -1,0 +1,197 @@
+//! Acceleration structures: which primitives a ray is tested against.
+//!
+//! - [`exhaustive`]: every primitive, in index order (the thesis's exhaustive mode).
+//! - [`octree`]: Glassner's adaptive octree with voxel-by-voxel traversal (thesis 4.2.1).
+//! - [`bvh`]: a binned-SAH bounding volume hierarchy, flattened.
+//!
+//! All of them return the same closest hit: the smallest `t`, ties broken by the lower
+//! primitive index, and every primitive's `t` comes from the same function; so the images of
+//! all accelerators are identical. Unbounded primitives (quadrics without a bounding clip) are
+//! kept in a separate list that every query tests.
+
+pub mod bvh;
+pub mod exhaustive;
+pub mod mailbox;
+pub mod octree;
+
+use crate::geometry::{Primitive, RayPre, Real};
+use crate::stats::Counters;
+pub use mailbox::Mailbox;
+
+/// The closest hit of a ray: parameter and primitive index.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: Real,
+    pub prim: u32,
+}
+
+impl Hit {
+    /// Whether (t, prim) comes before `best` (smaller t, then smaller index).
+    #[inline]
+    pub fn improves(t: Real, prim: u32, best: &Option<Hit>) -> bool {
+        match best {
+            None => true,
+            Some(b) => t < b.t || (t == b.t && prim < b.prim),
+        }
+    }
+}
+
+/// Which accelerator to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum AccelKind {
+    /// Octree for small scenes, BVH for large ones (see [`AccelKind::resolve`]).
+    Auto,
+    Octree,
+    Bvh,
+    Exhaustive,
+}
+
+/// Build parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelOptions {
+    pub kind: AccelKind,
+    /// Octree: subdivide a voxel holding more than this many primitives.
+    pub max_per_voxel: usize,
+    /// Octree: maximum subdivision depth.
+    pub max_depth: u32,
+}
+
+impl Default for AccelOptions {
+    fn default() -> AccelOptions {
+        AccelOptions {
+            kind: AccelKind::Auto,
+            max_per_voxel: 10,
+            max_depth: 8,
+        }
+    }
+}
+
+impl AccelKind {
+    /// `auto`: exhaustive up to 8 primitives (nothing to gain), the BVH above that. The BVH
+    /// beat the octree on every SPD scene we measured (see docs/renderer.md); the octree stays
+    /// selectable for the thesis's comparisons.
+    pub fn resolve(self, bounded: usize) -> AccelKind {
+        match self {
+            AccelKind::Auto if bounded <= 8 => AccelKind::Exhaustive,
+            AccelKind::Auto => AccelKind::Bvh,
+            k => k,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::Auto => "auto",
+            AccelKind::Octree => "octree",
+            AccelKind::Bvh => "bvh",
+            AccelKind::Exhaustive => "exhaustive",
+        }
+    }
+}
+
+/// A built accelerator over a scene's primitives.
+#[derive(Clone, Debug)]
+pub struct Accel {
+    pub kind: AccelKind,
+    structure: Structure,
+    /// Primitives with no bounds, tested by every query.
+    unbounded: Vec<u32>,
+}
+
+#[derive(Clone, Debug)]
+enum Structure {
+    Exhaustive(Vec<u32>),
+    Octree(octree::Octree),
+    Bvh(bvh::Bvh),
+}
+
+/// Per-thread scratch state of queries (the mailbox). It only saves work: results never
+/// depend on it.
+#[derive(Clone, Debug)]
+pub struct Scratch {
+    pub mailbox: Mailbox,
+}
+
+impl Scratch {
+    pub fn new(prims: usize, mailbox: bool) -> Scratch {
+        Scratch {
+            mailbox: Mailbox::new(prims, mailbox),
+        }
+    }
+}
+
+impl Accel {
+    pub fn build(prims: &[Primitive], opts: &AccelOptions) -> Accel {
+        let mut bounded = Vec::new();
+        let mut unbounded = Vec::new();
+        for (i, p) in prims.iter().enumerate() {
+            match p.bounds() {
+                Some(b) => bounded.push((i as u32, b)),
+                None => unbounded.push(i as u32),
+            }
+        }
+        let kind = opts.kind.resolve(bounded.len());
+        let structure = match kind {
+            AccelKind::Octree => Structure::Octree(octree::Octree::build(&bounded, opts)),
+            AccelKind::Bvh => Structure::Bvh(bvh::Bvh::build(&bounded)),
+            _ => Structure::Exhaustive(bounded.iter().map(|(i, _)| *i).collect()),
+        };
+        Accel {
+            kind,
+            structure,
+            unbounded,
+        }
+    }
+
+    pub fn unbounded_count(&self) -> usize {
+        self.unbounded.len()
+    }
+
+    /// The closest hit in `(0, t_max)`.
+    pub fn closest(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        scratch: &mut Scratch,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        let mut best = exhaustive::closest_in(prims, &self.unbounded, r, t_max, None, c);
+        match &self.structure {
+            Structure::Exhaustive(list) => {
+                best = exhaustive::closest_in(prims, list, r, t_max, best, c);
+            }
+            Structure::Octree(o) => {
+                scratch.mailbox.next_ray();
+                best = o.closest(prims, r, t_max, best, &mut scratch.mailbox, c);
+            }
+            Structure::Bvh(b) => best = b.closest(prims, r, t_max, best, c),
+        }
+        best
+    }
+
+    /// Some hit in `(0, t_max)` for which `accept(prim)` holds (for shadow rays: an opaque
+    /// occluder), or None.
+    pub fn any(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        accept: &dyn Fn(u32) -> bool,
+        scratch: &mut Scratch,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        if let Some(h) = exhaustive::any_in(prims, &self.unbounded, r, t_max, accept, c) {
+            return Some(h);
+        }
+        match &self.structure {
+            Structure::Exhaustive(list) => exhaustive::any_in(prims, list, r, t_max, accept, c),
+            Structure::Octree(o) => {
+                scratch.mailbox.next_ray();
+                o.any(prims, r, t_max, accept, &mut scratch.mailbox, c)
+            }
+            Structure::Bvh(b) => b.any(prims, r, t_max, accept, c),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

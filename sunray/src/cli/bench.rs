@@ -1,0 +1,70 @@
+//! `sunray bench table41|table42|throughput|build`: the thesis's tables with our numbers.
+
+use crate::accel::AccelKind;
+use clap::{Args, ValueEnum};
+use std::process::ExitCode;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Which {
+    /// Table 4.1: exhaustive vs octree on tetra of sizes 2, 3, 4, 6.
+    Table41,
+    /// Table 4.2: the octree's mailbox on and off on tetra, mount, balls.
+    Table42,
+    /// Rays per second, one thread and all threads, BVH and octree.
+    Throughput,
+    /// Accelerator build time for a 1,000,000-triangle scene.
+    Build,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    pub which: Which,
+    /// Image size (square).
+    #[arg(long, default_value_t = 512)]
+    pub resolution: u32,
+    /// Tetra sizes for table41.
+    #[arg(long, value_delimiter = ',', default_value = "2,3,4,6")]
+    pub sizes: Vec<u32>,
+    /// Threads for the all-thread throughput (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Triangles for `build`.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub triangles: usize,
+}
+
+pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1);
+    let text = match args.which {
+        Which::Table41 => crate::bench::table41(&args.sizes, args.resolution)?,
+        Which::Table42 => crate::bench::table42(args.resolution)?,
+        Which::Throughput => crate::bench::throughput(args.resolution, threads)?,
+        Which::Build => {
+            let mut s = String::new();
+            for kind in [AccelKind::Bvh, AccelKind::Octree] {
+                let (n, secs) = crate::bench::build_big(args.triangles, kind);
+                s += &format!(
+                    "{:>8}: {n} triangles, scene + accelerator built in {secs:.3} s\n",
+                    kind.name()
+                );
+            }
+            s += &format!("peak resident memory: {:.0} MiB\n", peak_rss_mib());
+            s
+        }
+    };
+    print!("{text}");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Peak resident set size of this process (getrusage's ru_maxrss, KiB on Linux).
+fn peak_rss_mib() -> f64 {
+    // SAFETY: getrusage fills the zeroed struct; RUSAGE_SELF is always valid.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } != 0 {
+        return 0.0;
+    }
+    u.ru_maxrss as f64 / 1024.0
+}

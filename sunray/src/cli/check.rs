@@ -1,0 +1,94 @@
+//! `sunray check SCENE`: parse and compile a scene, print a one-line summary and any
+//! warnings, or the diagnostics; exit 0 only when the scene is valid.
+
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use yari::colour::ColourTable;
+use yari::load::{load_path, LoadError};
+use yari::model::World;
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// The scene: .yari, .nff, .off, or a compiled .srw model.
+    pub scene: PathBuf,
+    /// A colour file (`name r g b` per line) extending the built-in colour names.
+    #[arg(long = "colors", value_name = "FILE", env = "YARI_COLORS")]
+    pub colors: Option<PathBuf>,
+}
+
+pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    let colours = ColourTable::for_run(args.colors.as_deref())?;
+    match load_path(&args.scene, &colours) {
+        Ok(loaded) => {
+            eprint!("{}", loaded.render_warnings());
+            println!("{}", summary(&display_name(&args.scene), &loaded.world));
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e @ LoadError::Scene(_)) => {
+            eprintln!("{e}");
+            Ok(ExitCode::FAILURE)
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// The file name of a path, for summaries.
+pub fn display_name(path: &std::path::Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+fn plural(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// `tetra16.yari: 16 polygons, 1 light, 512x512` plus the features the world uses.
+pub fn summary(name: &str, world: &World) -> String {
+    let f = &world.features;
+    let kinds: Vec<String> = [
+        (f.polygons, "polygon", "polygons"),
+        (f.spheres, "sphere", "spheres"),
+        (f.ellipsoids, "ellipsoid", "ellipsoids"),
+        (f.quadrics, "quadric", "quadrics"),
+    ]
+    .iter()
+    .filter(|(n, _, _)| *n > 0)
+    .map(|(n, one, many)| plural(*n, one, many))
+    .collect();
+    let prims = if kinds.is_empty() {
+        "no primitives".to_string()
+    } else {
+        kinds.join(" + ")
+    };
+    let mut line = format!(
+        "{name}: {prims}, {}, {}x{}",
+        plural(world.lights.len(), "light", "lights"),
+        world.resolution[0],
+        world.resolution[1]
+    );
+    let used: Vec<String> = [
+        (f.reflection, "reflection"),
+        (f.transparency, "transparency"),
+        (f.textures, "textures"),
+        (f.area_lights, "area lights"),
+        (f.gloss, "gloss"),
+        (f.translucency, "translucency"),
+        (f.depth_of_field, "depth of field"),
+        (f.motion_blur, "motion blur"),
+    ]
+    .iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, name)| name.to_string())
+    .chain(
+        f.antialiasing
+            .then(|| format!("{} samples per pixel", world.samples)),
+    )
+    .collect();
+    if !used.is_empty() {
+        line.push_str("; uses ");
+        line.push_str(&used.join(", "));
+    }
+    line
+}

@@ -1,0 +1,46 @@
+//! `sunray compile SCENE -o MODEL`: compile a scene (YARI, NFF or OFF) into a model file
+//! that workers load without parsing (the thesis's `yc`).
+
+use super::check::{display_name, summary};
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use yari::colour::ColourTable;
+use yari::load::{load_path, LoadError};
+
+#[derive(Args, Debug)]
+pub struct CompileArgs {
+    /// The scene: .yari, .nff or .off (a .srw model is copied as it is).
+    pub scene: PathBuf,
+    /// Where to write the model file (conventionally `.srw`); written to a temporary name
+    /// and renamed.
+    #[arg(short = 'o', long = "output", value_name = "MODEL")]
+    pub output: PathBuf,
+    /// A colour file (`name r g b` per line) extending the built-in colour names.
+    #[arg(long = "colors", value_name = "FILE", env = "YARI_COLORS")]
+    pub colors: Option<PathBuf>,
+}
+
+pub fn run(args: CompileArgs) -> anyhow::Result<ExitCode> {
+    let colours = ColourTable::for_run(args.colors.as_deref())?;
+    let loaded = match load_path(&args.scene, &colours) {
+        Ok(l) => l,
+        Err(e @ LoadError::Scene(_)) => {
+            eprintln!("{e}");
+            return Ok(ExitCode::FAILURE);
+        }
+        Err(e) => return Err(e.into()),
+    };
+    eprint!("{}", loaded.render_warnings());
+    yari::modelfile::save_atomic(&loaded.world, &args.output)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", args.output.display()))?;
+    let size = std::fs::metadata(&args.output)
+        .map(|m| m.len())
+        .unwrap_or(0);
+    println!(
+        "{} -> {} ({size} bytes)",
+        summary(&display_name(&args.scene), &loaded.world),
+        args.output.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,186 @@
+//! `sunray convert IN [-o OUT.yari]`: NFF or OFF to YARI (the thesis's `nff2gfx` and
+//! `off2gfx`). Also the output helpers the scene generators (`spd`, `check-board`) share:
+//! YARI or NFF text chosen by the output's extension, written to a temporary file and
+//! renamed, or printed to stdout.
+
+use anyhow::{bail, Context};
+use clap::{Args, ValueEnum};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use yari::diag::Diagnostics;
+use yari::span::Source;
+
+/// Convert an NFF (`.nff`) or OFF (`.off`) scene to YARI.
+#[derive(Args, Debug)]
+pub struct ConvertArgs {
+    /// The scene to convert (`-` reads stdin; then give --from).
+    pub input: PathBuf,
+    /// Where to write the YARI scene (default: stdout).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// The input format, when the extension does not say.
+    #[arg(long, value_enum)]
+    pub from: Option<InputFormat>,
+}
+
+/// Formats `convert` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InputFormat {
+    Nff,
+    Off,
+}
+
+/// Formats the generators write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OutputFormat {
+    Yari,
+    Nff,
+}
+
+pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
+    let format = match args.from {
+        Some(f) => f,
+        None => match extension(&args.input).as_deref() {
+            Some("nff") => InputFormat::Nff,
+            Some("off") => InputFormat::Off,
+            _ => bail!(
+                "cannot tell the format of {} from its name; give --from nff or --from off",
+                args.input.display()
+            ),
+        },
+    };
+    if let Some(out) = &args.output {
+        if matches!(extension(out).as_deref(), Some("nff" | "off")) {
+            bail!(
+                "convert writes YARI; name the output {} with a .yari extension",
+                out.display()
+            );
+        }
+    }
+    let (name, text) = if args.input.as_os_str() == "-" {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text).context("reading stdin")?;
+        ("<stdin>".to_string(), text)
+    } else {
+        let text = std::fs::read_to_string(&args.input)
+            .with_context(|| format!("reading {}", args.input.display()))?;
+        (args.input.display().to_string(), text)
+    };
+    let src = Source::new(name, text);
+    let result = match format {
+        InputFormat::Nff => yari::nff::parse_with_warnings(&src),
+        InputFormat::Off => yari::off::parse(&src).map(|s| (s, Diagnostics::default())),
+    };
+    match result {
+        Ok((scene, warnings)) => {
+            eprint!("{}", warnings.render(&src));
+            write_output(args.output.as_deref(), &yari::writer::write_scene(&scene))?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(diags) => {
+            eprint!("{}", diags.render(&src));
+            let n = diags.errors().count();
+            eprintln!(
+                "sunray: {} error{} in {}; nothing written",
+                n,
+                if n == 1 { "" } else { "s" },
+                src.name
+            );
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+}
+
+/// The format to write: `--format` if given, else the output's extension (`.nff` is NFF,
+/// anything else YARI), else YARI on stdout.
+pub fn output_format(flag: Option<OutputFormat>, output: Option<&Path>) -> OutputFormat {
+    flag.unwrap_or_else(|| match output.and_then(extension).as_deref() {
+        Some("nff") => OutputFormat::Nff,
+        _ => OutputFormat::Yari,
+    })
+}
+
+/// A generated NFF scene as text in `format`.
+pub fn render_scene(scene: &yari::nff::NffScene, format: OutputFormat) -> String {
+    match format {
+        OutputFormat::Nff => yari::nff::write(scene),
+        OutputFormat::Yari => yari::writer::write_scene(&yari::nff::to_yari(scene)),
+    }
+}
+
+/// Writes `text` to `path` through a temporary file in the same directory and a rename, so a
+/// failed run leaves no half-written file; `None` prints to stdout.
+pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
+    let Some(path) = path else {
+        let mut out = std::io::stdout().lock();
+        out.write_all(text.as_bytes())
+            .and_then(|_| out.flush())
+            .context("writing to stdout")?;
+        return Ok(());
+    };
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let file_name = path
+        .file_name()
+        .with_context(|| format!("{} is not a file name", path.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        file_name.to_string_lossy(),
+        std::process::id()
+    ));
+    let written = std::fs::File::create(&tmp)
+        .and_then(|mut f| f.write_all(text.as_bytes()).and_then(|_| f.sync_all()))
+        .and_then(|_| std::fs::rename(&tmp, path));
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e).with_context(|| format!("writing {}", path.display()));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn format_follows_flag_then_extension() {
+        assert_eq!(
+            output_format(None, Some(Path::new("a/b.NFF"))),
+            OutputFormat::Nff
+        );
+        assert_eq!(
+            output_format(None, Some(Path::new("b.yari"))),
+            OutputFormat::Yari
+        );
+        assert_eq!(output_format(None, None), OutputFormat::Yari);
+        assert_eq!(
+            output_format(Some(OutputFormat::Nff), Some(Path::new("b.yari"))),
+            OutputFormat::Nff
+        );
+    }
+
+    #[test]
+    fn output_is_renamed_into_place() {
+        let dir = std::env::temp_dir().join(format!("sunray-convert-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("out.yari");
+        write_output(Some(&path), "hello\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "hello\n");
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .collect();
+        assert_eq!(leftovers.len(), 1, "temporary file left behind");
+        // A directory that does not exist fails cleanly.
+        assert!(write_output(Some(&dir.join("missing/out.yari")), "x").is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

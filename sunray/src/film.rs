@@ -1,0 +1,205 @@
+//! The image being rendered and its output formats, chosen by file extension: `.png` (8-bit
+//! RGB), `.ppm` (binary P6) and `.pfm` (32-bit float RGB, for error measurement). Colours are
+//! linear; 8-bit output clamps to [0, 1] and rounds. Files are written to a temporary name in
+//! the same directory and renamed, so a failed write never leaves a half image.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum FilmError {
+    #[error("unknown image format {0:?} (use .png, .ppm or .pfm)")]
+    UnknownFormat(String),
+    #[error("writing {path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("encoding PNG {path}: {source}")]
+    Png {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Png,
+    Ppm,
+    Pfm,
+}
+
+impl Format {
+    pub fn from_path(path: &Path) -> Result<Format, FilmError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        match ext.as_str() {
+            "png" => Ok(Format::Png),
+            "ppm" => Ok(Format::Ppm),
+            "pfm" => Ok(Format::Pfm),
+            _ => Err(FilmError::UnknownFormat(ext)),
+        }
+    }
+}
+
+/// A linear RGB image, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Film {
+        Film {
+            width,
+            height,
+            pixels: vec![[0.0; 3]; width as usize * height as usize],
+        }
+    }
+
+    /// Stores a rendered scanline.
+    pub fn set_line(&mut self, y: u32, line: &[[f32; 3]]) {
+        let w = self.width as usize;
+        let start = y as usize * w;
+        self.pixels[start..start + w].copy_from_slice(&line[..w]);
+    }
+
+    /// 8-bit RGB, clamped and rounded.
+    pub fn to_rgb8(&self) -> Vec<u8> {
+        self.pixels.iter().flat_map(|p| p.map(to_byte)).collect()
+    }
+
+    /// Writes the image in the format its extension names, via a temporary file.
+    pub fn write(&self, path: &Path) -> Result<(), FilmError> {
+        let format = Format::from_path(path)?;
+        let bytes = self.encode(format, path)?;
+        write_atomically(path, &bytes)
+    }
+
+    pub fn encode(&self, format: Format, path: &Path) -> Result<Vec<u8>, FilmError> {
+        let (w, h) = (self.width, self.height);
+        Ok(match format {
+            Format::Png => {
+                let mut out = Vec::new();
+                let enc = image::codecs::png::PngEncoder::new(&mut out);
+                image::ImageEncoder::write_image(
+                    enc,
+                    &self.to_rgb8(),
+                    w,
+                    h,
+                    image::ExtendedColorType::Rgb8,
+                )
+                .map_err(|source| FilmError::Png {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+                out
+            }
+            Format::Ppm => {
+                let mut out = format!("P6\n{w} {h}\n255\n").into_bytes();
+                out.extend(self.to_rgb8());
+                out
+            }
+            Format::Pfm => {
+                // PFM rows run bottom to top; a negative scale means little-endian.
+                let mut out = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+                for row in (0..h as usize).rev() {
+                    for p in &self.pixels[row * w as usize..(row + 1) * w as usize] {
+                        for c in p {
+                            out.extend_from_slice(&c.to_le_bytes());
+                        }
+                    }
+                }
+                out
+            }
+        })
+    }
+}
+
+fn to_byte(v: f32) -> u8 {
+    if v.is_nan() {
+        return 0;
+    }
+    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FilmError> {
+    let io = |source| FilmError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn film() -> Film {
+        let mut f = Film::new(2, 2);
+        f.pixels = vec![
+            [0.0, 0.5, 1.0],
+            [2.0, -1.0, 0.2],
+            [0.1, 0.1, 0.1],
+            [1.0, 1.0, 1.0],
+        ];
+        f
+    }
+
+    #[test]
+    fn bytes_are_clamped_and_rounded() {
+        assert_eq!(&film().to_rgb8()[..6], &[0, 128, 255, 255, 0, 51]);
+    }
+
+    #[test]
+    fn formats_by_extension_and_round_trip_png() {
+        let dir = std::env::temp_dir().join(format!("sunray-film-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let png = dir.join("a.png");
+        film().write(&png).unwrap();
+        let back = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(back.as_raw(), &film().to_rgb8());
+        let ppm = dir.join("a.ppm");
+        film().write(&ppm).unwrap();
+        assert!(std::fs::read(&ppm).unwrap().starts_with(b"P6\n2 2\n255\n"));
+        let pfm = dir.join("a.pfm");
+        film().write(&pfm).unwrap();
+        let bytes = std::fs::read(&pfm).unwrap();
+        assert_eq!(bytes.len(), "PF\n2 2\n-1.0\n".len() + 4 * 3 * 4);
+        assert!(matches!(
+            film().write(&dir.join("a.gif")),
+            Err(FilmError::UnknownFormat(_))
+        ));
+        // No temporary files are left behind.
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert_eq!(left.len(), 3);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn failed_write_leaves_no_file() {
+        let path = Path::new("/nonexistent-dir-sunray/x.png");
+        assert!(film().write(path).is_err());
+        assert!(!path.exists());
+    }
+}

@@ -1,0 +1,117 @@
+//! Axis-aligned bounding boxes and the slab test.
+
+use super::{RayPre, Real, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The empty box (union identity).
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(Real::INFINITY),
+        max: Vec3::splat(Real::NEG_INFINITY),
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Aabb {
+        Aabb { min, max }
+    }
+    pub fn from_points(points: &[Vec3]) -> Aabb {
+        points.iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
+    }
+    pub fn grow(self, p: Vec3) -> Aabb {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+    pub fn union(self, o: Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+    pub fn intersection(self, o: Aabb) -> Aabb {
+        Aabb {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+    pub fn is_finite(&self) -> bool {
+        self.min.is_finite() && self.max.is_finite()
+    }
+    pub fn centre(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+    pub fn surface_area(&self) -> Real {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let e = self.extent();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+    pub fn overlaps(&self, o: &Aabb) -> bool {
+        self.min.x <= o.max.x
+            && o.min.x <= self.max.x
+            && self.min.y <= o.max.y
+            && o.min.y <= self.max.y
+            && self.min.z <= o.max.z
+            && o.min.z <= self.max.z
+    }
+    /// The box grown by a relative margin (of its size and of its distance from the origin),
+    /// so that a point rounded onto its face is still inside.
+    pub fn padded(self) -> Aabb {
+        let scale = self.min.abs().max(self.max.abs()).max_element().max(1e-300);
+        let pad = Vec3::splat(scale * 1e-9) + self.extent() * 1e-9;
+        Aabb {
+            min: self.min - pad,
+            max: self.max + pad,
+        }
+    }
+
+    /// Slab test: the parameter interval `[t0, t1]` of the ray inside the box, clipped to
+    /// `[t_min, t_max]`, or None. `inv_dir` is finite (see `RayPre`).
+    #[inline]
+    pub fn hit(&self, r: &RayPre, t_min: Real, t_max: Real) -> Option<(Real, Real)> {
+        let a = (self.min - r.ray.origin) * r.inv_dir;
+        let b = (self.max - r.ray.origin) * r.inv_dir;
+        let t0 = a.min(b).max_element().max(t_min);
+        let t1 = a.max(b).min_element().min(t_max);
+        if t0 <= t1 {
+            Some((t0, t1))
+        } else {
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+
+    #[test]
+    fn slab_interval_of_axis_ray() {
+        let b = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+        let r = RayPre::new(Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X));
+        let (t0, t1) = b.hit(&r, 0.0, 100.0).unwrap();
+        assert_eq!((t0, t1), (4.0, 6.0));
+        let miss = RayPre::new(Ray::new(Vec3::new(-5.0, 2.0, 0.0), Vec3::X));
+        assert!(b.hit(&miss, 0.0, 100.0).is_none());
+    }
+
+    #[test]
+    fn ray_in_face_plane_is_not_lost() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let r = RayPre::new(Ray::new(Vec3::new(-1.0, 0.0, 0.5), Vec3::X));
+        assert!(b.hit(&r, 0.0, 10.0).is_some());
+    }
+}

@@ -1,0 +1,184 @@
+//! The renderer's primitives, built from the model's objects.
+
+use super::polygon::{triangulate, Degenerate};
+use super::quadric::{intersect_quadric, quadric_bounds, quadric_normal};
+use super::sphere::{ellipsoid_normal, intersect_ellipsoid, intersect_sphere};
+use super::triangle::intersect_triangle;
+use super::{Aabb, RayPre, Real, Vec3};
+use glam::DAffine3;
+use yari::model::{Quadric, Shape, World};
+
+#[derive(Clone, Debug)]
+pub enum PrimitiveKind {
+    Sphere {
+        centre: Vec3,
+        radius: Real,
+    },
+    Ellipsoid {
+        to_local: DAffine3,
+    },
+    /// One triangle of a polygon; `normal` is the polygon's unit plane normal.
+    Triangle {
+        v: [Vec3; 3],
+        normal: Vec3,
+    },
+    Quadric(Quadric),
+}
+
+#[derive(Clone, Debug)]
+pub struct Primitive {
+    pub kind: PrimitiveKind,
+    /// Index of the model object it came from.
+    pub object: u32,
+    pub surface: u32,
+    /// Displacement over the shutter interval (zero when static).
+    pub motion: Vec3,
+}
+
+/// A primitive that could not be built, for a warning.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dropped {
+    pub object: usize,
+    pub reason: String,
+}
+
+impl Primitive {
+    /// Flattens the model's objects into primitives (polygons become triangles). Degenerate
+    /// input is dropped and reported, never turned into NaNs.
+    pub fn build_all(world: &World) -> (Vec<Primitive>, Vec<Dropped>) {
+        let mut prims = Vec::with_capacity(world.objects.len());
+        let mut dropped = Vec::new();
+        for (index, obj) in world.objects.iter().enumerate() {
+            let mk = |kind| Primitive {
+                kind,
+                object: index as u32,
+                surface: obj.surface,
+                motion: if obj.motion.is_finite() {
+                    obj.motion
+                } else {
+                    Vec3::ZERO
+                },
+            };
+            let mut drop = |reason: &str| {
+                dropped.push(Dropped {
+                    object: index,
+                    reason: reason.to_string(),
+                })
+            };
+            match &obj.shape {
+                Shape::Sphere { center, radius } => {
+                    if center.is_finite() && radius.is_finite() && *radius > 0.0 {
+                        prims.push(mk(PrimitiveKind::Sphere {
+                            centre: *center,
+                            radius: *radius,
+                        }));
+                    } else {
+                        drop("sphere with a non-positive or non-finite radius");
+                    }
+                }
+                Shape::Ellipsoid { to_world } => {
+                    let det = to_world.matrix3.determinant();
+                    if det.is_finite() && det.abs() > 1e-300 && to_world.translation.is_finite() {
+                        prims.push(mk(PrimitiveKind::Ellipsoid {
+                            to_local: to_world.inverse(),
+                        }));
+                    } else {
+                        drop("ellipsoid with a singular transformation");
+                    }
+                }
+                Shape::Polygon { vertices } => match triangulate(vertices) {
+                    Ok(t) => {
+                        for v in t.triangles {
+                            prims.push(mk(PrimitiveKind::Triangle {
+                                v,
+                                normal: t.normal,
+                            }));
+                        }
+                    }
+                    Err(Degenerate::TooFewVertices) => {
+                        drop("polygon with fewer than 3 distinct vertices")
+                    }
+                    Err(Degenerate::ZeroArea) => drop("polygon with zero area"),
+                },
+                Shape::Quadric(q) => {
+                    if q.q.iter().all(|c| c.is_finite()) && q.q.iter().any(|c| *c != 0.0) {
+                        prims.push(mk(PrimitiveKind::Quadric(q.clone())));
+                    } else {
+                        drop("quadric with no or non-finite coefficients");
+                    }
+                }
+            }
+        }
+        (prims, dropped)
+    }
+
+    /// World-space bounds over the whole shutter interval, or None if unbounded.
+    pub fn bounds(&self) -> Option<Aabb> {
+        let b = match &self.kind {
+            PrimitiveKind::Sphere { centre, radius } => Aabb::new(
+                *centre - Vec3::splat(*radius),
+                *centre + Vec3::splat(*radius),
+            ),
+            PrimitiveKind::Ellipsoid { to_local } => {
+                let to_world = to_local.inverse();
+                let m = to_world.matrix3;
+                // Half extent along axis k is the length of row k of the linear map.
+                let half = Vec3::new(m.row(0).length(), m.row(1).length(), m.row(2).length());
+                Aabb::new(to_world.translation - half, to_world.translation + half)
+            }
+            PrimitiveKind::Triangle { v, .. } => Aabb::from_points(v),
+            PrimitiveKind::Quadric(q) => quadric_bounds(q)?,
+        };
+        let b = if self.motion == Vec3::ZERO {
+            b
+        } else {
+            b.union(Aabb::new(b.min + self.motion, b.max + self.motion))
+        };
+        Some(b.padded())
+    }
+
+    /// The nearest `t` in `(t_min, t_max)`.
+    #[inline]
+    pub fn intersect(&self, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
+        if self.motion != Vec3::ZERO {
+            let mut moved = r.ray;
+            moved.origin -= self.motion * r.ray.time;
+            return self.intersect_static(&RayPre { ray: moved, ..*r }, t_min, t_max);
+        }
+        self.intersect_static(r, t_min, t_max)
+    }
+
+    #[inline]
+    fn intersect_static(&self, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
+        match &self.kind {
+            PrimitiveKind::Triangle { v, .. } => intersect_triangle(r, v, t_min, t_max),
+            PrimitiveKind::Sphere { centre, radius } => {
+                intersect_sphere(&r.ray, *centre, *radius, t_min, t_max)
+            }
+            PrimitiveKind::Ellipsoid { to_local } => {
+                intersect_ellipsoid(&r.ray, to_local, t_min, t_max)
+            }
+            PrimitiveKind::Quadric(q) => intersect_quadric(&r.ray, q, t_min, t_max),
+        }
+    }
+
+    /// The geometric unit normal at world point `p` reached at shutter time `time` (outward for
+    /// closed shapes; the plane normal for polygons).
+    pub fn normal(&self, p: Vec3, time: Real) -> Vec3 {
+        let p = p - self.motion * time;
+        match &self.kind {
+            PrimitiveKind::Sphere { centre, radius } => (p - *centre) / *radius,
+            PrimitiveKind::Ellipsoid { to_local } => ellipsoid_normal(to_local, p),
+            PrimitiveKind::Triangle { normal, .. } => *normal,
+            PrimitiveKind::Quadric(q) => quadric_normal(q, p),
+        }
+    }
+
+    /// Whether the shape encloses a volume (rays can be inside it).
+    pub fn is_closed(&self) -> bool {
+        matches!(
+            self.kind,
+            PrimitiveKind::Sphere { .. } | PrimitiveKind::Ellipsoid { .. }
+        )
+    }
+}

@@ -1,0 +1,34 @@
+//! A scene ready to render: the compiled model and its primitives.
+
+use crate::geometry::primitive::Dropped;
+use crate::geometry::Primitive;
+use yari::model::{Surface, World};
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub world: World,
+    pub prims: Vec<Primitive>,
+    /// Objects dropped as degenerate (to warn about).
+    pub dropped: Vec<Dropped>,
+    /// Used for a primitive whose surface index is out of range.
+    default_surface: Surface,
+}
+
+impl Scene {
+    pub fn new(world: World) -> Scene {
+        let (prims, dropped) = Primitive::build_all(&world);
+        Scene {
+            world,
+            prims,
+            dropped,
+            default_surface: Surface::default(),
+        }
+    }
+
+    /// The surface of primitive `prim`.
+    #[inline]
+    pub fn surface(&self, prim: u32) -> &Surface {
+        let s = self.prims[prim as usize].surface as usize;
+        self.world.surfaces.get(s).unwrap_or(&self.default_surface)
+    }
+}

@@ -1,0 +1,322 @@
+//! The YARI compiler (the thesis's `yc`): a syntax tree to a world-space [`World`].
+//!
+//! Semantics (see `docs/yari.md`):
+//! - Preamble: the last `resolution`, `background`, `ambient`, `camera` and `samples` win;
+//!   lights accumulate. A missing camera or resolution gets [`DEFAULT_CAMERA`] /
+//!   [`DEFAULT_RESOLUTION`] with a warning; background and ambient default to black.
+//! - The graphics stack: transformations apply in the order written — a point is moved
+//!   first by the earliest transformation in effect, then by later ones. `begin` saves and
+//!   `end` restores the transformation, the current attribute AND the motion vector.
+//! - `attribute(...)` replaces the whole surface; unspecified fields take
+//!   [`Surface::default`]. Surfaces are deduplicated into [`World::surfaces`].
+//!
+//! # Layout
+//! - this file: entry point, preamble, warnings.
+//! - `stack`: the graphics state (transformation, attribute, motion) and transformations.
+//! - `surface`: attributes to surfaces, deduplication, colour lookup.
+//! - `shapes`: primitives to world-space shapes.
+
+mod shapes;
+mod stack;
+mod surface;
+#[cfg(test)]
+mod tests;
+
+use crate::ast::{Block, BodyItem, CameraDef, ColorSpec, Scene, Spanned, ViewStmt};
+use crate::colour::ColourTable;
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::model::{Camera, Features, Light, Shape, World};
+use crate::span::Span;
+use glam::DVec3;
+use stack::State;
+
+/// The resolution used when the scene gives none.
+pub const DEFAULT_RESOLUTION: [u32; 2] = [512, 512];
+/// The camera used when the scene gives none: `position = 0,0,10 ; at = 0,0,0 ; up = 0,1,0 ;
+/// angle = 22.5`.
+pub const DEFAULT_CAMERA: ([f64; 3], [f64; 3], [f64; 3], f64) =
+    ([0.0, 0.0, 10.0], [0.0; 3], [0.0, 1.0, 0.0], 22.5);
+/// At most this many warnings are kept; the rest are counted in one last warning.
+pub const MAX_WARNINGS: usize = 100;
+
+/// A compiled scene and the warnings about it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Compiled {
+    pub world: World,
+    pub warnings: Diagnostics,
+}
+
+/// Compiles a scene. On failure the diagnostics hold the errors (and any warnings).
+pub fn compile(scene: &Scene, colours: &ColourTable) -> Result<Compiled, Diagnostics> {
+    let mut c = Compiler::new(colours);
+    let mut world = c.preamble(scene);
+    c.block(&scene.body, State::new(), 1, &mut world);
+    world.features = features(&world);
+    c.finish_warnings();
+    if c.diags.has_errors() {
+        Err(c.diags)
+    } else {
+        Ok(Compiled {
+            world,
+            warnings: c.diags,
+        })
+    }
+}
+
+pub(crate) struct Compiler<'a> {
+    colours: &'a ColourTable,
+    pub(crate) diags: Diagnostics,
+    warnings: usize,
+    surfaces: surface::Dedup,
+}
+
+impl<'a> Compiler<'a> {
+    fn new(colours: &'a ColourTable) -> Compiler<'a> {
+        Compiler {
+            colours,
+            diags: Diagnostics::default(),
+            warnings: 0,
+            surfaces: surface::Dedup::default(),
+        }
+    }
+
+    pub(crate) fn error(&mut self, span: Span, message: impl Into<String>) {
+        self.diags.push(Diagnostic::error(span, message));
+    }
+
+    pub(crate) fn warn(&mut self, span: Span, message: impl Into<String>) {
+        self.warnings += 1;
+        if self.warnings <= MAX_WARNINGS {
+            self.diags.push(Diagnostic::warning(span, message));
+        }
+    }
+
+    fn finish_warnings(&mut self) {
+        if self.warnings > MAX_WARNINGS {
+            let more = self.warnings - MAX_WARNINGS;
+            self.diags.push(Diagnostic::warning(
+                Span::default(),
+                format!("{more} more warnings not shown"),
+            ));
+        }
+    }
+
+    /// A colour as RGB; an unknown name is an error (and black stands in).
+    pub(crate) fn colour(&mut self, spec: &Spanned<ColorSpec>) -> DVec3 {
+        match &spec.node {
+            ColorSpec::Rgb(v) => {
+                let c = DVec3::from_array(*v);
+                if !c.is_finite() {
+                    self.error(spec.span, "colour is not finite");
+                }
+                c
+            }
+            ColorSpec::Named(name) => match self.colours.get(name) {
+                Some(c) => c,
+                None => {
+                    let hint = match self.colours.suggest(name) {
+                        Some(s) => format!("; did you mean `{s}`?"),
+                        None => String::new(),
+                    };
+                    self.error(spec.span, format!("unknown colour name `{name}`{hint}"));
+                    DVec3::ZERO
+                }
+            },
+        }
+    }
+
+    fn preamble(&mut self, scene: &Scene) -> World {
+        let (mut resolution, mut camera, mut samples) = (None, None, None);
+        let (mut background, mut ambient) = (DVec3::ZERO, DVec3::ZERO);
+        let mut lights = Vec::new();
+        for stmt in &scene.view {
+            let span = stmt.span;
+            match &stmt.node {
+                ViewStmt::Resolution(x, y) => {
+                    if *x == 0 || *y == 0 {
+                        self.error(
+                            span,
+                            format!("resolution must be at least 1x1, not {x}x{y}"),
+                        );
+                    }
+                    resolution = Some([*x, *y]);
+                }
+                ViewStmt::Samples(n) => {
+                    if *n == 0 {
+                        self.error(span, "samples must be at least 1");
+                    }
+                    samples = Some(*n);
+                }
+                ViewStmt::Background(c) => background = self.colour(c),
+                ViewStmt::Ambient(c) => ambient = self.colour(c),
+                ViewStmt::Light(l) => {
+                    let color = self.colour(&l.color);
+                    let position = self.finite_vec(l.position, span, "light position");
+                    let radius = l.radius.unwrap_or(0.0);
+                    if !(radius >= 0.0 && radius.is_finite()) {
+                        self.error(
+                            span,
+                            format!("a light's radius must be 0 or more, not {radius}"),
+                        );
+                    }
+                    lights.push(Light {
+                        position,
+                        color,
+                        radius,
+                    });
+                }
+                ViewStmt::Camera(c) => camera = Some((self.camera(c, span), span)),
+            }
+        }
+        let resolution = resolution.unwrap_or_else(|| {
+            let [w, h] = DEFAULT_RESOLUTION;
+            self.warn(Span::default(), format!("no `resolution`; using {w}x{h}"));
+            DEFAULT_RESOLUTION
+        });
+        let camera = match camera {
+            Some((c, _)) => c,
+            None => {
+                let (p, a, u, angle) = DEFAULT_CAMERA;
+                self.warn(
+                    Span::default(),
+                    format!(
+                        "no `camera`; using camera(position = {},{},{}; at = {},{},{}; up = {},{},{}; angle = {angle})",
+                        p[0], p[1], p[2], a[0], a[1], a[2], u[0], u[1], u[2]
+                    ),
+                );
+                let def = CameraDef {
+                    position: p,
+                    at: a,
+                    up: u,
+                    angle,
+                    aperture: None,
+                    focus: None,
+                };
+                self.camera(&def, Span::default())
+            }
+        };
+        if lights.is_empty() {
+            self.warn(Span::default(), "no `light`; only ambient light will show");
+        }
+        World {
+            resolution,
+            background,
+            ambient,
+            camera,
+            lights,
+            samples: samples.unwrap_or(1),
+            surfaces: Vec::new(),
+            objects: Vec::new(),
+            features: Features::default(),
+        }
+    }
+
+    fn finite_vec(&mut self, v: [f64; 3], span: Span, what: &str) -> DVec3 {
+        let v = DVec3::from_array(v);
+        if !v.is_finite() {
+            self.error(span, format!("{what} is not a finite number"));
+        }
+        v
+    }
+
+    fn camera(&mut self, c: &CameraDef, span: Span) -> Camera {
+        let position = self.finite_vec(c.position, span, "camera position");
+        let at = self.finite_vec(c.at, span, "camera `at`");
+        let up = self.finite_vec(c.up, span, "camera `up`");
+        let view = at - position;
+        if up == DVec3::ZERO {
+            self.error(span, "camera `up` must not be the zero vector");
+        } else if view == DVec3::ZERO {
+            self.error(span, "camera `at` must differ from its `position`");
+        } else if view.cross(up).length() <= 1e-12 * view.length() * up.length()
+            || !view.length().is_finite()
+        {
+            self.error(
+                span,
+                "camera `up` must not be parallel to the view direction (`at` - `position`)",
+            );
+        }
+        if !(c.angle > 0.0 && c.angle < 90.0) {
+            self.error(span, format!("camera `angle` (the half angle of view) must be between 0 and 90 degrees, not {}", c.angle));
+        }
+        let aperture = c.aperture.unwrap_or(0.0);
+        if !(aperture >= 0.0 && aperture.is_finite()) {
+            self.error(
+                span,
+                format!("camera `aperture` must be 0 or more, not {aperture}"),
+            );
+        }
+        let focus_distance = c.focus.unwrap_or_else(|| view.length());
+        if !(focus_distance > 0.0 && focus_distance.is_finite()) && view != DVec3::ZERO {
+            self.error(
+                span,
+                format!("camera `focus` must be more than 0, not {focus_distance}"),
+            );
+        }
+        Camera {
+            position,
+            at,
+            up,
+            half_angle_deg: c.angle,
+            aperture,
+            focus_distance,
+        }
+    }
+
+    /// Compiles the items of a block in `state` (a copy of the enclosing state: `end`
+    /// restores by dropping it). `depth` counts blocks, the world block being 1.
+    fn block(&mut self, block: &Block, mut state: State, depth: usize, world: &mut World) {
+        if depth > crate::parse::MAX_NESTING {
+            self.error(
+                block.span,
+                format!(
+                    "blocks are nested deeper than {} levels",
+                    crate::parse::MAX_NESTING
+                ),
+            );
+            return;
+        }
+        for item in &block.items {
+            match &item.node {
+                BodyItem::Block(inner) => self.block(inner, state.clone(), depth + 1, world),
+                BodyItem::Attribute(fields) => state.set_attribute(self, fields, item.span),
+                BodyItem::Transform(t) => state.apply(self, t, item.span),
+                BodyItem::Primitive(p) => {
+                    if let Some(shape) = self.primitive(p, &state, item.span) {
+                        let surface = state.surface_index(self, &mut world.surfaces, item.span);
+                        world.objects.push(crate::model::Object {
+                            shape,
+                            surface,
+                            motion: state.motion,
+                        });
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// What a world uses: counts by kind and the flags of its surfaces, lights and camera.
+pub fn features(world: &World) -> Features {
+    let mut f = Features::default();
+    for o in &world.objects {
+        match o.shape {
+            Shape::Sphere { .. } => f.spheres += 1,
+            Shape::Ellipsoid { .. } => f.ellipsoids += 1,
+            Shape::Polygon { .. } => f.polygons += 1,
+            Shape::Quadric(_) => f.quadrics += 1,
+        }
+        f.motion_blur |= o.motion != DVec3::ZERO;
+    }
+    for s in &world.surfaces {
+        f.textures |= s.texture.is_some();
+        f.transparency |= s.kst() > 0.0;
+        f.reflection |= s.ksr() > 0.0;
+        f.gloss |= s.gloss > 0.0 && s.ksr() > 0.0;
+        f.translucency |= s.translucency > 0.0 && s.kst() > 0.0;
+    }
+    f.area_lights = world.lights.iter().any(|l| l.radius > 0.0);
+    f.depth_of_field = world.camera.aperture > 0.0;
+    f.antialiasing = world.samples > 1;
+    f
+}

@@ -1,0 +1,216 @@
+//! Loading a scene from a file of any supported kind into a compiled [`World`].
+//!
+//! The kind is found from the content and the extension: a file that starts with the model
+//! file magic is a compiled model ([`crate::modelfile`]); otherwise `.yari` is YARI,
+//! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), and `.srw` is a model file.
+
+use crate::colour::ColourTable;
+use crate::compile::compile;
+use crate::diag::{Diagnostics, SceneError};
+use crate::model::World;
+use crate::modelfile::{self, ModelFileError};
+use crate::span::Source;
+use std::path::{Path, PathBuf};
+
+/// What kind of file a scene comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputKind {
+    Yari,
+    Nff,
+    Off,
+    /// A compiled model file.
+    Model,
+}
+
+impl InputKind {
+    /// The kind named by a path's extension (case ignored), if any.
+    pub fn from_extension(path: &Path) -> Option<InputKind> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "yari" => InputKind::Yari,
+            "nff" => InputKind::Nff,
+            "off" => InputKind::Off,
+            e if e == modelfile::EXTENSION => InputKind::Model,
+            _ => return None,
+        })
+    }
+}
+
+/// A loaded scene.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub world: World,
+    pub kind: InputKind,
+    /// Warnings from the compiler (empty for a model file).
+    pub warnings: Diagnostics,
+    /// The text the warnings point into (`None` for a model file).
+    pub source: Option<Source>,
+}
+
+impl Loaded {
+    /// The warnings rendered as `file:line:col: warning: ...` with carets.
+    pub fn render_warnings(&self) -> String {
+        match &self.source {
+            Some(src) => self.warnings.render(src),
+            None => String::new(),
+        }
+    }
+}
+
+/// A scene that could not be loaded. Display gives the whole message (for a bad scene, every
+/// diagnostic with its `file:line:col` and caret).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LoadError {
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: not a text file (not UTF-8)", path.display())]
+    NotText { path: PathBuf },
+    #[error("{}: unknown scene format; expected a .yari, .nff or .off scene or a .srw model", path.display())]
+    UnknownFormat { path: PathBuf },
+    #[error("{}", .0.to_string().trim_end())]
+    Scene(#[from] SceneError),
+    #[error("{}: {source}", path.display())]
+    Model {
+        path: PathBuf,
+        source: ModelFileError,
+    },
+}
+
+/// Loads and compiles (or reads, for a model file) the scene at `path`.
+pub fn load_path(path: &Path, colours: &ColourTable) -> Result<Loaded, LoadError> {
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let kind = if modelfile::has_magic(&bytes) {
+        InputKind::Model
+    } else {
+        InputKind::from_extension(path).ok_or_else(|| LoadError::UnknownFormat {
+            path: path.to_path_buf(),
+        })?
+    };
+    if kind == InputKind::Model {
+        let world = modelfile::from_bytes(&bytes).map_err(|source| LoadError::Model {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        return Ok(Loaded {
+            world,
+            kind,
+            warnings: Diagnostics::default(),
+            source: None,
+        });
+    }
+    let text = String::from_utf8(bytes).map_err(|_| LoadError::NotText {
+        path: path.to_path_buf(),
+    })?;
+    load_str(&path.display().to_string(), text, kind, colours)
+}
+
+/// Parses and compiles scene text of a given kind; `name` is the file name in messages.
+/// [`InputKind::Model`] is not text: it gives [`LoadError::UnknownFormat`].
+pub fn load_str(
+    name: &str,
+    text: impl Into<String>,
+    kind: InputKind,
+    colours: &ColourTable,
+) -> Result<Loaded, LoadError> {
+    let src = Source::new(name, text);
+    let parsed = match kind {
+        InputKind::Yari => crate::parse::parse(&src),
+        InputKind::Nff => crate::nff::parse(&src),
+        InputKind::Off => crate::off::parse(&src),
+        InputKind::Model => {
+            return Err(LoadError::UnknownFormat {
+                path: PathBuf::from(name),
+            })
+        }
+    };
+    let scene = match parsed {
+        Ok(s) => s,
+        Err(diagnostics) => {
+            return Err(SceneError {
+                source_text: src,
+                diagnostics,
+            }
+            .into())
+        }
+    };
+    match compile(&scene, colours) {
+        Ok(c) => Ok(Loaded {
+            world: c.world,
+            kind,
+            warnings: c.warnings,
+            source: Some(src),
+        }),
+        Err(diagnostics) => Err(SceneError {
+            source_text: src,
+            diagnostics,
+        }
+        .into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_render_with_file_line_column_and_caret() {
+        let e = load_str(
+            "bad.yari",
+            "begin\n  sphere(center=0,0,0; radius=1)\nend\n",
+            InputKind::Yari,
+            &ColourTable::builtin(),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "bad.yari:2:33: error: expected `;` after `sphere(...)`, found `end`\n    sphere(center=0,0,0; radius=1)\n                                  ^"
+        );
+    }
+
+    #[test]
+    fn dispatches_on_magic_and_extension() {
+        let dir = std::env::temp_dir().join(format!("yari-load-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = "resolution(4,4); camera(position=0,0,5; at=0,0,0; up=0,1,0; angle=20); light(position=0,5,0; color=white);\nbegin sphere(center=0,0,0; radius=1); end\n";
+        let yari = dir.join("a.yari");
+        std::fs::write(&yari, scene).unwrap();
+        let loaded = load_path(&yari, &ColourTable::builtin()).unwrap();
+        assert_eq!(
+            (loaded.kind, loaded.world.features.spheres),
+            (InputKind::Yari, 1)
+        );
+        assert!(loaded.warnings.items.is_empty());
+        // A model file is recognised by its magic whatever its name.
+        let model = dir.join("model.bin");
+        modelfile::save_atomic(&loaded.world, &model).unwrap();
+        let again = load_path(&model, &ColourTable::builtin()).unwrap();
+        assert_eq!(
+            (again.kind, &again.world),
+            (InputKind::Model, &loaded.world)
+        );
+        let srw = dir.join("broken.srw");
+        std::fs::write(&srw, b"not a model").unwrap();
+        assert!(matches!(
+            load_path(&srw, &ColourTable::builtin()),
+            Err(LoadError::Model { .. })
+        ));
+        let txt = dir.join("a.txt");
+        std::fs::write(&txt, scene).unwrap();
+        assert!(matches!(
+            load_path(&txt, &ColourTable::builtin()),
+            Err(LoadError::UnknownFormat { .. })
+        ));
+        assert!(matches!(
+            load_path(&dir.join("missing.yari"), &ColourTable::builtin()),
+            Err(LoadError::Io { .. })
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,307 @@
+//! The compiled model file (`.srw`): a [`World`] in binary, so workers load a scene without
+//! parsing or compiling it again.
+//!
+//! Layout (all integers little-endian):
+//!
+//! ```text
+//! offset  size  what
+//!      0     8  magic b"SUNRAYW1"
+//!      8     4  format version (u32), currently 1
+//!     12     8  payload length in bytes (u64)
+//!     20     8  FNV-1a 64-bit hash of the payload (u64)
+//!     28     n  payload: the World serialized with serde by postcard 1.x
+//! ```
+//!
+//! A wrong magic, another version, a short file, a hash mismatch, a payload that does not
+//! decode to exactly one World, or a World that breaks the compiler's guarantees
+//! ([`validate`]) each give their own [`ModelFileError`].
+
+use crate::model::World;
+use std::io::{Read, Write};
+use std::path::Path;
+
+/// The first 8 bytes of every model file.
+pub const MAGIC: &[u8; 8] = b"SUNRAYW1";
+/// The format version this code writes and reads.
+pub const VERSION: u32 = 1;
+/// The conventional file extension.
+pub const EXTENSION: &str = "srw";
+const HEADER_LEN: usize = 28;
+
+/// A failed read or write of a model file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelFileError {
+    #[error("I/O error: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("not a SunRay model file (bad magic number)")]
+    BadMagic,
+    #[error(
+        "model file format version {found} is not supported (this program reads version {VERSION})"
+    )]
+    UnsupportedVersion { found: u32 },
+    #[error("model file is truncated: expected {expected} bytes of model, found {found}")]
+    Truncated { expected: u64, found: u64 },
+    #[error("model file is corrupt: checksum mismatch")]
+    Checksum,
+    #[error("model file is corrupt: {0}")]
+    Corrupt(String),
+    #[error("model file holds an invalid world: {0}")]
+    Invalid(String),
+}
+
+/// FNV-1a, 64 bits.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// The whole file as bytes.
+pub fn to_bytes(world: &World) -> Result<Vec<u8>, ModelFileError> {
+    let payload = postcard::to_stdvec(world).map_err(|e| ModelFileError::Corrupt(e.to_string()))?;
+    let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    Ok(out)
+}
+
+/// Writes a model file to `out`.
+pub fn write(world: &World, out: &mut impl Write) -> Result<(), ModelFileError> {
+    out.write_all(&to_bytes(world)?)?;
+    Ok(())
+}
+
+/// Reads a model file from `input`.
+pub fn read(input: &mut impl Read) -> Result<World, ModelFileError> {
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    input.take(HEADER_LEN as u64).read_to_end(&mut header)?;
+    if header.len() < MAGIC.len() || &header[..8] != MAGIC {
+        return Err(ModelFileError::BadMagic);
+    }
+    if header.len() < HEADER_LEN {
+        return Err(ModelFileError::Truncated {
+            expected: HEADER_LEN as u64,
+            found: header.len() as u64,
+        });
+    }
+    let word = |at: usize| u64::from_le_bytes(header[at..at + 8].try_into().unwrap_or([0; 8]));
+    let version = u32::from_le_bytes(header[8..12].try_into().unwrap_or([0; 4]));
+    if version != VERSION {
+        return Err(ModelFileError::UnsupportedVersion { found: version });
+    }
+    let (len, hash) = (word(12), word(20));
+    let mut payload = Vec::new();
+    input.take(len).read_to_end(&mut payload)?;
+    if (payload.len() as u64) < len {
+        return Err(ModelFileError::Truncated {
+            expected: len,
+            found: payload.len() as u64,
+        });
+    }
+    if fnv1a(&payload) != hash {
+        return Err(ModelFileError::Checksum);
+    }
+    let (world, rest) = postcard::take_from_bytes::<World>(&payload)
+        .map_err(|e| ModelFileError::Corrupt(e.to_string()))?;
+    if !rest.is_empty() {
+        return Err(ModelFileError::Corrupt(format!(
+            "{} bytes after the model",
+            rest.len()
+        )));
+    }
+    validate(&world).map_err(ModelFileError::Invalid)?;
+    Ok(world)
+}
+
+/// Checks what the compiler guarantees, so a renderer can rely on it: a non-empty image and
+/// sample count, surface indices in range, polygons of 3 or more vertices, spheres with a
+/// positive radius, and finite numbers throughout.
+pub fn validate(world: &World) -> Result<(), String> {
+    use crate::model::Shape;
+    let finite = |v: glam::DVec3| v.is_finite();
+    if world.resolution.contains(&0) || world.samples == 0 {
+        return Err("zero resolution or sample count".into());
+    }
+    let c = &world.camera;
+    let camera_ok =
+        finite(c.position) && finite(c.at) && finite(c.up) && c.half_angle_deg.is_finite();
+    if !camera_ok || !c.aperture.is_finite() || !c.focus_distance.is_finite() {
+        return Err("camera is not finite".into());
+    }
+    if !finite(world.background) || !finite(world.ambient) {
+        return Err("background or ambient is not finite".into());
+    }
+    if world
+        .lights
+        .iter()
+        .any(|l| !finite(l.position) || !finite(l.color) || !l.radius.is_finite())
+    {
+        return Err("a light is not finite".into());
+    }
+    for s in &world.surfaces {
+        let nums = [
+            s.kdr,
+            s.kdt,
+            s.ka,
+            s.phong,
+            s.refract,
+            s.gloss,
+            s.translucency,
+            s.transmissivity,
+        ];
+        let tex_ok = s
+            .texture
+            .as_ref()
+            .is_none_or(|t| finite(t.color) && finite(t.scale) && t.world_to_texture.is_finite());
+        if !finite(s.color) || nums.iter().any(|v| !v.is_finite()) || !tex_ok {
+            return Err("a surface is not finite".into());
+        }
+    }
+    for (i, o) in world.objects.iter().enumerate() {
+        if o.surface as usize >= world.surfaces.len() {
+            return Err(format!(
+                "object {i} refers to surface {} of {}",
+                o.surface,
+                world.surfaces.len()
+            ));
+        }
+        let ok = finite(o.motion)
+            && match &o.shape {
+                Shape::Sphere { center, radius } => {
+                    finite(*center) && radius.is_finite() && *radius > 0.0
+                }
+                Shape::Ellipsoid { to_world } => {
+                    to_world.is_finite() && to_world.inverse().is_finite()
+                }
+                Shape::Polygon { vertices } => {
+                    vertices.len() >= 3 && vertices.iter().all(|v| finite(*v))
+                }
+                Shape::Quadric(q) => {
+                    q.q.iter().all(|v| v.is_finite())
+                        && q.clip
+                            .iter()
+                            .all(|h| finite(h.normal) && h.offset.is_finite())
+                }
+            };
+        if !ok {
+            return Err(format!("object {i} is degenerate or not finite"));
+        }
+    }
+    Ok(())
+}
+
+/// Reads a model file from bytes.
+pub fn from_bytes(mut bytes: &[u8]) -> Result<World, ModelFileError> {
+    read(&mut bytes)
+}
+
+/// True when `bytes` start like a model file.
+pub fn has_magic(bytes: &[u8]) -> bool {
+    bytes.starts_with(MAGIC)
+}
+
+/// Writes a model file to a temporary name beside `path`, then renames it over `path`, so a
+/// reader never sees half a file.
+pub fn save_atomic(world: &World, path: &Path) -> Result<(), ModelFileError> {
+    let bytes = to_bytes(world)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "model".into());
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e.into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colour::ColourTable;
+    use crate::span::Source;
+
+    fn cubes() -> World {
+        let path = format!(
+            "{}/../../shared/scenes/thesis/cubes.yari",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let src = Source::new("cubes.yari", std::fs::read_to_string(path).unwrap());
+        crate::compile::compile(&crate::parse::parse(&src).unwrap(), &ColourTable::builtin())
+            .unwrap()
+            .world
+    }
+
+    #[test]
+    fn round_trip_and_atomic_save() {
+        let w = cubes();
+        let bytes = to_bytes(&w).unwrap();
+        assert!(has_magic(&bytes));
+        assert_eq!(from_bytes(&bytes).unwrap(), w);
+        let dir = std::env::temp_dir().join(format!("yari-modelfile-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cubes.srw");
+        save_atomic(&w, &path).unwrap();
+        assert_eq!(read(&mut std::fs::File::open(&path).unwrap()).unwrap(), w);
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "no temporary file is left"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn damaged_files_are_errors() {
+        let bytes = to_bytes(&cubes()).unwrap();
+        assert!(matches!(
+            from_bytes(b"NOTAMODELFILE..............."),
+            Err(ModelFileError::BadMagic)
+        ));
+        assert!(matches!(from_bytes(b""), Err(ModelFileError::BadMagic)));
+        assert!(matches!(
+            from_bytes(&bytes[..10]),
+            Err(ModelFileError::Truncated { .. })
+        ));
+        assert!(matches!(
+            from_bytes(&bytes[..bytes.len() - 1]),
+            Err(ModelFileError::Truncated { .. })
+        ));
+        let mut v = bytes.clone();
+        v[8] = 2;
+        assert!(matches!(
+            from_bytes(&v),
+            Err(ModelFileError::UnsupportedVersion { found: 2 })
+        ));
+        let mut v = bytes.clone();
+        let last = v.len() - 1;
+        v[last] ^= 0xff;
+        assert!(matches!(from_bytes(&v), Err(ModelFileError::Checksum)));
+        // A world that decodes but breaks an invariant is refused.
+        let mut w = cubes();
+        w.objects[0].surface = 99;
+        let bytes2 = to_bytes(&w).unwrap();
+        assert!(matches!(
+            from_bytes(&bytes2),
+            Err(ModelFileError::Invalid(_))
+        ));
+        // Every prefix is an error, never a panic.
+        for n in 0..bytes.len() {
+            assert!(from_bytes(&bytes[..n]).is_err());
+        }
+    }
+}

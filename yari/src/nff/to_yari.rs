@@ -1,0 +1,279 @@
+//! The NFF to YARI mapping (the thesis's `nff2gfx`); `docs/nff-mapping.md` explains each rule.
+//!
+//! - `b` -> `background`; NFF has no ambient light, so `ambient` is black and every surface
+//!   gets `ka = 0`.
+//! - `v` -> `camera` with HALF of NFF's full `angle`, and `resolution`; `hither` has no YARI
+//!   counterpart and is dropped.
+//! - `l` -> `light`; every light's colour (white when none is given) is scaled by 1/sqrt(n)
+//!   for n lights, the scaling Haines's SPD leaves to NFF renderers.
+//! - `f` -> `attribute` on the Hall model: kdr = 1 - Ks, kdt = 1 - T, colour = rgb Kd / kdr
+//!   (so the diffuse term kdr * colour is NFF's Kd * rgb), phong = Shine, refract = ior.
+//! - `s` -> `sphere`, `p`/`pp` -> `polygon` (vertex normals dropped), `c` -> a clipped
+//!   `quadric` ([`super::cone`]).
+
+use super::cone::cone_quadric;
+use super::scene::{Entity, Fill, NffScene};
+use crate::ast::{
+    AttrField, BodyItem, CameraDef, ColorSpec, LightDef, Primitive, Scene, Spanned, Vec3, ViewStmt,
+};
+use crate::span::Span;
+
+/// Maps an NFF scene onto the YARI syntax tree. Spans point into the NFF source.
+pub fn to_yari(nff: &NffScene) -> Scene {
+    let mut scene = Scene::default();
+    let lights = nff
+        .entities
+        .iter()
+        .filter(|e| matches!(e.node, Entity::Light { .. }))
+        .count();
+    let light_scale = if lights > 0 {
+        1.0 / (lights as f64).sqrt()
+    } else {
+        1.0
+    };
+    // NFF has no ambient light: say so explicitly rather than take YARI's default.
+    let first = nff.entities.first().map(|e| e.span).unwrap_or_default();
+    scene
+        .view
+        .push(Spanned::new(ViewStmt::Ambient(rgb([0.0; 3], first)), first));
+    for e in &nff.entities {
+        let span = e.span;
+        match &e.node {
+            Entity::Background(c) => {
+                scene
+                    .view
+                    .push(Spanned::new(ViewStmt::Background(rgb(*c, span)), span));
+            }
+            Entity::View(v) => {
+                if let Some([x, y]) = v.resolution {
+                    scene
+                        .view
+                        .push(Spanned::new(ViewStmt::Resolution(x, y), span));
+                }
+                let camera = CameraDef {
+                    position: v.from,
+                    at: v.at,
+                    up: v.up,
+                    angle: v.angle / 2.0,
+                    aperture: None,
+                    focus: None,
+                };
+                scene
+                    .view
+                    .push(Spanned::new(ViewStmt::Camera(camera), span));
+            }
+            Entity::Light { position, color } => {
+                let c = color.unwrap_or([1.0; 3]).map(|x| x * light_scale);
+                let light = LightDef {
+                    position: *position,
+                    color: rgb(c, span),
+                    radius: None,
+                };
+                scene.view.push(Spanned::new(ViewStmt::Light(light), span));
+            }
+            Entity::Fill(f) => {
+                let fields = fill_attribute(f)
+                    .into_iter()
+                    .map(|a| Spanned::new(a, span))
+                    .collect();
+                scene
+                    .body
+                    .items
+                    .push(Spanned::new(BodyItem::Attribute(fields), span));
+            }
+            Entity::Sphere { center, radius } => push_primitive(
+                &mut scene,
+                Primitive::Sphere {
+                    center: *center,
+                    radius: *radius,
+                },
+                span,
+            ),
+            Entity::Polygon { vertices, .. } => push_primitive(
+                &mut scene,
+                Primitive::Polygon {
+                    vertices: vertices.clone(),
+                },
+                span,
+            ),
+            Entity::Cone {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+            } => {
+                if let Some(q) = cone_quadric(*base, *base_radius, *apex, *apex_radius) {
+                    push_primitive(&mut scene, q, span);
+                }
+            }
+        }
+    }
+    if let (Some(first), Some(last)) = (scene.body.items.first(), scene.body.items.last()) {
+        scene.body.span = first.span.to(last.span);
+    }
+    scene
+}
+
+/// The Hall-model attribute fields of an NFF fill.
+pub fn fill_attribute(f: &Fill) -> Vec<AttrField> {
+    let kd = f.kd.clamp(0.0, 1.0);
+    let kdr = (1.0 - f.ks).clamp(0.0, 1.0);
+    let kdt = (1.0 - f.t).clamp(0.0, 1.0);
+    let color = if kdr > 0.0 {
+        f.color.map(|c| c * kd / kdr)
+    } else {
+        f.color
+    };
+    let refract = if f.ior > 0.0 { f.ior } else { 1.0 };
+    vec![
+        AttrField::Color(Spanned::new(ColorSpec::Rgb(color), Span::default())),
+        AttrField::Kdr(kdr),
+        AttrField::Kdt(kdt),
+        AttrField::Ka(0.0),
+        AttrField::Phong(f.shine),
+        AttrField::Refract(refract),
+    ]
+}
+
+fn rgb(c: Vec3, span: Span) -> Spanned<ColorSpec> {
+    Spanned::new(ColorSpec::Rgb(c), span)
+}
+
+fn push_primitive(scene: &mut Scene, p: Primitive, span: Span) {
+    scene
+        .body
+        .items
+        .push(Spanned::new(BodyItem::Primitive(p), span));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nff::scene::View;
+
+    fn attr(fields: &[AttrField]) -> (Vec3, f64, f64, f64, f64, f64) {
+        let mut out = ([0.0; 3], -1.0, -1.0, -1.0, -1.0, -1.0);
+        for f in fields {
+            match f {
+                AttrField::Color(c) => match &c.node {
+                    ColorSpec::Rgb(c) => out.0 = *c,
+                    ColorSpec::Named(_) => panic!(),
+                },
+                AttrField::Kdr(x) => out.1 = *x,
+                AttrField::Kdt(x) => out.2 = *x,
+                AttrField::Ka(x) => out.3 = *x,
+                AttrField::Phong(x) => out.4 = *x,
+                AttrField::Refract(x) => out.5 = *x,
+                _ => panic!(),
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn spd_fills_map_onto_hall() {
+        // mount6's glass: f 1 1 1 0.1 0.1 101.148 0.9 1.5
+        let glass = Fill {
+            color: [1.0; 3],
+            kd: 0.1,
+            ks: 0.1,
+            shine: 101.148,
+            t: 0.9,
+            ior: 1.5,
+        };
+        let (c, kdr, kdt, ka, phong, refract) = attr(&fill_attribute(&glass));
+        assert!((kdr - 0.9).abs() < 1e-12 && (kdt - 0.1).abs() < 1e-12);
+        assert!(
+            (kdr * c[0] - 0.1).abs() < 1e-12,
+            "diffuse term must stay Kd * rgb"
+        );
+        assert_eq!((ka, phong, refract), (0.0, 101.148, 1.5));
+        // mount6's rock: f 0.5 0.45 0.35 1 0 100000 0 0 (ior 0 becomes 1)
+        let rock = Fill {
+            color: [0.5, 0.45, 0.35],
+            kd: 1.0,
+            ks: 0.0,
+            shine: 100000.0,
+            t: 0.0,
+            ior: 0.0,
+        };
+        let (c, kdr, kdt, _, _, refract) = attr(&fill_attribute(&rock));
+        assert_eq!((c, kdr, kdt, refract), ([0.5, 0.45, 0.35], 1.0, 1.0, 1.0));
+        // balls4's mirror: f 1 0.9 0.7 0.5 0.5 3.0827 0 1
+        let mirror = Fill {
+            color: [1.0, 0.9, 0.7],
+            kd: 0.5,
+            ks: 0.5,
+            shine: 3.0827,
+            t: 0.0,
+            ior: 1.0,
+        };
+        let (c, kdr, kdt, _, _, _) = attr(&fill_attribute(&mirror));
+        assert_eq!((c, kdr, kdt), ([1.0, 0.9, 0.7], 0.5, 1.0));
+        // A perfect mirror keeps its colour (irrelevant, no diffuse term).
+        let perfect = Fill {
+            color: [0.2, 0.3, 0.4],
+            kd: 0.0,
+            ks: 1.0,
+            shine: 10.0,
+            t: 0.0,
+            ior: 1.0,
+        };
+        assert_eq!(attr(&fill_attribute(&perfect)).0, [0.2, 0.3, 0.4]);
+    }
+
+    #[test]
+    fn view_lights_and_primitives() {
+        let mut nff = NffScene::default();
+        nff.push(Entity::Background([0.1, 0.2, 0.3]));
+        nff.push(Entity::View(View {
+            from: [0.0, -5.0, 0.0],
+            at: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            angle: 45.0,
+            hither: 1.0,
+            resolution: Some([640, 480]),
+        }));
+        for i in 0..4 {
+            nff.push(Entity::Light {
+                position: [i as f64, 0.0, 0.0],
+                color: None,
+            });
+        }
+        nff.push(Entity::Sphere {
+            center: [0.0; 3],
+            radius: 1.0,
+        });
+        nff.push(Entity::Cone {
+            base: [0.0; 3],
+            base_radius: 1.0,
+            apex: [0.0, 0.0, 1.0],
+            apex_radius: 1.0,
+        });
+        let y = to_yari(&nff);
+        let mut saw = (false, false, 0);
+        for s in &y.view {
+            match &s.node {
+                ViewStmt::Camera(c) => {
+                    assert_eq!(c.angle, 22.5);
+                    saw.0 = true;
+                }
+                ViewStmt::Ambient(c) => {
+                    assert_eq!(c.node, ColorSpec::Rgb([0.0; 3]));
+                    saw.1 = true;
+                }
+                ViewStmt::Light(l) => {
+                    assert_eq!(l.color.node, ColorSpec::Rgb([0.5; 3]));
+                    saw.2 += 1;
+                }
+                _ => {}
+            }
+        }
+        assert_eq!(saw, (true, true, 4));
+        assert_eq!(y.body.items.len(), 2);
+        assert!(matches!(
+            y.body.items[1].node,
+            BodyItem::Primitive(Primitive::Quadric { .. })
+        ));
+    }
+}

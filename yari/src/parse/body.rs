@@ -1,0 +1,189 @@
+//! Body statements: `attribute`, `sphere`, `polygon`, `quadric`, and the transformations
+//! `translate`, `scale`, `rotate`, `motion`, `transform`.
+
+use super::{PResult, Parser};
+use crate::ast::{AttrField, BodyItem, Clip, Primitive, Spanned, Transform, Vec3};
+use crate::lexer::TokenKind;
+use crate::span::Span;
+
+impl Parser<'_> {
+    /// One body statement; the current token is a name other than `begin`/`end`.
+    pub(super) fn body_statement(&mut self) -> Option<Spanned<BodyItem>> {
+        let word = self.text(self.tok);
+        let (item, span) = match word {
+            "attribute" => self.statement(|p, _| Ok(BodyItem::Attribute(p.attribute_fields()?)))?,
+            "sphere" => self.statement(|p, name| p.sphere(name))?,
+            "polygon" => self.statement(|p, _| p.polygon())?,
+            "quadric" => self.statement(|p, _| p.quadric())?,
+            "translate" => {
+                self.statement(|p, _| Ok(BodyItem::Transform(Transform::Translate(p.vector()?))))?
+            }
+            "scale" => {
+                self.statement(|p, _| Ok(BodyItem::Transform(Transform::Scale(p.vector()?))))?
+            }
+            "rotate" => {
+                self.statement(|p, _| Ok(BodyItem::Transform(Transform::Rotate(p.vector()?))))?
+            }
+            "motion" => {
+                self.statement(|p, _| Ok(BodyItem::Transform(Transform::Motion(p.vector()?))))?
+            }
+            "transform" => self.statement(|p, _| {
+                Ok(BodyItem::Transform(Transform::Matrix(
+                    p.numbers::<12>("a matrix entry")?,
+                )))
+            })?,
+            _ => {
+                let at = self.tok.span;
+                let msg = if super::VIEW_COMMANDS.contains(&word) {
+                    format!("`{word}` belongs in the preamble, before the world block's `begin`")
+                } else {
+                    format!("unknown command `{word}`")
+                };
+                self.error(at, msg);
+                self.bump();
+                self.recover(0);
+                return None;
+            }
+        };
+        Some(Spanned::new(item, span))
+    }
+
+    fn attribute_fields(&mut self) -> PResult<Vec<Spanned<AttrField>>> {
+        let mut out: Vec<Spanned<AttrField>> = Vec::new();
+        self.fields(|p, name, span| {
+            let field = match name {
+                "color" | "colour" => AttrField::Color(p.colour()?),
+                "kdr" => AttrField::Kdr(p.number("a value for `kdr`")?.0),
+                "kdt" => AttrField::Kdt(p.number("a value for `kdt`")?.0),
+                "ka" => AttrField::Ka(p.number("a value for `ka`")?.0),
+                "phong" => AttrField::Phong(p.number("a value for `phong`")?.0),
+                "refract" => AttrField::Refract(p.number("a value for `refract`")?.0),
+                "gloss" => AttrField::Gloss(p.number("a value for `gloss`")?.0),
+                "translucency" => AttrField::Translucency(p.number("a value for `translucency`")?.0),
+                "transmissivity" => AttrField::Transmissivity(p.number("a value for `transmissivity`")?.0),
+                "texture" => {
+                    let v = p.numbers::<7>("`texture = id r,g,b sx,sy,sz`")?;
+                    AttrField::Texture { id: v[0], color: [v[1], v[2], v[3]], scale: [v[4], v[5], v[6]] }
+                }
+                "texture_space" => AttrField::TextureSpace(p.numbers::<12>("a matrix entry")?),
+                _ => {
+                    return Err(p.error(
+                        span,
+                        format!(
+                            "unknown attribute `{name}`; expected one of color, kdr, kdt, ka, phong, refract, \
+                             texture, gloss, translucency, transmissivity, texture_space"
+                        ),
+                    ))
+                }
+            };
+            if out.iter().any(|f| std::mem::discriminant(&f.node) == std::mem::discriminant(&field)) {
+                return Err(p.error(span, format!("`{name}` is given twice")));
+            }
+            out.push(Spanned::new(field, p.span_from(span)));
+            Ok(())
+        })?;
+        Ok(out)
+    }
+
+    fn sphere(&mut self, stmt: Span) -> PResult<BodyItem> {
+        let (mut center, mut radius) = (None, None);
+        self.fields(|p, name, span| match name {
+            "center" | "centre" => {
+                let v = p.vector()?;
+                p.set(&mut center, v, name, span)
+            }
+            "radius" => {
+                let v = p.number("the radius")?.0;
+                p.set(&mut radius, v, name, span)
+            }
+            _ => Err(p.error(
+                span,
+                format!("unknown field `{name}` in `sphere`; expected `center` or `radius`"),
+            )),
+        })?;
+        let center = self.require(center, "center", stmt)?;
+        let radius = self.require(radius, "radius", stmt)?;
+        Ok(BodyItem::Primitive(Primitive::Sphere { center, radius }))
+    }
+
+    /// `vertices = n ; x1,y1,z1 ... xn,yn,zn` (commas between numbers optional).
+    fn polygon(&mut self) -> PResult<BodyItem> {
+        if !self.at_word("vertices") {
+            return Err(self.unexpected("`vertices = n`"));
+        }
+        self.bump();
+        self.expect(TokenKind::Equals, "`=`")?;
+        let (n, n_span) = self.number("the number of vertices")?;
+        if n.fract() != 0.0 || n < 0.0 {
+            return Err(self.error(
+                n_span,
+                format!("the number of vertices must be a whole number, not {n}"),
+            ));
+        }
+        self.expect(TokenKind::Semi, "`;` after the number of vertices")?;
+        let list_start = self.tok.span;
+        let mut vertices: Vec<Vec3> = Vec::with_capacity((n as usize).min(64));
+        let mut partial = [0.0; 3];
+        let mut count = 0usize;
+        while self.at(TokenKind::Number) {
+            partial[count % 3] = self.bump().value;
+            count += 1;
+            if count.is_multiple_of(3) {
+                vertices.push(partial);
+            }
+            self.eat(TokenKind::Comma);
+        }
+        if !self.at(TokenKind::RParen) {
+            return Err(self.unexpected("a number or `)`"));
+        }
+        let list = self.span_from(list_start);
+        if !count.is_multiple_of(3) {
+            return Err(self.error(
+                list,
+                format!("each vertex needs 3 coordinates, but {count} numbers are listed"),
+            ));
+        }
+        if vertices.len() as f64 != n {
+            return Err(self.error(
+                n_span,
+                format!("polygon declares {n} vertices but lists {}", vertices.len()),
+            ));
+        }
+        Ok(BodyItem::Primitive(Primitive::Polygon { vertices }))
+    }
+
+    /// `a b c d e f g h i j` then optional `; clip = min max` and `; plane = a,b,c d` fields.
+    fn quadric(&mut self) -> PResult<BodyItem> {
+        let coeffs = self.numbers::<10>("a quadric coefficient")?;
+        let mut clip = Vec::new();
+        if self.eat(TokenKind::Semi) {
+            self.fields(|p, name, span| match name {
+                "clip" => {
+                    let min = p.vector()?;
+                    p.eat(TokenKind::Comma);
+                    let max = p.vector()?;
+                    if (0..3).any(|i| min[i] > max[i]) {
+                        return Err(p.error(
+                            p.span_from(span),
+                            "clip box has a minimum corner above its maximum",
+                        ));
+                    }
+                    clip.push(Clip::Box { min, max });
+                    Ok(())
+                }
+                "plane" => {
+                    let normal = p.vector()?;
+                    p.eat(TokenKind::Comma);
+                    let offset = p.number("the plane's offset d")?.0;
+                    clip.push(Clip::Plane { normal, offset });
+                    Ok(())
+                }
+                _ => Err(p.error(
+                    span,
+                    format!("unknown field `{name}` in `quadric`; expected `clip` or `plane`"),
+                )),
+            })?;
+        }
+        Ok(BodyItem::Primitive(Primitive::Quadric { coeffs, clip }))
+    }
+}
