@@ -4,10 +4,10 @@
 # libraries `ldd` lists for them, the dynamic loader, and empty /tmp and state folders.
 #
 #   deploy/build-image.sh            # builds the release binaries first
-#   SKIP_CARGO=1 deploy/build-image.sh   # uses target/release as it is
+#   SKIP_CARGO=1 BIN_DIR=DIR deploy/build-image.sh   # uses the binaries in DIR as they are
 set -euo pipefail
 cd "$(dirname "$0")/.."
-target_dir="${CARGO_TARGET_DIR:-target}"
+bin_dir="${BIN_DIR:-${CARGO_TARGET_DIR:-target}/release}"
 if [ -z "${SKIP_CARGO:-}" ]; then
   cargo build --release -p rem -p sunray --bins
 fi
@@ -17,8 +17,8 @@ root="$ctx/root"
 mkdir -p "$root/bin" "$root/tmp" "$root/var/lib/rem" "$root/etc"
 chmod 1777 "$root/tmp"
 for b in remd rem sunray; do
-  cp "$target_dir/release/$b" "$root/bin/$b"
-  ldd "$target_dir/release/$b" | awk '/=> \// {print $3} /^\s*\/.*ld-linux/ {print $1}' \
+  cp "$bin_dir/$b" "$root/bin/$b"
+  ldd "$bin_dir/$b" | awk '/=> \// {print $3} /^[ \t]*\/.*ld-linux/ {print $1}' \
     | while read -r lib; do
         mkdir -p "$root$(dirname "$lib")"
         cp -L "$lib" "$root$lib"
