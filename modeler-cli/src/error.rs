@@ -27,6 +27,13 @@ pub enum ModelError {
     Yari(String),
     #[error("{path}: {message}")]
     Image { path: String, message: String },
+    /// A script line failed; `location` is `file:line`.
+    #[error("{location}: {message}")]
+    Script { location: String, message: String },
+    #[error("no project at {path}; start one with `modeler new` (or `modeler import FILE.yari`)")]
+    NoProject { path: String },
+    #[error("{path} already exists; add --force to replace it")]
+    Exists { path: String },
 }
 
 impl ModelError {

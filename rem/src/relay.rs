@@ -220,8 +220,9 @@ impl Router {
 /// Drains one link's queue into `Forward` streams to the host, batching what is queued.
 async fn run_link(host: String, mut rx: mpsc::Receiver<PeerItem>, cancel: CancellationToken, inner: Arc<Inner>) {
     let mut stream: Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> = None;
+    let mut pending: Option<PeerItem> = None;
     loop {
-        let first = tokio::select! {
+        let first = if let Some(p) = pending.take() { p } else { tokio::select! {
             _ = cancel.cancelled() => return,
             item = rx.recv() => match item {
                 Some(i) => i,
@@ -234,11 +235,19 @@ async fn run_link(host: String, mut rx: mpsc::Receiver<PeerItem>, cancel: Cancel
                     return;
                 }
             },
-        };
+        }};
+        let mut bytes = item_bytes(&first);
         let mut items = vec![first];
         while items.len() < BATCH {
             match rx.try_recv() {
-                Ok(i) => items.push(i),
+                Ok(i) if bytes + item_bytes(&i) <= crate::attach::BATCH_BYTES => {
+                    bytes += item_bytes(&i);
+                    items.push(i);
+                }
+                Ok(i) => {
+                    pending = Some(i);
+                    break;
+                }
                 Err(_) => break,
             }
         }
@@ -257,6 +266,13 @@ async fn run_link(host: String, mut rx: mpsc::Receiver<PeerItem>, cancel: Cancel
             tracing::warn!(%host, "relay link broken; a batch was dropped");
             stream = None;
         }
+    }
+}
+
+fn item_bytes(item: &PeerItem) -> usize {
+    match &item.item {
+        Some(peer_item::Item::Envelope(e)) => e.payload.len(),
+        _ => 0,
     }
 }
 

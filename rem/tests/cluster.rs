@@ -147,3 +147,56 @@ async fn rem_command_lists_hosts_as_json_and_table() {
     assert!(text.starts_with("NAME"), "{text}");
     assert_eq!(text.lines().filter(|l| l.contains("alive")).count(), 2, "{text}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn remd_takes_settings_from_environment_and_config_file() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let secret = dir.path().join("secret");
+    std::fs::write(&secret, "env-secret\n").unwrap();
+    // Environment only (no flags at all).
+    let mut env_child = std::process::Command::new(REMD)
+        .env("REMD_NAME", "envhost")
+        .env("REMD_LISTEN", "127.0.0.1:0")
+        .env("REM_SECRET_FILE", &secret)
+        .env("REMD_ALLOW", ECHO)
+        .env("RUST_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(env_child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let env_addr = line.trim().strip_prefix("remd listening on ").unwrap().to_string();
+    // A TOML file joining the first.
+    let cfg = dir.path().join("remd.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "name = \"filehost\"\nlisten = \"127.0.0.1:0\"\nsecret_file = {secret:?}\njoin = [{env_addr:?}]\nallow = [{ECHO:?}]\n"
+        ),
+    )
+    .unwrap();
+    let mut file_child = std::process::Command::new(REMD)
+        .args(["--config", cfg.to_str().unwrap()])
+        .env("RUST_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(file_child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    assert!(line.starts_with("remd listening on 127.0.0.1:"), "{line}");
+    let c = rem::RemClient::connect(&env_addr, rem::Secret::new("env-secret").unwrap()).await.unwrap();
+    let hosts = wait_hosts(&c, T, |hs| hs.len() == 2 && hs.iter().all(|h| h.alive)).await;
+    assert_eq!(hosts[0].name, "envhost");
+    assert_eq!(hosts[1].name, "filehost");
+    // The file's allow-list is in force: placement on filehost works for ECHO.
+    let job = c
+        .spawn(SpawnRequest { program: ECHO.into(), args: vec!["exit".into(), "0".into()], count: 2, ..SpawnRequest::default() })
+        .await
+        .unwrap();
+    assert_eq!(job.processes.len(), 2);
+    for child in [&mut env_child, &mut file_child] {
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+}

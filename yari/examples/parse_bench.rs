@@ -51,7 +51,10 @@ fn main() -> ExitCode {
     while lexer.next_token().kind != yari::lexer::TokenKind::Eof {
         tokens += 1;
     }
-    println!("lex only {:.3} s ({tokens} tokens)", t.elapsed().as_secs_f64());
+    println!(
+        "lex only {:.3} s ({tokens} tokens)",
+        t.elapsed().as_secs_f64()
+    );
     let t = Instant::now();
     let scene = match yari::parse::parse(&src) {
         Ok(s) => s,

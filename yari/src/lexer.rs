@@ -179,34 +179,49 @@ impl<'a> Lexer<'a> {
     fn number(&mut self, start: usize) -> Token {
         let b = self.bytes;
         let mut p = start;
+        let negative = b[p] == b'-';
         if b[p] == b'-' || b[p] == b'+' {
             p += 1;
         }
+        // The digits are gathered as an integer for the exact fast path below.
+        let mut mantissa: u64 = 0;
+        let mut exact = true;
         let int_start = p;
         while p < b.len() && b[p].is_ascii_digit() {
+            push_digit(&mut mantissa, &mut exact, b[p]);
             p += 1;
         }
         let mut digits = p - int_start;
+        let mut frac_digits = 0usize;
         if p < b.len() && b[p] == b'.' {
             p += 1;
             let frac_start = p;
             while p < b.len() && b[p].is_ascii_digit() {
+                push_digit(&mut mantissa, &mut exact, b[p]);
                 p += 1;
             }
-            digits += p - frac_start;
+            frac_digits = p - frac_start;
+            digits += frac_digits;
         }
         if digits == 0 {
             self.pos = p.max(start + 1);
             let what = &self.text[start..self.pos];
             return self.error(start, format!("`{what}` is not a number"));
         }
+        let mut exponent: i64 = 0;
         if p < b.len() && (b[p] == b'e' || b[p] == b'E') {
             let mut q = p + 1;
+            let exp_negative = q < b.len() && b[q] == b'-';
             if q < b.len() && (b[q] == b'-' || b[q] == b'+') {
                 q += 1;
             }
             let exp_start = q;
             while q < b.len() && b[q].is_ascii_digit() {
+                if q - exp_start < 6 {
+                    exponent = exponent * 10 + i64::from(b[q] - b'0');
+                } else {
+                    exact = false;
+                }
                 q += 1;
             }
             if q == exp_start {
@@ -220,6 +235,9 @@ impl<'a> Lexer<'a> {
                     format!("malformed number `{what}`: exponent has no digits"),
                 );
             }
+            if exp_negative {
+                exponent = -exponent;
+            }
             p = q;
         }
         self.pos = p;
@@ -229,6 +247,23 @@ impl<'a> Lexer<'a> {
             }
             let what = &self.text[start..self.pos];
             return self.error(start, format!("malformed number `{what}`"));
+        }
+        // Clinger's fast path: an integer below 2^53 times or over an exact power of ten
+        // (10^22 at most) is one correctly rounded operation. Anything else goes to the
+        // standard library's parser.
+        let scale = exponent - frac_digits as i64;
+        if exact && mantissa < (1 << 53) && (-22..=22).contains(&scale) {
+            let m = mantissa as f64;
+            let v = if scale >= 0 {
+                m * POWERS_OF_TEN[scale as usize]
+            } else {
+                m / POWERS_OF_TEN[(-scale) as usize]
+            };
+            return Token {
+                kind: TokenKind::Number,
+                span: Span::new(start, p),
+                value: if negative { -v } else { v },
+            };
         }
         let text = &self.text[start..p];
         match text.parse::<f64>() {
@@ -243,6 +278,21 @@ impl<'a> Lexer<'a> {
             ),
             Err(_) => self.error(start, format!("malformed number `{text}`")),
         }
+    }
+}
+
+/// 10^0 ..= 10^22, each exact in an f64.
+const POWERS_OF_TEN: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// Appends a decimal digit to the mantissa; past 18 digits the fast path is abandoned.
+fn push_digit(mantissa: &mut u64, exact: &mut bool, digit: u8) {
+    if *mantissa < 100_000_000_000_000_000 {
+        *mantissa = *mantissa * 10 + u64::from(digit - b'0');
+    } else {
+        *exact = false;
     }
 }
 
@@ -299,6 +349,37 @@ mod tests {
             values,
             vec![0.5176, -0.816497, 1e-3, 2.0, 5.0, -1.0, 0.0, 0.0, -32.0, 100.0]
         );
+    }
+
+    #[test]
+    fn fast_path_agrees_with_the_standard_parser() {
+        let mut x: u64 = 12345;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for i in 0..200_000 {
+            let bits = next();
+            let v = f64::from_bits(bits);
+            let scaled = (bits % 2_000_000) as f64 / 997.0 - 1000.0;
+            let text = match i % 6 {
+                0 if v.is_finite() => format!("{v}"),
+                1 if v.is_finite() => format!("{v:e}"),
+                2 => format!("{scaled:.3}"),
+                3 => format!("{scaled}"),
+                4 => format!("{}e{}", bits % 100_000, (bits >> 20) % 60).replace("e5", "e-5"),
+                _ => format!("{:.7}", scaled / 1e5).replacen("0.", ".", 1),
+            };
+            let mut l = Lexer::new(&text);
+            let t = l.next_token();
+            let expected: f64 = text.parse().unwrap();
+            if expected.is_finite() {
+                assert_eq!(t.kind, TokenKind::Number, "{text}");
+                assert_eq!(t.value.to_bits(), expected.to_bits(), "{text}");
+            }
+        }
     }
 
     #[test]

@@ -153,7 +153,7 @@ fn draw_view(v: &View, d: &Drawables, overlay: &Overlay, bounds: (DVec3, DVec3),
         Style::Flat => draw_flat(v, d, &mut c),
         Style::Wire => draw_wire(v, d, bounds, &mut c),
     }
-    let mut segment = |c: &mut Canvas, a: DVec3, b: DVec3, col: [f32; 3]| {
+    let segment = |c: &mut Canvas, a: DVec3, b: DVec3, col: [f32; 3]| {
         let pts = v.clip_near(&[a, b], false);
         if pts.len() == 2 {
             c.line(v.project(pts[0]), v.project(pts[1]), col, false);
@@ -226,7 +226,7 @@ fn draw_flat(v: &View, d: &Drawables, c: &mut Canvas) {
 }
 
 fn draw_wire(v: &View, d: &Drawables, bounds: (DVec3, DVec3), c: &mut Canvas) {
-    let mut edge = |c: &mut Canvas, a: DVec3, b: DVec3, col: [f32; 3]| {
+    let edge = |c: &mut Canvas, a: DVec3, b: DVec3, col: [f32; 3]| {
         let pts = v.clip_near(&[a, b], false);
         if pts.len() == 2 {
             c.line(v.project(pts[0]), v.project(pts[1]), col, false);

@@ -113,14 +113,14 @@ impl Canvas {
     }
 }
 
-/// Liang-Barsky clipping of a segment to [-0.5, w-0.5] x [-0.5, h-0.5].
+/// Liang-Barsky clipping of a segment to the pixel centres [0, w-1] x [0, h-1].
 fn clip_to_rect(a: ScreenPoint, b: ScreenPoint, w: f64, h: f64) -> Option<(ScreenPoint, ScreenPoint)> {
     if !a.iter().chain(b.iter()).all(|v| v.is_finite()) {
         return None;
     }
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [(-d[0], a[0] + 0.5), (d[0], w - 0.5 - a[0]), (-d[1], a[1] + 0.5), (d[1], h - 0.5 - a[1])] {
+    for (p, q) in [(-d[0], a[0]), (d[0], w - 1.0 - a[0]), (-d[1], a[1]), (d[1], h - 1.0 - a[1])] {
         if p == 0.0 {
             if q < 0.0 {
                 return None;

@@ -7,6 +7,9 @@ use super::{AccelOptions, Hit, Mailbox};
 use crate::geometry::{Aabb, Primitive, RayPre, Real, Vec3};
 use crate::stats::Counters;
 
+/// A hard cap on `--max-depth`, whatever is asked: deeper voxels only cost memory.
+pub const MAX_DEPTH: u32 = 20;
+
 #[derive(Clone, Debug)]
 struct Node {
     /// Centre of the voxel (the split point).
@@ -56,7 +59,7 @@ impl Octree {
         depth: u32,
     ) {
         let mid = bounds.centre();
-        if items.len() > opts.max_per_voxel && depth < opts.max_depth {
+        if items.len() > opts.max_per_voxel && depth < opts.max_depth.min(MAX_DEPTH) {
             let children: Vec<(Aabb, Vec<usize>)> = (0..8)
                 .map(|k| {
                     let cb = child_bounds(&bounds, mid, k);

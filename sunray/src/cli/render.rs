@@ -100,10 +100,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| args.scene.with_extension("png"));
     crate::film::Format::from_path(&out)?;
-    let cpu0 = process_cpu_seconds();
     let t_load = Instant::now();
     let world = load_world(&args.scene, args.colours.as_deref())?;
     let load_s = t_load.elapsed().as_secs_f64();
+    let cpu0 = process_cpu_seconds();
 
     let t_pre = Instant::now();
     let scene = Scene::new(world);

@@ -182,3 +182,66 @@ impl Primitive {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+
+    fn prim(kind: PrimitiveKind, motion: Vec3) -> Primitive {
+        Primitive { kind, object: 0, surface: 0, motion }
+    }
+
+    #[test]
+    fn ellipsoid_bounds_contain_its_surface() {
+        let to_world = DAffine3::from_translation(Vec3::new(1.0, 2.0, 3.0))
+            * DAffine3::from_rotation_z(0.7)
+            * DAffine3::from_scale(Vec3::new(3.0, 1.0, 0.5));
+        let p = prim(PrimitiveKind::Ellipsoid { to_local: to_world.inverse() }, Vec3::ZERO);
+        let b = p.bounds().unwrap();
+        let mut touches = [false; 6];
+        for i in 0..64 {
+            for j in 0..32 {
+                let (th, ph) = (i as f64 / 64.0 * std::f64::consts::TAU, j as f64 / 31.0 * std::f64::consts::PI);
+                let q = to_world.transform_point3(Vec3::new(th.cos() * ph.sin(), th.sin() * ph.sin(), ph.cos()));
+                assert!(q.cmpge(b.min).all() && q.cmple(b.max).all(), "{q} outside {b:?}");
+                for k in 0..3 {
+                    touches[k] |= q[k] - b.min[k] < 0.05;
+                    touches[k + 3] |= b.max[k] - q[k] < 0.05;
+                }
+            }
+        }
+        assert!(touches.iter().all(|&t| t), "bounds are not tight: {touches:?}");
+    }
+
+    #[test]
+    fn moving_sphere_is_hit_where_it_is_at_the_rays_time() {
+        let p = prim(PrimitiveKind::Sphere { centre: Vec3::ZERO, radius: 1.0 }, Vec3::new(4.0, 0.0, 0.0));
+        let b = p.bounds().unwrap();
+        assert!(b.min.x <= -1.0 && b.max.x >= 5.0, "bounds sweep the motion");
+        let mut ray = Ray::new(Vec3::new(4.0, 0.0, -5.0), Vec3::Z);
+        assert_eq!(p.intersect(&RayPre::new(ray), 0.0, 100.0), None);
+        ray.time = 1.0;
+        assert_eq!(p.intersect(&RayPre::new(ray), 0.0, 100.0), Some(4.0));
+        assert!((p.normal(Vec3::new(4.0, 0.0, -1.0), 1.0) + Vec3::Z).length() < 1e-12);
+    }
+
+    #[test]
+    fn degenerate_objects_are_dropped_not_nan() {
+        let mut w = crate::bench::spd_world(yari::spd::Database::Tetra, 1).unwrap();
+        let n = w.objects.len();
+        w.objects.push(yari::model::Object {
+            shape: Shape::Sphere { center: Vec3::ZERO, radius: f64::NAN },
+            surface: 0,
+            motion: Vec3::ZERO,
+        });
+        w.objects.push(yari::model::Object {
+            shape: Shape::Polygon { vertices: vec![Vec3::ZERO, Vec3::ZERO, Vec3::X] },
+            surface: 0,
+            motion: Vec3::ZERO,
+        });
+        let (prims, dropped) = Primitive::build_all(&w);
+        assert_eq!(prims.len(), n);
+        assert_eq!(dropped.iter().map(|d| d.object).collect::<Vec<_>>(), vec![n, n + 1]);
+    }
+}

@@ -50,12 +50,9 @@ pub fn intersect_quadric(ray: &Ray, q: &Quadric, t_min: Real, t_max: Real) -> Op
     } else {
         stable_roots(a, b, c, b * b - a * c)?
     };
-    for t in [roots.0, roots.1] {
-        if t > t_min && t < t_max && inside_clip(&q.clip, ray.at(t)) {
-            return Some(t);
-        }
-    }
-    None
+    [roots.0, roots.1]
+        .into_iter()
+        .find(|&t| t > t_min && t < t_max && inside_clip(&q.clip, ray.at(t)))
 }
 
 /// The gradient direction (unnormalised outward normal, pointing to where x^T Q x > 0).

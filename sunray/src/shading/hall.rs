@@ -123,7 +123,8 @@ impl Tracer<'_> {
         let entering = ray.dir.dot(n) < 0.0;
         let mut colour = surf.color;
         if let Some(tex) = &surf.texture {
-            let (c, tn) = texture::apply(tex, surf.color, p, n);
+            // Textures stick to moving objects: look up at the object's rest position.
+            let (c, tn) = texture::apply(tex, surf.color, p - prim.motion * ray.time, n);
             colour = c;
             n = tn;
         }

@@ -11,7 +11,7 @@ fn permutation() -> &'static [u8; 512] {
     static TABLE: OnceLock<[u8; 512]> = OnceLock::new();
     TABLE.get_or_init(|| {
         let mut p: [u8; 256] = std::array::from_fn(|i| i as u8);
-        let mut state = 0x5EED_0F_5A_1A_u64;
+        let mut state = 0x5E_ED0F_5A1A_u64;
         for i in (1..256).rev() {
             let j = (splitmix64(&mut state) % (i as u64 + 1)) as usize;
             p.swap(i, j);

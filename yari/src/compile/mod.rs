@@ -8,7 +8,7 @@
 //!   first by the earliest transformation in effect, then by later ones. `begin` saves and
 //!   `end` restores the transformation, the current attribute AND the motion vector.
 //! - `attribute(...)` replaces the whole surface; unspecified fields take
-//!   [`Surface::default`]. Surfaces are deduplicated into [`World::surfaces`].
+//!   [`crate::model::Surface::default`]. Surfaces are deduplicated into [`World::surfaces`].
 //!
 //! # Layout
 //! - this file: entry point, preamble, warnings.

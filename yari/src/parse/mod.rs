@@ -1,4 +1,4 @@
-//! The YARI parser: recursive descent over [`crate::lexer`] tokens into an [`ast::Scene`].
+//! The YARI parser: recursive descent over [`crate::lexer`] tokens into an [`crate::ast::Scene`].
 //!
 //! The grammar is Appendix C.4 of the thesis with the extensions listed in `docs/yari.md`.
 //! On an error the parser reports it, skips to the end of the statement (its `)` and `;`,
