@@ -8,11 +8,18 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum ModelError {
     #[error("{path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: not a modeler project: {message}")]
     ProjectFormat { path: String, message: String },
     #[error("no {kind} named `{name}`{hint}")]
-    NotFound { kind: &'static str, name: String, hint: String },
+    NotFound {
+        kind: &'static str,
+        name: String,
+        hint: String,
+    },
     #[error("a {kind} named `{name}` already exists")]
     Duplicate { kind: &'static str, name: String },
     #[error("bad name `{name}`: {reason}")]
@@ -38,19 +45,35 @@ pub enum ModelError {
 
 impl ModelError {
     pub fn io(path: &Path, source: std::io::Error) -> ModelError {
-        ModelError::Io { path: path.display().to_string(), source }
+        ModelError::Io {
+            path: path.display().to_string(),
+            source,
+        }
     }
     pub fn bad_arg(arg: impl Into<String>, message: impl Into<String>) -> ModelError {
-        ModelError::BadArgument { arg: arg.into(), message: message.into() }
+        ModelError::BadArgument {
+            arg: arg.into(),
+            message: message.into(),
+        }
     }
     pub fn skeleton(name: &str, message: impl Into<String>) -> ModelError {
-        ModelError::Skeleton { name: name.into(), message: message.into() }
+        ModelError::Skeleton {
+            name: name.into(),
+            message: message.into(),
+        }
     }
     pub fn object(name: &str, message: impl Into<String>) -> ModelError {
-        ModelError::Object { name: name.into(), message: message.into() }
+        ModelError::Object {
+            name: name.into(),
+            message: message.into(),
+        }
     }
     /// A lookup failure, with the known names (or the closest ones) as a hint.
-    pub fn not_found<'a>(kind: &'static str, name: &str, known: impl Iterator<Item = &'a str>) -> ModelError {
+    pub fn not_found<'a>(
+        kind: &'static str,
+        name: &str,
+        known: impl Iterator<Item = &'a str>,
+    ) -> ModelError {
         let known: Vec<&str> = known.collect();
         let hint = if known.is_empty() {
             String::new()
@@ -59,20 +82,32 @@ impl ModelError {
         } else {
             format!(" ({} {kind}s; `modeler show` lists them)", known.len())
         };
-        ModelError::NotFound { kind, name: name.into(), hint }
+        ModelError::NotFound {
+            kind,
+            name: name.into(),
+            hint,
+        }
     }
 }
 
 /// Checks a user-chosen name: it is written into YARI comments and typed in commands.
 pub fn check_name(name: &str) -> Result<(), ModelError> {
-    let bad = |reason| Err(ModelError::BadName { name: name.into(), reason });
+    let bad = |reason| {
+        Err(ModelError::BadName {
+            name: name.into(),
+            reason,
+        })
+    };
     if name.is_empty() {
         return bad("names must not be empty");
     }
     if name.len() > 200 {
         return bad("names are at most 200 bytes");
     }
-    if !name.chars().all(|c| c.is_alphanumeric() || "_-.+#@:".contains(c)) {
+    if !name
+        .chars()
+        .all(|c| c.is_alphanumeric() || "_-.+#@:".contains(c))
+    {
         return bad("use letters, digits and _ - . + # @ :");
     }
     Ok(())

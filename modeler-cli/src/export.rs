@@ -5,7 +5,7 @@
 //! the file; [`crate::import`] reads the names back.
 
 use crate::project::{Clip, Color, Object, Primitive, Project, Surface, Transform};
-use yari::ast::{self, AttrField, BodyItem, Block, ColorSpec, Spanned, ViewStmt};
+use yari::ast::{self, AttrField, Block, BodyItem, ColorSpec, Spanned, ViewStmt};
 use yari::span::Span;
 
 fn sp<T>(node: T) -> Spanned<T> {
@@ -30,7 +30,11 @@ pub fn to_scene(project: &Project) -> ast::Scene {
         view.push(sp(ViewStmt::Ambient(sp(color(c)))));
     }
     for l in &s.lights {
-        view.push(sp(ViewStmt::Light(ast::LightDef { position: l.position, color: sp(color(&l.color)), radius: l.radius })));
+        view.push(sp(ViewStmt::Light(ast::LightDef {
+            position: l.position,
+            color: sp(color(&l.color)),
+            radius: l.radius,
+        })));
     }
     if let Some(c) = &s.camera {
         view.push(sp(ViewStmt::Camera(ast::CameraDef {
@@ -42,8 +46,18 @@ pub fn to_scene(project: &Project) -> ast::Scene {
             focus: c.focus,
         })));
     }
-    let items = project.objects.iter().map(|o| sp(BodyItem::Block(block(o)))).collect();
-    ast::Scene { view, body: Block { items, span: Span::default() } }
+    let items = project
+        .objects
+        .iter()
+        .map(|o| sp(BodyItem::Block(block(o))))
+        .collect();
+    ast::Scene {
+        view,
+        body: Block {
+            items,
+            span: Span::default(),
+        },
+    }
 }
 
 /// The project as YARI text with the names as comments.
@@ -84,10 +98,21 @@ fn block(o: &Object) -> Block {
     if let Some(s) = &o.surface {
         items.push(sp(BodyItem::Attribute(attribute(s))));
     }
-    items.extend(o.transforms.iter().map(|t| sp(BodyItem::Transform(transform(t)))));
-    items.extend(o.primitives.iter().map(|p| sp(BodyItem::Primitive(primitive(p)))));
+    items.extend(
+        o.transforms
+            .iter()
+            .map(|t| sp(BodyItem::Transform(transform(t)))),
+    );
+    items.extend(
+        o.primitives
+            .iter()
+            .map(|p| sp(BodyItem::Primitive(primitive(p)))),
+    );
     items.extend(o.children.iter().map(|c| sp(BodyItem::Block(block(c)))));
-    Block { items, span: Span::default() }
+    Block {
+        items,
+        span: Span::default(),
+    }
 }
 
 pub fn color(c: &Color) -> ColorSpec {
@@ -97,12 +122,15 @@ pub fn color(c: &Color) -> ColorSpec {
     }
 }
 
+/// An optional number and the attribute field it makes.
+type Field = (Option<f64>, fn(f64) -> AttrField);
+
 fn attribute(s: &Surface) -> Vec<Spanned<AttrField>> {
     let mut f = Vec::new();
     if let Some(c) = &s.color {
         f.push(AttrField::Color(sp(color(c))));
     }
-    let scalars: [(Option<f64>, fn(f64) -> AttrField); 5] = [
+    let scalars: [Field; 5] = [
         (s.kdr, AttrField::Kdr),
         (s.kdt, AttrField::Kdt),
         (s.ka, AttrField::Ka),
@@ -111,9 +139,13 @@ fn attribute(s: &Surface) -> Vec<Spanned<AttrField>> {
     ];
     f.extend(scalars.iter().filter_map(|(v, make)| v.map(make)));
     if let Some(t) = &s.texture {
-        f.push(AttrField::Texture { id: t.id, color: t.color, scale: t.scale });
+        f.push(AttrField::Texture {
+            id: t.id,
+            color: t.color,
+            scale: t.scale,
+        });
     }
-    let extensions: [(Option<f64>, fn(f64) -> AttrField); 3] = [
+    let extensions: [Field; 3] = [
         (s.gloss, AttrField::Gloss),
         (s.translucency, AttrField::Translucency),
         (s.transmissivity, AttrField::Transmissivity),
@@ -137,15 +169,26 @@ fn transform(t: &Transform) -> ast::Transform {
 
 fn primitive(p: &Primitive) -> ast::Primitive {
     match p {
-        Primitive::Sphere { center, radius } => ast::Primitive::Sphere { center: *center, radius: *radius },
-        Primitive::Polygon { vertices } => ast::Primitive::Polygon { vertices: vertices.clone() },
+        Primitive::Sphere { center, radius } => ast::Primitive::Sphere {
+            center: *center,
+            radius: *radius,
+        },
+        Primitive::Polygon { vertices } => ast::Primitive::Polygon {
+            vertices: vertices.clone(),
+        },
         Primitive::Quadric { coeffs, clip } => ast::Primitive::Quadric {
             coeffs: *coeffs,
             clip: clip
                 .iter()
                 .map(|c| match c {
-                    Clip::Box { min, max } => ast::Clip::Box { min: *min, max: *max },
-                    Clip::Plane { normal, offset } => ast::Clip::Plane { normal: *normal, offset: *offset },
+                    Clip::Box { min, max } => ast::Clip::Box {
+                        min: *min,
+                        max: *max,
+                    },
+                    Clip::Plane { normal, offset } => ast::Clip::Plane {
+                        normal: *normal,
+                        offset: *offset,
+                    },
                 })
                 .collect(),
         },

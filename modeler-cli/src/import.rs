@@ -15,9 +15,12 @@
 //!   parts and blocks after it, exactly as YARI's graphics stack does.
 
 use crate::error::{check_name, ModelError};
-use crate::project::{Camera, Clip, Color, Light, Object, Primitive, Project, Settings, Surface, Texture, Transform, FORMAT_VERSION};
+use crate::project::{
+    Camera, Clip, Color, Light, Object, Primitive, Project, Settings, Surface, Texture, Transform,
+    FORMAT_VERSION,
+};
 use std::collections::HashSet;
-use yari::ast::{self, AttrField, BodyItem, Block, ColorSpec, ViewStmt};
+use yari::ast::{self, AttrField, Block, BodyItem, ColorSpec, ViewStmt};
 use yari::span::Source;
 
 /// Reads YARI text as a project. Parse errors come back rendered with file, line and caret.
@@ -44,8 +47,14 @@ pub fn from_scene(scene: &ast::Scene, text: &str) -> Project {
             ViewStmt::Background(c) => settings.background = Some(color(&c.node)),
             ViewStmt::Ambient(c) => settings.ambient = Some(color(&c.node)),
             ViewStmt::Light(l) => {
-                let name = light_names.pick(comment_name(text, stmt.span.start as usize), "light", "");
-                settings.lights.push(Light { name, position: l.position, color: color(&l.color.node), radius: l.radius });
+                let name =
+                    light_names.pick(comment_name(text, stmt.span.start as usize), "light", "");
+                settings.lights.push(Light {
+                    name,
+                    position: l.position,
+                    color: color(&l.color.node),
+                    radius: l.radius,
+                });
             }
             ViewStmt::Camera(c) => {
                 settings.camera = Some(Camera {
@@ -63,7 +72,12 @@ pub fn from_scene(scene: &ast::Scene, text: &str) -> Project {
     reserve_block_names(&scene.body, text, &mut names);
     let mut conv = Converter { text, names };
     let objects = conv.contents(&scene.body.items, Vec::new(), None, None);
-    Project { version: FORMAT_VERSION, settings, skeletons: Vec::new(), objects }
+    Project {
+        version: FORMAT_VERSION,
+        settings,
+        skeletons: Vec::new(),
+        objects,
+    }
 }
 
 /// The name in a `/* name */` comment that ends right before byte `offset`, if any.
@@ -139,7 +153,10 @@ impl Converter<'_> {
             i += 1;
         }
         let rest = &items[i..];
-        if rest.iter().all(|it| matches!(it.node, BodyItem::Primitive(_))) {
+        if rest
+            .iter()
+            .all(|it| matches!(it.node, BodyItem::Primitive(_)))
+        {
             let primitives = rest
                 .iter()
                 .filter_map(|it| match &it.node {
@@ -147,10 +164,22 @@ impl Converter<'_> {
                     _ => None,
                 })
                 .collect();
-            return Object { name, surface, transforms, primitives, children: Vec::new() };
+            return Object {
+                name,
+                surface,
+                transforms,
+                primitives,
+                children: Vec::new(),
+            };
         }
         let children = self.contents(rest, transforms, None, Some(&name));
-        Object { name, surface, transforms: Vec::new(), primitives: Vec::new(), children }
+        Object {
+            name,
+            surface,
+            transforms: Vec::new(),
+            primitives: Vec::new(),
+            children,
+        }
     }
 
     /// The items of a block after its header, as a list of objects.
@@ -172,7 +201,13 @@ impl Converter<'_> {
             if !matches!(item.node, BodyItem::Primitive(_)) && !run.is_empty() {
                 let (b, sep) = base("part");
                 let name = self.names.pick(None, &b, sep);
-                out.push(Object { name, surface: attr.clone(), transforms: cur.clone(), primitives: std::mem::take(&mut run), children: Vec::new() });
+                out.push(Object {
+                    name,
+                    surface: attr.clone(),
+                    transforms: cur.clone(),
+                    primitives: std::mem::take(&mut run),
+                    children: Vec::new(),
+                });
             }
             match &item.node {
                 BodyItem::Primitive(p) => run.push(primitive(p)),
@@ -193,7 +228,13 @@ impl Converter<'_> {
         if !run.is_empty() {
             let (b, sep) = base("part");
             let name = self.names.pick(None, &b, sep);
-            out.push(Object { name, surface: attr, transforms: cur, primitives: run, children: Vec::new() });
+            out.push(Object {
+                name,
+                surface: attr,
+                transforms: cur,
+                primitives: run,
+                children: Vec::new(),
+            });
         }
         out
     }
@@ -216,7 +257,13 @@ fn surface(fields: &[ast::Spanned<AttrField>]) -> Surface {
             AttrField::Ka(v) => s.ka = Some(*v),
             AttrField::Phong(v) => s.phong = Some(*v),
             AttrField::Refract(v) => s.refract = Some(*v),
-            AttrField::Texture { id, color, scale } => s.texture = Some(Texture { id: *id, color: *color, scale: *scale }),
+            AttrField::Texture { id, color, scale } => {
+                s.texture = Some(Texture {
+                    id: *id,
+                    color: *color,
+                    scale: *scale,
+                })
+            }
             AttrField::Gloss(v) => s.gloss = Some(*v),
             AttrField::Translucency(v) => s.translucency = Some(*v),
             AttrField::Transmissivity(v) => s.transmissivity = Some(*v),
@@ -238,15 +285,26 @@ fn transform(t: &ast::Transform) -> Transform {
 
 fn primitive(p: &ast::Primitive) -> Primitive {
     match p {
-        ast::Primitive::Sphere { center, radius } => Primitive::Sphere { center: *center, radius: *radius },
-        ast::Primitive::Polygon { vertices } => Primitive::Polygon { vertices: vertices.clone() },
+        ast::Primitive::Sphere { center, radius } => Primitive::Sphere {
+            center: *center,
+            radius: *radius,
+        },
+        ast::Primitive::Polygon { vertices } => Primitive::Polygon {
+            vertices: vertices.clone(),
+        },
         ast::Primitive::Quadric { coeffs, clip } => Primitive::Quadric {
             coeffs: *coeffs,
             clip: clip
                 .iter()
                 .map(|c| match c {
-                    ast::Clip::Box { min, max } => Clip::Box { min: *min, max: *max },
-                    ast::Clip::Plane { normal, offset } => Clip::Plane { normal: *normal, offset: *offset },
+                    ast::Clip::Box { min, max } => Clip::Box {
+                        min: *min,
+                        max: *max,
+                    },
+                    ast::Clip::Plane { normal, offset } => Clip::Plane {
+                        normal: *normal,
+                        offset: *offset,
+                    },
                 })
                 .collect(),
         },

@@ -11,8 +11,10 @@
 //! - [`tree`]: the object tree; combine, explode, copy, world-space transformations.
 //! - [`export`]: project to YARI (names as comments).
 //! - [`import`]: YARI to project (names from comments).
+//! - [`cli`]: the `modeler` command: subcommands, script mode, listing.
 //! - [`preview`]: the four views as one PNG, wireframe or flat shaded (z-buffer).
 
+pub mod cli;
 pub mod error;
 pub mod export;
 pub mod import;

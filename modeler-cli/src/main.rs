@@ -1,1 +1,17 @@
-fn main() {}
+//! `modeler`: see the library docs and docs/modeler.md.
+
+use clap::Parser;
+use modeler::cli::{commands::Cli, run};
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let mut stdout = std::io::stdout().lock();
+    match run(cli, &mut stdout) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("modeler: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -59,10 +59,14 @@ impl Mesh {
         }
         for (&(a, b), &n) in &directed {
             if n != 1 {
-                return Err(format!("edge {a}->{b} is traversed {n} times in the same direction"));
+                return Err(format!(
+                    "edge {a}->{b} is traversed {n} times in the same direction"
+                ));
             }
             if !directed.contains_key(&(b, a)) {
-                return Err(format!("edge {a}->{b} has no neighbour face (the surface is open there)"));
+                return Err(format!(
+                    "edge {a}->{b} has no neighbour face (the surface is open there)"
+                ));
             }
         }
         Ok(())
@@ -85,7 +89,9 @@ impl Mesh {
     pub fn to_primitives(&self) -> Vec<Primitive> {
         self.faces
             .iter()
-            .map(|f| Primitive::Polygon { vertices: f.iter().map(|&i| self.vertices[i].to_array()).collect() })
+            .map(|f| Primitive::Polygon {
+                vertices: f.iter().map(|&i| self.vertices[i].to_array()).collect(),
+            })
             .collect()
     }
 
@@ -127,7 +133,10 @@ pub fn dedup_points(points: &[DVec3], closed: bool, eps: f64) -> Vec<DVec3> {
 
 /// A size for tolerances: the largest coordinate magnitude (at least 1).
 pub fn scale_of(points: &[DVec3]) -> f64 {
-    points.iter().map(|p| p.abs().max_element()).fold(1.0, f64::max)
+    points
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(1.0, f64::max)
 }
 
 #[cfg(test)]
@@ -176,8 +185,11 @@ mod tests {
     #[test]
     fn polygons_merge_back_into_the_same_mesh() {
         let m = cube();
-        let polys: Vec<Vec<[f64; 3]>> =
-            m.faces.iter().map(|f| f.iter().map(|&i| m.vertices[i].to_array()).collect()).collect();
+        let polys: Vec<Vec<[f64; 3]>> = m
+            .faces
+            .iter()
+            .map(|f| f.iter().map(|&i| m.vertices[i].to_array()).collect())
+            .collect();
         let back = Mesh::from_polygons(polys.iter().map(|p| p.as_slice()));
         back.check_closed().unwrap();
         assert_eq!(back.faces.len(), 6);

@@ -75,7 +75,14 @@ pub struct Camera {
 
 impl Default for Camera {
     fn default() -> Camera {
-        Camera { position: [0.0, 0.0, 10.0], at: [0.0; 3], up: [0.0, 1.0, 0.0], angle: 22.5, aperture: None, focus: None }
+        Camera {
+            position: [0.0, 0.0, 10.0],
+            at: [0.0; 3],
+            up: [0.0, 1.0, 0.0],
+            angle: 22.5,
+            aperture: None,
+            focus: None,
+        }
     }
 }
 
@@ -164,10 +171,18 @@ pub enum Transform {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Primitive {
-    Sphere { center: V3, radius: f64 },
-    Polygon { vertices: Vec<V3> },
+    Sphere {
+        center: V3,
+        radius: f64,
+    },
+    Polygon {
+        vertices: Vec<V3>,
+    },
     /// Coefficients in YARI's order (see `yari::model::Quadric`) and clipping.
-    Quadric { coeffs: [f64; 10], clip: Vec<Clip> },
+    Quadric {
+        coeffs: [f64; 10],
+        clip: Vec<Clip>,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -205,12 +220,18 @@ impl Project {
     /// Reads a project file.
     pub fn load(path: &Path) -> Result<Project, ModelError> {
         let text = std::fs::read_to_string(path).map_err(|e| ModelError::io(path, e))?;
-        let project: Project = serde_json::from_str(&text)
-            .map_err(|e| ModelError::ProjectFormat { path: path.display().to_string(), message: e.to_string() })?;
+        let project: Project =
+            serde_json::from_str(&text).map_err(|e| ModelError::ProjectFormat {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            })?;
         if project.version > FORMAT_VERSION {
             return Err(ModelError::ProjectFormat {
                 path: path.display().to_string(),
-                message: format!("format version {} is newer than this modeler ({FORMAT_VERSION})", project.version),
+                message: format!(
+                    "format version {} is newer than this modeler ({FORMAT_VERSION})",
+                    project.version
+                ),
             });
         }
         Ok(project)
@@ -218,10 +239,11 @@ impl Project {
 
     /// Writes the project as JSON, atomically.
     pub fn save(&self, path: &Path) -> Result<(), ModelError> {
-        let mut text = serde_json::to_string_pretty(self).map_err(|e| ModelError::ProjectFormat {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        })?;
+        let mut text =
+            serde_json::to_string_pretty(self).map_err(|e| ModelError::ProjectFormat {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            })?;
         text.push('\n');
         write_atomic(path, text.as_bytes())
     }
@@ -234,7 +256,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ModelError> {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
-    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
     let tmp = dir.join(format!(".{file_name}.tmp{}", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
@@ -260,9 +285,30 @@ mod tests {
         let mut p = Project::new_default();
         p.objects.push(Object {
             name: "ball".into(),
-            surface: Some(Surface { color: Some(Color::Named("red".into())), kdr: Some(0.3), ..Surface::default() }),
+            surface: Some(Surface {
+                color: Some(Color::Named("red".into())),
+                kdr: Some(0.3),
+                ..Surface::default()
+            }),
             transforms: vec![Transform::Rotate([0.1, 1.0 / 3.0, 7.0])],
-            primitives: vec![Primitive::Sphere { center: [1.0, 2.0, 3.0], radius: 0.1 + 0.2 }],
+            primitives: vec![
+                Primitive::Sphere {
+                    center: [1.0, 2.0, 3.0],
+                    radius: 0.1 + 0.2,
+                },
+                // Values that a fast, inexact float parser reads back wrongly.
+                Primitive::Polygon {
+                    vertices: vec![
+                        [
+                            4.9751276215361216e-17,
+                            -1.4925382864608366e-16,
+                            0.57452425971407,
+                        ],
+                        [1e-300, 5e-324, f64::MAX],
+                        [0.1, 0.2, 0.3],
+                    ],
+                },
+            ],
             children: vec![],
         });
         p.save(&path).unwrap();
@@ -278,7 +324,9 @@ mod tests {
         std::fs::write(&path, "{ not json").unwrap();
         let err = Project::load(&path).unwrap_err().to_string();
         assert!(err.contains("p.json"), "{err}");
-        let missing = Project::load(&dir.path().join("none.json")).unwrap_err().to_string();
+        let missing = Project::load(&dir.path().join("none.json"))
+            .unwrap_err()
+            .to_string();
         assert!(missing.contains("none.json"), "{missing}");
     }
 }

@@ -111,7 +111,10 @@ impl Skeleton {
 
     /// The points in 3D.
     pub fn points_3d(&self) -> Vec<DVec3> {
-        self.points.iter().map(|p| self.plane.to_3d(*p, self.depth)).collect()
+        self.points
+            .iter()
+            .map(|p| self.plane.to_3d(*p, self.depth))
+            .collect()
     }
 
     /// The skeleton as a polyline in plane coordinates: the points themselves, or the
@@ -126,21 +129,31 @@ impl Skeleton {
 
     /// [`Skeleton::curve_2d`] in 3D.
     pub fn curve_3d(&self, smoothness: Option<u32>) -> Result<Vec<DVec3>, ModelError> {
-        Ok(self.curve_2d(smoothness)?.into_iter().map(|p| self.plane.to_3d(p, self.depth)).collect())
+        Ok(self
+            .curve_2d(smoothness)?
+            .into_iter()
+            .map(|p| self.plane.to_3d(p, self.depth))
+            .collect())
     }
 
     fn flatten_bezier(&self, smoothness: u32) -> Result<Vec<[f64; 2]>, ModelError> {
         let d = self.degree as usize;
         if d == 0 {
-            return Err(ModelError::skeleton(&self.name, "the Bézier degree must be at least 1"));
+            return Err(ModelError::skeleton(
+                &self.name,
+                "the Bézier degree must be at least 1",
+            ));
         }
         if smoothness == 0 || smoothness > MAX_SMOOTHNESS {
-            return Err(ModelError::skeleton(&self.name, format!("smoothness must be 1..={MAX_SMOOTHNESS}")));
+            return Err(ModelError::skeleton(
+                &self.name,
+                format!("smoothness must be 1..={MAX_SMOOTHNESS}"),
+            ));
         }
         let n = self.points.len();
         let mut control = self.points.clone();
         let pieces = if self.closed {
-            if n < d || n % d != 0 {
+            if n < d || !n.is_multiple_of(d) {
                 return Err(ModelError::skeleton(
                     &self.name,
                     format!("a closed Bézier chain of degree {d} needs a multiple of {d} control points (has {n})"),
@@ -149,10 +162,12 @@ impl Skeleton {
             control.push(self.points[0]);
             n / d
         } else {
-            if n < d + 1 || (n - 1) % d != 0 {
+            if n < d + 1 || !(n - 1).is_multiple_of(d) {
                 return Err(ModelError::skeleton(
                     &self.name,
-                    format!("an open Bézier chain of degree {d} needs {d}*k+1 control points (has {n})"),
+                    format!(
+                        "an open Bézier chain of degree {d} needs {d}*k+1 control points (has {n})"
+                    ),
                 ));
             }
             (n - 1) / d
@@ -177,7 +192,10 @@ pub fn de_casteljau(control: &[[f64; 2]], t: f64) -> [f64; 2] {
     let n = pts.len();
     for level in 1..n {
         for i in 0..n - level {
-            pts[i] = [pts[i][0] + (pts[i + 1][0] - pts[i][0]) * t, pts[i][1] + (pts[i + 1][1] - pts[i][1]) * t];
+            pts[i] = [
+                pts[i][0] + (pts[i + 1][0] - pts[i][0]) * t,
+                pts[i][1] + (pts[i + 1][1] - pts[i][1]) * t,
+            ];
         }
     }
     pts[0]
@@ -217,7 +235,15 @@ mod tests {
 
     #[test]
     fn smoothness_sets_the_segment_count() {
-        let p = [[0.0, 0.0], [1.0, 1.0], [2.0, 1.0], [3.0, 0.0], [4.0, -1.0], [5.0, -1.0], [6.0, 0.0]];
+        let p = [
+            [0.0, 0.0],
+            [1.0, 1.0],
+            [2.0, 1.0],
+            [3.0, 0.0],
+            [4.0, -1.0],
+            [5.0, -1.0],
+            [6.0, 0.0],
+        ];
         let s = bez(&p, false);
         assert_eq!(s.curve_2d(Some(2)).unwrap().len(), 2 * 2 + 1);
         assert_eq!(s.curve_2d(Some(10)).unwrap().len(), 2 * 10 + 1);

@@ -21,7 +21,12 @@ pub const MAX_SEGMENTS: usize = 720;
 
 /// Sweeps `profile` (a skeleton whose plane contains `axis`) about that axis through 360
 /// degrees in steps of about `step_deg` (rounded so that the steps divide 360).
-pub fn revolve(profile: &Skeleton, axis: usize, step_deg: f64, smoothness: Option<u32>) -> Result<Mesh, ModelError> {
+pub fn revolve(
+    profile: &Skeleton,
+    axis: usize,
+    step_deg: f64,
+    smoothness: Option<u32>,
+) -> Result<Mesh, ModelError> {
     let name = &profile.name;
     let (pa, pb, normal_axis) = profile.plane.axes();
     if axis == normal_axis {
@@ -35,7 +40,10 @@ pub fn revolve(profile: &Skeleton, axis: usize, step_deg: f64, smoothness: Optio
         ));
     }
     if !(step_deg.is_finite() && step_deg > 0.0) {
-        return Err(ModelError::bad_arg("--step", format!("the step must be a positive number of degrees (got {step_deg})")));
+        return Err(ModelError::bad_arg(
+            "--step",
+            format!("the step must be a positive number of degrees (got {step_deg})"),
+        ));
     }
     let segments = (360.0 / step_deg).round();
     if !(3.0..=MAX_SEGMENTS as f64).contains(&segments) {
@@ -54,10 +62,19 @@ pub fn revolve(profile: &Skeleton, axis: usize, step_deg: f64, smoothness: Optio
     let negative = rh.iter().any(|&(r, _)| r < -eps);
     let positive = rh.iter().any(|&(r, _)| r > eps);
     if negative && positive {
-        return Err(ModelError::skeleton(name, format!("crosses the {} axis; keep the profile on one side", axis_name(axis))));
+        return Err(ModelError::skeleton(
+            name,
+            format!(
+                "crosses the {} axis; keep the profile on one side",
+                axis_name(axis)
+            ),
+        ));
     }
     if !positive && !negative {
-        return Err(ModelError::skeleton(name, "lies on the axis; it sweeps no surface"));
+        return Err(ModelError::skeleton(
+            name,
+            "lies on the axis; it sweeps no surface",
+        ));
     }
     // The direction in which radius is measured at angle 0 is the side the profile is on.
     let mut e1 = DVec3::ZERO;
@@ -66,7 +83,10 @@ pub fn revolve(profile: &Skeleton, axis: usize, step_deg: f64, smoothness: Optio
         p.0 = if p.0.abs() <= eps { 0.0 } else { p.0.abs() };
     }
     if rh.len() < 2 {
-        return Err(ModelError::skeleton(name, "needs at least two distinct points"));
+        return Err(ModelError::skeleton(
+            name,
+            "needs at least two distinct points",
+        ));
     }
     let mut a = DVec3::ZERO;
     a[axis] = 1.0;
@@ -83,7 +103,12 @@ pub fn revolve(profile: &Skeleton, axis: usize, step_deg: f64, smoothness: Optio
             let mut idx = Vec::with_capacity(segments);
             for k in 0..segments {
                 let theta = (k as f64) * std::f64::consts::TAU / segments as f64;
+                // Exact zeros at multiples of 90 degrees keep the output clean.
                 let (s, c) = theta.sin_cos();
+                let (s, c) = (
+                    if s.abs() < 1e-15 { 0.0 } else { s },
+                    if c.abs() < 1e-15 { 0.0 } else { c },
+                );
                 mesh.vertices.push(a * h + e1 * (r * c) + e2 * (r * s));
                 idx.push(mesh.vertices.len() - 1);
             }
@@ -127,22 +152,40 @@ pub fn revolve(profile: &Skeleton, axis: usize, step_deg: f64, smoothness: Optio
 
 /// Extrudes the closed outline of `outline` along `by`, with caps at both ends unless
 /// `caps` is false. With `centred`, the solid reaches from -by/2 to +by/2 about the outline.
-pub fn extrude(outline: &Skeleton, by: DVec3, caps: bool, centred: bool, smoothness: Option<u32>) -> Result<Mesh, ModelError> {
+pub fn extrude(
+    outline: &Skeleton,
+    by: DVec3,
+    caps: bool,
+    centred: bool,
+    smoothness: Option<u32>,
+) -> Result<Mesh, ModelError> {
     let name = &outline.name;
     let raw = outline.curve_3d(smoothness)?;
     let eps = 1e-9 * scale_of(&raw);
     let mut base = dedup_points(&raw, true, eps);
     if base.len() < 3 {
-        return Err(ModelError::skeleton(name, format!("an outline needs at least three distinct points (has {})", base.len())));
+        return Err(ModelError::skeleton(
+            name,
+            format!(
+                "an outline needs at least three distinct points (has {})",
+                base.len()
+            ),
+        ));
     }
     if !by.is_finite() || by.length() == 0.0 {
-        return Err(ModelError::bad_arg("--by", "the extrusion vector must be finite and not zero"));
+        return Err(ModelError::bad_arg(
+            "--by",
+            "the extrusion vector must be finite and not zero",
+        ));
     }
     let (_, _, normal_axis) = outline.plane.axes();
     if by[normal_axis].abs() <= 1e-12 * by.length() {
         return Err(ModelError::bad_arg(
             "--by",
-            format!("{by} lies in the outline's plane {}; it must leave the plane", outline.plane.name()),
+            format!(
+                "{by} lies in the outline's plane {}; it must leave the plane",
+                outline.plane.name()
+            ),
         ));
     }
     if centred {

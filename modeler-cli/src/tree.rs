@@ -9,7 +9,7 @@
 //! file can be brought into this shape exactly (see [`crate::import`]).
 
 use crate::error::{check_name, ModelError};
-use crate::project::{Object, Project, Transform, V3};
+use crate::project::{Object, Project, Surface, Transform, V3};
 
 impl Object {
     pub fn is_group(&self) -> bool {
@@ -102,6 +102,28 @@ impl Project {
         }
     }
 
+    /// The surface an object renders with: its own, or the nearest enclosing object's
+    /// (`None`: the renderer's default surface).
+    pub fn effective_surface(&self, name: &str) -> Option<Surface> {
+        fn search(
+            list: &[Object],
+            name: &str,
+            inherited: Option<&Surface>,
+        ) -> Option<Option<Surface>> {
+            for o in list {
+                let here = o.surface.as_ref().or(inherited);
+                if o.name == name {
+                    return Some(here.cloned());
+                }
+                if let Some(found) = search(&o.children, name, here) {
+                    return Some(found);
+                }
+            }
+            None
+        }
+        search(&self.objects, name, None).flatten()
+    }
+
     fn object_not_found(&self, name: &str) -> ModelError {
         ModelError::not_found("object", name, self.object_names().into_iter())
     }
@@ -110,7 +132,10 @@ impl Project {
     pub fn check_new_object_name(&self, name: &str) -> Result<(), ModelError> {
         check_name(name)?;
         if self.object(name).is_ok() {
-            return Err(ModelError::Duplicate { kind: "object", name: name.into() });
+            return Err(ModelError::Duplicate {
+                kind: "object",
+                name: name.into(),
+            });
         }
         Ok(())
     }
@@ -120,7 +145,10 @@ impl Project {
         if self.object(base).is_err() {
             return base.to_string();
         }
-        (2..).map(|i| format!("{base}.{i}")).find(|n| self.object(n).is_err()).unwrap_or_default()
+        (2..)
+            .map(|i| format!("{base}.{i}"))
+            .find(|n| self.object(n).is_err())
+            .unwrap_or_default()
     }
 
     /// Adds a new top-level object.
@@ -139,26 +167,46 @@ impl Project {
         }
     }
 
-    /// Combines objects into a new group, which takes the place of the first of them.
+    /// Combines objects into a new group, which takes the place of the first of them. An
+    /// object that moves and inherited its surface keeps the look it had.
     pub fn combine(&mut self, group: &str, members: &[String]) -> Result<(), ModelError> {
         self.check_new_object_name(group)?;
         if members.is_empty() {
-            return Err(ModelError::bad_arg("OBJECTS", "name at least one object to combine"));
+            return Err(ModelError::bad_arg(
+                "OBJECTS",
+                "name at least one object to combine",
+            ));
         }
         for (i, m) in members.iter().enumerate() {
             let obj = self.object(m)?;
             if members[..i].contains(m) {
                 return Err(ModelError::bad_arg(m.clone(), "is named twice"));
             }
-            if let Some(inner) = members.iter().find(|other| *other != m && obj.contains(other)) {
-                return Err(ModelError::bad_arg(inner.clone(), format!("is inside `{m}`; combine `{m}` alone")));
+            if let Some(inner) = members
+                .iter()
+                .find(|other| *other != m && obj.contains(other))
+            {
+                return Err(ModelError::bad_arg(
+                    inner.clone(),
+                    format!("is inside `{m}`; combine `{m}` alone"),
+                ));
             }
         }
-        let (list, i) = locate(&mut self.objects, &members[0]).ok_or_else(|| ModelError::bad_arg(&members[0], "not found"))?;
+        let (list, i) = locate(&mut self.objects, &members[0])
+            .ok_or_else(|| ModelError::bad_arg(&members[0], "not found"))?;
         let first = std::mem::take(&mut list[i]);
-        list[i] = Object { name: group.into(), children: vec![first], ..Object::default() };
+        list[i] = Object {
+            name: group.into(),
+            children: vec![first],
+            ..Object::default()
+        };
+        let inherited_here = self.effective_surface(group);
         for m in &members[1..] {
-            let obj = self.remove_object(m)?;
+            let before = self.effective_surface(m);
+            let mut obj = self.remove_object(m)?;
+            if obj.surface.is_none() && before != inherited_here {
+                obj.surface = Some(before.unwrap_or_default());
+            }
             self.object_mut(group)?.children.push(obj);
         }
         Ok(())
@@ -181,12 +229,17 @@ impl Project {
                 .collect()
         } else {
             if obj.primitives.len() < 2 {
-                return Err(ModelError::object(name, "has fewer than two primitives; there is nothing to explode"));
+                return Err(ModelError::object(
+                    name,
+                    "has fewer than two primitives; there is nothing to explode",
+                ));
             }
             let mut parts = Vec::new();
             for (i, p) in obj.primitives.iter().enumerate() {
                 let mut part_name = format!("{name}.{}", i + 1);
-                while self.object(&part_name).is_ok() || parts.iter().any(|o: &Object| o.name == part_name) {
+                while self.object(&part_name).is_ok()
+                    || parts.iter().any(|o: &Object| o.name == part_name)
+                {
                     part_name.push('_');
                 }
                 parts.push(Object {
@@ -200,8 +253,8 @@ impl Project {
             parts
         };
         let names = parts.iter().map(|p| p.name.clone()).collect();
-        let (list, i) =
-            locate(&mut self.objects, name).ok_or_else(|| ModelError::not_found("object", name, std::iter::empty()))?;
+        let (list, i) = locate(&mut self.objects, name)
+            .ok_or_else(|| ModelError::not_found("object", name, std::iter::empty()))?;
         list.splice(i..=i, parts);
         Ok(names)
     }
@@ -219,6 +272,9 @@ impl Project {
     pub fn copy_object(&mut self, old: &str, new: &str) -> Result<(), ModelError> {
         self.check_new_object_name(new)?;
         let mut copy = self.object(old)?.clone();
+        if copy.surface.is_none() {
+            copy.surface = self.effective_surface(old);
+        }
         let mut taken: Vec<String> = self.object_names().into_iter().map(String::from).collect();
         taken.push(new.into());
         copy.name = new.into();
@@ -230,7 +286,12 @@ impl Project {
     }
 
     /// Translates, rotates or scales an object in world space, about `pivot`.
-    pub fn transform_object(&mut self, name: &str, t: Transform, pivot: Option<V3>) -> Result<(), ModelError> {
+    pub fn transform_object(
+        &mut self,
+        name: &str,
+        t: Transform,
+        pivot: Option<V3>,
+    ) -> Result<(), ModelError> {
         let mut ts = Vec::new();
         let pivot = pivot.filter(|p| *p != [0.0; 3]);
         if let Some(p) = pivot {

@@ -12,7 +12,11 @@ use rem::{EventKind, Incoming, ProcId, Relay, SpawnRequest};
 const T: Duration = Duration::from_secs(30);
 
 fn main() {
-    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().unwrap();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
     rt.block_on(run());
 }
 
@@ -21,6 +25,23 @@ async fn next_message(relay: &mut Relay) -> Vec<u8> {
         if let Incoming::Message { payload, .. } = relay.recv().await.unwrap() {
             return payload;
         }
+    }
+}
+
+/// Waits until the processes have attached to the relay (before that, only a bounded number
+/// of messages is kept for them).
+async fn wait_attached(client: &rem::RemClient, ids: &[&ProcId]) {
+    let end = Instant::now() + T;
+    loop {
+        let ps = client.ps().await.unwrap();
+        if ids
+            .iter()
+            .all(|id| ps.iter().any(|p| p.proc_id == id.as_str() && p.attached))
+        {
+            return;
+        }
+        assert!(Instant::now() < end, "processes did not attach");
+        tokio::time::sleep(Duration::from_millis(10)).await;
     }
 }
 
@@ -43,8 +64,18 @@ async fn run() {
 
     // Throughput: a on host a -> sink on host b, 32-byte messages.
     const N: u64 = 500_000;
-    let job = client.spawn(spawn_on_b(vec!["sink", &N.to_string()], owner.id().clone())).await.unwrap();
-    let sink = job.processes.iter().find(|p| p.host == "b").unwrap().proc_id.clone();
+    let job = client
+        .spawn(spawn_on_b(vec!["sink", &N.to_string()], owner.id().clone()))
+        .await
+        .unwrap();
+    let sink = job
+        .processes
+        .iter()
+        .find(|p| p.host == "b")
+        .unwrap()
+        .proc_id
+        .clone();
+    wait_attached(&client, &[&sink]).await;
     // Warm up the path (one full round).
     for round in 0..2 {
         let sender = owner.sender();
@@ -57,17 +88,32 @@ async fn run() {
                 sender.send(&to, m).await.unwrap();
             }
         });
-        let done = tokio::time::timeout(T, next_message(&mut owner)).await.expect("sink answered");
+        let done = tokio::time::timeout(T, next_message(&mut owner))
+            .await
+            .expect("sink answered");
         assert_eq!(done, b"done");
         let secs = t0.elapsed().as_secs_f64();
         if round == 1 {
-            println!("relay throughput: {N} messages of 32 bytes a->b in {secs:.3} s = {:.0} messages/s", N as f64 / secs);
+            println!(
+                "relay throughput: {N} messages of 32 bytes a->b in {secs:.3} s = {:.0} messages/s",
+                N as f64 / secs
+            );
         }
     }
 
     // Round trip: a -> echo on b -> a, one message at a time.
-    let job = client.spawn(spawn_on_b(vec!["echo"], owner.id().clone())).await.unwrap();
-    let echo = job.processes.iter().find(|p| p.host == "b").unwrap().proc_id.clone();
+    let job = client
+        .spawn(spawn_on_b(vec!["echo"], owner.id().clone()))
+        .await
+        .unwrap();
+    let echo = job
+        .processes
+        .iter()
+        .find(|p| p.host == "b")
+        .unwrap()
+        .proc_id
+        .clone();
+    wait_attached(&client, &[&echo]).await;
     let mut times = Vec::new();
     for i in 0..21_000u32 {
         let t0 = Instant::now();
@@ -103,7 +149,11 @@ async fn run() {
             .await
             .unwrap();
         let d = t0.elapsed();
-        if count == 1 { local.push(d) } else { all3.push(d) }
+        if count == 1 {
+            local.push(d)
+        } else {
+            all3.push(d)
+        }
         let mut exited = 0;
         while exited < job.processes.len() {
             if let Incoming::Event(e) = owner.recv().await.unwrap() {
@@ -134,14 +184,26 @@ async fn run() {
         })
         .await
         .unwrap();
-    let on_c = job.processes.iter().find(|p| p.host == "c").unwrap().proc_id.clone();
+    let on_c = job
+        .processes
+        .iter()
+        .find(|p| p.host == "c")
+        .unwrap()
+        .proc_id
+        .clone();
     let t0 = Instant::now();
     cluster.daemons[2].signal(libc::SIGKILL);
     // Every process of the bench on c is reported (the sink and echo too); time the first.
-    let ev = next_event(&mut owner, T, |e| e.kind == EventKind::Lost as i32).await;
-    assert_eq!(ev.host, "c");
-    let to_event = t0.elapsed();
-    next_event(&mut owner, T, |e| e.kind == EventKind::Lost as i32 && e.proc_id == on_c.as_str()).await;
+    let mut first = None;
+    loop {
+        let ev = next_event(&mut owner, T, |e| e.kind == EventKind::Lost as i32).await;
+        assert_eq!(ev.host, "c");
+        first.get_or_insert(t0.elapsed());
+        if ev.proc_id == on_c.as_str() {
+            break;
+        }
+    }
+    let to_event = first.unwrap();
     wait_hosts(&b, T, |hs| hs.iter().any(|h| h.name == "c" && !h.alive)).await;
     let to_b = t0.elapsed();
     println!("failure detection (kill -9): owner got LOST after {to_event:?}; host b marked c lost by {to_b:?}");

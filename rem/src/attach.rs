@@ -14,7 +14,9 @@ use tonic::{Status, Streaming};
 
 use crate::daemon::Daemon;
 use crate::ids::{is_valid_name, ProcId};
-use crate::proto::{client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome};
+use crate::proto::{
+    client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome,
+};
 use crate::relay::{Delivery, BATCH};
 
 /// Bytes of envelopes in one batch to a process (one envelope may be larger on its own).
@@ -23,25 +25,36 @@ pub const BATCH_BYTES: usize = 1 << 20;
 pub type FrameStream = ReceiverStream<Result<ServerFrame, Status>>;
 
 /// Runs the handshake and starts the two pumps; returns the stream to the process.
-pub async fn attach(daemon: Arc<Daemon>, mut inbound: Streaming<ClientFrame>) -> Result<FrameStream, Status> {
+pub async fn attach(
+    daemon: Arc<Daemon>,
+    mut inbound: Streaming<ClientFrame>,
+) -> Result<FrameStream, Status> {
     let hello = match inbound.message().await? {
-        Some(ClientFrame { frame: Some(client_frame::Frame::Hello(h)) }) => h,
+        Some(ClientFrame {
+            frame: Some(client_frame::Frame::Hello(h)),
+        }) => h,
         _ => return Err(Status::invalid_argument("the first frame must be Hello")),
     };
     if !hello.job.is_empty() && !is_valid_name(&hello.job) {
-        return Err(Status::invalid_argument(format!("bad job id {:?}", hello.job)));
+        return Err(Status::invalid_argument(format!(
+            "bad job id {:?}",
+            hello.job
+        )));
     }
     let (id, external) = if hello.proc_id.is_empty() {
         let id = daemon.new_proc_id();
         daemon.router.register(&id);
         (id, true)
     } else {
-        let id = ProcId::parse(&hello.proc_id)
-            .ok_or_else(|| Status::invalid_argument(format!("bad process id {:?}", hello.proc_id)))?;
+        let id = ProcId::parse(&hello.proc_id).ok_or_else(|| {
+            Status::invalid_argument(format!("bad process id {:?}", hello.proc_id))
+        })?;
         (id, false)
     };
     let (mailbox_tx, mailbox_rx) = daemon.router.take_mailbox(&id).ok_or_else(|| {
-        Status::failed_precondition(format!("{id} is not a process of this host waiting to attach"))
+        Status::failed_precondition(format!(
+            "{id} is not a process of this host waiting to attach"
+        ))
     })?;
     let (out_tx, out_rx) = mpsc::channel(16);
     let welcome = Welcome {
@@ -50,8 +63,19 @@ pub async fn attach(daemon: Arc<Daemon>, mut inbound: Streaming<ClientFrame>) ->
         host: daemon.name.clone(),
         max_message_bytes: daemon.max_message as u64,
     };
-    let _ = out_tx.send(Ok(frame(server_frame::Frame::Welcome(welcome)))).await;
-    tokio::spawn(pump_out(mailbox_rx, out_tx.clone(), daemon.stop.clone()));
+    let _ = out_tx
+        .send(Ok(frame(server_frame::Frame::Welcome(welcome))))
+        .await;
+    let router = daemon.router.clone();
+    let (out_id, stop) = (id.clone(), daemon.stop.clone());
+    let out_tx2 = out_tx.clone();
+    tokio::spawn(async move {
+        let rx = pump_out(mailbox_rx, out_tx2, stop).await;
+        if !external {
+            // A spawned process may attach again (after a broken connection).
+            router.give_back(&out_id, rx);
+        }
+    });
     tokio::spawn(async move {
         pump_in(&daemon, &id, inbound, mailbox_tx, out_tx).await;
         if external {
@@ -65,12 +89,12 @@ fn frame(f: server_frame::Frame) -> ServerFrame {
     ServerFrame { frame: Some(f) }
 }
 
-/// Mailbox -> process, batching queued envelopes.
+/// Mailbox -> process, batching queued envelopes; returns the mailbox when the process is gone.
 async fn pump_out(
     mut mailbox: mpsc::Receiver<Delivery>,
     out: mpsc::Sender<Result<ServerFrame, Status>>,
     stop: tokio_util::sync::CancellationToken,
-) {
+) -> mpsc::Receiver<Delivery> {
     let mut pending: Option<Delivery> = None;
     loop {
         let first = match pending.take() {
@@ -110,6 +134,7 @@ async fn pump_out(
             break;
         }
     }
+    mailbox
 }
 
 /// Process -> router.
@@ -126,9 +151,15 @@ async fn pump_in(
             _ = daemon.stop.cancelled() => return,
         };
         let batch = match msg {
-            Ok(Some(ClientFrame { frame: Some(client_frame::Frame::Batch(b)) })) => b,
+            Ok(Some(ClientFrame {
+                frame: Some(client_frame::Frame::Batch(b)),
+            })) => b,
             Ok(Some(_)) => {
-                let _ = out.send(Err(Status::invalid_argument("unexpected frame after Hello"))).await;
+                let _ = out
+                    .send(Err(Status::invalid_argument(
+                        "unexpected frame after Hello",
+                    )))
+                    .await;
                 return;
             }
             Ok(None) => return,
@@ -150,7 +181,12 @@ async fn pump_in(
             env.from = id.to_string();
             let to = env.to.clone();
             if let Err(reason) = daemon.router.route(env).await {
-                let _ = mailbox.try_send(Delivery::Undeliverable(Undeliverable { to, reason }));
+                let notice = Undeliverable {
+                    to,
+                    reason,
+                    sender: id.to_string(),
+                };
+                let _ = mailbox.try_send(Delivery::Undeliverable(notice));
             }
         }
     }

@@ -23,12 +23,18 @@ pub struct CheckpointStore {
 impl CheckpointStore {
     pub fn open(dir: &Path) -> Result<Self> {
         std::fs::create_dir_all(dir)?;
-        Ok(CheckpointStore { dir: dir.to_path_buf(), lock: Arc::default(), clock: Arc::default() })
+        Ok(CheckpointStore {
+            dir: dir.to_path_buf(),
+            lock: Arc::default(),
+            clock: Arc::default(),
+        })
     }
 
     /// A version newer than any this store has handed out (nanoseconds since the epoch).
     pub fn next_version(&self) -> u64 {
-        let now = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
+        let now = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as u64);
         let prev = self.clock.fetch_max(now, Ordering::SeqCst);
         if prev >= now {
             self.clock.fetch_add(1, Ordering::SeqCst) + 1
@@ -96,7 +102,12 @@ mod tests {
         let v1 = store.next_version();
         let v2 = store.next_version();
         assert!(v2 > v1);
-        let cp = |data: &[u8], version| Checkpoint { job: "j1".into(), data: data.to_vec(), version, written_by: "a".into() };
+        let cp = |data: &[u8], version| Checkpoint {
+            job: "j1".into(),
+            data: data.to_vec(),
+            version,
+            written_by: "a".into(),
+        };
         store.put(&cp(b"two", v2)).await.unwrap();
         store.put(&cp(b"one", v1)).await.unwrap();
         let again = CheckpointStore::open(dir.path()).unwrap();
@@ -104,7 +115,10 @@ mod tests {
         assert!(again.get("nothing").await.unwrap().is_none());
         assert!(store.get("../etc").await.is_err());
         // No temporary file is left behind.
-        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names.len(), 1);
     }
 }

@@ -33,17 +33,28 @@ pub struct ConnectOptions {
 
 impl ConnectOptions {
     pub fn new(addr: impl Into<String>, secret: Secret) -> Self {
-        ConnectOptions { addr: addr.into(), secret, tls: None, max_message: DEFAULT_MAX_MESSAGE }
+        ConnectOptions {
+            addr: addr.into(),
+            secret,
+            tls: None,
+            max_message: DEFAULT_MAX_MESSAGE,
+        }
     }
 
     /// From the environment a spawned process gets: `REM_ADDR` (default `127.0.0.1:7077`),
     /// `REM_SECRET_FILE` or `REM_SECRET`, `REM_TLS_CA` / `REM_TLS_DOMAIN`, `REM_MAX_MESSAGE`.
     pub fn from_env() -> Result<Self> {
-        let addr = std::env::var(env::ADDR).ok().filter(|a| !a.is_empty()).unwrap_or_else(|| DEFAULT_ADDR.into());
+        let addr = std::env::var(env::ADDR)
+            .ok()
+            .filter(|a| !a.is_empty())
+            .unwrap_or_else(|| DEFAULT_ADDR.into());
         let (secret, _) = Secret::resolve(None)?;
         let mut opts = ConnectOptions::new(addr, secret);
         opts.tls = ClientTls::from_env()?;
-        if let Some(m) = std::env::var(env::MAX_MESSAGE).ok().and_then(|m| m.parse().ok()) {
+        if let Some(m) = std::env::var(env::MAX_MESSAGE)
+            .ok()
+            .and_then(|m| m.parse().ok())
+        {
             opts.max_message = m;
         }
         Ok(opts)
@@ -154,7 +165,13 @@ impl RemClient {
 
     /// Every host known to the daemon, itself first.
     pub async fn hosts(&self) -> Result<Vec<proto::HostInfo>> {
-        Ok(self.rpc.clone().hosts(proto::HostsRequest {}).await?.into_inner().hosts)
+        Ok(self
+            .rpc
+            .clone()
+            .hosts(proto::HostsRequest {})
+            .await?
+            .into_inner()
+            .hosts)
     }
 
     /// Places and starts processes; all or nothing.
@@ -174,48 +191,93 @@ impl RemClient {
             .processes
             .into_iter()
             .map(|p| {
-                let proc_id = ProcId::parse(&p.proc_id)
-                    .ok_or_else(|| Error::Invalid(format!("daemon sent a bad process id {:?}", p.proc_id)))?;
-                Ok(Spawned { proc_id, host: p.host, pid: p.pid })
+                let proc_id = ProcId::parse(&p.proc_id).ok_or_else(|| {
+                    Error::Invalid(format!("daemon sent a bad process id {:?}", p.proc_id))
+                })?;
+                Ok(Spawned {
+                    proc_id,
+                    host: p.host,
+                    pid: p.pid,
+                })
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(Job { id: reply.job, processes })
+        Ok(Job {
+            id: reply.job,
+            processes,
+        })
     }
 
     /// Every REM process on the live hosts.
     pub async fn ps(&self) -> Result<Vec<proto::ProcessInfo>> {
-        Ok(self.rpc.clone().ps(proto::PsRequest {}).await?.into_inner().processes)
+        Ok(self
+            .rpc
+            .clone()
+            .ps(proto::PsRequest {})
+            .await?
+            .into_inner()
+            .processes)
     }
 
     /// Ends a process (SIGTERM to its process group, SIGKILL after the grace period).
     pub async fn kill(&self, id: &ProcId) -> Result<()> {
-        self.rpc.clone().kill(proto::KillRequest { proc_id: id.to_string() }).await?;
+        self.rpc
+            .clone()
+            .kill(proto::KillRequest {
+                proc_id: id.to_string(),
+            })
+            .await?;
         Ok(())
     }
 
     /// The kept stdout and stderr of a process.
     pub async fn logs(&self, id: &ProcId) -> Result<Logs> {
-        let r = self.rpc.clone().logs(proto::LogsRequest { proc_id: id.to_string() }).await?.into_inner();
-        Ok(Logs { stdout: r.stdout, stderr: r.stderr, truncated: r.truncated })
+        let r = self
+            .rpc
+            .clone()
+            .logs(proto::LogsRequest {
+                proc_id: id.to_string(),
+            })
+            .await?
+            .into_inner();
+        Ok(Logs {
+            stdout: r.stdout,
+            stderr: r.stderr,
+            truncated: r.truncated,
+        })
     }
 
     /// Stores `data` as the checkpoint of `job`, on this daemon's host and one more.
     pub async fn put_checkpoint(&self, job: &str, data: Vec<u8>) -> Result<StoredCheckpoint> {
         if data.len() > self.opts.max_message {
-            return Err(Error::TooLarge { size: data.len(), limit: self.opts.max_message });
+            return Err(Error::TooLarge {
+                size: data.len(),
+                limit: self.opts.max_message,
+            });
         }
         let r = self
             .rpc
             .clone()
-            .put_checkpoint(proto::PutCheckpointRequest { job: job.to_string(), data })
+            .put_checkpoint(proto::PutCheckpointRequest {
+                job: job.to_string(),
+                data,
+            })
             .await?
             .into_inner();
-        Ok(StoredCheckpoint { version: r.version, stored_on: r.stored_on })
+        Ok(StoredCheckpoint {
+            version: r.version,
+            stored_on: r.stored_on,
+        })
     }
 
     /// The newest checkpoint of `job` on any live host.
     pub async fn get_checkpoint(&self, job: &str) -> Result<Option<Vec<u8>>> {
-        let r = self.rpc.clone().get_checkpoint(proto::GetCheckpointRequest { job: job.to_string() }).await?;
+        let r = self
+            .rpc
+            .clone()
+            .get_checkpoint(proto::GetCheckpointRequest {
+                job: job.to_string(),
+            })
+            .await?;
         Ok(r.into_inner().checkpoint.map(|c| c.data))
     }
 

@@ -34,7 +34,11 @@ pub const DEFAULT_MAX_MESSAGE: usize = 16 << 20;
 
 /// remd's command line.
 #[derive(Parser, Debug, Default, Clone)]
-#[command(name = "remd", version, about = "REM daemon: runs processes for the cluster and relays their messages")]
+#[command(
+    name = "remd",
+    version,
+    about = "REM daemon: runs processes for the cluster and relays their messages"
+)]
 pub struct RemdArgs {
     /// TOML file with the same settings (flags and environment win).
     #[arg(long, env = "REMD_CONFIG")]
@@ -176,7 +180,10 @@ impl Settings {
         s.allow = pick(args.allow, file.allow);
         for p in &s.allow {
             if !p.is_absolute() {
-                return Err(Error::Config(format!("--allow {} is not an absolute path", p.display())));
+                return Err(Error::Config(format!(
+                    "--allow {} is not an absolute path",
+                    p.display()
+                )));
             }
         }
         s.state_dir = args.state_dir.or(file.state_dir);
@@ -187,7 +194,9 @@ impl Settings {
             s.lost_after = Duration::from_millis(ms.max(20));
         }
         if s.lost_after <= s.heartbeat {
-            return Err(Error::Config("lost-after must be longer than the heartbeat interval".into()));
+            return Err(Error::Config(
+                "lost-after must be longer than the heartbeat interval".into(),
+            ));
         }
         if let Some(m) = args.max_message.or(file.max_message) {
             s.max_message = m.max(1);
@@ -205,7 +214,11 @@ impl Settings {
                 domain: args.tls_domain.or(file.tls_domain),
             }),
             (None, None) => None,
-            _ => return Err(Error::Config("TLS needs both --tls-cert and --tls-key".into())),
+            _ => {
+                return Err(Error::Config(
+                    "TLS needs both --tls-cert and --tls-key".into(),
+                ))
+            }
         };
         Ok(s)
     }
@@ -244,7 +257,13 @@ mod tests {
             ),
         )
         .unwrap();
-        let args = RemdArgs::parse_from(["remd", "--config", cfg.to_str().unwrap(), "--name", "flaghost"]);
+        let args = RemdArgs::parse_from([
+            "remd",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--name",
+            "flaghost",
+        ]);
         let s = Settings::from_args(args).unwrap();
         assert_eq!(s.name, "flaghost");
         assert_eq!(s.listen, "127.0.0.1:9000".parse().unwrap());
@@ -261,11 +280,25 @@ mod tests {
         let sf = secret.to_str().unwrap();
         let bad_name = RemdArgs::parse_from(["remd", "--name", "a/b", "--secret-file", sf]);
         assert!(Settings::from_args(bad_name).is_err());
-        let relative = RemdArgs::parse_from(["remd", "--name", "a", "--secret-file", sf, "--allow", "bin/x"]);
+        let relative = RemdArgs::parse_from([
+            "remd",
+            "--name",
+            "a",
+            "--secret-file",
+            sf,
+            "--allow",
+            "bin/x",
+        ]);
         assert!(Settings::from_args(relative).is_err());
         let cfg = dir.path().join("bad.toml");
         std::fs::write(&cfg, "nmae = 1\n").unwrap();
-        let unknown = RemdArgs::parse_from(["remd", "--config", cfg.to_str().unwrap(), "--secret-file", sf]);
+        let unknown = RemdArgs::parse_from([
+            "remd",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--secret-file",
+            sf,
+        ]);
         assert!(Settings::from_args(unknown).is_err());
     }
 }

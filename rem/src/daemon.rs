@@ -60,9 +60,16 @@ impl Daemon {
     pub async fn spawn(&self, req: SpawnRequest) -> Result<SpawnReply> {
         self.check_accepting()?;
         if !req.program.starts_with('/') {
-            return Err(Error::Invalid(format!("program {:?} is not an absolute path", req.program)));
+            return Err(Error::Invalid(format!(
+                "program {:?} is not an absolute path",
+                req.program
+            )));
         }
-        if !self.allow.iter().any(|a| a.as_os_str() == req.program.as_str()) {
+        if !self
+            .allow
+            .iter()
+            .any(|a| a.as_os_str() == req.program.as_str())
+        {
             return Err(Error::NotAllowed(req.program, self.name.clone()));
         }
         if let Some(n) = req.nice {
@@ -87,7 +94,11 @@ impl Daemon {
             .filter(|h| h.alive && h.accepting)
             .map(|h| {
                 let load = h.load.unwrap_or_default();
-                Candidate { name: h.name, load_per_core: load.load_per_core, cores: load.cores }
+                Candidate {
+                    name: h.name,
+                    load_per_core: load.load_per_core,
+                    cores: load.cores,
+                }
             })
             .collect();
         let chosen = placement::place(&candidates, req.count, req.allow_same_host)?;
@@ -112,7 +123,10 @@ impl Daemon {
             tasks.spawn(async move {
                 match remote {
                     None => processes.start_local(spec).await,
-                    Some(None) => Err(Error::Unreachable { host, reason: "lost".into() }),
+                    Some(None) => Err(Error::Unreachable {
+                        host,
+                        reason: "lost".into(),
+                    }),
                     Some(Some(addr)) => start_remote(&peers, &host, &addr, spec).await,
                 }
             });
@@ -149,7 +163,10 @@ impl Daemon {
                 let _ = self.router.route_event(event).await;
             }
         }
-        Ok(SpawnReply { job, processes: placed })
+        Ok(SpawnReply {
+            job,
+            processes: placed,
+        })
     }
 
     pub async fn start_local(&self, req: StartLocalRequest) -> Result<Vec<Placement>> {
@@ -174,7 +191,10 @@ impl Daemon {
         self.membership
             .live_addr(id.host())
             .map(Some)
-            .ok_or_else(|| Error::Unreachable { host: id.host().to_string(), reason: "unknown or lost".into() })
+            .ok_or_else(|| Error::Unreachable {
+                host: id.host().to_string(),
+                reason: "unknown or lost".into(),
+            })
     }
 
     pub async fn kill(&self, id: ProcId) -> Result<()> {
@@ -182,7 +202,9 @@ impl Daemon {
             None => self.processes.kill(id).await,
             Some(addr) => {
                 let mut c = self.peers.client(&addr)?;
-                let req = KillRequest { proc_id: id.to_string() };
+                let req = KillRequest {
+                    proc_id: id.to_string(),
+                };
                 timed(id.host(), c.kill_local(req)).await.map(|_| ())
             }
         }
@@ -193,7 +215,9 @@ impl Daemon {
             None => self.processes.logs(id).await,
             Some(addr) => {
                 let mut c = self.peers.client(&addr)?;
-                let req = LogsRequest { proc_id: id.to_string() };
+                let req = LogsRequest {
+                    proc_id: id.to_string(),
+                };
                 timed(id.host(), c.logs_local(req)).await
             }
         }
@@ -203,8 +227,16 @@ impl Daemon {
     pub async fn ps(&self) -> Result<Vec<ProcessInfo>> {
         let mut out = self.processes.list().await?;
         let mut tasks = JoinSet::new();
-        for h in self.membership.hosts().into_iter().skip(1).filter(|h| h.alive) {
-            let Ok(mut c) = self.peers.client(&h.addr) else { continue };
+        for h in self
+            .membership
+            .hosts()
+            .into_iter()
+            .skip(1)
+            .filter(|h| h.alive)
+        {
+            let Ok(mut c) = self.peers.client(&h.addr) else {
+                continue;
+            };
             tasks.spawn(async move { timed(&h.name, c.ps_local(PsRequest {})).await });
         }
         while let Some(r) = tasks.join_next().await {
@@ -219,15 +251,29 @@ impl Daemon {
     /// Stores a checkpoint here and on one more live host; returns (version, hosts).
     pub async fn put_checkpoint(&self, job: String, data: Vec<u8>) -> Result<(u64, Vec<String>)> {
         if data.len() > self.max_message {
-            return Err(Error::TooLarge { size: data.len(), limit: self.max_message });
+            return Err(Error::TooLarge {
+                size: data.len(),
+                limit: self.max_message,
+            });
         }
         if !is_valid_name(&job) {
             return Err(Error::Invalid(format!("bad job id {job:?}")));
         }
-        let cp = Checkpoint { job, data, version: self.checkpoints.next_version(), written_by: self.name.clone() };
+        let cp = Checkpoint {
+            job,
+            data,
+            version: self.checkpoints.next_version(),
+            written_by: self.name.clone(),
+        };
         self.checkpoints.put(&cp).await?;
         let mut stored = vec![self.name.clone()];
-        let mut others: Vec<_> = self.membership.hosts().into_iter().skip(1).filter(|h| h.alive).collect();
+        let mut others: Vec<_> = self
+            .membership
+            .hosts()
+            .into_iter()
+            .skip(1)
+            .filter(|h| h.alive)
+            .collect();
         others.sort_by(|a, b| {
             let la = a.load.as_ref().map_or(0.0, |l| l.load_per_core);
             let lb = b.load.as_ref().map_or(0.0, |l| l.load_per_core);
@@ -235,7 +281,9 @@ impl Daemon {
         });
         let had_peers = !others.is_empty();
         for h in others {
-            let Ok(mut c) = self.peers.client(&h.addr) else { continue };
+            let Ok(mut c) = self.peers.client(&h.addr) else {
+                continue;
+            };
             if timed(&h.name, c.store_replica(cp.clone())).await.is_ok() {
                 stored.push(h.name);
                 break;
@@ -244,7 +292,8 @@ impl Daemon {
         if had_peers && stored.len() < 2 {
             return Err(Error::Unreachable {
                 host: "any peer".into(),
-                reason: "the checkpoint is stored only on this host: no live peer took a replica".into(),
+                reason: "the checkpoint is stored only on this host: no live peer took a replica"
+                    .into(),
             });
         }
         Ok((cp.version, stored))
@@ -254,8 +303,16 @@ impl Daemon {
     pub async fn get_checkpoint(&self, job: String) -> Result<Option<Checkpoint>> {
         let mut best = self.checkpoints.get(&job).await?;
         let mut tasks = JoinSet::new();
-        for h in self.membership.hosts().into_iter().skip(1).filter(|h| h.alive) {
-            let Ok(mut c) = self.peers.client(&h.addr) else { continue };
+        for h in self
+            .membership
+            .hosts()
+            .into_iter()
+            .skip(1)
+            .filter(|h| h.alive)
+        {
+            let Ok(mut c) = self.peers.client(&h.addr) else {
+                continue;
+            };
             let req = crate::proto::GetCheckpointRequest { job: job.clone() };
             tasks.spawn(async move { timed(&h.name, c.fetch_replica(req)).await });
         }
@@ -272,7 +329,12 @@ impl Daemon {
     }
 }
 
-async fn start_remote(peers: &PeerPool, host: &str, addr: &str, spec: StartSpec) -> Result<Vec<Placement>> {
+async fn start_remote(
+    peers: &PeerPool,
+    host: &str,
+    addr: &str,
+    spec: StartSpec,
+) -> Result<Vec<Placement>> {
     let mut c = peers.client(addr)?;
     let req = StartLocalRequest {
         job: spec.job,
@@ -293,10 +355,14 @@ async fn timed<T>(
 ) -> Result<T> {
     match tokio::time::timeout(PEER_CALL, call).await {
         Ok(Ok(r)) => Ok(r.into_inner()),
-        Ok(Err(status)) if status.code() == tonic::Code::Unavailable => {
-            Err(Error::Unreachable { host: host.to_string(), reason: status.message().to_string() })
-        }
+        Ok(Err(status)) if status.code() == tonic::Code::Unavailable => Err(Error::Unreachable {
+            host: host.to_string(),
+            reason: status.message().to_string(),
+        }),
         Ok(Err(status)) => Err(Error::Rpc(status)),
-        Err(_) => Err(Error::Unreachable { host: host.to_string(), reason: "timed out".into() }),
+        Err(_) => Err(Error::Unreachable {
+            host: host.to_string(),
+            reason: "timed out".into(),
+        }),
     }
 }

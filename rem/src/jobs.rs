@@ -42,7 +42,10 @@ impl Jobs {
 
     /// Records processes started for `job` (owned by `owner`).
     pub async fn record(&self, job: &str, owner: &str, placed: &[Placement]) {
-        let _ = self.tx.send((job.to_string(), owner.to_string(), placed.to_vec())).await;
+        let _ = self
+            .tx
+            .send((job.to_string(), owner.to_string(), placed.to_vec()))
+            .await;
     }
 }
 

@@ -26,10 +26,11 @@
 //!     })
 //!     .await?;
 //! relay.send(&job.processes[0].proc_id, b"hello".to_vec()).await?;
-//! while let Some(incoming) = relay.recv().await {
+//! // recv() ends with Err(Error::Closed) when the stream ends.
+//! while let Ok(incoming) = relay.recv().await {
 //!     match incoming {
 //!         Incoming::Message { from, payload } => { /* a worker's reply */ }
-//!         Incoming::Event(ev) => { /* Started, Exited, Lost */ }
+//!         Incoming::Event(ev) => { /* ev.kind: Started, Exited, Lost */ }
 //!         Incoming::Undeliverable { to, reason } => { /* the target is gone */ }
 //!     }
 //! }
@@ -57,7 +58,7 @@
 //! - [`placement`]: ranking hosts by load per core.
 //! - [`membership`]: heartbeats, joining, lost and returning hosts.
 //! - [`peers`]: cached connections to other daemons.
-//! - [`process`]: the OS processes REM runs here; the environment they get.
+//! - [`process`]: the OS processes REM runs here; [`child`]: building one (environment, nice).
 //! - [`logbuf`]: bounded stdout / stderr keepers.
 //! - [`relay`]: mailboxes and daemon-to-daemon links.
 //! - [`attach`]: one process's relay stream.
@@ -69,6 +70,7 @@
 pub mod attach;
 pub mod auth;
 pub mod checkpoint;
+pub mod child;
 pub mod client;
 pub mod config;
 pub mod daemon;

@@ -16,7 +16,11 @@ pub struct Ring {
 
 impl Ring {
     pub fn new(cap: usize) -> Self {
-        Ring { data: VecDeque::new(), cap, truncated: false }
+        Ring {
+            data: VecDeque::new(),
+            cap,
+            truncated: false,
+        }
     }
 
     pub fn push(&mut self, bytes: &[u8]) {
@@ -66,7 +70,10 @@ pub async fn collect(mut pipe: impl AsyncRead + Unpin, ring: Arc<Mutex<Ring>>) {
     loop {
         match pipe.read(&mut buf).await {
             Ok(0) | Err(_) => break,
-            Ok(n) => ring.lock().unwrap_or_else(|e| e.into_inner()).push(&buf[..n]),
+            Ok(n) => ring
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(&buf[..n]),
         }
     }
 }

@@ -51,7 +51,11 @@ pub struct MembershipConfig {
 }
 
 enum Cmd {
-    Heard { info: HostInfo, members: Vec<Member>, seed: Option<String> },
+    Heard {
+        info: HostInfo,
+        members: Vec<Member>,
+        seed: Option<String>,
+    },
 }
 
 /// Cloneable handle to the membership actor.
@@ -132,7 +136,9 @@ impl Membership {
             info.name = name.clone();
             info.addr = e.addr.clone();
             info.alive = e.alive;
-            info.last_heard_ms = e.last_heard.map_or(u64::MAX, |t| now.duration_since(t).as_millis() as u64);
+            info.last_heard_ms = e
+                .last_heard
+                .map_or(u64::MAX, |t| now.duration_since(t).as_millis() as u64);
             out.push(info);
         }
         out
@@ -154,13 +160,25 @@ impl Membership {
 
     /// Address of a live member, or `None`.
     pub fn live_addr(&self, name: &str) -> Option<String> {
-        self.view.borrow().hosts.get(name).filter(|e| e.alive).map(|e| e.addr.clone())
+        self.view
+            .borrow()
+            .hosts
+            .get(name)
+            .filter(|e| e.alive)
+            .map(|e| e.addr.clone())
     }
 
     /// Records a heartbeat received from another daemon and returns the reply.
     pub async fn heard(&self, req: HeartbeatRequest) -> (HostInfo, Vec<Member>) {
         if let Some(info) = req.sender {
-            let _ = self.tx.send(Cmd::Heard { info, members: req.members, seed: None }).await;
+            let _ = self
+                .tx
+                .send(Cmd::Heard {
+                    info,
+                    members: req.members,
+                    seed: None,
+                })
+                .await;
         }
         (self.me(), self.members())
     }
@@ -168,8 +186,14 @@ impl Membership {
     /// Every member known, this one included.
     pub fn members(&self) -> Vec<Member> {
         let view = self.view.borrow().clone();
-        let mut out = vec![Member { name: self.me.name.clone(), addr: self.me.addr.clone() }];
-        out.extend(view.hosts.iter().map(|(n, e)| Member { name: n.clone(), addr: e.addr.clone() }));
+        let mut out = vec![Member {
+            name: self.me.name.clone(),
+            addr: self.me.addr.clone(),
+        }];
+        out.extend(view.hosts.iter().map(|(n, e)| Member {
+            name: n.clone(),
+            addr: e.addr.clone(),
+        }));
         out
     }
 
@@ -204,9 +228,15 @@ impl Actor {
     async fn run(mut self, mut rx: mpsc::Receiver<Cmd>, stop: tokio_util::sync::CancellationToken) {
         let mut tick = tokio::time::interval(self.handle.me.heartbeat);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        // Staleness is checked more often than heartbeats are sent, so detection takes
+        // `lost_after` plus at most this, not plus a whole heartbeat interval.
+        let mut check =
+            tokio::time::interval(self.handle.me.heartbeat.min(Duration::from_millis(50)));
+        check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         loop {
             tokio::select! {
                 _ = stop.cancelled() => break,
+                _ = check.tick() => self.check_lost(),
                 _ = tick.tick() => {
                     self.check_lost();
                     self.send_heartbeats();
@@ -231,12 +261,16 @@ impl Actor {
         if &info.name == me || !crate::ids::is_valid_name(&info.name) {
             return;
         }
-        let entry = self.view.hosts.entry(info.name.clone()).or_insert_with(|| HostEntry {
-            addr: info.addr.clone(),
-            alive: false,
-            info: None,
-            last_heard: None,
-        });
+        let entry = self
+            .view
+            .hosts
+            .entry(info.name.clone())
+            .or_insert_with(|| HostEntry {
+                addr: info.addr.clone(),
+                alive: false,
+                info: None,
+                last_heard: None,
+            });
         entry.addr = info.addr.clone();
         entry.last_heard = Some(Instant::now());
         let was_alive = entry.alive;
@@ -244,7 +278,10 @@ impl Actor {
         entry.info = Some(info.clone());
         if !was_alive {
             tracing::info!(host = %info.name, addr = %info.addr, "host alive");
-            let _ = self.handle.events.send(MemberEvent::Back(info.name.clone()));
+            let _ = self
+                .handle
+                .events
+                .send(MemberEvent::Back(info.name.clone()));
         }
         for m in members {
             if &m.name == me || !crate::ids::is_valid_name(&m.name) || m.addr.is_empty() {
@@ -256,7 +293,12 @@ impl Actor {
                 None => {
                     self.view.hosts.insert(
                         m.name,
-                        HostEntry { addr: m.addr, alive: false, info: None, last_heard: None },
+                        HostEntry {
+                            addr: m.addr,
+                            alive: false,
+                            info: None,
+                            last_heard: None,
+                        },
                     );
                 }
             }
@@ -283,18 +325,29 @@ impl Actor {
     }
 
     fn send_heartbeats(&self) {
-        let req = HeartbeatRequest { sender: Some(self.handle.me()), members: self.handle.members() };
+        let req = HeartbeatRequest {
+            sender: Some(self.handle.me()),
+            members: self.handle.members(),
+        };
         let timeout = (self.handle.me.lost_after / 2).min(Duration::from_secs(1));
-        let mut targets: Vec<(String, Option<String>)> =
-            self.view.hosts.values().map(|e| (e.addr.clone(), None)).collect();
+        let mut targets: Vec<(String, Option<String>)> = self
+            .view
+            .hosts
+            .values()
+            .map(|e| (e.addr.clone(), None))
+            .collect();
         for (seed, name) in &self.seeds {
-            let known = name.as_ref().is_some_and(|n| self.view.hosts.contains_key(n) || n == &self.handle.me.name);
+            let known = name
+                .as_ref()
+                .is_some_and(|n| self.view.hosts.contains_key(n) || n == &self.handle.me.name);
             if !known && !targets.iter().any(|(a, _)| a == seed) {
                 targets.push((seed.clone(), Some(seed.clone())));
             }
         }
         for (addr, seed) in targets {
-            let Ok(mut client) = self.peers.client(&addr) else { continue };
+            let Ok(mut client) = self.peers.client(&addr) else {
+                continue;
+            };
             let req = req.clone();
             let tx = self.handle.tx.clone();
             tokio::spawn(async move {
@@ -302,7 +355,13 @@ impl Actor {
                 if let Ok(Ok(reply)) = reply {
                     let reply = reply.into_inner();
                     if let Some(info) = reply.sender {
-                        let _ = tx.send(Cmd::Heard { info, members: reply.members, seed }).await;
+                        let _ = tx
+                            .send(Cmd::Heard {
+                                info,
+                                members: reply.members,
+                                seed,
+                            })
+                            .await;
                     }
                 }
             });
@@ -312,5 +371,8 @@ impl Actor {
 
 /// (alive hosts, all hosts) among the others, for tests and logs.
 pub fn count_alive(view: &View) -> (usize, usize) {
-    (view.hosts.values().filter(|e| e.alive).count(), view.hosts.len())
+    (
+        view.hosts.values().filter(|e| e.alive).count(),
+        view.hosts.len(),
+    )
 }

@@ -51,6 +51,9 @@ impl PeerPool {
 
     /// Forgets the channel to `addr` (after the host was lost, so a restart reconnects).
     pub fn forget(&self, addr: &str) {
-        self.clients.lock().unwrap_or_else(|e| e.into_inner()).remove(addr);
+        self.clients
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(addr);
     }
 }

@@ -16,12 +16,22 @@ pub struct Candidate {
 }
 
 /// The host for each of `count` processes, in order.
-pub fn place(candidates: &[Candidate], count: u32, allow_same_host: bool) -> Result<Vec<String>, Error> {
+pub fn place(
+    candidates: &[Candidate],
+    count: u32,
+    allow_same_host: bool,
+) -> Result<Vec<String>, Error> {
     if count == 0 {
         return Err(Error::Invalid("count must be at least 1".into()));
     }
     let mut ranked: Vec<Candidate> = candidates.to_vec();
-    let key = |c: &Candidate| if c.load_per_core.is_finite() { c.load_per_core } else { f64::MAX };
+    let key = |c: &Candidate| {
+        if c.load_per_core.is_finite() {
+            c.load_per_core
+        } else {
+            f64::MAX
+        }
+    };
     ranked.sort_by(|a, b| key(a).total_cmp(&key(b)).then_with(|| a.name.cmp(&b.name)));
     if ranked.is_empty() || (!allow_same_host && ranked.len() < count as usize) {
         return Err(Error::NotEnoughHosts {
@@ -35,7 +45,11 @@ pub fn place(candidates: &[Candidate], count: u32, allow_same_host: bool) -> Res
         });
     }
     if !allow_same_host {
-        return Ok(ranked.into_iter().take(count as usize).map(|c| c.name).collect());
+        return Ok(ranked
+            .into_iter()
+            .take(count as usize)
+            .map(|c| c.name)
+            .collect());
     }
     let mut chosen = Vec::with_capacity(count as usize);
     for _ in 0..count {
@@ -54,7 +68,11 @@ mod tests {
     use super::*;
 
     fn c(name: &str, lpc: f64, cores: u32) -> Candidate {
-        Candidate { name: name.into(), load_per_core: lpc, cores }
+        Candidate {
+            name: name.into(),
+            load_per_core: lpc,
+            cores,
+        }
     }
 
     #[test]
@@ -69,7 +87,14 @@ mod tests {
     fn too_few_hosts_is_an_error() {
         let hosts = [c("a", 0.0, 1), c("b", 0.0, 1)];
         let err = place(&hosts, 3, false).unwrap_err();
-        assert!(matches!(err, Error::NotEnoughHosts { wanted: 3, eligible: 2, .. }));
+        assert!(matches!(
+            err,
+            Error::NotEnoughHosts {
+                wanted: 3,
+                eligible: 2,
+                ..
+            }
+        ));
         assert!(place(&[], 1, true).is_err());
         assert!(place(&hosts, 0, true).is_err());
     }

@@ -7,36 +7,20 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::process::Stdio;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use tokio::sync::{mpsc, oneshot};
 
+use crate::child;
 use crate::error::{Error, Result};
 use crate::ids::ProcId;
 use crate::logbuf::{self, Output};
 use crate::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
 use crate::relay::Router;
 
-/// Environment variables every spawned process receives.
-pub mod env {
-    /// Address (`HOST:PORT`) of the local remd.
-    pub const ADDR: &str = "REM_ADDR";
-    /// This host's name.
-    pub const HOST: &str = "REM_HOST";
-    /// The process's own id (`HOST/NUMBER`).
-    pub const PROC_ID: &str = "REM_PROC_ID";
-    /// The job id.
-    pub const JOB_ID: &str = "REM_JOB_ID";
-    /// The process id of the job's owner (empty when the job has none).
-    pub const OWNER_ID: &str = "REM_OWNER_ID";
-    /// Largest relay payload in bytes.
-    pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
-    pub use crate::auth::{ENV_SECRET as SECRET, ENV_SECRET_FILE as SECRET_FILE};
-    pub use crate::transport::{ENV_TLS_CA as TLS_CA, ENV_TLS_DOMAIN as TLS_DOMAIN};
-}
+pub use crate::child::env;
 
 /// What a process table needs from the daemon's settings.
 #[derive(Clone, Debug)]
@@ -72,7 +56,11 @@ enum Cmd {
     Kill(ProcId, oneshot::Sender<Result<()>>),
     Logs(ProcId, oneshot::Sender<Result<LogsReply>>),
     List(oneshot::Sender<Vec<ProcessInfo>>),
-    Exited { id: ProcId, code: Option<i32>, signal: Option<i32> },
+    Exited {
+        id: ProcId,
+        code: Option<i32>,
+        signal: Option<i32>,
+    },
     /// An exit event has been handed to the relay.
     Reported,
     Shutdown(oneshot::Sender<()>),
@@ -86,7 +74,12 @@ pub struct ProcessTable {
 
 impl ProcessTable {
     /// `seq` numbers process ids (shared with relay-only attachments, so ids never clash).
-    pub fn start(cfg: ProcessConfig, router: Router, counter: Arc<AtomicU32>, seq: Arc<AtomicU64>) -> Self {
+    pub fn start(
+        cfg: ProcessConfig,
+        router: Router,
+        counter: Arc<AtomicU32>,
+        seq: Arc<AtomicU64>,
+    ) -> Self {
         let (tx, rx) = mpsc::channel(256);
         let actor = Actor {
             cfg,
@@ -105,7 +98,10 @@ impl ProcessTable {
 
     async fn ask<T>(&self, make: impl FnOnce(oneshot::Sender<T>) -> Cmd) -> Result<T> {
         let (tx, rx) = oneshot::channel();
-        self.tx.send(make(tx)).await.map_err(|_| Error::ShuttingDown)?;
+        self.tx
+            .send(make(tx))
+            .await
+            .map_err(|_| Error::ShuttingDown)?;
         rx.await.map_err(|_| Error::ShuttingDown)
     }
 
@@ -158,14 +154,26 @@ impl Actor {
                     let _ = reply.send(self.kill(&id));
                 }
                 Cmd::Logs(id, reply) => {
-                    let r = self.entries.get(&id).ok_or_else(|| Error::NotFound(format!("process {id}")));
+                    let r = self
+                        .entries
+                        .get(&id)
+                        .ok_or_else(|| Error::NotFound(format!("process {id}")));
                     let _ = reply.send(r.map(|e| {
                         let (stdout, stderr, truncated) = e.output.snapshot();
-                        LogsReply { stdout, stderr, truncated }
+                        LogsReply {
+                            stdout,
+                            stderr,
+                            truncated,
+                        }
                     }));
                 }
                 Cmd::List(reply) => {
-                    let _ = reply.send(self.entries.values().map(|e| e.info.clone()).collect());
+                    let list = self.entries.values().map(|e| {
+                        let mut info = e.info.clone();
+                        info.attached = self.router.is_attached(&info.proc_id);
+                        info
+                    });
+                    let _ = reply.send(list.collect());
                 }
                 Cmd::Exited { id, code, signal } => self.exited(id, code, signal),
                 Cmd::Reported => {
@@ -187,7 +195,10 @@ impl Actor {
         }
         let program = PathBuf::from(&spec.program);
         if !self.cfg.allow.iter().any(|a| a == &program) {
-            return Err(Error::NotAllowed(spec.program.clone(), self.cfg.host.clone()));
+            return Err(Error::NotAllowed(
+                spec.program.clone(),
+                self.cfg.host.clone(),
+            ));
         }
         let mut placed = Vec::new();
         for _ in 0..spec.count.max(1) {
@@ -208,38 +219,16 @@ impl Actor {
 
     fn start_one(&mut self, spec: &StartSpec) -> Result<Placement> {
         let id = ProcId::new(&self.cfg.host, self.seq.fetch_add(1, Ordering::Relaxed));
-        let mut cmd = tokio::process::Command::new(&spec.program);
-        cmd.args(&spec.args)
-            .envs(&spec.env)
-            .envs(self.cfg.base_env.iter().map(|(k, v)| (k, v)))
-            .env(env::ADDR, &self.cfg.addr)
-            .env(env::HOST, &self.cfg.host)
-            .env(env::PROC_ID, id.as_str())
-            .env(env::JOB_ID, &spec.job)
-            .env(env::OWNER_ID, &spec.owner)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .process_group(0);
-        let nice = spec.nice;
-        // SAFETY: only async-signal-safe calls (setpriority, prctl) between fork and exec.
-        unsafe {
-            cmd.pre_exec(move || {
-                if let Some(n) = nice {
-                    if libc::setpriority(libc::PRIO_PROCESS, 0, n) != 0 {
-                        return Err(std::io::Error::last_os_error());
-                    }
-                }
-                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong, 0, 0, 0);
-                Ok(())
-            });
-        }
+        let mut cmd = child::command(&self.cfg, spec, &id);
         self.router.register(&id);
         let mut child = match cmd.spawn() {
             Ok(c) => c,
             Err(e) => {
                 self.router.unregister(&id);
-                return Err(Error::Spawn { program: spec.program.clone(), reason: e.to_string() });
+                return Err(Error::Spawn {
+                    program: spec.program.clone(),
+                    reason: e.to_string(),
+                });
             }
         };
         let pid = child.id().unwrap_or(0);
@@ -268,7 +257,13 @@ impl Actor {
             })
             .await;
             if let Some(tx) = tx.upgrade() {
-                let _ = tx.send(Cmd::Exited { id: wait_id, code, signal }).await;
+                let _ = tx
+                    .send(Cmd::Exited {
+                        id: wait_id,
+                        code,
+                        signal,
+                    })
+                    .await;
             }
         });
         self.counter.fetch_add(1, Ordering::Relaxed);
@@ -284,20 +279,29 @@ impl Actor {
             state: "running".into(),
             exit_code: None,
             signal: None,
-            started_unix_ms: SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64),
+            started_unix_ms: SystemTime::now()
+                .duration_since(UNIX_EPOCH)
+                .map_or(0, |d| d.as_millis() as u64),
             attached: false,
         };
         tracing::info!(proc = %id, pid, program = %spec.program, "started");
         self.entries.insert(id.clone(), Entry { info, output });
-        Ok(Placement { proc_id: id.to_string(), host: self.cfg.host.clone(), pid })
+        Ok(Placement {
+            proc_id: id.to_string(),
+            host: self.cfg.host.clone(),
+            pid,
+        })
     }
 
     fn kill(&mut self, id: &ProcId) -> Result<()> {
-        let e = self.entries.get(id).ok_or_else(|| Error::NotFound(format!("process {id}")))?;
+        let e = self
+            .entries
+            .get(id)
+            .ok_or_else(|| Error::NotFound(format!("process {id}")))?;
         if e.info.state != "running" {
             return Ok(());
         }
-        signal_group(e.info.pid, libc::SIGTERM);
+        child::signal_group(e.info.pid, libc::SIGTERM);
         let tx = self.self_tx.clone();
         let (pid, grace, id) = (e.info.pid, self.cfg.kill_grace, id.clone());
         tokio::spawn(async move {
@@ -307,8 +311,11 @@ impl Actor {
                 let (rtx, rrx) = oneshot::channel();
                 if tx.send(Cmd::List(rtx)).await.is_ok() {
                     if let Ok(list) = rrx.await {
-                        if list.iter().any(|p| p.proc_id == id.as_str() && p.state == "running") {
-                            signal_group(pid, libc::SIGKILL);
+                        if list
+                            .iter()
+                            .any(|p| p.proc_id == id.as_str() && p.state == "running")
+                        {
+                            child::signal_group(pid, libc::SIGKILL);
                         }
                     }
                 }
@@ -318,7 +325,9 @@ impl Actor {
     }
 
     fn exited(&mut self, id: ProcId, code: Option<i32>, signal: Option<i32>) {
-        let Some(e) = self.entries.get_mut(&id) else { return };
+        let Some(e) = self.entries.get_mut(&id) else {
+            return;
+        };
         e.info.state = "exited".into();
         e.info.exit_code = code;
         e.info.signal = signal;
@@ -349,8 +358,12 @@ impl Actor {
             });
         }
         // Keep the record of exited processes bounded.
-        let exited: Vec<ProcId> =
-            self.entries.iter().filter(|(_, e)| e.info.state != "running").map(|(k, _)| k.clone()).collect();
+        let exited: Vec<ProcId> = self
+            .entries
+            .iter()
+            .filter(|(_, e)| e.info.state != "running")
+            .map(|(k, _)| k.clone())
+            .collect();
         if exited.len() > 1000 {
             for k in exited.iter().take(exited.len() - 1000) {
                 self.entries.remove(k);
@@ -369,20 +382,16 @@ impl Actor {
 
     fn shutdown(&mut self, reply: oneshot::Sender<()>) {
         self.accepting = false;
-        let ids: Vec<ProcId> = self.entries.iter().filter(|(_, e)| e.info.state == "running").map(|(k, _)| k.clone()).collect();
+        let ids: Vec<ProcId> = self
+            .entries
+            .iter()
+            .filter(|(_, e)| e.info.state == "running")
+            .map(|(k, _)| k.clone())
+            .collect();
         for id in ids {
             let _ = self.kill(&id);
         }
         self.drained.push(reply);
         self.notify_drained();
-    }
-}
-
-fn signal_group(pid: u32, sig: libc::c_int) {
-    if pid > 0 {
-        // SAFETY: plain syscall; a negative pid addresses the child's process group.
-        unsafe {
-            libc::kill(-(pid as libc::pid_t), sig);
-        }
     }
 }

@@ -84,7 +84,11 @@ impl Router {
             while let Ok(ev) = events.recv().await {
                 let Some(inner) = weak.upgrade() else { break };
                 if let MemberEvent::Lost(host) = ev {
-                    let link = inner.links.lock().unwrap_or_else(|e| e.into_inner()).remove(&host);
+                    let link = inner
+                        .links
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .remove(&host);
                     if let Some(link) = link {
                         link.cancel.cancel();
                     }
@@ -101,16 +105,44 @@ impl Router {
     /// Creates the mailbox of a local process (before it starts, so nothing sent early is lost).
     pub fn register(&self, id: &ProcId) {
         let (tx, rx) = mpsc::channel(self.inner.queue);
-        self.mailboxes_mut().insert(id.to_string(), Mailbox { tx, rx: Some(rx), attached: false });
+        self.mailboxes_mut().insert(
+            id.to_string(),
+            Mailbox {
+                tx,
+                rx: Some(rx),
+                attached: false,
+            },
+        );
     }
 
     /// Hands the mailbox to the process attaching as `id`; `None` if unknown or taken.
-    pub fn take_mailbox(&self, id: &ProcId) -> Option<(mpsc::Sender<Delivery>, mpsc::Receiver<Delivery>)> {
+    pub fn take_mailbox(
+        &self,
+        id: &ProcId,
+    ) -> Option<(mpsc::Sender<Delivery>, mpsc::Receiver<Delivery>)> {
         let mut map = self.mailboxes_mut();
         let mb = map.get_mut(id.as_str())?;
         let rx = mb.rx.take()?;
         mb.attached = true;
         Some((mb.tx.clone(), rx))
+    }
+
+    /// Gives a detached process's queue back, so it can attach again (if it still exists).
+    pub fn give_back(&self, id: &ProcId, rx: mpsc::Receiver<Delivery>) {
+        if let Some(mb) = self.mailboxes_mut().get_mut(id.as_str()) {
+            mb.rx = Some(rx);
+            mb.attached = false;
+        }
+    }
+
+    /// True while process `id` is attached here.
+    pub fn is_attached(&self, id: &str) -> bool {
+        let map = self
+            .inner
+            .mailboxes
+            .read()
+            .unwrap_or_else(|e| e.into_inner());
+        map.get(id).is_some_and(|mb| mb.attached)
     }
 
     /// Removes a local mailbox (process exited or owner detached).
@@ -119,13 +151,23 @@ impl Router {
     }
 
     fn mailboxes_mut(&self) -> std::sync::RwLockWriteGuard<'_, HashMap<String, Mailbox>> {
-        self.inner.mailboxes.write().unwrap_or_else(|e| e.into_inner())
+        self.inner
+            .mailboxes
+            .write()
+            .unwrap_or_else(|e| e.into_inner())
     }
 
     /// Closes every link after sending what is queued (bounded by `timeout`); used at shutdown
     /// so that the last events (children's exits) reach their owners.
     pub async fn flush_links(&self, timeout: std::time::Duration) {
-        let links: Vec<Link> = self.inner.links.lock().unwrap_or_else(|e| e.into_inner()).drain().map(|(_, l)| l).collect();
+        let links: Vec<Link> = self
+            .inner
+            .links
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .drain()
+            .map(|(_, l)| l)
+            .collect();
         let tasks: Vec<_> = links.into_iter().map(|l| l.task).collect();
         let _ = tokio::time::timeout(timeout, async {
             for t in tasks {
@@ -139,29 +181,59 @@ impl Router {
     pub async fn route(&self, env: Envelope) -> Result<(), String> {
         let to = ProcId::parse(&env.to).ok_or_else(|| format!("bad process id {:?}", env.to))?;
         if to.host() == self.inner.host {
-            self.deliver_local(to.as_str(), Delivery::Envelope(env)).await
+            self.deliver_local(to.as_str(), Delivery::Envelope(env))
+                .await
         } else {
-            self.send_remote(to.host(), PeerItem { item: Some(peer_item::Item::Envelope(env)) }).await
+            self.send_remote(
+                to.host(),
+                PeerItem {
+                    item: Some(peer_item::Item::Envelope(env)),
+                },
+            )
+            .await
         }
     }
 
     /// Sends a job event to its owner.
     pub async fn route_event(&self, event: JobEvent) -> Result<(), String> {
-        let owner = ProcId::parse(&event.owner).ok_or_else(|| "the job has no owner".to_string())?;
+        let owner =
+            ProcId::parse(&event.owner).ok_or_else(|| "the job has no owner".to_string())?;
         if owner.host() == self.inner.host {
             let _ = self.inner.observer.send(event.clone());
-            self.deliver_local(owner.as_str(), Delivery::Event(event)).await
+            self.deliver_local(owner.as_str(), Delivery::Event(event))
+                .await
         } else {
-            self.send_remote(owner.host(), PeerItem { item: Some(peer_item::Item::Event(event)) }).await
+            self.send_remote(
+                owner.host(),
+                PeerItem {
+                    item: Some(peer_item::Item::Event(event)),
+                },
+            )
+            .await
         }
     }
 
-    /// Delivers an item that came in from another daemon.
+    /// Delivers an item that came in from another daemon. An envelope that cannot be
+    /// delivered is answered with an `Undeliverable` notice to its sender (dropped if the
+    /// link back is full, so a flood cannot pile up notices).
     pub async fn deliver_from_peer(&self, item: PeerItem) {
         let result = match item.item {
             Some(peer_item::Item::Envelope(env)) => {
-                let to = env.to.clone();
-                self.deliver_local(&to, Delivery::Envelope(env)).await
+                let (to, sender) = (env.to.clone(), env.from.clone());
+                let r = self.deliver_local(&to, Delivery::Envelope(env)).await;
+                if let Err(reason) = &r {
+                    self.bounce(Undeliverable {
+                        to,
+                        reason: reason.clone(),
+                        sender,
+                    });
+                }
+                r
+            }
+            Some(peer_item::Item::Undeliverable(u)) => {
+                let sender = u.sender.clone();
+                self.deliver_local(&sender, Delivery::Undeliverable(u))
+                    .await
             }
             Some(peer_item::Item::Event(ev)) => {
                 let _ = self.inner.observer.send(ev.clone());
@@ -175,16 +247,37 @@ impl Router {
         }
     }
 
+    fn bounce(&self, notice: Undeliverable) {
+        let Some(sender) = ProcId::parse(&notice.sender) else {
+            return;
+        };
+        let item = PeerItem {
+            item: Some(peer_item::Item::Undeliverable(notice)),
+        };
+        if let Ok((tx, _)) = self.link(sender.host()) {
+            let _ = tx.try_send(item);
+        }
+    }
+
     async fn deliver_local(&self, to: &str, d: Delivery) -> Result<(), String> {
         let (tx, attached) = {
-            let map = self.inner.mailboxes.read().unwrap_or_else(|e| e.into_inner());
-            let mb = map.get(to).ok_or_else(|| format!("no process {to} on {}", self.inner.host))?;
+            let map = self
+                .inner
+                .mailboxes
+                .read()
+                .unwrap_or_else(|e| e.into_inner());
+            let mb = map
+                .get(to)
+                .ok_or_else(|| format!("no process {to} on {}", self.inner.host))?;
             (mb.tx.clone(), mb.attached)
         };
         if attached {
-            tx.send(d).await.map_err(|_| format!("process {to} has detached"))
+            tx.send(d)
+                .await
+                .map_err(|_| format!("process {to} has detached"))
         } else {
-            tx.try_send(d).map_err(|_| format!("process {to} has not attached and its queue is full"))
+            tx.try_send(d)
+                .map_err(|_| format!("process {to} has not attached and its queue is full"))
         }
     }
 
@@ -211,31 +304,52 @@ impl Router {
         }
         let (tx, rx) = mpsc::channel(self.inner.queue);
         let cancel = CancellationToken::new();
-        let task = tokio::spawn(run_link(host.to_string(), rx, cancel.clone(), self.inner.clone()));
-        links.insert(host.to_string(), Link { tx: tx.clone(), cancel: cancel.clone(), task });
+        let task = tokio::spawn(run_link(
+            host.to_string(),
+            rx,
+            cancel.clone(),
+            self.inner.clone(),
+        ));
+        links.insert(
+            host.to_string(),
+            Link {
+                tx: tx.clone(),
+                cancel: cancel.clone(),
+                task,
+            },
+        );
         Ok((tx, cancel))
     }
 }
 
 /// Drains one link's queue into `Forward` streams to the host, batching what is queued.
-async fn run_link(host: String, mut rx: mpsc::Receiver<PeerItem>, cancel: CancellationToken, inner: Arc<Inner>) {
+async fn run_link(
+    host: String,
+    mut rx: mpsc::Receiver<PeerItem>,
+    cancel: CancellationToken,
+    inner: Arc<Inner>,
+) {
     let mut stream: Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> = None;
     let mut pending: Option<PeerItem> = None;
     loop {
-        let first = if let Some(p) = pending.take() { p } else { tokio::select! {
-            _ = cancel.cancelled() => return,
-            item = rx.recv() => match item {
-                Some(i) => i,
-                None => {
-                    // Closed: let the open stream finish sending, then end.
-                    if let Some((tx, call)) = stream.take() {
-                        drop(tx);
-                        let _ = call.await;
+        let first = if let Some(p) = pending.take() {
+            p
+        } else {
+            tokio::select! {
+                _ = cancel.cancelled() => return,
+                item = rx.recv() => match item {
+                    Some(i) => i,
+                    None => {
+                        // Closed: let the open stream finish sending, then end.
+                        if let Some((tx, call)) = stream.take() {
+                            drop(tx);
+                            let _ = call.await;
+                        }
+                        return;
                     }
-                    return;
-                }
-            },
-        }};
+                },
+            }
+        };
         let mut bytes = item_bytes(&first);
         let mut items = vec![first];
         while items.len() < BATCH {
@@ -254,7 +368,10 @@ async fn run_link(host: String, mut rx: mpsc::Receiver<PeerItem>, cancel: Cancel
         if stream.as_ref().is_none_or(|(s, _)| s.is_closed()) {
             stream = open_stream(&host, &inner);
         }
-        let batch = PeerBatch { from_host: inner.host.clone(), items };
+        let batch = PeerBatch {
+            from_host: inner.host.clone(),
+            items,
+        };
         let sent = match &stream {
             Some((s, _)) => tokio::select! {
                 r = s.send(batch) => r.is_ok(),
@@ -276,7 +393,10 @@ fn item_bytes(item: &PeerItem) -> usize {
     }
 }
 
-fn open_stream(host: &str, inner: &Inner) -> Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> {
+fn open_stream(
+    host: &str,
+    inner: &Inner,
+) -> Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> {
     let addr = inner.membership.live_addr(host)?;
     let mut client = inner.peers.client(&addr).ok()?;
     let (tx, rx) = mpsc::channel(16);

@@ -12,7 +12,9 @@ use crate::client::RemClient;
 use crate::error::{Error, Result};
 use crate::ids::ProcId;
 use crate::process::env;
-use crate::proto::{client_frame, server_frame, ClientFrame, Envelope, EnvelopeBatch, Hello, JobEvent, ServerFrame};
+use crate::proto::{
+    client_frame, server_frame, ClientFrame, Envelope, EnvelopeBatch, Hello, JobEvent, ServerFrame,
+};
 use crate::relay::BATCH;
 
 /// Envelopes queued on the sending side before `send` waits (back-pressure).
@@ -41,9 +43,16 @@ impl RelaySender {
     pub async fn send(&self, to: &ProcId, payload: impl Into<Vec<u8>>) -> Result<()> {
         let payload = payload.into();
         if payload.len() > self.max_message {
-            return Err(Error::TooLarge { size: payload.len(), limit: self.max_message });
+            return Err(Error::TooLarge {
+                size: payload.len(),
+                limit: self.max_message,
+            });
         }
-        let env = Envelope { from: String::new(), to: to.to_string(), payload };
+        let env = Envelope {
+            from: String::new(),
+            to: to.to_string(),
+            payload,
+        };
         self.tx.send(env).await.map_err(|_| Error::Closed)
     }
 
@@ -70,12 +79,19 @@ impl RelayReceiver {
             }
             let frame = self.stream.message().await?.ok_or(Error::Closed)?;
             match frame.frame {
-                Some(server_frame::Frame::Batch(b)) => self.buffered.extend(
-                    b.envelopes.into_iter().map(|e| Incoming::Message { from: e.from, payload: e.payload }),
-                ),
+                Some(server_frame::Frame::Batch(b)) => {
+                    self.buffered
+                        .extend(b.envelopes.into_iter().map(|e| Incoming::Message {
+                            from: e.from,
+                            payload: e.payload,
+                        }))
+                }
                 Some(server_frame::Frame::Event(e)) => return Ok(Incoming::Event(e)),
                 Some(server_frame::Frame::Undeliverable(u)) => {
-                    return Ok(Incoming::Undeliverable { to: u.to, reason: u.reason })
+                    return Ok(Incoming::Undeliverable {
+                        to: u.to,
+                        reason: u.reason,
+                    })
                 }
                 Some(server_frame::Frame::Welcome(_)) | None => {}
             }
@@ -104,24 +120,48 @@ impl Relay {
             .and_then(|s| ProcId::parse(&s))
             .ok_or_else(|| Error::Config(format!("{} is not set to a process id", env::PROC_ID)))?;
         let job = std::env::var(env::JOB_ID).unwrap_or_default();
-        let owner = std::env::var(env::OWNER_ID).ok().and_then(|s| ProcId::parse(&s));
+        let owner = std::env::var(env::OWNER_ID)
+            .ok()
+            .and_then(|s| ProcId::parse(&s));
         Relay::open(&client, Some(&id), &job, owner).await
     }
 
-    pub(crate) async fn open(client: &RemClient, id: Option<&ProcId>, job: &str, owner: Option<ProcId>) -> Result<Relay> {
+    pub(crate) async fn open(
+        client: &RemClient,
+        id: Option<&ProcId>,
+        job: &str,
+        owner: Option<ProcId>,
+    ) -> Result<Relay> {
         let (frames_tx, frames_rx) = mpsc::channel::<ClientFrame>(16);
-        let hello = Hello { proc_id: id.map(|i| i.to_string()).unwrap_or_default(), job: job.to_string() };
+        let hello = Hello {
+            proc_id: id.map(|i| i.to_string()).unwrap_or_default(),
+            job: job.to_string(),
+        };
         frames_tx
-            .send(ClientFrame { frame: Some(client_frame::Frame::Hello(hello)) })
+            .send(ClientFrame {
+                frame: Some(client_frame::Frame::Hello(hello)),
+            })
             .await
             .map_err(|_| Error::Closed)?;
-        let mut stream = client.rpc_mut().attach(ReceiverStream::new(frames_rx)).await?.into_inner();
+        let mut stream = client
+            .rpc_mut()
+            .attach(ReceiverStream::new(frames_rx))
+            .await?
+            .into_inner();
         let welcome = match stream.message().await?.and_then(|f| f.frame) {
             Some(server_frame::Frame::Welcome(w)) => w,
-            _ => return Err(Error::Invalid("the daemon did not answer Hello with Welcome".into())),
+            _ => {
+                return Err(Error::Invalid(
+                    "the daemon did not answer Hello with Welcome".into(),
+                ))
+            }
         };
-        let id = ProcId::parse(&welcome.proc_id)
-            .ok_or_else(|| Error::Invalid(format!("daemon gave a bad process id {:?}", welcome.proc_id)))?;
+        let id = ProcId::parse(&welcome.proc_id).ok_or_else(|| {
+            Error::Invalid(format!(
+                "daemon gave a bad process id {:?}",
+                welcome.proc_id
+            ))
+        })?;
         let max_message = (welcome.max_message_bytes as usize).min(client.options().max_message);
         let (tx, rx) = mpsc::channel(SEND_QUEUE);
         tokio::spawn(batch_out(rx, frames_tx));
@@ -131,7 +171,10 @@ impl Relay {
             host: welcome.host,
             owner,
             sender: RelaySender { tx, max_message },
-            receiver: RelayReceiver { stream, buffered: VecDeque::new() },
+            receiver: RelayReceiver {
+                stream,
+                buffered: VecDeque::new(),
+            },
         })
     }
 
@@ -199,7 +242,9 @@ async fn batch_out(mut rx: mpsc::Receiver<Envelope>, frames: mpsc::Sender<Client
                 Err(_) => break,
             }
         }
-        let frame = ClientFrame { frame: Some(client_frame::Frame::Batch(EnvelopeBatch { envelopes })) };
+        let frame = ClientFrame {
+            frame: Some(client_frame::Frame::Batch(EnvelopeBatch { envelopes })),
+        };
         if frames.send(frame).await.is_err() {
             return;
         }

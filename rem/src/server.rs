@@ -36,9 +36,16 @@ use crate::service::Service;
 pub const FRAME_OVERHEAD: usize = 1 << 20;
 
 /// Runs a daemon on `listener` until `shutdown` completes, then shuts down cleanly.
-pub async fn run(settings: Settings, listener: TcpListener, shutdown: impl Future<Output = ()>) -> Result<()> {
+pub async fn run(
+    settings: Settings,
+    listener: TcpListener,
+    shutdown: impl Future<Output = ()>,
+) -> Result<()> {
     let bound = listener.local_addr()?;
-    let advertise = settings.advertise.clone().unwrap_or_else(|| bound.to_string());
+    let advertise = settings
+        .advertise
+        .clone()
+        .unwrap_or_else(|| bound.to_string());
     let _temp_state;
     let state_dir = match &settings.state_dir {
         Some(d) => d.clone(),
@@ -70,7 +77,9 @@ pub async fn run(settings: Settings, listener: TcpListener, shutdown: impl Futur
     );
     let (observer, observed) = mpsc::unbounded_channel();
     let router = Router::new(settings.queue, membership.clone(), peers.clone(), observer);
-    let start_ms = SystemTime::now().duration_since(UNIX_EPOCH).map_or(1, |d| d.as_millis() as u64);
+    let start_ms = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(1, |d| d.as_millis() as u64);
     let seq = Arc::new(AtomicU64::new(start_ms));
     let processes = ProcessTable::start(
         ProcessConfig {
@@ -142,7 +151,10 @@ pub async fn run(settings: Settings, listener: TcpListener, shutdown: impl Futur
     accepting.store(false, Ordering::Relaxed);
     health.set_not_serving::<RemServer<Service>>().await;
     let grace = settings.kill_grace + Duration::from_secs(2);
-    if tokio::time::timeout(grace, processes.shutdown()).await.is_err() {
+    if tokio::time::timeout(grace, processes.shutdown())
+        .await
+        .is_err()
+    {
         tracing::warn!("some child processes did not exit in time");
     }
     router.flush_links(Duration::from_secs(2)).await;
@@ -159,7 +171,9 @@ pub async fn run(settings: Settings, listener: TcpListener, shutdown: impl Futur
 }
 
 /// Accepted connections, with Nagle's algorithm off (small relay frames must not wait).
-fn incoming(listener: TcpListener) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
+fn incoming(
+    listener: TcpListener,
+) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
     use tokio_stream::StreamExt;
     TcpListenerStream::new(listener).map(|conn| {
         let conn = conn?;
@@ -173,7 +187,10 @@ fn child_env(s: &Settings) -> Vec<(String, String)> {
     let mut out = vec![(env::MAX_MESSAGE.to_string(), s.max_message.to_string())];
     match &s.secret_file {
         Some(path) => out.push((env::SECRET_FILE.into(), path.display().to_string())),
-        None => out.push((env::SECRET.into(), String::from_utf8_lossy(s.secret.as_bytes()).into_owned())),
+        None => out.push((
+            env::SECRET.into(),
+            String::from_utf8_lossy(s.secret.as_bytes()).into_owned(),
+        )),
     }
     if let Some(tls) = &s.tls {
         let ca = tls.ca.as_ref().unwrap_or(&tls.cert);

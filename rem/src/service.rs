@@ -19,31 +19,54 @@ fn proc_id(s: &str) -> Result<ProcId, Status> {
 
 #[tonic::async_trait]
 impl Rem for Service {
-    async fn hosts(&self, _: Request<proto::HostsRequest>) -> Result<Response<proto::HostsReply>, Status> {
-        Ok(Response::new(proto::HostsReply { hosts: self.0.membership.hosts() }))
+    async fn hosts(
+        &self,
+        _: Request<proto::HostsRequest>,
+    ) -> Result<Response<proto::HostsReply>, Status> {
+        Ok(Response::new(proto::HostsReply {
+            hosts: self.0.membership.hosts(),
+        }))
     }
 
-    async fn spawn(&self, req: Request<proto::SpawnRequest>) -> Result<Response<proto::SpawnReply>, Status> {
+    async fn spawn(
+        &self,
+        req: Request<proto::SpawnRequest>,
+    ) -> Result<Response<proto::SpawnReply>, Status> {
         Ok(Response::new(self.0.spawn(req.into_inner()).await?))
     }
 
     async fn ps(&self, _: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
-        Ok(Response::new(proto::PsReply { processes: self.0.ps().await? }))
+        Ok(Response::new(proto::PsReply {
+            processes: self.0.ps().await?,
+        }))
     }
 
-    async fn kill(&self, req: Request<proto::KillRequest>) -> Result<Response<proto::KillReply>, Status> {
+    async fn kill(
+        &self,
+        req: Request<proto::KillRequest>,
+    ) -> Result<Response<proto::KillReply>, Status> {
         self.0.kill(proc_id(&req.into_inner().proc_id)?).await?;
         Ok(Response::new(proto::KillReply {}))
     }
 
-    async fn logs(&self, req: Request<proto::LogsRequest>) -> Result<Response<proto::LogsReply>, Status> {
-        Ok(Response::new(self.0.logs(proc_id(&req.into_inner().proc_id)?).await?))
+    async fn logs(
+        &self,
+        req: Request<proto::LogsRequest>,
+    ) -> Result<Response<proto::LogsReply>, Status> {
+        Ok(Response::new(
+            self.0.logs(proc_id(&req.into_inner().proc_id)?).await?,
+        ))
     }
 
     type AttachStream = crate::attach::FrameStream;
 
-    async fn attach(&self, req: Request<Streaming<proto::ClientFrame>>) -> Result<Response<Self::AttachStream>, Status> {
-        Ok(Response::new(crate::attach::attach(self.0.clone(), req.into_inner()).await?))
+    async fn attach(
+        &self,
+        req: Request<Streaming<proto::ClientFrame>>,
+    ) -> Result<Response<Self::AttachStream>, Status> {
+        Ok(Response::new(
+            crate::attach::attach(self.0.clone(), req.into_inner()).await?,
+        ))
     }
 
     async fn put_checkpoint(
@@ -52,7 +75,10 @@ impl Rem for Service {
     ) -> Result<Response<proto::PutCheckpointReply>, Status> {
         let req = req.into_inner();
         let (version, stored_on) = self.0.put_checkpoint(req.job, req.data).await?;
-        Ok(Response::new(proto::PutCheckpointReply { version, stored_on }))
+        Ok(Response::new(proto::PutCheckpointReply {
+            version,
+            stored_on,
+        }))
     }
 
     async fn get_checkpoint(
@@ -71,7 +97,10 @@ impl Peer for Service {
         req: Request<proto::HeartbeatRequest>,
     ) -> Result<Response<proto::HeartbeatReply>, Status> {
         let (sender, members) = self.0.membership.heard(req.into_inner()).await;
-        Ok(Response::new(proto::HeartbeatReply { sender: Some(sender), members }))
+        Ok(Response::new(proto::HeartbeatReply {
+            sender: Some(sender),
+            members,
+        }))
     }
 
     async fn start_local(
@@ -82,20 +111,42 @@ impl Peer for Service {
         Ok(Response::new(proto::StartLocalReply { processes }))
     }
 
-    async fn kill_local(&self, req: Request<proto::KillRequest>) -> Result<Response<proto::KillReply>, Status> {
-        self.0.processes.kill(proc_id(&req.into_inner().proc_id)?).await?;
+    async fn kill_local(
+        &self,
+        req: Request<proto::KillRequest>,
+    ) -> Result<Response<proto::KillReply>, Status> {
+        self.0
+            .processes
+            .kill(proc_id(&req.into_inner().proc_id)?)
+            .await?;
         Ok(Response::new(proto::KillReply {}))
     }
 
-    async fn logs_local(&self, req: Request<proto::LogsRequest>) -> Result<Response<proto::LogsReply>, Status> {
-        Ok(Response::new(self.0.processes.logs(proc_id(&req.into_inner().proc_id)?).await?))
+    async fn logs_local(
+        &self,
+        req: Request<proto::LogsRequest>,
+    ) -> Result<Response<proto::LogsReply>, Status> {
+        Ok(Response::new(
+            self.0
+                .processes
+                .logs(proc_id(&req.into_inner().proc_id)?)
+                .await?,
+        ))
     }
 
-    async fn ps_local(&self, _: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
-        Ok(Response::new(proto::PsReply { processes: self.0.processes.list().await? }))
+    async fn ps_local(
+        &self,
+        _: Request<proto::PsRequest>,
+    ) -> Result<Response<proto::PsReply>, Status> {
+        Ok(Response::new(proto::PsReply {
+            processes: self.0.processes.list().await?,
+        }))
     }
 
-    async fn forward(&self, req: Request<Streaming<proto::PeerBatch>>) -> Result<Response<proto::ForwardReply>, Status> {
+    async fn forward(
+        &self,
+        req: Request<Streaming<proto::PeerBatch>>,
+    ) -> Result<Response<proto::ForwardReply>, Status> {
         let mut inbound = req.into_inner();
         loop {
             let batch = tokio::select! {

@@ -19,13 +19,24 @@ async fn membership_converges_and_load_figures_appear() {
     let names: Vec<_> = hosts.iter().map(|h| h.name.as_str()).collect();
     assert_eq!(names, ["c", "a", "b"]);
     for h in &hosts {
-        let load = h.load.clone().expect("load figures");
+        let load = h.load.expect("load figures");
         assert!(load.cores >= 1, "{h:?}");
-        assert!(load.mem_total_bytes > 0 && load.mem_free_bytes <= load.mem_total_bytes, "{h:?}");
+        assert!(
+            load.mem_total_bytes > 0 && load.mem_free_bytes <= load.mem_total_bytes,
+            "{h:?}"
+        );
         assert!((0.0..=1.0).contains(&load.cpu_busy));
         let expect = (load.load_avg_1m + load.rem_processes as f64) / load.cores as f64;
         assert!((load.load_per_core - expect).abs() < 1e-9);
-        assert_eq!(h.addr, cluster.daemons.iter().find(|d| d.name == h.name).unwrap().addr);
+        assert_eq!(
+            h.addr,
+            cluster
+                .daemons
+                .iter()
+                .find(|d| d.name == h.name)
+                .unwrap()
+                .addr
+        );
     }
 }
 
@@ -45,18 +56,27 @@ async fn placement_avoids_the_host_running_rem_work() {
     let busy_host = busy.processes[0].host.clone();
     // Wait until the placing daemon sees that host carrying it.
     wait_hosts(&client, T, |hs| {
-        hs.iter().any(|h| h.name == busy_host && h.load.as_ref().is_some_and(|l| l.rem_processes == 1))
+        hs.iter()
+            .any(|h| h.name == busy_host && h.load.as_ref().is_some_and(|l| l.rem_processes == 1))
     })
     .await;
     // The next two single spawns go elsewhere, and to different hosts.
     let next = client.spawn(spin(1)).await.unwrap();
     assert_ne!(next.processes[0].host, busy_host);
-    let hosts = client.spawn(spin(1)).await.unwrap().processes[0].host.clone();
+    let hosts = client.spawn(spin(1)).await.unwrap().processes[0]
+        .host
+        .clone();
     assert_ne!(hosts, busy_host);
     // Three hosts, three more one-per-host processes: possible; four: a clear error.
     let err = client.spawn(spin(4)).await.unwrap_err();
     assert_eq!(err.code(), tonic::Code::FailedPrecondition, "{err}");
-    let many = client.spawn(SpawnRequest { allow_same_host: true, ..spin(4) }).await.unwrap();
+    let many = client
+        .spawn(SpawnRequest {
+            allow_same_host: true,
+            ..spin(4)
+        })
+        .await
+        .unwrap();
     assert_eq!(many.processes.len(), 4);
     let ps = client.ps().await.unwrap();
     assert_eq!(ps.iter().filter(|p| p.state == "running").count(), 7);
@@ -82,7 +102,10 @@ async fn spawned_process_is_niced_and_its_output_and_exit_arrive() {
         .unwrap();
     assert_eq!(job.id, "job-nice");
     for p in &job.processes {
-        next_event(&mut owner, T, |e| e.proc_id == p.proc_id.as_str() && e.kind == EventKind::Started as i32).await;
+        next_event(&mut owner, T, |e| {
+            e.proc_id == p.proc_id.as_str() && e.kind == EventKind::Started as i32
+        })
+        .await;
         // Field 19 of /proc/PID/stat is the nice value.
         assert_eq!(proc_stat_field(p.pid, 19), "7");
     }
@@ -107,10 +130,16 @@ async fn spawned_process_is_niced_and_its_output_and_exit_arrive() {
         .await
         .unwrap();
     let id: &ProcId = &job.processes[0].proc_id;
-    let ev = next_event(&mut owner, T, |e| e.proc_id == id.as_str() && e.kind == EventKind::Exited as i32).await;
+    let ev = next_event(&mut owner, T, |e| {
+        e.proc_id == id.as_str() && e.kind == EventKind::Exited as i32
+    })
+    .await;
     assert_eq!(ev.exit_code, Some(3));
     let logs = client.logs(id).await.unwrap();
-    assert_eq!(String::from_utf8_lossy(&logs.stdout), format!("rem-echo stdout {id}\n"));
+    assert_eq!(
+        String::from_utf8_lossy(&logs.stdout),
+        format!("rem-echo stdout {id}\n")
+    );
     assert_eq!(String::from_utf8_lossy(&logs.stderr), "rem-echo stderr\n");
     let ps = client.ps().await.unwrap();
     let entry = ps.iter().find(|p| p.proc_id == id.as_str()).unwrap();
@@ -127,7 +156,11 @@ async fn rem_command_lists_hosts_as_json_and_table() {
         .env("REM_SECRET_FILE", &cluster.secret_file)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let arr = v.as_array().unwrap();
     assert_eq!(arr.len(), 2);
@@ -145,7 +178,71 @@ async fn rem_command_lists_hosts_as_json_and_table() {
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.starts_with("NAME"), "{text}");
-    assert_eq!(text.lines().filter(|l| l.contains("alive")).count(), 2, "{text}");
+    assert_eq!(
+        text.lines().filter(|l| l.contains("alive")).count(),
+        2,
+        "{text}"
+    );
+
+    // spawn --wait: events printed, the exit code passed on; then logs and ps of that process.
+    let rem_cmd = |args: &[&str]| {
+        std::process::Command::new(rem)
+            .args(args)
+            .env("REM_ADDR", &cluster.daemons[0].addr)
+            .env("REM_SECRET_FILE", &cluster.secret_file)
+            .output()
+            .unwrap()
+    };
+    let out = rem_cmd(&["spawn", "--wait", "--nice", "3", ECHO, "exit", "5"]);
+    assert_eq!(
+        out.status.code(),
+        Some(5),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let id = text.split_whitespace().nth(1).unwrap().to_string();
+    assert!(text.contains(&format!("{id} started on")), "{text}");
+    assert!(text.contains(&format!("{id} exited with code 5")), "{text}");
+    let out = rem_cmd(&["logs", &id]);
+    assert!(out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!("rem-echo stdout {id}\n")
+    );
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "rem-echo stderr\n");
+    let out = rem_cmd(&["ps", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let p = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["proc_id"] == id.as_str())
+        .unwrap()
+        .clone();
+    assert_eq!(
+        (p["exit_code"].as_i64(), p["nice"].as_i64()),
+        (Some(5), Some(3))
+    );
+    // kill through the command; a bad id is an error with a non-zero exit.
+    let out = rem_cmd(&["spawn", "--json", ECHO, "spin", "30"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let spin_id = v[0]["proc_id"].as_str().unwrap().to_string();
+    assert!(rem_cmd(&["kill", &spin_id]).status.success());
+    let c = cluster.client(0).await;
+    let end = std::time::Instant::now() + T;
+    while c
+        .ps()
+        .await
+        .unwrap()
+        .iter()
+        .any(|p| p.proc_id == spin_id && p.state == "running")
+    {
+        assert!(std::time::Instant::now() < end, "not killed");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let out = rem_cmd(&["kill", "nonsense"]);
+    assert!(!out.status.success());
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -165,8 +262,14 @@ async fn remd_takes_settings_from_environment_and_config_file() {
         .spawn()
         .unwrap();
     let mut line = String::new();
-    std::io::BufReader::new(env_child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-    let env_addr = line.trim().strip_prefix("remd listening on ").unwrap().to_string();
+    std::io::BufReader::new(env_child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let env_addr = line
+        .trim()
+        .strip_prefix("remd listening on ")
+        .unwrap()
+        .to_string();
     // A TOML file joining the first.
     let cfg = dir.path().join("remd.toml");
     std::fs::write(
@@ -183,15 +286,24 @@ async fn remd_takes_settings_from_environment_and_config_file() {
         .spawn()
         .unwrap();
     let mut line = String::new();
-    std::io::BufReader::new(file_child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    std::io::BufReader::new(file_child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
     assert!(line.starts_with("remd listening on 127.0.0.1:"), "{line}");
-    let c = rem::RemClient::connect(&env_addr, rem::Secret::new("env-secret").unwrap()).await.unwrap();
+    let c = rem::RemClient::connect(&env_addr, rem::Secret::new("env-secret").unwrap())
+        .await
+        .unwrap();
     let hosts = wait_hosts(&c, T, |hs| hs.len() == 2 && hs.iter().all(|h| h.alive)).await;
     assert_eq!(hosts[0].name, "envhost");
     assert_eq!(hosts[1].name, "filehost");
     // The file's allow-list is in force: placement on filehost works for ECHO.
     let job = c
-        .spawn(SpawnRequest { program: ECHO.into(), args: vec!["exit".into(), "0".into()], count: 2, ..SpawnRequest::default() })
+        .spawn(SpawnRequest {
+            program: ECHO.into(),
+            args: vec!["exit".into(), "0".into()],
+            count: 2,
+            ..SpawnRequest::default()
+        })
         .await
         .unwrap();
     assert_eq!(job.processes.len(), 2);

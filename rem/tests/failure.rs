@@ -30,27 +30,41 @@ async fn host_failure_is_detected(sig: i32) -> (Cluster, Duration) {
     let client = cluster.client(0).await;
     let mut owner = client.attach(None).await.unwrap();
     let job = client.spawn(spin(&owner, 3)).await.unwrap();
-    let on_c = job.processes.iter().find(|p| p.host == "c").unwrap().proc_id.clone();
+    let on_c = job
+        .processes
+        .iter()
+        .find(|p| p.host == "c")
+        .unwrap()
+        .proc_id
+        .clone();
     for _ in 0..3 {
         next_event(&mut owner, T, |e| e.kind == EventKind::Started as i32).await;
     }
     let victim = cluster.daemons.last_mut().unwrap();
     let t0 = Instant::now();
     victim.signal(sig);
-    let ev = next_event(&mut owner, DETECT + Duration::from_millis(500), |e| e.kind == EventKind::Lost as i32).await;
+    let ev = next_event(&mut owner, DETECT + Duration::from_millis(500), |e| {
+        e.kind == EventKind::Lost as i32
+    })
+    .await;
     let detected = t0.elapsed();
     assert_eq!(ev.proc_id, on_c.as_str());
     assert_eq!(ev.host, "c");
     assert!(detected < DETECT, "lost after {detected:?}");
     let b = cluster.client(1).await;
-    wait_hosts(&b, DETECT.saturating_sub(t0.elapsed()) + Duration::from_millis(100), |hs| {
-        hs.iter().any(|h| h.name == "c" && !h.alive)
-    })
+    wait_hosts(
+        &b,
+        DETECT.saturating_sub(t0.elapsed()) + Duration::from_millis(100),
+        |hs| hs.iter().any(|h| h.name == "c" && !h.alive),
+    )
     .await;
     // No false alarm: a and b, with nice'd spinners on every core, still see each other.
     let a = cluster.client(0).await;
     let hosts = a.hosts().await.unwrap();
-    assert!(hosts.iter().filter(|h| h.name != "c").all(|h| h.alive), "{hosts:#?}");
+    assert!(
+        hosts.iter().filter(|h| h.name != "c").all(|h| h.alive),
+        "{hosts:#?}"
+    );
     // New work avoids the lost host: two hosts left, three one-per-host is an error.
     let err = client.spawn(spin(&owner, 3)).await.unwrap_err();
     assert_eq!(err.code(), tonic::Code::FailedPrecondition);
@@ -85,17 +99,34 @@ async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
     let client = cluster.client(0).await;
     let mut owner = client.attach(None).await.unwrap();
     let job = client.spawn(spin(&owner, 2)).await.unwrap();
-    let on_b = job.processes.iter().find(|p| p.host == "b").unwrap().clone();
-    next_event(&mut owner, T, |e| e.proc_id == on_b.proc_id.as_str() && e.kind == EventKind::Started as i32).await;
+    let on_b = job
+        .processes
+        .iter()
+        .find(|p| p.host == "b")
+        .unwrap()
+        .clone();
+    next_event(&mut owner, T, |e| {
+        e.proc_id == on_b.proc_id.as_str() && e.kind == EventKind::Started as i32
+    })
+    .await;
     cluster.daemons[1].signal(libc::SIGTERM);
-    let ev = next_event(&mut owner, T, |e| e.proc_id == on_b.proc_id.as_str() && e.kind != EventKind::Started as i32).await;
+    let ev = next_event(&mut owner, T, |e| {
+        e.proc_id == on_b.proc_id.as_str() && e.kind != EventKind::Started as i32
+    })
+    .await;
     assert_eq!(ev.kind, EventKind::Exited as i32, "{ev:?}");
     assert_eq!(ev.signal, Some(libc::SIGTERM));
     let status = cluster.daemons[1].wait_exit(T).expect("remd did not exit");
     assert!(status.success(), "{status:?}");
-    assert!(!std::path::Path::new(&format!("/proc/{}", on_b.pid)).exists() || proc_stat_field(on_b.pid, 3) == "Z");
+    assert!(
+        !std::path::Path::new(&format!("/proc/{}", on_b.pid)).exists()
+            || proc_stat_field(on_b.pid, 3) == "Z"
+    );
     // a marks it lost, and a restarted b rejoins.
-    wait_hosts(&client, T, |hs| hs.iter().any(|h| h.name == "b" && !h.alive)).await;
+    wait_hosts(&client, T, |hs| {
+        hs.iter().any(|h| h.name == "b" && !h.alive)
+    })
+    .await;
     let join = cluster.daemons[0].addr.clone();
     let b = cluster.start_daemon("b", Some(&join), &[]);
     cluster.daemons[1] = b;

@@ -6,7 +6,10 @@ use std::time::Duration;
 
 use common::*;
 use rem::client::ConnectOptions;
-use rem::proto::{self, client_frame, rem_client::RemClient as RawClient, ClientFrame, Envelope, EnvelopeBatch, Hello};
+use rem::proto::{
+    self, client_frame, rem_client::RemClient as RawClient, ClientFrame, Envelope, EnvelopeBatch,
+    Hello,
+};
 use rem::transport::ClientTls;
 use rem::{Error, RemClient, Secret, SpawnRequest};
 use tokio_stream::wrappers::ReceiverStream;
@@ -22,30 +25,58 @@ fn code<T: std::fmt::Debug>(r: Result<T, Error>) -> Code {
 async fn wrong_or_missing_secret_is_unauthenticated_and_health_is_open() {
     let cluster = Cluster::start(1, &[]);
     let addr = &cluster.daemons[0].addr;
-    let wrong = RemClient::connect(addr, Secret::new("not-the-secret").unwrap()).await.unwrap();
+    let wrong = RemClient::connect(addr, Secret::new("not-the-secret").unwrap())
+        .await
+        .unwrap();
     assert_eq!(code(wrong.hosts().await), Code::Unauthenticated);
-    let spawn = SpawnRequest { program: ECHO.into(), args: vec!["spin".into(), "5".into()], ..SpawnRequest::default() };
-    assert_eq!(code(wrong.spawn(spawn.clone()).await), Code::Unauthenticated);
-    assert_eq!(code(wrong.put_checkpoint("j", b"x".to_vec()).await), Code::Unauthenticated);
+    let spawn = SpawnRequest {
+        program: ECHO.into(),
+        args: vec!["spin".into(), "5".into()],
+        ..SpawnRequest::default()
+    };
+    assert_eq!(
+        code(wrong.spawn(spawn.clone()).await),
+        Code::Unauthenticated
+    );
+    assert_eq!(
+        code(wrong.put_checkpoint("j", b"x".to_vec()).await),
+        Code::Unauthenticated
+    );
     assert_eq!(code(wrong.attach(None).await), Code::Unauthenticated);
     // No secret at all (raw client without the interceptor).
     let mut raw = RawClient::connect(format!("http://{addr}")).await.unwrap();
     let status = raw.hosts(proto::HostsRequest {}).await.unwrap_err();
     assert_eq!(status.code(), Code::Unauthenticated);
-    let status = raw.spawn(proto::SpawnRequest { program: ECHO.into(), count: 1, ..Default::default() }).await.unwrap_err();
+    let status = raw
+        .spawn(proto::SpawnRequest {
+            program: ECHO.into(),
+            count: 1,
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
     assert_eq!(status.code(), Code::Unauthenticated);
     // ... and nothing was started.
     let good = cluster.client(0).await;
     assert!(good.ps().await.unwrap().is_empty());
     // Health answers without the secret.
-    let channel = tonic::transport::Endpoint::from_shared(format!("http://{addr}")).unwrap().connect().await.unwrap();
+    let channel = tonic::transport::Endpoint::from_shared(format!("http://{addr}"))
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
     let mut health = tonic_health::pb::health_client::HealthClient::new(channel);
     let reply = health
-        .check(tonic_health::pb::HealthCheckRequest { service: "rem.v1.Rem".into() })
+        .check(tonic_health::pb::HealthCheckRequest {
+            service: "rem.v1.Rem".into(),
+        })
         .await
         .unwrap()
         .into_inner();
-    assert_eq!(reply.status, tonic_health::pb::health_check_response::ServingStatus::Serving as i32);
+    assert_eq!(
+        reply.status,
+        tonic_health::pb::health_check_response::ServingStatus::Serving as i32
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -53,23 +84,70 @@ async fn only_allow_listed_absolute_programs_are_spawned() {
     let cluster = Cluster::start(2, &[]);
     cluster.converge(T).await;
     let c = cluster.client(0).await;
-    let req = |program: &str| SpawnRequest { program: program.into(), ..SpawnRequest::default() };
+    let req = |program: &str| SpawnRequest {
+        program: program.into(),
+        ..SpawnRequest::default()
+    };
     assert_eq!(code(c.spawn(req("/bin/sh")).await), Code::PermissionDenied);
     assert_eq!(code(c.spawn(req("rem-echo")).await), Code::InvalidArgument);
-    assert_eq!(code(c.spawn(SpawnRequest { count: 0, ..req(ECHO) }).await), Code::InvalidArgument);
-    assert_eq!(code(c.spawn(SpawnRequest { nice: Some(40), ..req(ECHO) }).await), Code::InvalidArgument);
-    assert_eq!(code(c.spawn(SpawnRequest { job: Some("a b".into()), ..req(ECHO) }).await), Code::InvalidArgument);
+    assert_eq!(
+        code(
+            c.spawn(SpawnRequest {
+                count: 0,
+                ..req(ECHO)
+            })
+            .await
+        ),
+        Code::InvalidArgument
+    );
+    assert_eq!(
+        code(
+            c.spawn(SpawnRequest {
+                nice: Some(40),
+                ..req(ECHO)
+            })
+            .await
+        ),
+        Code::InvalidArgument
+    );
+    assert_eq!(
+        code(
+            c.spawn(SpawnRequest {
+                job: Some("a b".into()),
+                ..req(ECHO)
+            })
+            .await
+        ),
+        Code::InvalidArgument
+    );
     assert!(c.ps().await.unwrap().is_empty());
     // Malformed ids.
     let mut raw = c.rpc();
-    let status = raw.kill(proto::KillRequest { proc_id: "no-slash".into() }).await.unwrap_err();
+    let status = raw
+        .kill(proto::KillRequest {
+            proc_id: "no-slash".into(),
+        })
+        .await
+        .unwrap_err();
     assert_eq!(status.code(), Code::InvalidArgument);
-    let status = raw.logs(proto::LogsRequest { proc_id: "a/12345".into() }).await.unwrap_err();
+    let status = raw
+        .logs(proto::LogsRequest {
+            proc_id: "a/12345".into(),
+        })
+        .await
+        .unwrap_err();
     assert_eq!(status.code(), Code::NotFound);
     // Attaching as someone else's process, or without Hello, is refused.
-    assert_eq!(code(c.attach_as(&"a/99".parse().unwrap(), "").await), Code::FailedPrecondition);
+    assert_eq!(
+        code(c.attach_as(&"a/99".parse().unwrap(), "").await),
+        Code::FailedPrecondition
+    );
     let (tx, rx) = tokio::sync::mpsc::channel(1);
-    tx.send(ClientFrame { frame: Some(client_frame::Frame::Batch(EnvelopeBatch::default())) }).await.unwrap();
+    tx.send(ClientFrame {
+        frame: Some(client_frame::Frame::Batch(EnvelopeBatch::default())),
+    })
+    .await
+    .unwrap();
     let status = raw.attach(ReceiverStream::new(rx)).await.unwrap_err();
     assert_eq!(status.code(), Code::InvalidArgument);
 }
@@ -81,18 +159,44 @@ async fn oversized_messages_are_refused() {
     let relay = c.attach(None).await.unwrap();
     // The library refuses before sending (the daemon told it the limit).
     let me = relay.id().clone();
-    assert!(matches!(relay.send(&me, vec![0u8; 1025]).await, Err(Error::TooLarge { size: 1025, limit: 1024 })));
+    assert!(matches!(
+        relay.send(&me, vec![0u8; 1025]).await,
+        Err(Error::TooLarge {
+            size: 1025,
+            limit: 1024
+        })
+    ));
     relay.send(&me, vec![0u8; 1024]).await.unwrap();
     // A raw client that ignores the limit gets RESOURCE_EXHAUSTED and the stream ends.
     let mut raw = c.rpc();
     let (tx, rx) = tokio::sync::mpsc::channel(4);
-    tx.send(ClientFrame { frame: Some(client_frame::Frame::Hello(Hello::default())) }).await.unwrap();
-    let mut stream = raw.attach(ReceiverStream::new(rx)).await.unwrap().into_inner();
+    tx.send(ClientFrame {
+        frame: Some(client_frame::Frame::Hello(Hello::default())),
+    })
+    .await
+    .unwrap();
+    let mut stream = raw
+        .attach(ReceiverStream::new(rx))
+        .await
+        .unwrap()
+        .into_inner();
     let welcome = stream.message().await.unwrap().unwrap();
-    let Some(proto::server_frame::Frame::Welcome(w)) = welcome.frame else { panic!("{welcome:?}") };
+    let Some(proto::server_frame::Frame::Welcome(w)) = welcome.frame else {
+        panic!("{welcome:?}")
+    };
     assert_eq!(w.max_message_bytes, 1024);
-    let big = Envelope { from: String::new(), to: w.proc_id.clone(), payload: vec![1u8; 2048] };
-    tx.send(ClientFrame { frame: Some(client_frame::Frame::Batch(EnvelopeBatch { envelopes: vec![big] })) }).await.unwrap();
+    let big = Envelope {
+        from: String::new(),
+        to: w.proc_id.clone(),
+        payload: vec![1u8; 2048],
+    };
+    tx.send(ClientFrame {
+        frame: Some(client_frame::Frame::Batch(EnvelopeBatch {
+            envelopes: vec![big],
+        })),
+    })
+    .await
+    .unwrap();
     let status = loop {
         match stream.message().await {
             Ok(Some(_)) => continue,
@@ -103,7 +207,10 @@ async fn oversized_messages_are_refused() {
     assert_eq!(status.code(), Code::ResourceExhausted, "{status:?}");
     // Checkpoints have the same limit.
     let status = raw
-        .put_checkpoint(proto::PutCheckpointRequest { job: "j".into(), data: vec![0; 2048] })
+        .put_checkpoint(proto::PutCheckpointRequest {
+            job: "j".into(),
+            data: vec![0; 2048],
+        })
         .await
         .unwrap_err();
     assert_eq!(status.code(), Code::ResourceExhausted);
@@ -113,12 +220,19 @@ async fn oversized_messages_are_refused() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn tls_cluster_works_and_plain_clients_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let cert = rcgen::generate_simple_self_signed(vec!["localhost".to_string(), "127.0.0.1".to_string()]).unwrap();
+    let cert =
+        rcgen::generate_simple_self_signed(vec!["localhost".to_string(), "127.0.0.1".to_string()])
+            .unwrap();
     let cert_path = dir.path().join("cert.pem");
     let key_path = dir.path().join("key.pem");
     std::fs::write(&cert_path, cert.cert.pem()).unwrap();
     std::fs::write(&key_path, cert.signing_key.serialize_pem()).unwrap();
-    let tls_args = ["--tls-cert", cert_path.to_str().unwrap(), "--tls-key", key_path.to_str().unwrap()];
+    let tls_args = [
+        "--tls-cert",
+        cert_path.to_str().unwrap(),
+        "--tls-key",
+        key_path.to_str().unwrap(),
+    ];
     let cluster = Cluster::start(2, &tls_args);
     let tls = ClientTls::from_file(&cert_path, Some("localhost".into())).unwrap();
     let mut opts = ConnectOptions::new(cluster.daemons[0].addr.clone(), cluster.secret());
@@ -138,7 +252,13 @@ async fn tls_cluster_works_and_plain_clients_are_refused() {
         })
         .await
         .unwrap();
-    let echo = job.processes.iter().find(|p| p.host == "b").unwrap().proc_id.clone();
+    let echo = job
+        .processes
+        .iter()
+        .find(|p| p.host == "b")
+        .unwrap()
+        .proc_id
+        .clone();
     owner.send(&echo, b"over tls".to_vec()).await.unwrap();
     let got = tokio::time::timeout(T, async {
         loop {

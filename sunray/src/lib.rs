@@ -10,12 +10,15 @@
 //! - [`camera`], [`film`], [`sampler`]: eye rays, images and files, counter-based random numbers.
 //! - [`scene`]: a model ready to render; [`render`]: the scanline render loop.
 //! - [`stats`]: counted statistics.
+//! - [`distrib`]: SunRay III: the controller and worker actors over REM, strategies, grants,
+//!   checkpoints and the per-node table.
 //! - [`bench`]: the thesis's Tables 4.1 and 4.2 and throughput runs on SPD scenes.
 
 pub mod accel;
 pub mod bench;
 pub mod camera;
 pub mod cli;
+pub mod distrib;
 pub mod film;
 pub mod geometry;
 pub mod render;

@@ -78,6 +78,8 @@ pub struct RenderStats {
     pub objects: usize,
     pub primitives: usize,
     pub unbounded: usize,
+    /// Cells of the accelerator: octree voxels (every node) or BVH nodes.
+    pub accel_nodes: usize,
     pub rays: Rays,
     pub intersection_tests: u64,
     pub voxels: u64,
@@ -131,6 +133,7 @@ impl RenderStats {
             "objects / primitives",
             format!("{} / {}", self.objects, self.primitives),
         );
+        row("accelerator cells", self.accel_nodes.to_string());
         row("eye rays", self.rays.eye.to_string());
         row("eye rays that hit", self.rays.eye_hits.to_string());
         row("shadow rays", self.rays.shadow.to_string());
@@ -139,7 +142,7 @@ impl RenderStats {
         row("refracted rays", self.rays.refracted.to_string());
         row("total rays", self.rays.total.to_string());
         row("intersection tests", self.intersection_tests.to_string());
-        row("voxels", self.voxels.to_string());
+        row("voxels visited", self.voxels.to_string());
         row(
             "mailbox hits / uses",
             format!("{} / {}", self.mailbox_hits, self.mailbox_uses),

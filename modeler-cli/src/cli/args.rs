@@ -22,9 +22,17 @@ impl Axis {
 }
 
 fn numbers(s: &str, n: usize, what: &str) -> Result<Vec<f64>, String> {
+    if s.starts_with("--") {
+        // A list of points takes every word after it, so an option there lands here.
+        return Err(format!(
+            "`{s}` is an option where {what} was expected; put options before a list of points"
+        ));
+    }
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != n {
-        return Err(format!("expected {what} as {n} numbers separated by commas, got `{s}`"));
+        return Err(format!(
+            "expected {what} as {n} numbers separated by commas, got `{s}`"
+        ));
     }
     parts
         .iter()
@@ -84,10 +92,15 @@ pub fn color(s: &str) -> Result<Color, String> {
     if s.contains(',') {
         let v = numbers(s, 3, "a colour r,g,b")?;
         if v.iter().any(|c| *c < 0.0) {
-            return Err(format!("colour components must not be negative (got `{s}`)"));
+            return Err(format!(
+                "colour components must not be negative (got `{s}`)"
+            ));
         }
         Ok(Color::Rgb([v[0], v[1], v[2]]))
-    } else if !s.is_empty() && s.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '-') {
+    } else if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
+    {
         Ok(Color::Named(s.to_string()))
     } else {
         Err(format!("expected a colour name or r,g,b, got `{s}`"))
@@ -95,7 +108,13 @@ pub fn color(s: &str) -> Result<Color, String> {
 }
 
 /// The texture names for YARI's texture ids (see docs/yari.md).
-pub const TEXTURES: [(&str, u32); 5] = [("wood", 1), ("marble", 2), ("bumps", 3), ("turbulence", 4), ("checker", 5)];
+pub const TEXTURES: [(&str, u32); 5] = [
+    ("wood", 1),
+    ("marble", 2),
+    ("bumps", 3),
+    ("turbulence", 4),
+    ("checker", 5),
+];
 
 /// A parsed `--texture`: a texture, or `None` for `none` (remove it).
 #[derive(Clone, Debug, PartialEq)]
@@ -121,12 +140,18 @@ pub fn texture(s: &str) -> Result<Option<Texture>, String> {
             Ok(id) => id as f64,
             Err(_) => {
                 let names: Vec<&str> = TEXTURES.iter().map(|(n, _)| *n).collect();
-                return Err(format!("unknown texture `{first}` (known: {}, or a number)", names.join(", ")));
+                return Err(format!(
+                    "unknown texture `{first}` (known: {}, or a number)",
+                    names.join(", ")
+                ));
             }
         },
     };
     if words.len() > 3 {
-        return Err(format!("a texture is NAME-or-ID [r,g,b [sx,sy,sz]]; `{s}` has {} words", words.len()));
+        return Err(format!(
+            "a texture is NAME-or-ID [r,g,b [sx,sy,sz]]; `{s}` has {} words",
+            words.len()
+        ));
     }
     let color = match words.get(1) {
         Some(w) => vec3(w)?,
@@ -149,6 +174,7 @@ mod tests {
         assert!(vec3("1,2").unwrap_err().contains("x,y,z"));
         assert!(vec3("1,b,3").unwrap_err().contains("`b`"));
         assert!(vec3("1,inf,3").is_err());
+        assert!(vec2("--at").unwrap_err().contains("put options before"));
         assert_eq!(vec2("0.5,2"), Ok([0.5, 2.0]));
         assert_eq!(scale3("2"), Ok([2.0; 3]));
         assert!(scale3("1,0,1").is_err());

@@ -15,28 +15,43 @@ use yari::colour::ColourTable;
 pub fn check_color(c: &Color, table: &ColourTable, arg: &str) -> Result<(), ModelError> {
     if let Color::Named(n) = c {
         if table.get(n).is_none() {
-            let hint = table.suggest(n).map(|s| format!(" (did you mean `{s}`?)")).unwrap_or_default();
-            return Err(ModelError::bad_arg(arg, format!("unknown colour name `{n}`{hint}; give a known name or r,g,b")));
+            let hint = table
+                .suggest(n)
+                .map(|s| format!(" (did you mean `{s}`?)"))
+                .unwrap_or_default();
+            return Err(ModelError::bad_arg(
+                arg,
+                format!("unknown colour name `{n}`{hint}; give a known name or r,g,b"),
+            ));
         }
     }
     Ok(())
 }
 
 pub fn skeleton<'a>(p: &'a Project, name: &str) -> Result<&'a Skeleton, ModelError> {
-    p.skeletons
-        .iter()
-        .find(|s| s.name == name)
-        .ok_or_else(|| ModelError::not_found("skeleton", name, p.skeletons.iter().map(|s| s.name.as_str())))
+    p.skeletons.iter().find(|s| s.name == name).ok_or_else(|| {
+        ModelError::not_found(
+            "skeleton",
+            name,
+            p.skeletons.iter().map(|s| s.name.as_str()),
+        )
+    })
 }
 
 fn skeleton_mut<'a>(p: &'a mut Project, name: &str) -> Result<&'a mut Skeleton, ModelError> {
     skeleton(p, name)?;
-    p.skeletons.iter_mut().find(|s| s.name == name).ok_or_else(|| ModelError::not_found("skeleton", name, std::iter::empty()))
+    p.skeletons
+        .iter_mut()
+        .find(|s| s.name == name)
+        .ok_or_else(|| ModelError::not_found("skeleton", name, std::iter::empty()))
 }
 
 fn check_smoothness(arg: &str, n: u32) -> Result<(), ModelError> {
     if n == 0 || n > MAX_SMOOTHNESS {
-        return Err(ModelError::bad_arg(arg, format!("smoothness must be 1..={MAX_SMOOTHNESS} (got {n})")));
+        return Err(ModelError::bad_arg(
+            arg,
+            format!("smoothness must be 1..={MAX_SMOOTHNESS} (got {n})"),
+        ));
     }
     Ok(())
 }
@@ -47,7 +62,11 @@ fn point_index(s: &Skeleton, index: usize, inserting: bool) -> Result<usize, Mod
     if index == 0 || index > max {
         return Err(ModelError::bad_arg(
             "INDEX",
-            format!("skeleton `{}` has {} points; give 1..={max} (points count from 1)", s.name, s.points.len()),
+            format!(
+                "skeleton `{}` has {} points; give 1..={max} (points count from 1)",
+                s.name,
+                s.points.len()
+            ),
         ));
     }
     Ok(index - 1)
@@ -58,7 +77,10 @@ pub fn skeleton_cmd(p: &mut Project, cmd: SkeletonCmd) -> Result<(), ModelError>
         SkeletonCmd::New(a) => {
             check_name(&a.name)?;
             if p.skeletons.iter().any(|s| s.name == a.name) {
-                return Err(ModelError::Duplicate { kind: "skeleton", name: a.name });
+                return Err(ModelError::Duplicate {
+                    kind: "skeleton",
+                    name: a.name,
+                });
             }
             check_smoothness("--smoothness", a.smoothness)?;
             let mut s = Skeleton::new(&a.name, a.plane, a.kind);
@@ -118,7 +140,11 @@ pub fn skeleton_cmd(p: &mut Project, cmd: SkeletonCmd) -> Result<(), ModelError>
 }
 
 fn part(name: String, primitives: Vec<Primitive>) -> Object {
-    Object { name, primitives, ..Object::default() }
+    Object {
+        name,
+        primitives,
+        ..Object::default()
+    }
 }
 
 pub fn add_cmd(p: &mut Project, cmd: AddCmd) -> Result<(), ModelError> {
@@ -130,15 +156,26 @@ pub fn add_cmd(p: &mut Project, cmd: AddCmd) -> Result<(), ModelError> {
                     let s = skeleton(p, from)?;
                     let pts = s.points_3d();
                     if pts.len() < 2 {
-                        return Err(ModelError::skeleton(from, "a sphere needs two points: the centre and a point on the sphere"));
+                        return Err(ModelError::skeleton(
+                            from,
+                            "a sphere needs two points: the centre and a point on the sphere",
+                        ));
                     }
                     (pts[0].to_array(), pts[0].distance(pts[1]))
                 }
                 (None, Some(c), Some(r)) => (c, r),
-                _ => return Err(ModelError::bad_arg("--center", "give --from SKELETON, or --center and --radius")),
+                _ => {
+                    return Err(ModelError::bad_arg(
+                        "--center",
+                        "give --from SKELETON, or --center and --radius",
+                    ))
+                }
             };
             if !(radius.is_finite() && radius > 0.0) {
-                return Err(ModelError::bad_arg("--radius", format!("the radius must be positive (got {radius})")));
+                return Err(ModelError::bad_arg(
+                    "--radius",
+                    format!("the radius must be positive (got {radius})"),
+                ));
             }
             p.add_object(part(a.name, vec![Primitive::Sphere { center, radius }]))
         }
@@ -157,7 +194,10 @@ pub fn add_cmd(p: &mut Project, cmd: AddCmd) -> Result<(), ModelError> {
             if vertices.len() < 3 {
                 return Err(ModelError::bad_arg(
                     a.from.as_deref().unwrap_or("--vertices"),
-                    format!("a polygon needs at least three distinct vertices (has {})", vertices.len()),
+                    format!(
+                        "a polygon needs at least three distinct vertices (has {})",
+                        vertices.len()
+                    ),
                 ));
             }
             let vertices = vertices.iter().map(|v| v.to_array()).collect();
@@ -168,17 +208,32 @@ pub fn add_cmd(p: &mut Project, cmd: AddCmd) -> Result<(), ModelError> {
             let mut coeffs = [0.0; 10];
             coeffs.copy_from_slice(&a.coeffs);
             if coeffs.iter().all(|c| *c == 0.0) {
-                return Err(ModelError::bad_arg("--coeffs", "all ten coefficients are zero"));
+                return Err(ModelError::bad_arg(
+                    "--coeffs",
+                    "all ten coefficients are zero",
+                ));
             }
             let mut clip = Vec::new();
             if let [a0, b0] = a.bounds[..] {
-                let (lo, hi) = (DVec3::from_array(a0).min(DVec3::from_array(b0)), DVec3::from_array(a0).max(DVec3::from_array(b0)));
+                let (lo, hi) = (
+                    DVec3::from_array(a0).min(DVec3::from_array(b0)),
+                    DVec3::from_array(a0).max(DVec3::from_array(b0)),
+                );
                 if lo.cmpeq(hi).any() {
-                    return Err(ModelError::bad_arg("--box", "the box is flat; MIN and MAX must differ in x, y and z"));
+                    return Err(ModelError::bad_arg(
+                        "--box",
+                        "the box is flat; MIN and MAX must differ in x, y and z",
+                    ));
                 }
-                clip.push(Clip::Box { min: lo.to_array(), max: hi.to_array() });
+                clip.push(Clip::Box {
+                    min: lo.to_array(),
+                    max: hi.to_array(),
+                });
             }
-            clip.extend(a.plane.iter().map(|(normal, offset)| Clip::Plane { normal: *normal, offset: *offset }));
+            clip.extend(a.plane.iter().map(|(normal, offset)| Clip::Plane {
+                normal: *normal,
+                offset: *offset,
+            }));
             p.add_object(part(a.name, vec![Primitive::Quadric { coeffs, clip }]))
         }
     }
@@ -189,7 +244,12 @@ pub fn revolve(p: &mut Project, a: RevolveArgs) -> Result<(), ModelError> {
     if let Some(n) = a.smoothness {
         check_smoothness("--smoothness", n)?;
     }
-    let mesh = sweep::revolve(skeleton(p, &a.profile)?, a.axis.index(), a.step, a.smoothness)?;
+    let mesh = sweep::revolve(
+        skeleton(p, &a.profile)?,
+        a.axis.index(),
+        a.step,
+        a.smoothness,
+    )?;
     p.add_object(part(a.name, mesh.to_primitives()))
 }
 
@@ -206,7 +266,12 @@ pub fn extrude(p: &mut Project, a: ExtrudeArgs) -> Result<(), ModelError> {
             v[s.plane.axes().2] = d;
             v
         }
-        (None, None) => return Err(ModelError::bad_arg("--by", "give --by x,y,z or --depth LENGTH")),
+        (None, None) => {
+            return Err(ModelError::bad_arg(
+                "--by",
+                "give --by x,y,z or --depth LENGTH",
+            ))
+        }
     };
     let mesh = sweep::extrude(s, by, !a.no_caps, a.centred, a.smoothness)?;
     p.add_object(part(a.name, mesh.to_primitives()))
@@ -214,9 +279,10 @@ pub fn extrude(p: &mut Project, a: ExtrudeArgs) -> Result<(), ModelError> {
 
 fn unit(arg: &str, v: Option<f64>, lo: f64, hi: f64) -> Result<Option<f64>, ModelError> {
     match v {
-        Some(x) if !(x.is_finite() && x >= lo && x <= hi) => {
-            Err(ModelError::bad_arg(arg, format!("must be between {lo} and {hi} (got {x})")))
-        }
+        Some(x) if !(x.is_finite() && x >= lo && x <= hi) => Err(ModelError::bad_arg(
+            arg,
+            format!("must be between {lo} and {hi} (got {x})"),
+        )),
         _ => Ok(v),
     }
 }
@@ -230,7 +296,9 @@ pub fn surface(p: &mut Project, a: SurfaceArgs, table: &ColourTable) -> Result<(
     let ka = unit("--ka", a.ka, 0.0, f64::MAX)?;
     let phong = unit("--phong", a.phong, 0.0, f64::MAX)?;
     let refract = unit("--refract", a.refract, 1e-6, f64::MAX)?;
-    let any = a.color.is_some() || [kdr, kdt, ka, phong, refract].iter().any(Option::is_some) || a.texture.is_some();
+    let any = a.color.is_some()
+        || [kdr, kdt, ka, phong, refract].iter().any(Option::is_some)
+        || a.texture.is_some();
     if !any && !a.inherit {
         return Err(ModelError::bad_arg("surface", "nothing to set: give --color, --kdr, --kdt, --ka, --phong, --refract, --texture or --inherit"));
     }
@@ -254,20 +322,42 @@ pub fn surface(p: &mut Project, a: SurfaceArgs, table: &ColourTable) -> Result<(
     Ok(())
 }
 
-pub fn transform(p: &mut Project, name: &str, t: Transform, about: Option<[f64; 3]>) -> Result<(), ModelError> {
+pub fn transform(
+    p: &mut Project,
+    name: &str,
+    t: Transform,
+    about: Option<[f64; 3]>,
+) -> Result<(), ModelError> {
     p.transform_object(name, t, about)
 }
 
-fn check_view(arg: &str, from: [f64; 3], at: [f64; 3], up: [f64; 3], angle: f64) -> Result<(), ModelError> {
+fn check_view(
+    arg: &str,
+    from: [f64; 3],
+    at: [f64; 3],
+    up: [f64; 3],
+    angle: f64,
+) -> Result<(), ModelError> {
     let dir = DVec3::from_array(at) - DVec3::from_array(from);
     if dir.length() == 0.0 {
-        return Err(ModelError::bad_arg(arg, "the position and the point looked at are the same"));
+        return Err(ModelError::bad_arg(
+            arg,
+            "the position and the point looked at are the same",
+        ));
     }
-    if dir.cross(DVec3::from_array(up)).length() <= 1e-12 * dir.length() * DVec3::from_array(up).length() {
-        return Err(ModelError::bad_arg("--up", "the up vector is zero or along the viewing direction"));
+    if dir.cross(DVec3::from_array(up)).length()
+        <= 1e-12 * dir.length() * DVec3::from_array(up).length()
+    {
+        return Err(ModelError::bad_arg(
+            "--up",
+            "the up vector is zero or along the viewing direction",
+        ));
     }
     if !(angle > 0.0 && angle < 90.0) {
-        return Err(ModelError::bad_arg("--angle", format!("the half angle must be between 0 and 90 degrees (got {angle})")));
+        return Err(ModelError::bad_arg(
+            "--angle",
+            format!("the half angle must be between 0 and 90 degrees (got {angle})"),
+        ));
     }
     Ok(())
 }
@@ -287,7 +377,12 @@ pub fn view(p: &mut Project, a: ViewArgs) -> Result<(), ModelError> {
         return Ok(());
     }
     let cam = p.settings.camera.clone().unwrap_or_default();
-    let v = p.settings.view.get_or_insert_with(|| View { from: cam.position, at: cam.at, up: cam.up, angle: cam.angle });
+    let v = p.settings.view.get_or_insert(View {
+        from: cam.position,
+        at: cam.at,
+        up: cam.up,
+        angle: cam.angle,
+    });
     v.from = a.from.unwrap_or(v.from);
     v.at = a.at.unwrap_or(v.at);
     v.up = a.up.unwrap_or(v.up);
@@ -309,13 +404,21 @@ pub fn light(p: &mut Project, cmd: LightCmd, table: &ColourTable) -> Result<(), 
         LightCmd::Add(a) => {
             check_name(&a.name)?;
             if p.settings.lights.iter().any(|l| l.name == a.name) {
-                return Err(ModelError::Duplicate { kind: "light", name: a.name });
+                return Err(ModelError::Duplicate {
+                    kind: "light",
+                    name: a.name,
+                });
             }
             check_color(&a.color, table, "--color")?;
             if let Some(r) = a.radius {
                 unit("--radius", Some(r), 0.0, f64::MAX)?;
             }
-            p.settings.lights.push(Light { name: a.name, position: a.position, color: a.color, radius: a.radius });
+            p.settings.lights.push(Light {
+                name: a.name,
+                position: a.position,
+                color: a.color,
+                radius: a.radius,
+            });
         }
         LightCmd::Move(a) => light_mut(p, &a.name)?.position = a.position,
         LightCmd::Color(a) => {

@@ -83,33 +83,59 @@ impl Overlay {
                 }
             }
         }
-        o.lights = p.settings.lights.iter().map(|l| DVec3::from_array(l.position)).collect();
-        o.camera = p.settings.camera.as_ref().map(|c| (DVec3::from_array(c.position), DVec3::from_array(c.at)));
+        o.lights = p
+            .settings
+            .lights
+            .iter()
+            .map(|l| DVec3::from_array(l.position))
+            .collect();
+        o.camera = p
+            .settings
+            .camera
+            .as_ref()
+            .map(|c| (DVec3::from_array(c.position), DVec3::from_array(c.at)));
         o
     }
 }
 
 /// Compiles the project and draws its four views.
 pub fn render_project(project: &Project, opts: &Options) -> Result<image::RgbImage, ModelError> {
-    let table = yari::colour::ColourTable::for_run(None).map_err(|e| ModelError::Yari(e.to_string()))?;
+    let table =
+        yari::colour::ColourTable::for_run(None).map_err(|e| ModelError::Yari(e.to_string()))?;
     let scene = crate::export::to_scene(project);
     let world = match yari::compile::compile(&scene, &table) {
         Ok(c) => c.world,
         Err(d) => {
             let msgs: Vec<String> = d.errors().map(|e| e.message.clone()).collect();
-            return Err(ModelError::Yari(format!("the scene does not compile: {}", msgs.join("; "))));
+            return Err(ModelError::Yari(format!(
+                "the scene does not compile: {}",
+                msgs.join("; ")
+            )));
         }
     };
-    let view = project.settings.view.as_ref().map(|v| (v.from, v.at, v.up, v.angle));
-    Ok(render_world(&world, &Overlay::of_project(project), view, opts))
+    Ok(render_world(
+        &world,
+        &Overlay::of_project(project),
+        project.settings.view.as_ref(),
+        opts,
+    ))
 }
 
 /// Draws the four views of a compiled world. `view` is the perspective viewpoint
-/// (from, at, up, half angle); without it the world's camera is used.
-pub fn render_world(world: &yari::model::World, overlay: &Overlay, view: Option<([f64; 3], [f64; 3], [f64; 3], f64)>, opts: &Options) -> image::RgbImage {
+/// (the project's view location); without it the world's camera is used.
+pub fn render_world(
+    world: &yari::model::World,
+    overlay: &Overlay,
+    view: Option<&crate::project::View>,
+    opts: &Options,
+) -> image::RgbImage {
     let size = opts.size.max(16);
     let drawables = Drawables::from_world(world);
-    let overlay_pts = overlay.curves.iter().flat_map(|(c, _)| c.iter().copied()).chain(overlay.points.iter().copied());
+    let overlay_pts = overlay
+        .curves
+        .iter()
+        .flat_map(|(c, _)| c.iter().copied())
+        .chain(overlay.points.iter().copied());
     let (lo, hi) = match (drawables.bounds(), bounds_of(overlay_pts)) {
         (Some((a, b)), Some((c, d))) => (a.min(c), b.max(d)),
         (Some(b), None) | (None, Some(b)) => b,
@@ -117,13 +143,32 @@ pub fn render_world(world: &yari::model::World, overlay: &Overlay, view: Option<
     };
     let [front, top, side] = views::ortho_views(lo, hi, size);
     let (eye, at, up, angle) = match view {
-        Some((f, a, u, ang)) => (DVec3::from_array(f), DVec3::from_array(a), DVec3::from_array(u), ang),
-        None => (world.camera.position, world.camera.at, world.camera.up, world.camera.half_angle_deg),
+        Some(v) => (
+            DVec3::from_array(v.from),
+            DVec3::from_array(v.at),
+            DVec3::from_array(v.up),
+            v.angle,
+        ),
+        None => (
+            world.camera.position,
+            world.camera.at,
+            world.camera.up,
+            world.camera.half_angle_deg,
+        ),
     };
     let near = 1e-3 * (hi - lo).length().max(1e-6);
     let persp = views::perspective_view(eye, at, up, angle, size, near);
-    let mut out = image::RgbImage::from_pixel((2 * size + 3 * GAP) as u32, (2 * size + 3 * GAP) as u32, image::Rgb([70, 70, 74]));
-    let cells = [(Some(top), 0, 0), (persp, 1, 0), (Some(front), 0, 1), (Some(side), 1, 1)];
+    let mut out = image::RgbImage::from_pixel(
+        (2 * size + 3 * GAP) as u32,
+        (2 * size + 3 * GAP) as u32,
+        image::Rgb([70, 70, 74]),
+    );
+    let cells = [
+        (Some(top), 0, 0),
+        (persp, 1, 0),
+        (Some(front), 0, 1),
+        (Some(side), 1, 1),
+    ];
     for (v, cx, cy) in cells {
         let canvas = match &v {
             Some(v) => draw_view(v, &drawables, overlay, (lo, hi), opts.style, view.is_none()),
@@ -132,7 +177,8 @@ pub fn render_world(world: &yari::model::World, overlay: &Overlay, view: Option<
         let (ox, oy) = (GAP + cx * (size + GAP), GAP + cy * (size + GAP));
         for y in 0..size {
             for x in 0..size {
-                let c = canvas.color[y * size + x].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
+                let c =
+                    canvas.color[y * size + x].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
                 out.put_pixel((ox + x) as u32, (oy + y) as u32, image::Rgb(c));
             }
         }
@@ -140,10 +186,20 @@ pub fn render_world(world: &yari::model::World, overlay: &Overlay, view: Option<
     out
 }
 
-fn draw_view(v: &View, d: &Drawables, overlay: &Overlay, bounds: (DVec3, DVec3), style: Style, camera_view: bool) -> Canvas {
+fn draw_view(
+    v: &View,
+    d: &Drawables,
+    overlay: &Overlay,
+    bounds: (DVec3, DVec3),
+    style: Style,
+    camera_view: bool,
+) -> Canvas {
     let mut c = Canvas::new(v.width, v.height, BACKGROUND);
     if matches!(v.projection, views::Projection::Ortho { .. }) {
-        for (k, col) in [[0.45, 0.2, 0.2], [0.2, 0.45, 0.2], [0.2, 0.25, 0.5]].into_iter().enumerate() {
+        for (k, col) in [[0.45, 0.2, 0.2], [0.2, 0.45, 0.2], [0.2, 0.25, 0.5]]
+            .into_iter()
+            .enumerate()
+        {
             let mut a = DVec3::ZERO;
             a[k] = 1e6;
             c.line(v.project(-a), v.project(a), col, false);
@@ -179,7 +235,10 @@ fn draw_view(v: &View, d: &Drawables, overlay: &Overlay, bounds: (DVec3, DVec3),
     for p in overlay.lights.iter().filter(|p| visible(**p)) {
         c.cross(v.project(*p), 4, LIGHT);
     }
-    if let (Some((pos, at)), false) = (overlay.camera, camera_view && matches!(v.projection, views::Projection::Perspective { .. })) {
+    if let (Some((pos, at)), false) = (
+        overlay.camera,
+        camera_view && matches!(v.projection, views::Projection::Perspective { .. }),
+    ) {
         segment(&mut c, pos, at, CAMERA);
         if visible(pos) {
             c.cross(v.project(pos), 4, CAMERA);
@@ -217,7 +276,12 @@ fn draw_flat(v: &View, d: &Drawables, c: &mut Canvas) {
             for q in &d.quadrics {
                 if let Some((p, n)) = q.hit(o, dir) {
                     if v.depth(p) > 0.0 {
-                        c.plot(x as i64, y as i64, Some(v.key(p) as f32), shade(q.color, n, -dir));
+                        c.plot(
+                            x as i64,
+                            y as i64,
+                            Some(v.key(p) as f32),
+                            shade(q.color, n, -dir),
+                        );
                     }
                 }
             }
@@ -263,7 +327,11 @@ pub fn newell(poly: &[DVec3]) -> DVec3 {
     let mut n = DVec3::ZERO;
     for i in 0..poly.len() {
         let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
-        n += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+        n += DVec3::new(
+            (a.y - b.y) * (a.z + b.z),
+            (a.z - b.z) * (a.x + b.x),
+            (a.x - b.x) * (a.y + b.y),
+        );
     }
     n
 }
@@ -271,8 +339,14 @@ pub fn newell(poly: &[DVec3]) -> DVec3 {
 /// Writes an image as PNG atomically (a temporary file, then a rename).
 pub fn write_png(img: &image::RgbImage, path: &std::path::Path) -> Result<(), ModelError> {
     let mut bytes = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-        .map_err(|e| ModelError::Image { path: path.display().to_string(), message: e.to_string() })?;
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| ModelError::Image {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
     crate::project::write_atomic(path, &bytes)
 }
 

@@ -16,7 +16,12 @@ pub type ScreenPoint = [f64; 3];
 
 impl Canvas {
     pub fn new(width: usize, height: usize, background: [f32; 3]) -> Canvas {
-        Canvas { width, height, color: vec![background; width * height], key: vec![f32::NEG_INFINITY; width * height] }
+        Canvas {
+            width,
+            height,
+            color: vec![background; width * height],
+            key: vec![f32::NEG_INFINITY; width * height],
+        }
     }
 
     /// Writes a pixel if it is nearer than what is there (`key` = None draws on top).
@@ -56,13 +61,27 @@ impl Canvas {
         if n[2].abs() <= 1e-9 * len || len == 0.0 {
             return;
         }
-        let (kmin, kmax) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[2]), hi.max(p[2])));
+        let (kmin, kmax) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p[2]), hi.max(p[2]))
+            });
         let key_at = |x: f64, y: f64| {
             let k = centroid[2] - (n[0] * (x - centroid[0]) + n[1] * (y - centroid[1])) / n[2];
             k.clamp(kmin, kmax) as f32
         };
-        let ymin = pts.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min).ceil().max(0.0) as i64;
-        let ymax = pts.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max).floor().min(self.height as f64 - 1.0) as i64;
+        let ymin = pts
+            .iter()
+            .map(|p| p[1])
+            .fold(f64::INFINITY, f64::min)
+            .ceil()
+            .max(0.0) as i64;
+        let ymax = pts
+            .iter()
+            .map(|p| p[1])
+            .fold(f64::NEG_INFINITY, f64::max)
+            .floor()
+            .min(self.height as f64 - 1.0) as i64;
         let mut xs = Vec::new();
         for y in ymin..=ymax {
             let yf = y as f64;
@@ -114,13 +133,23 @@ impl Canvas {
 }
 
 /// Liang-Barsky clipping of a segment to the pixel centres [0, w-1] x [0, h-1].
-fn clip_to_rect(a: ScreenPoint, b: ScreenPoint, w: f64, h: f64) -> Option<(ScreenPoint, ScreenPoint)> {
+fn clip_to_rect(
+    a: ScreenPoint,
+    b: ScreenPoint,
+    w: f64,
+    h: f64,
+) -> Option<(ScreenPoint, ScreenPoint)> {
     if !a.iter().chain(b.iter()).all(|v| v.is_finite()) {
         return None;
     }
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [(-d[0], a[0]), (d[0], w - 1.0 - a[0]), (-d[1], a[1]), (d[1], h - 1.0 - a[1])] {
+    for (p, q) in [
+        (-d[0], a[0]),
+        (d[0], w - 1.0 - a[0]),
+        (-d[1], a[1]),
+        (d[1], h - 1.0 - a[1]),
+    ] {
         if p == 0.0 {
             if q < 0.0 {
                 return None;
@@ -155,7 +184,15 @@ mod tests {
     #[test]
     fn a_square_fills_exactly_its_pixel_centres() {
         let mut c = Canvas::new(10, 10, [0.0; 3]);
-        c.fill_polygon(&[[1.5, 1.5, 0.0], [5.5, 1.5, 0.0], [5.5, 4.5, 0.0], [1.5, 4.5, 0.0]], RED);
+        c.fill_polygon(
+            &[
+                [1.5, 1.5, 0.0],
+                [5.5, 1.5, 0.0],
+                [5.5, 4.5, 0.0],
+                [1.5, 4.5, 0.0],
+            ],
+            RED,
+        );
         assert_eq!(count(&c, RED), 4 * 3);
     }
 
@@ -163,7 +200,16 @@ mod tests {
     fn a_concave_outline_leaves_its_notch_empty() {
         // A U shape: 9x9 minus a 3-wide notch of depth 6 at the top.
         let mut c = Canvas::new(12, 12, [0.0; 3]);
-        let u = [[0.5, 0.5, 0.0], [9.5, 0.5, 0.0], [9.5, 9.5, 0.0], [6.5, 9.5, 0.0], [6.5, 3.5, 0.0], [3.5, 3.5, 0.0], [3.5, 9.5, 0.0], [0.5, 9.5, 0.0]];
+        let u = [
+            [0.5, 0.5, 0.0],
+            [9.5, 0.5, 0.0],
+            [9.5, 9.5, 0.0],
+            [6.5, 9.5, 0.0],
+            [6.5, 3.5, 0.0],
+            [3.5, 3.5, 0.0],
+            [3.5, 9.5, 0.0],
+            [0.5, 9.5, 0.0],
+        ];
         c.fill_polygon(&u, RED);
         assert_eq!(count(&c, RED), 81 - 18);
         assert_eq!(c.color[5 * 12 + 5], [0.0; 3]);
@@ -173,8 +219,18 @@ mod tests {
     fn the_nearer_polygon_wins_whatever_the_order() {
         for order in [0, 1] {
             let mut c = Canvas::new(8, 8, [0.0; 3]);
-            let near = [[0.0, 0.0, 2.0], [7.9, 0.0, 2.0], [7.9, 7.9, 2.0], [0.0, 7.9, 2.0]];
-            let far = [[0.0, 0.0, 1.0], [7.9, 0.0, 1.0], [7.9, 7.9, 1.0], [0.0, 7.9, 1.0]];
+            let near = [
+                [0.0, 0.0, 2.0],
+                [7.9, 0.0, 2.0],
+                [7.9, 7.9, 2.0],
+                [0.0, 7.9, 2.0],
+            ];
+            let far = [
+                [0.0, 0.0, 1.0],
+                [7.9, 0.0, 1.0],
+                [7.9, 7.9, 1.0],
+                [0.0, 7.9, 1.0],
+            ];
             if order == 0 {
                 c.fill_polygon(&near, RED);
                 c.fill_polygon(&far, BLUE);
@@ -191,8 +247,24 @@ mod tests {
     fn interpenetrating_planes_split_along_their_intersection() {
         let mut c = Canvas::new(10, 1, [0.0; 3]);
         // key rises left to right for red, falls for blue; they cross at x = 4.5.
-        c.fill_polygon(&[[-0.5, -0.5, 0.0], [9.5, -0.5, 10.0], [9.5, 0.5, 10.0], [-0.5, 0.5, 0.0]], RED);
-        c.fill_polygon(&[[-0.5, -0.5, 10.0], [9.5, -0.5, 0.0], [9.5, 0.5, 0.0], [-0.5, 0.5, 10.0]], BLUE);
+        c.fill_polygon(
+            &[
+                [-0.5, -0.5, 0.0],
+                [9.5, -0.5, 10.0],
+                [9.5, 0.5, 10.0],
+                [-0.5, 0.5, 0.0],
+            ],
+            RED,
+        );
+        c.fill_polygon(
+            &[
+                [-0.5, -0.5, 10.0],
+                [9.5, -0.5, 0.0],
+                [9.5, 0.5, 0.0],
+                [-0.5, 0.5, 10.0],
+            ],
+            BLUE,
+        );
         assert_eq!(c.color[..5], [BLUE; 5]);
         assert_eq!(c.color[5..], [RED; 5]);
     }

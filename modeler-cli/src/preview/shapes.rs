@@ -27,15 +27,32 @@ impl Drawables {
     pub fn from_world(world: &World) -> Drawables {
         let mut d = Drawables::default();
         for obj in &world.objects {
-            let color = world.surfaces.get(obj.surface as usize).map(|s| s.color).unwrap_or(DVec3::ONE);
-            let color = [color.x as f32, color.y as f32, color.z as f32].map(|c| if c.is_finite() { c.clamp(0.0, 1.0) } else { 1.0 });
+            let color = world
+                .surfaces
+                .get(obj.surface as usize)
+                .map(|s| s.color)
+                .unwrap_or(DVec3::ONE);
+            let color = [color.x as f32, color.y as f32, color.z as f32].map(|c| {
+                if c.is_finite() {
+                    c.clamp(0.0, 1.0)
+                } else {
+                    1.0
+                }
+            });
             match &obj.shape {
                 Shape::Polygon { vertices } => d.polygons.push((vertices.clone(), color)),
                 Shape::Sphere { center, radius } => {
-                    let m = DAffine3::from_scale_rotation_translation(DVec3::splat(*radius), glam::DQuat::IDENTITY, *center);
-                    d.polygons.extend(sphere_mesh(&m).into_iter().map(|p| (p, color)));
+                    let m = DAffine3::from_scale_rotation_translation(
+                        DVec3::splat(*radius),
+                        glam::DQuat::IDENTITY,
+                        *center,
+                    );
+                    d.polygons
+                        .extend(sphere_mesh(&m).into_iter().map(|p| (p, color)));
                 }
-                Shape::Ellipsoid { to_world } => d.polygons.extend(sphere_mesh(to_world).into_iter().map(|p| (p, color))),
+                Shape::Ellipsoid { to_world } => d
+                    .polygons
+                    .extend(sphere_mesh(to_world).into_iter().map(|p| (p, color))),
                 Shape::Quadric(q) => d.quadrics.push(Quadric {
                     q: matrix(&q.q),
                     clip: q.clip.clone(),
@@ -49,7 +66,11 @@ impl Drawables {
 
     /// The box around everything with a finite extent (None when there is nothing).
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
-        let mut pts: Vec<DVec3> = self.polygons.iter().flat_map(|(p, _)| p.iter().copied()).collect();
+        let mut pts: Vec<DVec3> = self
+            .polygons
+            .iter()
+            .flat_map(|(p, _)| p.iter().copied())
+            .collect();
         for q in &self.quadrics {
             if let Some((lo, hi)) = q.bounds {
                 pts.push(lo);
@@ -62,10 +83,11 @@ impl Drawables {
 
 /// The box around some points, skipping non-finite ones.
 pub fn bounds_of(pts: impl Iterator<Item = DVec3>) -> Option<(DVec3, DVec3)> {
-    pts.filter(|p| p.is_finite()).fold(None, |acc, p| match acc {
-        None => Some((p, p)),
-        Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
-    })
+    pts.filter(|p| p.is_finite())
+        .fold(None, |acc, p| match acc {
+            None => Some((p, p)),
+            Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
+        })
 }
 
 /// The unit sphere as quads and pole triangles, mapped by `m`, counter-clockwise outside.
@@ -73,7 +95,11 @@ fn sphere_mesh(m: &DAffine3) -> Vec<Vec<DVec3>> {
     let point = |ring: usize, seg: usize| {
         let theta = std::f64::consts::PI * ring as f64 / SPHERE_RINGS as f64;
         let phi = std::f64::consts::TAU * seg as f64 / SPHERE_SEGMENTS as f64;
-        m.transform_point3(DVec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()))
+        m.transform_point3(DVec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            -theta.sin() * phi.sin(),
+        ))
     };
     let mut faces = Vec::new();
     for r in 0..SPHERE_RINGS {
@@ -93,7 +119,12 @@ fn sphere_mesh(m: &DAffine3) -> Vec<Vec<DVec3>> {
 
 fn matrix(q: &[f64; 10]) -> DMat4 {
     let [a, b, c, d, e, f, g, h, i, j] = *q;
-    DMat4::from_cols(DVec4::new(a, b, c, d), DVec4::new(b, e, f, g), DVec4::new(c, f, h, i), DVec4::new(d, g, i, j))
+    DMat4::from_cols(
+        DVec4::new(a, b, c, d),
+        DVec4::new(b, e, f, g),
+        DVec4::new(c, f, h, i),
+        DVec4::new(d, g, i, j),
+    )
 }
 
 /// The box closed by axis-aligned clipping planes, if all six sides are present.
@@ -211,7 +242,12 @@ mod tests {
 
     fn unit_sphere_quadric() -> Quadric {
         let q = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, -1.0];
-        Quadric { q: matrix(&q), clip: vec![], bounds: None, color: [1.0; 3] }
+        Quadric {
+            q: matrix(&q),
+            clip: vec![],
+            bounds: None,
+            color: [1.0; 3],
+        }
     }
 
     #[test]
@@ -225,7 +261,10 @@ mod tests {
     #[test]
     fn clipping_removes_the_near_half() {
         let mut s = unit_sphere_quadric();
-        s.clip.push(HalfSpace { normal: DVec3::Z, offset: 0.0 });
+        s.clip.push(HalfSpace {
+            normal: DVec3::Z,
+            offset: 0.0,
+        });
         let (p, _) = s.hit(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z).unwrap();
         assert!((p + DVec3::Z).length() < 1e-12);
     }
@@ -242,9 +281,25 @@ mod tests {
 
     #[test]
     fn a_clip_box_is_recovered_from_its_planes() {
-        let planes = [(DVec3::X, 2.0), (-DVec3::X, 1.0), (DVec3::Y, 3.0), (-DVec3::Y, 0.0), (DVec3::Z, 1.0), (-DVec3::Z, 1.0)];
-        let clip: Vec<HalfSpace> = planes.iter().map(|(n, o)| HalfSpace { normal: *n, offset: *o }).collect();
-        assert_eq!(box_of(&clip), Some((DVec3::new(-1.0, 0.0, -1.0), DVec3::new(2.0, 3.0, 1.0))));
+        let planes = [
+            (DVec3::X, 2.0),
+            (-DVec3::X, 1.0),
+            (DVec3::Y, 3.0),
+            (-DVec3::Y, 0.0),
+            (DVec3::Z, 1.0),
+            (-DVec3::Z, 1.0),
+        ];
+        let clip: Vec<HalfSpace> = planes
+            .iter()
+            .map(|(n, o)| HalfSpace {
+                normal: *n,
+                offset: *o,
+            })
+            .collect();
+        assert_eq!(
+            box_of(&clip),
+            Some((DVec3::new(-1.0, 0.0, -1.0), DVec3::new(2.0, 3.0, 1.0)))
+        );
         assert_eq!(box_of(&clip[..5]), None);
     }
 
@@ -252,8 +307,15 @@ mod tests {
     fn sphere_meshes_are_closed_and_outward() {
         let faces = sphere_mesh(&DAffine3::IDENTITY);
         let mesh = crate::mesh::Mesh::from_polygons(
-            faces.iter().map(|f| f.iter().map(|p| p.to_array()).collect::<Vec<_>>()).collect::<Vec<_>>().iter().map(|f| f.as_slice()),
+            faces
+                .iter()
+                .map(|f| f.iter().map(|p| p.to_array()).collect::<Vec<_>>())
+                .collect::<Vec<_>>()
+                .iter()
+                .map(|f| f.as_slice()),
         );
-        assert!(mesh.signed_volume() > 3.0 && mesh.signed_volume() < 4.0 * std::f64::consts::PI / 3.0);
+        assert!(
+            mesh.signed_volume() > 3.0 && mesh.signed_volume() < 4.0 * std::f64::consts::PI / 3.0
+        );
     }
 }

@@ -8,11 +8,26 @@ fn with(objects: Vec<Object>) -> Project {
 }
 
 fn coloured(name: &str, rgb: [f64; 3], prims: Vec<Primitive>) -> Object {
-    Object { name: name.into(), surface: Some(Surface { color: Some(Color::Rgb(rgb)), ..Surface::default() }), primitives: prims, ..Object::default() }
+    Object {
+        name: name.into(),
+        surface: Some(Surface {
+            color: Some(Color::Rgb(rgb)),
+            ..Surface::default()
+        }),
+        primitives: prims,
+        ..Object::default()
+    }
 }
 
 fn square(z: f64, half: f64) -> Primitive {
-    Primitive::Polygon { vertices: vec![[-half, -half, z], [half, -half, z], [half, half, z], [-half, half, z]] }
+    Primitive::Polygon {
+        vertices: vec![
+            [-half, -half, z],
+            [half, -half, z],
+            [half, half, z],
+            [-half, half, z],
+        ],
+    }
 }
 
 /// The pixel at (x, y) of the view in grid cell (cx, cy).
@@ -26,16 +41,36 @@ const PERSP: (usize, usize) = (1, 0);
 
 #[test]
 fn the_image_holds_four_views_of_the_requested_size() {
-    let img = render_project(&with(vec![]), &Options { size: 50, style: Style::Flat }).unwrap();
-    assert_eq!(img.dimensions(), (2 * 50 + 3 * GAP as u32, 2 * 50 + 3 * GAP as u32));
+    let img = render_project(
+        &with(vec![]),
+        &Options {
+            size: 50,
+            style: Style::Flat,
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        img.dimensions(),
+        (2 * 50 + 3 * GAP as u32, 2 * 50 + 3 * GAP as u32)
+    );
 }
 
 #[test]
 fn flat_shading_hides_the_farther_square_in_the_front_view() {
     let size = 64;
     // Red at z = 1 in front of a larger green square at z = 0.
-    let p = with(vec![coloured("green", [0.0, 1.0, 0.0], vec![square(0.0, 2.0)]), coloured("red", [1.0, 0.0, 0.0], vec![square(1.0, 1.0)])]);
-    let img = render_project(&p, &Options { size, style: Style::Flat }).unwrap();
+    let p = with(vec![
+        coloured("green", [0.0, 1.0, 0.0], vec![square(0.0, 2.0)]),
+        coloured("red", [1.0, 0.0, 0.0], vec![square(1.0, 1.0)]),
+    ]);
+    let img = render_project(
+        &p,
+        &Options {
+            size,
+            style: Style::Flat,
+        },
+    )
+    .unwrap();
     let centre = px(&img, size, FRONT.0, FRONT.1, size / 2, size / 2 + 5);
     assert!(centre[0] > 200 && centre[1] == 0, "{centre:?}");
     let edge = px(&img, size, FRONT.0, FRONT.1, size / 2 + 20, size / 2 + 20);
@@ -48,11 +83,25 @@ fn flat_shading_hides_the_farther_square_in_the_front_view() {
 #[test]
 fn wireframe_draws_edges_and_leaves_faces_empty() {
     let size = 64;
-    let p = with(vec![coloured("red", [1.0, 0.0, 0.0], vec![square(0.0, 1.0)])]);
-    let img = render_project(&p, &Options { size, style: Style::Wire }).unwrap();
+    let p = with(vec![coloured(
+        "red",
+        [1.0, 0.0, 0.0],
+        vec![square(0.0, 1.0)],
+    )]);
+    let img = render_project(
+        &p,
+        &Options {
+            size,
+            style: Style::Wire,
+        },
+    )
+    .unwrap();
     let (cx, cy) = FRONT;
     let reddish = |c: [u8; 3]| c[0] as i32 > c[1] as i32 + 60;
-    let reds = (0..size).flat_map(|y| (0..size).map(move |x| (x, y))).filter(|&(x, y)| reddish(px(&img, size, cx, cy, x, y))).count();
+    let reds = (0..size)
+        .flat_map(|y| (0..size).map(move |x| (x, y)))
+        .filter(|&(x, y)| reddish(px(&img, size, cx, cy, x, y)))
+        .count();
     // Four edges of about 55 pixels (the square fills 1/1.15 of the view).
     assert!((150..260).contains(&reds), "{reds}");
     let inside = px(&img, size, cx, cy, size / 2 + 10, size / 2 + 10);
@@ -64,19 +113,37 @@ fn spheres_and_clipped_quadrics_show_in_the_front_view() {
     let size = 64;
     let cylinder = Primitive::Quadric {
         coeffs: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0],
-        clip: vec![Clip::Box { min: [-1.0, -1.0, -1.0], max: [1.0, 1.0, 1.0] }],
+        clip: vec![Clip::Box {
+            min: [-1.0, -1.0, -1.0],
+            max: [1.0, 1.0, 1.0],
+        }],
     };
     let p = with(vec![
-        coloured("ball", [0.0, 0.0, 1.0], vec![Primitive::Sphere { center: [5.0, 0.0, 0.0], radius: 1.0 }]),
+        coloured(
+            "ball",
+            [0.0, 0.0, 1.0],
+            vec![Primitive::Sphere {
+                center: [5.0, 0.0, 0.0],
+                radius: 1.0,
+            }],
+        ),
         coloured("tube", [1.0, 1.0, 0.0], vec![cylinder]),
     ]);
     for style in [Style::Flat, Style::Wire] {
         let img = render_project(&p, &Options { size, style }).unwrap();
         let (cx, cy) = FRONT;
-        let count = |pred: &dyn Fn([u8; 3]) -> bool| (0..size).flat_map(|y| (0..size).map(move |x| (x, y))).filter(|&(x, y)| pred(px(&img, size, cx, cy, x, y))).count();
+        let count = |pred: &dyn Fn([u8; 3]) -> bool| {
+            (0..size)
+                .flat_map(|y| (0..size).map(move |x| (x, y)))
+                .filter(|&(x, y)| pred(px(&img, size, cx, cy, x, y)))
+                .count()
+        };
         let blue = count(&|c| c[2] as i32 > c[0] as i32 + 60);
         let yellow = count(&|c| c[0] as i32 > c[2] as i32 + 60 && c[1] as i32 > c[2] as i32 + 60);
-        assert!(blue > 20 && yellow > 20, "{style:?}: blue {blue} yellow {yellow}");
+        assert!(
+            blue > 20 && yellow > 20,
+            "{style:?}: blue {blue} yellow {yellow}"
+        );
     }
 }
 
@@ -84,19 +151,48 @@ fn spheres_and_clipped_quadrics_show_in_the_front_view() {
 fn skeletons_are_drawn_over_the_views() {
     let size = 64;
     let mut p = with(vec![]);
-    let mut s = crate::skeleton::Skeleton::new("s", crate::skeleton::Plane::Xy, crate::skeleton::SkeletonKind::Lines);
+    let mut s = crate::skeleton::Skeleton::new(
+        "s",
+        crate::skeleton::Plane::Xy,
+        crate::skeleton::SkeletonKind::Lines,
+    );
     s.points = vec![[-1.0, 0.0], [1.0, 0.0]];
     p.skeletons.push(s);
-    let img = render_project(&p, &Options { size, style: Style::Wire }).unwrap();
+    let img = render_project(
+        &p,
+        &Options {
+            size,
+            style: Style::Wire,
+        },
+    )
+    .unwrap();
     let sk = SKELETON.map(|v| (v * 255.0).round() as u8);
     let (cx, cy) = FRONT;
-    let n = (0..size).filter(|&x| px(&img, size, cx, cy, x, size / 2) == sk).count();
+    let n = (0..size)
+        .filter(|&x| px(&img, size, cx, cy, x, size / 2) == sk)
+        .count();
     assert!(n > 40, "{n}");
 }
 
 #[test]
 fn an_unknown_colour_name_is_a_clear_error() {
-    let p = with(vec![Object { name: "x".into(), surface: Some(Surface { color: Some(Color::Named("nosuchcolour".into())), ..Surface::default() }), primitives: vec![square(0.0, 1.0)], ..Object::default() }]);
-    let e = render_project(&p, &Options { size: 32, style: Style::Flat }).unwrap_err().to_string();
+    let p = with(vec![Object {
+        name: "x".into(),
+        surface: Some(Surface {
+            color: Some(Color::Named("nosuchcolour".into())),
+            ..Surface::default()
+        }),
+        primitives: vec![square(0.0, 1.0)],
+        ..Object::default()
+    }]);
+    let e = render_project(
+        &p,
+        &Options {
+            size: 32,
+            style: Style::Flat,
+        },
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("nosuchcolour"), "{e}");
 }

@@ -10,9 +10,22 @@ use glam::DVec3;
 pub enum Projection {
     /// Right, up and toward-the-viewer axes; the world point at the image centre; pixels per
     /// world unit.
-    Ortho { right: DVec3, up: DVec3, toward: DVec3, centre: DVec3, scale: f64 },
+    Ortho {
+        right: DVec3,
+        up: DVec3,
+        toward: DVec3,
+        centre: DVec3,
+        scale: f64,
+    },
     /// Eye, forward/right/up unit axes, pixels per unit of tangent; near-plane depth.
-    Perspective { eye: DVec3, forward: DVec3, right: DVec3, up: DVec3, scale: f64, near: f64 },
+    Perspective {
+        eye: DVec3,
+        forward: DVec3,
+        right: DVec3,
+        up: DVec3,
+        scale: f64,
+        near: f64,
+    },
 }
 
 /// A view: its projection and its size in pixels.
@@ -26,7 +39,10 @@ pub struct View {
 
 impl View {
     fn half(&self) -> (f64, f64) {
-        ((self.width as f64 - 1.0) / 2.0, (self.height as f64 - 1.0) / 2.0)
+        (
+            (self.width as f64 - 1.0) / 2.0,
+            (self.height as f64 - 1.0) / 2.0,
+        )
     }
 
     /// Pixel x, pixel y and depth key of a world point (for perspective, only in front of
@@ -34,14 +50,35 @@ impl View {
     pub fn project(&self, p: DVec3) -> [f64; 3] {
         let (hx, hy) = self.half();
         match &self.projection {
-            Projection::Ortho { right, up, toward, centre, scale } => {
+            Projection::Ortho {
+                right,
+                up,
+                toward,
+                centre,
+                scale,
+            } => {
                 let d = p - *centre;
-                [hx + d.dot(*right) * scale, hy - d.dot(*up) * scale, d.dot(*toward)]
+                [
+                    hx + d.dot(*right) * scale,
+                    hy - d.dot(*up) * scale,
+                    d.dot(*toward),
+                ]
             }
-            Projection::Perspective { eye, forward, right, up, scale, .. } => {
+            Projection::Perspective {
+                eye,
+                forward,
+                right,
+                up,
+                scale,
+                ..
+            } => {
                 let d = p - *eye;
                 let z = d.dot(*forward);
-                [hx + d.dot(*right) / z * scale, hy - d.dot(*up) / z * scale, 1.0 / z]
+                [
+                    hx + d.dot(*right) / z * scale,
+                    hy - d.dot(*up) / z * scale,
+                    1.0 / z,
+                ]
             }
         }
     }
@@ -83,11 +120,27 @@ impl View {
     pub fn ray(&self, x: f64, y: f64, reach: f64) -> (DVec3, DVec3) {
         let (hx, hy) = self.half();
         match &self.projection {
-            Projection::Ortho { right, up, toward, centre, scale } => {
-                let o = *centre + *right * ((x - hx) / scale) + *up * ((hy - y) / scale) + *toward * reach;
+            Projection::Ortho {
+                right,
+                up,
+                toward,
+                centre,
+                scale,
+            } => {
+                let o = *centre
+                    + *right * ((x - hx) / scale)
+                    + *up * ((hy - y) / scale)
+                    + *toward * reach;
                 (o, -*toward)
             }
-            Projection::Perspective { eye, forward, right, up, scale, .. } => {
+            Projection::Perspective {
+                eye,
+                forward,
+                right,
+                up,
+                scale,
+                ..
+            } => {
                 let d = *forward + *right * ((x - hx) / scale) + *up * ((hy - y) / scale);
                 (*eye, d.normalize())
             }
@@ -117,16 +170,33 @@ pub fn ortho_views(min: DVec3, max: DVec3, size: usize) -> [View; 3] {
     let scale = (size as f64 - 1.0) / extent;
     let make = |label, right: DVec3, up: DVec3| View {
         label,
-        projection: Projection::Ortho { right, up, toward: right.cross(up), centre, scale },
+        projection: Projection::Ortho {
+            right,
+            up,
+            toward: right.cross(up),
+            centre,
+            scale,
+        },
         width: size,
         height: size,
     };
-    [make("FRONT", DVec3::X, DVec3::Y), make("TOP", DVec3::X, DVec3::NEG_Z), make("SIDE", DVec3::NEG_Z, DVec3::Y)]
+    [
+        make("FRONT", DVec3::X, DVec3::Y),
+        make("TOP", DVec3::X, DVec3::NEG_Z),
+        make("SIDE", DVec3::NEG_Z, DVec3::Y),
+    ]
 }
 
 /// A perspective view with YARI's camera convention: `half_angle` degrees from the image
 /// centre to the centre of the top row of pixels, square pixels.
-pub fn perspective_view(eye: DVec3, at: DVec3, up: DVec3, half_angle: f64, size: usize, near: f64) -> Option<View> {
+pub fn perspective_view(
+    eye: DVec3,
+    at: DVec3,
+    up: DVec3,
+    half_angle: f64,
+    size: usize,
+    near: f64,
+) -> Option<View> {
     let forward = (at - eye).try_normalize()?;
     let right = forward.cross(up).try_normalize()?;
     let up = right.cross(forward);
@@ -137,7 +207,14 @@ pub fn perspective_view(eye: DVec3, at: DVec3, up: DVec3, half_angle: f64, size:
     let scale = ((size as f64 - 1.0) / 2.0) / tan;
     Some(View {
         label: "PERSPECTIVE",
-        projection: Projection::Perspective { eye, forward, right, up, scale, near },
+        projection: Projection::Perspective {
+            eye,
+            forward,
+            right,
+            up,
+            scale,
+            near,
+        },
         width: size,
         height: size,
     })
@@ -176,7 +253,11 @@ mod tests {
     #[test]
     fn near_clipping_cuts_a_polygon_through_the_eye_plane() {
         let v = perspective_view(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y, 30.0, 64, 0.5).unwrap();
-        let tri = [DVec3::new(0.0, 0.0, -2.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 0.0, 1.0)];
+        let tri = [
+            DVec3::new(0.0, 0.0, -2.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(-1.0, 0.0, 1.0),
+        ];
         let clipped = v.clip_near(&tri, true);
         assert_eq!(clipped.len(), 3);
         assert!(clipped.iter().all(|p| v.depth(*p) >= 0.5 - 1e-12));

@@ -22,12 +22,20 @@ fn ngon_prism(n: usize, r: f64, h: f64) -> f64 {
 #[test]
 fn a_revolved_cylinder_profile_is_a_closed_prism_of_the_right_volume() {
     // (0,0) -> (1,0) -> (1,2) -> (0,2) in the xy plane, about y.
-    let p = skel(Plane::Xy, SkeletonKind::Lines, false, &[[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]]);
+    let p = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        false,
+        &[[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]],
+    );
     for step in [120.0, 45.0, 10.0, 7.5] {
         let m = revolve(&p, 1, step, None).unwrap();
         assert_solid(&m);
         let n = (360.0 / step) as usize;
-        assert!((m.signed_volume() - ngon_prism(n, 1.0, 2.0)).abs() < 1e-9, "step {step}");
+        assert!(
+            (m.signed_volume() - ngon_prism(n, 1.0, 2.0)).abs() < 1e-9,
+            "step {step}"
+        );
         // n triangles at each pole and n quads on the side.
         assert_eq!(m.faces.len(), 3 * n);
     }
@@ -36,7 +44,12 @@ fn a_revolved_cylinder_profile_is_a_closed_prism_of_the_right_volume() {
 #[test]
 fn open_profile_ends_off_the_axis_get_caps() {
     // A tube wall from radius 1 at y=0 to radius 2 at y=1, on the negative x side, about y.
-    let p = skel(Plane::Xy, SkeletonKind::Lines, false, &[[-1.0, 0.0], [-2.0, 1.0]]);
+    let p = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        false,
+        &[[-1.0, 0.0], [-2.0, 1.0]],
+    );
     let m = revolve(&p, 1, 30.0, None).unwrap();
     assert_solid(&m);
     assert_eq!(m.faces.len(), 12 + 2);
@@ -45,7 +58,12 @@ fn open_profile_ends_off_the_axis_get_caps() {
 #[test]
 fn a_closed_profile_sweeps_a_closed_ring() {
     // A square cross-section in the yz plane, about z: a square torus.
-    let p = skel(Plane::Yz, SkeletonKind::Lines, true, &[[2.0, 0.0], [3.0, 0.0], [3.0, 1.0], [2.0, 1.0]]);
+    let p = skel(
+        Plane::Yz,
+        SkeletonKind::Lines,
+        true,
+        &[[2.0, 0.0], [3.0, 0.0], [3.0, 1.0], [2.0, 1.0]],
+    );
     let m = revolve(&p, 2, 15.0, None).unwrap();
     assert_solid(&m);
     let n = 24;
@@ -56,7 +74,18 @@ fn a_closed_profile_sweeps_a_closed_ring() {
 #[test]
 fn bezier_profiles_stay_closed_at_every_smoothness_and_step() {
     // A king-like bulb: cubic pieces from the axis at the bottom to the axis at the top.
-    let pts = [[0.0, 0.0], [2.0, 0.0], [2.0, 0.5], [1.0, 1.0], [0.3, 1.5], [0.3, 3.0], [1.0, 3.5], [1.2, 3.8], [0.5, 4.0], [0.0, 4.0]];
+    let pts = [
+        [0.0, 0.0],
+        [2.0, 0.0],
+        [2.0, 0.5],
+        [1.0, 1.0],
+        [0.3, 1.5],
+        [0.3, 3.0],
+        [1.0, 3.5],
+        [1.2, 3.8],
+        [0.5, 4.0],
+        [0.0, 4.0],
+    ];
     let mut p = skel(Plane::Xy, SkeletonKind::Bezier, false, &pts);
     for smooth in [1, 2, 5, 12] {
         p.smoothness = smooth;
@@ -72,22 +101,64 @@ fn bezier_profiles_stay_closed_at_every_smoothness_and_step() {
 
 #[test]
 fn revolve_refuses_bad_profiles_with_reasons() {
-    let crosses = skel(Plane::Xy, SkeletonKind::Lines, false, &[[-1.0, 0.0], [1.0, 1.0]]);
-    assert!(revolve(&crosses, 1, 45.0, None).unwrap_err().to_string().contains("crosses"));
-    let wrong_plane = skel(Plane::Xz, SkeletonKind::Lines, false, &[[1.0, 0.0], [1.0, 1.0]]);
-    assert!(revolve(&wrong_plane, 1, 45.0, None).unwrap_err().to_string().contains("does not contain"));
-    let ok = skel(Plane::Xy, SkeletonKind::Lines, false, &[[1.0, 0.0], [1.0, 1.0]]);
-    assert!(revolve(&ok, 1, 0.0, None).unwrap_err().to_string().contains("--step"));
-    assert!(revolve(&ok, 1, 200.0, None).unwrap_err().to_string().contains("--step"));
-    let on_axis = skel(Plane::Xy, SkeletonKind::Lines, false, &[[0.0, 0.0], [0.0, 1.0]]);
+    let crosses = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        false,
+        &[[-1.0, 0.0], [1.0, 1.0]],
+    );
+    assert!(revolve(&crosses, 1, 45.0, None)
+        .unwrap_err()
+        .to_string()
+        .contains("crosses"));
+    let wrong_plane = skel(
+        Plane::Xz,
+        SkeletonKind::Lines,
+        false,
+        &[[1.0, 0.0], [1.0, 1.0]],
+    );
+    assert!(revolve(&wrong_plane, 1, 45.0, None)
+        .unwrap_err()
+        .to_string()
+        .contains("does not contain"));
+    let ok = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        false,
+        &[[1.0, 0.0], [1.0, 1.0]],
+    );
+    assert!(revolve(&ok, 1, 0.0, None)
+        .unwrap_err()
+        .to_string()
+        .contains("--step"));
+    assert!(revolve(&ok, 1, 200.0, None)
+        .unwrap_err()
+        .to_string()
+        .contains("--step"));
+    let on_axis = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        false,
+        &[[0.0, 0.0], [0.0, 1.0]],
+    );
     assert!(revolve(&on_axis, 1, 45.0, None).is_err());
 }
 
 #[test]
 fn an_extruded_concave_outline_is_closed_with_area_times_length() {
     // An L shape of area 3 in the xy plane, extruded by 2 along z (and tilted in x).
-    let l = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]];
-    for (closed, by) in [(false, DVec3::new(0.0, 0.0, 2.0)), (true, DVec3::new(0.5, 0.0, -2.0))] {
+    let l = [
+        [0.0, 0.0],
+        [2.0, 0.0],
+        [2.0, 1.0],
+        [1.0, 1.0],
+        [1.0, 2.0],
+        [0.0, 2.0],
+    ];
+    for (closed, by) in [
+        (false, DVec3::new(0.0, 0.0, 2.0)),
+        (true, DVec3::new(0.5, 0.0, -2.0)),
+    ] {
         let o = skel(Plane::Xy, SkeletonKind::Lines, closed, &l);
         let m = extrude(&o, by, true, false, None).unwrap();
         assert_solid(&m);
@@ -98,7 +169,19 @@ fn an_extruded_concave_outline_is_closed_with_area_times_length() {
 
 #[test]
 fn extrude_centred_straddles_the_plane_and_bezier_outlines_work() {
-    let mut o = skel(Plane::Xz, SkeletonKind::Bezier, true, &[[1.0, 0.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, 0.0], [-1.0, -1.0], [1.0, -1.0]]);
+    let mut o = skel(
+        Plane::Xz,
+        SkeletonKind::Bezier,
+        true,
+        &[
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [-1.0, 1.0],
+            [-1.0, 0.0],
+            [-1.0, -1.0],
+            [1.0, -1.0],
+        ],
+    );
     o.depth = 5.0;
     let m = extrude(&o, DVec3::new(0.0, 2.0, 0.0), true, true, Some(6)).unwrap();
     assert_solid(&m);
@@ -109,9 +192,16 @@ fn extrude_centred_straddles_the_plane_and_bezier_outlines_work() {
 
 #[test]
 fn extrude_without_caps_is_open_and_a_flat_vector_is_refused() {
-    let sq = skel(Plane::Xy, SkeletonKind::Lines, true, &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let sq = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        true,
+        &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+    );
     let open = extrude(&sq, DVec3::Z, false, false, None).unwrap();
     assert!(open.check_closed().is_err());
-    let e = extrude(&sq, DVec3::X, true, false, None).unwrap_err().to_string();
+    let e = extrude(&sq, DVec3::X, true, false, None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("--by"), "{e}");
 }

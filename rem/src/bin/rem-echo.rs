@@ -45,7 +45,10 @@ fn main() -> ExitCode {
         }
         Some("exit") => {
             let code: u8 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0);
-            println!("rem-echo stdout {}", std::env::var("REM_PROC_ID").unwrap_or_default());
+            println!(
+                "rem-echo stdout {}",
+                std::env::var("REM_PROC_ID").unwrap_or_default()
+            );
             eprintln!("rem-echo stderr");
             ExitCode::from(code)
         }
@@ -57,7 +60,9 @@ fn main() -> ExitCode {
 }
 
 fn echo() -> anyhow::Result<()> {
-    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
     rt.block_on(async {
         let mut relay = Relay::attach_from_env().await?;
         println!("attached as {}", relay.id());
@@ -65,7 +70,9 @@ fn echo() -> anyhow::Result<()> {
         loop {
             match relay.recv().await {
                 Ok(Incoming::Message { from, payload }) => {
-                    let Some(from) = ProcId::parse(&from) else { continue };
+                    let Some(from) = ProcId::parse(&from) else {
+                        continue;
+                    };
                     sender.send(&from, payload).await?;
                 }
                 Ok(_) => {}
@@ -77,7 +84,9 @@ fn echo() -> anyhow::Result<()> {
 }
 
 fn sink(n: u64) -> anyhow::Result<()> {
-    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
     rt.block_on(async {
         let mut relay = Relay::attach_from_env().await?;
         let mut seen = 0u64;

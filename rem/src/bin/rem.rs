@@ -77,7 +77,10 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
         Ok(r) => r,
         Err(e) => {
             eprintln!("rem: {e}");
@@ -99,7 +102,9 @@ async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
     if let Some(ca) = &cli.tls_ca {
         opts.tls = Some(ClientTls::from_file(ca, cli.tls_domain.clone())?);
     }
-    RemClient::connect_with(opts).await.with_context(|| format!("cannot reach remd at {}", cli.remd))
+    RemClient::connect_with(opts)
+        .await
+        .with_context(|| format!("cannot reach remd at {}", cli.remd))
 }
 
 async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -121,7 +126,11 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 let v: Vec<_> = procs.iter().map(proc_json).collect();
                 writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
             } else {
-                writeln!(out, "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} program", "PROCESS", "HOST", "JOB", "PID", "NICE", "STATE")?;
+                writeln!(
+                    out,
+                    "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} program",
+                    "PROCESS", "HOST", "JOB", "PID", "NICE", "STATE"
+                )?;
                 for p in &procs {
                     let state = match (p.state.as_str(), p.exit_code, p.signal) {
                         ("exited", Some(c), _) => format!("exit {c}"),
@@ -129,17 +138,44 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                         (s, _, _) => s.to_string(),
                     };
                     let nice = p.nice.map_or("-".to_string(), |n| n.to_string());
-                    writeln!(out, "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}", p.proc_id, p.host, p.job, p.pid, nice, state, p.program, p.args.join(" "))?;
+                    writeln!(
+                        out,
+                        "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}",
+                        p.proc_id,
+                        p.host,
+                        p.job,
+                        p.pid,
+                        nice,
+                        state,
+                        p.program,
+                        p.args.join(" ")
+                    )?;
                 }
             }
         }
-        Command::Spawn { count, nice, allow_same_host, job, env, wait, json, program, args } => {
+        Command::Spawn {
+            count,
+            nice,
+            allow_same_host,
+            job,
+            env,
+            wait,
+            json,
+            program,
+            args,
+        } => {
             let mut envs = BTreeMap::new();
             for kv in env {
-                let Some((k, v)) = kv.split_once('=') else { bail!("--env {kv:?} is not KEY=VALUE") };
+                let Some((k, v)) = kv.split_once('=') else {
+                    bail!("--env {kv:?} is not KEY=VALUE")
+                };
                 envs.insert(k.to_string(), v.to_string());
             }
-            let mut relay = if wait { Some(client.attach(job.as_deref()).await?) } else { None };
+            let mut relay = if wait {
+                Some(client.attach(job.as_deref()).await?)
+            } else {
+                None
+            };
             let req = SpawnRequest {
                 program,
                 args,
@@ -185,7 +221,11 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-async fn wait_for_exits(out: &mut impl Write, relay: &mut rem::Relay, mut left: usize) -> anyhow::Result<ExitCode> {
+async fn wait_for_exits(
+    out: &mut impl Write,
+    relay: &mut rem::Relay,
+    mut left: usize,
+) -> anyhow::Result<ExitCode> {
     let mut code = 0u8;
     while left > 0 {
         match relay.recv().await? {
@@ -197,7 +237,9 @@ async fn wait_for_exits(out: &mut impl Write, relay: &mut rem::Relay, mut left: 
                         left -= 1;
                         match (ev.exit_code, ev.signal) {
                             (Some(c), _) => writeln!(out, "{} exited with code {c}", ev.proc_id)?,
-                            (None, Some(s)) => writeln!(out, "{} killed by signal {s}", ev.proc_id)?,
+                            (None, Some(s)) => {
+                                writeln!(out, "{} killed by signal {s}", ev.proc_id)?
+                            }
                             _ => writeln!(out, "{} exited", ev.proc_id)?,
                         }
                         let c = ev.exit_code.map_or(1, |c| c.clamp(0, 255) as u8);
@@ -214,7 +256,9 @@ async fn wait_for_exits(out: &mut impl Write, relay: &mut rem::Relay, mut left: 
                 }
                 out.flush()?;
             }
-            Incoming::Message { from, payload } => writeln!(out, "message from {from}: {} bytes", payload.len())?,
+            Incoming::Message { from, payload } => {
+                writeln!(out, "message from {from}: {} bytes", payload.len())?
+            }
             Incoming::Undeliverable { .. } => {}
         }
     }
@@ -222,7 +266,7 @@ async fn wait_for_exits(out: &mut impl Write, relay: &mut rem::Relay, mut left: 
 }
 
 fn host_json(h: &rem::HostInfo) -> serde_json::Value {
-    let l = h.load.clone().unwrap_or_default();
+    let l = h.load.unwrap_or_default();
     json!({
         "name": h.name, "addr": h.addr, "cores": l.cores, "load_avg_1m": l.load_avg_1m,
         "load_per_core": l.load_per_core, "cpu_busy": l.cpu_busy, "mem_free_bytes": l.mem_free_bytes,
@@ -241,9 +285,13 @@ fn proc_json(p: &rem::ProcessInfo) -> serde_json::Value {
 }
 
 fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result<()> {
-    writeln!(out, "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10}", "NAME", "ADDRESS", "CORES", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD")?;
+    writeln!(
+        out,
+        "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10}",
+        "NAME", "ADDRESS", "CORES", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD"
+    )?;
     for h in hosts {
-        let l = h.load.clone().unwrap_or_default();
+        let l = h.load.unwrap_or_default();
         let state = match (h.alive, h.accepting, h.last_heard_ms) {
             (true, true, _) => "alive",
             (true, false, _) => "draining",
@@ -258,7 +306,15 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
         writeln!(
             out,
             "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:<9} {:>10}",
-            h.name, h.addr, l.cores, l.load_per_core, l.cpu_busy * 100.0, mib(l.mem_free_bytes), l.rem_processes, state, heard
+            h.name,
+            h.addr,
+            l.cores,
+            l.load_per_core,
+            l.cpu_busy * 100.0,
+            mib(l.mem_free_bytes),
+            l.rem_processes,
+            state,
+            heard
         )?;
     }
     Ok(())

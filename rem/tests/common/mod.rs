@@ -64,7 +64,11 @@ impl Cluster {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
         std::fs::write(&secret_file, format!("{SECRET}\n")).unwrap();
-        let mut c = Cluster { dir, secret_file, daemons: Vec::new() };
+        let mut c = Cluster {
+            dir,
+            secret_file,
+            daemons: Vec::new(),
+        };
         for i in 0..n {
             let name = ((b'a' + i as u8) as char).to_string();
             let join = c.daemons.first().map(|d| d.addr.clone());
@@ -94,7 +98,11 @@ impl Cluster {
         }
         let mut child = cmd.spawn().expect("start remd");
         let addr = read_addr(&mut child);
-        Remd { name: name.to_string(), addr, child }
+        Remd {
+            name: name.to_string(),
+            addr,
+            child,
+        }
     }
 
     pub fn secret(&self) -> Secret {
@@ -102,7 +110,9 @@ impl Cluster {
     }
 
     pub async fn client(&self, i: usize) -> RemClient {
-        RemClient::connect(&self.daemons[i].addr, self.secret()).await.unwrap()
+        RemClient::connect(&self.daemons[i].addr, self.secret())
+            .await
+            .unwrap()
     }
 
     /// Waits until every daemon sees every other alive.
@@ -110,7 +120,10 @@ impl Cluster {
         let n = self.daemons.len();
         for i in 0..n {
             let c = self.client(i).await;
-            wait_hosts(&c, timeout, |hosts| hosts.len() == n && hosts.iter().all(|h| h.alive)).await;
+            wait_hosts(&c, timeout, |hosts| {
+                hosts.len() == n && hosts.iter().all(|h| h.alive)
+            })
+            .await;
         }
     }
 }
@@ -119,24 +132,38 @@ fn read_addr(child: &mut Child) -> String {
     let out = child.stdout.take().unwrap();
     let mut line = String::new();
     BufReader::new(out).read_line(&mut line).unwrap();
-    line.trim().strip_prefix("remd listening on ").unwrap_or_else(|| panic!("bad first line {line:?}")).to_string()
+    line.trim()
+        .strip_prefix("remd listening on ")
+        .unwrap_or_else(|| panic!("bad first line {line:?}"))
+        .to_string()
 }
 
 /// Polls `rem hosts` until `pred` holds; panics after `timeout`. Returns the hosts.
-pub async fn wait_hosts(c: &RemClient, timeout: Duration, pred: impl Fn(&[HostInfo]) -> bool) -> Vec<HostInfo> {
+pub async fn wait_hosts(
+    c: &RemClient,
+    timeout: Duration,
+    pred: impl Fn(&[HostInfo]) -> bool,
+) -> Vec<HostInfo> {
     let end = Instant::now() + timeout;
     loop {
         let hosts = c.hosts().await.unwrap();
         if pred(&hosts) {
             return hosts;
         }
-        assert!(Instant::now() < end, "condition not reached in {timeout:?}: {hosts:#?}");
+        assert!(
+            Instant::now() < end,
+            "condition not reached in {timeout:?}: {hosts:#?}"
+        );
         tokio::time::sleep(Duration::from_millis(25)).await;
     }
 }
 
 /// The next job event on `relay` matching `pred` (bounded).
-pub async fn next_event(relay: &mut Relay, timeout: Duration, pred: impl Fn(&rem::JobEvent) -> bool) -> rem::JobEvent {
+pub async fn next_event(
+    relay: &mut Relay,
+    timeout: Duration,
+    pred: impl Fn(&rem::JobEvent) -> bool,
+) -> rem::JobEvent {
     tokio::time::timeout(timeout, async {
         loop {
             match relay.recv().await.unwrap() {

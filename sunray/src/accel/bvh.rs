@@ -285,7 +285,7 @@ fn best_split(items: &[BuildItem], bounds: &Aabb) -> Option<(usize, usize)> {
     let mut best: Option<(Real, usize, usize)> = None;
     for axis in 0..3 {
         let range = centre_range(items, axis);
-        if !(range.1 > range.0) {
+        if range.1.is_nan() || range.1 <= range.0 {
             continue;
         }
         let mut boxes = [Aabb::EMPTY; BINS];

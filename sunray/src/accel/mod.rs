@@ -130,7 +130,11 @@ impl Accel {
         }
         let kind = opts.kind.resolve(bounded.len());
         let structure = match kind {
-            AccelKind::Octree => Structure::Octree(octree::Octree::build(&bounded, opts)),
+            AccelKind::Octree => {
+                let overlaps =
+                    |i: u32, b: &crate::geometry::Aabb| prims[i as usize].overlaps_box(b);
+                Structure::Octree(octree::Octree::build(&bounded, &overlaps, opts))
+            }
             AccelKind::Bvh => Structure::Bvh(bvh::Bvh::build(&bounded)),
             _ => Structure::Exhaustive(bounded.iter().map(|(i, _)| *i).collect()),
         };
@@ -138,6 +142,15 @@ impl Accel {
             kind,
             structure,
             unbounded,
+        }
+    }
+
+    /// Cells of the structure: octree voxels (all nodes) or BVH nodes; 0 for exhaustive.
+    pub fn node_count(&self) -> usize {
+        match &self.structure {
+            Structure::Exhaustive(_) => 0,
+            Structure::Octree(o) => o.node_count(),
+            Structure::Bvh(b) => b.node_count(),
         }
     }
 

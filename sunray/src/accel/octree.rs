@@ -28,7 +28,13 @@ pub struct Octree {
 }
 
 impl Octree {
-    pub fn build(bounded: &[(u32, Aabb)], opts: &AccelOptions) -> Octree {
+    /// Builds over the bounded primitives; `overlaps(prim, voxel)` says whether a primitive
+    /// touches a voxel (it must be true whenever the primitive has a point in the voxel).
+    pub fn build(
+        bounded: &[(u32, Aabb)],
+        overlaps: &dyn Fn(u32, &Aabb) -> bool,
+        opts: &AccelOptions,
+    ) -> Octree {
         let bounds = bounded.iter().fold(Aabb::EMPTY, |b, (_, pb)| b.union(*pb));
         let mut tree = Octree {
             bounds,
@@ -45,7 +51,7 @@ impl Octree {
             count: 0,
             leaf: true,
         });
-        tree.subdivide(0, tree.bounds, all, bounded, opts, 0);
+        tree.subdivide(0, tree.bounds, all, bounded, overlaps, opts, 0);
         tree
     }
 
@@ -55,22 +61,29 @@ impl Octree {
         bounds: Aabb,
         items: Vec<usize>,
         bounded: &[(u32, Aabb)],
+        overlaps: &dyn Fn(u32, &Aabb) -> bool,
         opts: &AccelOptions,
         depth: u32,
     ) {
         let mid = bounds.centre();
         if items.len() > opts.max_per_voxel && depth < opts.max_depth.min(MAX_DEPTH) {
-            let children: Vec<(Aabb, Vec<usize>)> = (0..8)
-                .map(|k| {
-                    let cb = child_bounds(&bounds, mid, k);
-                    let list = items
-                        .iter()
-                        .copied()
-                        .filter(|&i| bounded[i].1.overlaps(&cb))
-                        .collect();
-                    (cb, list)
-                })
-                .collect();
+            let boxes: [Aabb; 8] = std::array::from_fn(|k| child_bounds(&bounds, mid, k));
+            let mut lists: [Vec<usize>; 8] = Default::default();
+            for &i in &items {
+                let pb = &bounded[i].1;
+                let mask = (0..8).fold(0u8, |m, k| m | (u8::from(pb.overlaps(&boxes[k])) << k));
+                if mask.count_ones() == 1 {
+                    // The primitive touches this voxel and its box only this child.
+                    lists[mask.trailing_zeros() as usize].push(i);
+                } else {
+                    for (k, list) in lists.iter_mut().enumerate() {
+                        if mask & (1 << k) != 0 && overlaps(bounded[i].0, &boxes[k]) {
+                            list.push(i);
+                        }
+                    }
+                }
+            }
+            let children: Vec<(Aabb, Vec<usize>)> = boxes.into_iter().zip(lists).collect();
             // Splitting is useless when every child would hold everything.
             if children
                 .iter()
@@ -92,7 +105,7 @@ impl Octree {
                     leaf: false,
                 };
                 for (k, (cb, list)) in children.into_iter().enumerate() {
-                    self.subdivide(first + k, cb, list, bounded, opts, depth + 1);
+                    self.subdivide(first + k, cb, list, bounded, overlaps, opts, depth + 1);
                 }
                 return;
             }

@@ -4,10 +4,13 @@
 pub mod bench;
 pub mod check;
 pub mod check_board;
+pub mod jobs;
 pub mod compile;
 pub mod convert;
 pub mod render;
 pub mod spd;
+pub mod submit;
+pub mod worker;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -39,6 +42,13 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Benchmarks: the thesis's Tables 4.1 and 4.2 with our numbers, throughput, build time.
     Bench(bench::BenchArgs),
+    /// Render a scene on the SunRay III farm: workers on the least-loaded hosts through REM.
+    Submit(submit::SubmitArgs),
+    /// The SunRay III worker process (started by REM for `submit`, not by hand).
+    #[command(hide = true)]
+    Worker(worker::WorkerArgs),
+    /// List SunRay III jobs and their state.
+    Jobs(jobs::JobsArgs),
 }
 
 /// Runs one subcommand.
@@ -51,5 +61,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::CheckBoard(args) => check_board::run(args),
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Submit(args) => submit::run(args),
+        Command::Worker(args) => worker::run(args),
+        Command::Jobs(args) => jobs::run(args),
     }
 }

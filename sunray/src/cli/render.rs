@@ -169,6 +169,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         objects: scene.world.objects.len(),
         primitives: scene.prims.len(),
         unbounded: accel.unbounded_count(),
+        accel_nodes: accel.node_count(),
         threads,
         ..Default::default()
     };

@@ -9,6 +9,7 @@
 //! live here so a switch is made in one place.
 
 pub mod aabb;
+pub mod overlap;
 pub mod polygon;
 pub mod primitive;
 pub mod quadric;

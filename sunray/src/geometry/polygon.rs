@@ -45,7 +45,7 @@ pub fn triangulate(vertices: &[Vec3]) -> Result<Triangulated, Degenerate> {
     }
     let newell = newell_normal(&v);
     let area2 = newell.length();
-    if !(area2 > eps * scale) {
+    if area2.is_nan() || area2 <= eps * scale {
         return Err(Degenerate::ZeroArea);
     }
     let normal = newell / area2;

@@ -137,6 +137,26 @@ impl Primitive {
         Some(b.padded())
     }
 
+    /// Whether the primitive may touch box `b` (conservative: true when unsure). Exact for
+    /// static triangles and spheres, by bounds for the rest.
+    pub fn overlaps_box(&self, b: &Aabb) -> bool {
+        let b = b.padded();
+        if self.motion != Vec3::ZERO {
+            return self.bounds().is_none_or(|pb| pb.overlaps(&b));
+        }
+        match &self.kind {
+            PrimitiveKind::Triangle { v, .. } => {
+                let tb = Aabb::from_points(v);
+                let inside = tb.min.cmpge(b.min).all() && tb.max.cmple(b.max).all();
+                inside || (tb.overlaps(&b) && super::overlap::triangle_box(v, &b))
+            }
+            PrimitiveKind::Sphere { centre, radius } => {
+                super::overlap::sphere_box(*centre, *radius * (1.0 + 1e-9), &b)
+            }
+            _ => self.bounds().is_none_or(|pb| pb.overlaps(&b)),
+        }
+    }
+
     /// The nearest `t` in `(t_min, t_max)`.
     #[inline]
     pub fn intersect(&self, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
@@ -189,7 +209,12 @@ mod tests {
     use crate::geometry::Ray;
 
     fn prim(kind: PrimitiveKind, motion: Vec3) -> Primitive {
-        Primitive { kind, object: 0, surface: 0, motion }
+        Primitive {
+            kind,
+            object: 0,
+            surface: 0,
+            motion,
+        }
     }
 
     #[test]
@@ -197,26 +222,50 @@ mod tests {
         let to_world = DAffine3::from_translation(Vec3::new(1.0, 2.0, 3.0))
             * DAffine3::from_rotation_z(0.7)
             * DAffine3::from_scale(Vec3::new(3.0, 1.0, 0.5));
-        let p = prim(PrimitiveKind::Ellipsoid { to_local: to_world.inverse() }, Vec3::ZERO);
+        let p = prim(
+            PrimitiveKind::Ellipsoid {
+                to_local: to_world.inverse(),
+            },
+            Vec3::ZERO,
+        );
         let b = p.bounds().unwrap();
         let mut touches = [false; 6];
         for i in 0..64 {
             for j in 0..32 {
-                let (th, ph) = (i as f64 / 64.0 * std::f64::consts::TAU, j as f64 / 31.0 * std::f64::consts::PI);
-                let q = to_world.transform_point3(Vec3::new(th.cos() * ph.sin(), th.sin() * ph.sin(), ph.cos()));
-                assert!(q.cmpge(b.min).all() && q.cmple(b.max).all(), "{q} outside {b:?}");
+                let (th, ph) = (
+                    i as f64 / 64.0 * std::f64::consts::TAU,
+                    j as f64 / 31.0 * std::f64::consts::PI,
+                );
+                let q = to_world.transform_point3(Vec3::new(
+                    th.cos() * ph.sin(),
+                    th.sin() * ph.sin(),
+                    ph.cos(),
+                ));
+                assert!(
+                    q.cmpge(b.min).all() && q.cmple(b.max).all(),
+                    "{q} outside {b:?}"
+                );
                 for k in 0..3 {
                     touches[k] |= q[k] - b.min[k] < 0.05;
                     touches[k + 3] |= b.max[k] - q[k] < 0.05;
                 }
             }
         }
-        assert!(touches.iter().all(|&t| t), "bounds are not tight: {touches:?}");
+        assert!(
+            touches.iter().all(|&t| t),
+            "bounds are not tight: {touches:?}"
+        );
     }
 
     #[test]
     fn moving_sphere_is_hit_where_it_is_at_the_rays_time() {
-        let p = prim(PrimitiveKind::Sphere { centre: Vec3::ZERO, radius: 1.0 }, Vec3::new(4.0, 0.0, 0.0));
+        let p = prim(
+            PrimitiveKind::Sphere {
+                centre: Vec3::ZERO,
+                radius: 1.0,
+            },
+            Vec3::new(4.0, 0.0, 0.0),
+        );
         let b = p.bounds().unwrap();
         assert!(b.min.x <= -1.0 && b.max.x >= 5.0, "bounds sweep the motion");
         let mut ray = Ray::new(Vec3::new(4.0, 0.0, -5.0), Vec3::Z);
@@ -231,17 +280,25 @@ mod tests {
         let mut w = crate::bench::spd_world(yari::spd::Database::Tetra, 1).unwrap();
         let n = w.objects.len();
         w.objects.push(yari::model::Object {
-            shape: Shape::Sphere { center: Vec3::ZERO, radius: f64::NAN },
+            shape: Shape::Sphere {
+                center: Vec3::ZERO,
+                radius: f64::NAN,
+            },
             surface: 0,
             motion: Vec3::ZERO,
         });
         w.objects.push(yari::model::Object {
-            shape: Shape::Polygon { vertices: vec![Vec3::ZERO, Vec3::ZERO, Vec3::X] },
+            shape: Shape::Polygon {
+                vertices: vec![Vec3::ZERO, Vec3::ZERO, Vec3::X],
+            },
             surface: 0,
             motion: Vec3::ZERO,
         });
         let (prims, dropped) = Primitive::build_all(&w);
         assert_eq!(prims.len(), n);
-        assert_eq!(dropped.iter().map(|d| d.object).collect::<Vec<_>>(), vec![n, n + 1]);
+        assert_eq!(
+            dropped.iter().map(|d| d.object).collect::<Vec<_>>(),
+            vec![n, n + 1]
+        );
     }
 }

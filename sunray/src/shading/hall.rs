@@ -153,7 +153,7 @@ impl Tracer<'_> {
             }
             let to_light = lp - p;
             let dist = to_light.length();
-            if !(dist > 0.0) {
+            if dist.is_nan() || dist <= 0.0 {
                 continue;
             }
             let l = to_light / dist;

@@ -1,0 +1,122 @@
+//! `sunray jobs`: the SunRay III jobs of this cluster (or of the private embedded remd) and
+//! their state: running, finished, failed (no worker left; resumable) or interrupted (the
+//! controller stopped answering; resumable with `sunray submit --resume JOB`).
+
+use crate::distrib::checkpoint::unix_ms;
+use crate::distrib::cluster::Cluster;
+use crate::distrib::jobs;
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Args, Debug, Clone)]
+pub struct JobsArgs {
+    /// The remd to ask [default: the private one, whose state lives in ~/.local/state/sunray].
+    #[arg(long, env = "REM_ADDR")]
+    pub remd: Option<String>,
+    /// File with the cluster secret (else REM_SECRET_FILE or REM_SECRET).
+    #[arg(long)]
+    pub secret_file: Option<PathBuf>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: JobsArgs) -> anyhow::Result<ExitCode> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()?;
+    runtime.block_on(list(args))
+}
+
+async fn list(args: JobsArgs) -> anyhow::Result<ExitCode> {
+    let program = std::env::current_exe()?;
+    let cluster = Cluster::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
+    let result = print_jobs(&cluster, args.json).await;
+    cluster.close().await;
+    result.map(|()| ExitCode::SUCCESS)
+}
+
+async fn print_jobs(cluster: &Cluster, json: bool) -> anyhow::Result<()> {
+    let index = jobs::read_index(&cluster.client).await.map_err(|e| cluster.rpc_error(e))?;
+    let procs = cluster.client.ps().await.map_err(|e| cluster.rpc_error(e))?;
+    let now = unix_ms();
+    let rows: Vec<serde_json::Value> = index
+        .jobs
+        .iter()
+        .map(|j| {
+            let prefix = format!("{}.", j.job);
+            let workers = procs
+                .iter()
+                .filter(|p| p.state == "running" && p.job.starts_with(&prefix))
+                .count();
+            serde_json::json!({
+                "job": j.job,
+                "state": jobs::shown_state(j, workers, now, 15_000),
+                "lines_done": j.lines_done,
+                "lines": j.height,
+                "hosts": j.hosts,
+                "workers": workers,
+                "scene": j.scene,
+                "output": j.output,
+                "started_unix_ms": j.started_unix_ms,
+                "updated_unix_ms": j.updated_unix_ms,
+            })
+        })
+        .collect();
+    if json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    if rows.is_empty() {
+        println!("no jobs");
+        return Ok(());
+    }
+    println!(
+        "{:<32} {:<12} {:>11} {:>5} {:>7} {:>9}  scene",
+        "job", "state", "lines", "hosts", "workers", "started"
+    );
+    for r in &rows {
+        let ago = now.saturating_sub(r["started_unix_ms"].as_u64().unwrap_or(0)) / 1000;
+        println!(
+            "{:<32} {:<12} {:>11} {:>5} {:>7} {:>9}  {}",
+            r["job"].as_str().unwrap_or(""),
+            r["state"].as_str().unwrap_or(""),
+            format!("{}/{}", r["lines_done"], r["lines"]),
+            r["hosts"],
+            r["workers"],
+            format!("{}", Ago(ago)),
+            r["scene"].as_str().unwrap_or("")
+        );
+    }
+    Ok(())
+}
+
+/// Seconds as a short age: 42s, 7m, 3h, 2d (ago).
+struct Ago(u64);
+
+impl std::fmt::Display for Ago {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self.0;
+        match s {
+            0..=59 => write!(f, "{s}s ago"),
+            60..=3599 => write!(f, "{}m ago", s / 60),
+            3600..=86399 => write!(f, "{}h ago", s / 3600),
+            _ => write!(f, "{}d ago", s / 86400),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Ago;
+
+    #[test]
+    fn ages_are_short() {
+        assert_eq!(Ago(5).to_string(), "5s ago");
+        assert_eq!(Ago(125).to_string(), "2m ago");
+        assert_eq!(Ago(7200).to_string(), "2h ago");
+        assert_eq!(Ago(3 * 86400).to_string(), "3d ago");
+    }
+}

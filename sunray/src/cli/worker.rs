@@ -1,0 +1,40 @@
+//! `sunray worker`: the process REM starts for `sunray submit`. Not for typing: it reads its
+//! REM connection from the environment REM gives it (see [`crate::distrib::worker`]).
+
+use crate::distrib::worker::{self, WorkerConfig, WorkerError};
+use clap::Args;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Environment variable: extra milliseconds per line (a test and benchmark hook).
+pub const LINE_DELAY_ENV: &str = "SUNRAY_WORKER_LINE_DELAY_MS";
+
+#[derive(Args, Debug, Clone)]
+pub struct WorkerArgs {
+    /// Render threads (default: every core of this host).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
+    let line_delay = std::env::var(LINE_DELAY_ENV)
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+        .map_or(Duration::ZERO, Duration::from_millis);
+    let cfg = WorkerConfig {
+        threads: args.threads.filter(|&t| t > 0),
+        line_delay,
+        ..WorkerConfig::default()
+    };
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    match runtime.block_on(worker::run(cfg)) {
+        Ok(()) => Ok(ExitCode::SUCCESS),
+        Err(WorkerError::ControllerGone) => {
+            eprintln!("sunray worker: the controller is gone; stopping");
+            Ok(ExitCode::from(3))
+        }
+        Err(e) => Err(e.into()),
+    }
+}

@@ -1,0 +1,128 @@
+//! Reaching REM: the configured remd (`--remd` / `REM_ADDR`, with the cluster secret from
+//! `--secret-file`, `REM_SECRET_FILE` or `REM_SECRET`), or else a private embedded one. Every
+//! way this can fail gets its own clear error.
+
+use super::embedded::{self, EmbeddedRem};
+use rem::{RemClient, Secret};
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ClusterError {
+    #[error("no cluster secret for remd at {addr}: give --secret-file, or set REM_SECRET_FILE or REM_SECRET")]
+    NoSecret { addr: String },
+    #[error("cannot read the cluster secret: {0}")]
+    Secret(rem::Error),
+    #[error("cannot reach remd at {addr}: {source}")]
+    Unreachable { addr: String, source: rem::Error },
+    #[error("remd at {addr} refused the cluster secret (is it the right one?)")]
+    WrongSecret { addr: String },
+    #[error("remd at {addr} failed: {source}")]
+    Rpc { addr: String, source: rem::Error },
+    #[error("cannot start the embedded remd: {0}")]
+    Embedded(rem::Error),
+}
+
+/// A connection to REM, and the private daemon behind it if there is one.
+pub struct Cluster {
+    pub client: RemClient,
+    pub addr: String,
+    pub embedded: Option<EmbeddedRem>,
+}
+
+impl Cluster {
+    /// Connects to `remd` if given, else starts a private daemon allowed to run `program`.
+    pub async fn open(
+        remd: Option<&str>,
+        secret_file: Option<&Path>,
+        program: &Path,
+    ) -> Result<Cluster, ClusterError> {
+        match remd.filter(|a| !a.is_empty()) {
+            Some(addr) => {
+                let secret = match secret_file {
+                    Some(f) => Secret::from_file(f).map_err(ClusterError::Secret)?,
+                    None => match Secret::from_env() {
+                        Ok(Some((s, _))) => s,
+                        Ok(None) => {
+                            return Err(ClusterError::NoSecret {
+                                addr: addr.to_string(),
+                            })
+                        }
+                        Err(e) => return Err(ClusterError::Secret(e)),
+                    },
+                };
+                let client = connect(addr, secret).await?;
+                Ok(Cluster {
+                    client,
+                    addr: addr.to_string(),
+                    embedded: None,
+                })
+            }
+            None => {
+                let allow: Vec<PathBuf> = vec![program.to_path_buf()];
+                let rem = EmbeddedRem::start(allow, embedded::state_dir())
+                    .await
+                    .map_err(ClusterError::Embedded)?;
+                let client = connect(&rem.addr, rem.secret.clone()).await?;
+                Ok(Cluster {
+                    client,
+                    addr: rem.addr.clone(),
+                    embedded: Some(rem),
+                })
+            }
+        }
+    }
+
+    pub fn is_embedded(&self) -> bool {
+        self.embedded.is_some()
+    }
+
+    /// The live hosts that take work.
+    pub async fn live_hosts(&self) -> Result<Vec<rem::HostInfo>, ClusterError> {
+        let hosts = self.client.hosts().await.map_err(|e| self.rpc_error(e))?;
+        Ok(hosts.into_iter().filter(|h| h.alive && h.accepting).collect())
+    }
+
+    pub fn rpc_error(&self, e: rem::Error) -> ClusterError {
+        classify(&self.addr, e)
+    }
+
+    /// Stops the private daemon, if any.
+    pub async fn close(self) {
+        if let Some(rem) = self.embedded {
+            rem.stop().await;
+        }
+    }
+}
+
+/// Connects and checks the secret with one call.
+async fn connect(addr: &str, secret: Secret) -> Result<RemClient, ClusterError> {
+    let client = RemClient::connect(addr, secret)
+        .await
+        .map_err(|source| ClusterError::Unreachable {
+            addr: addr.to_string(),
+            source,
+        })?;
+    client.hosts().await.map_err(|e| classify(addr, e))?;
+    Ok(client)
+}
+
+fn classify(addr: &str, e: rem::Error) -> ClusterError {
+    let addr = addr.to_string();
+    match e.code() as i32 {
+        tonic_code::UNAUTHENTICATED | tonic_code::PERMISSION_DENIED
+            if matches!(e, rem::Error::Rpc(_)) =>
+        {
+            ClusterError::WrongSecret { addr }
+        }
+        tonic_code::UNAVAILABLE => ClusterError::Unreachable { addr, source: e },
+        _ => ClusterError::Rpc { addr, source: e },
+    }
+}
+
+/// The gRPC codes we tell apart, without depending on tonic here.
+mod tonic_code {
+    pub const UNAUTHENTICATED: i32 = 16;
+    pub const PERMISSION_DENIED: i32 = 7;
+    pub const UNAVAILABLE: i32 = 14;
+}

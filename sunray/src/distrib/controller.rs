@@ -1,0 +1,469 @@
+//! The controller actor (thesis Figure 4.7): a tokio task that owns the grant table, the
+//! image, the node statistics and the checkpoint. It is fed by the REM relay (worker
+//! messages and job events) through a bounded channel, hands out lines, takes completions
+//! (first one wins), gives back the lines of failed or silent workers, duplicates
+//! stragglers at the end, checkpoints every few seconds and, when every line is in, tells
+//! the workers to stop.
+
+use super::checkpoint::{Checkpointer, Restored};
+use super::grants::{Completion, GrantTable, NodeState};
+use super::messages::{self, proto, Body};
+use super::nodes::{LineCounts, NodeStats, Outcome};
+use super::progress::ProgressView;
+use super::strategy::Strategy;
+use crate::film::Film;
+use crate::stats::Counters;
+use rem::{EventKind, Incoming, ProcId, RemClient, RelayReceiver, RelaySender};
+use serde_json::json;
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+use tokio::sync::mpsc;
+
+/// How the controller runs.
+#[derive(Clone, Debug)]
+pub struct ControllerConfig {
+    pub job: String,
+    pub strategy: Strategy,
+    pub width: u32,
+    pub height: u32,
+    /// The encoded Scene message every worker gets first.
+    pub scene: Vec<u8>,
+    /// A worker whose oldest line is older than this is silent; `None` = 10 s or 20 times
+    /// the slowest line seen, whichever is longer.
+    pub worker_timeout: Option<Duration>,
+    pub checkpoint_every: Duration,
+    pub preview: Option<std::path::PathBuf>,
+    pub preview_every: Duration,
+    pub show_bar: bool,
+    pub events: bool,
+    /// How long finished workers get to exit before they are killed.
+    pub finish_grace: Duration,
+}
+
+/// A spawned worker.
+#[derive(Clone, Debug)]
+pub struct WorkerProc {
+    pub proc_id: ProcId,
+    pub host: String,
+    pub pid: u32,
+}
+
+/// The end of a job.
+#[derive(Debug)]
+pub struct JobResult {
+    pub film: Film,
+    pub nodes: Vec<NodeStats>,
+    /// Over every line of the image, those of a resumed run included.
+    pub counters: Counters,
+    pub lines: LineCounts,
+    pub elapsed_s: f64,
+    /// False when no worker was left to finish the image.
+    pub finished: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ControllerError {
+    #[error("the relay to remd failed: {0}")]
+    Relay(#[from] rem::Error),
+}
+
+/// What the actor is fed.
+#[derive(Debug)]
+pub enum Input {
+    Relay(rem::Result<Incoming>),
+}
+
+/// A handle to the running controller: feed it, or wait for its result.
+pub struct ControllerHandle {
+    pub tx: mpsc::Sender<Input>,
+    pub task: tokio::task::JoinHandle<Result<JobResult, ControllerError>>,
+}
+
+impl ControllerHandle {
+    pub async fn join(self) -> Result<JobResult, ControllerError> {
+        drop(self.tx);
+        self.task
+            .await
+            .unwrap_or_else(|e| Err(ControllerError::Relay(rem::Error::Io(std::io::Error::other(e)))))
+    }
+}
+
+/// Everything the actor starts from.
+pub struct Start {
+    pub cfg: ControllerConfig,
+    pub client: RemClient,
+    pub sender: RelaySender,
+    pub receiver: RelayReceiver,
+    pub workers: Vec<WorkerProc>,
+    pub restored: Option<Restored>,
+    pub checkpointer: Checkpointer,
+}
+
+/// Starts the actor and the task that feeds it from the relay.
+pub fn spawn(start: Start) -> ControllerHandle {
+    let (tx, rx) = mpsc::channel(256);
+    let feed = tx.clone();
+    let mut receiver = start.receiver;
+    tokio::spawn(async move {
+        loop {
+            let item = receiver.recv().await;
+            let end = item.is_err();
+            if feed.send(Input::Relay(item)).await.is_err() || end {
+                return;
+            }
+        }
+    });
+    let c = Controller::new(start.cfg, start.client, start.sender, start.workers, start.restored, start.checkpointer);
+    ControllerHandle {
+        tx,
+        task: tokio::spawn(c.run(rx)),
+    }
+}
+
+struct Controller {
+    cfg: ControllerConfig,
+    client: RemClient,
+    sender: RelaySender,
+    procs: Vec<ProcId>,
+    by_proc: HashMap<String, usize>,
+    table: GrantTable,
+    film: Film,
+    nodes: Vec<NodeStats>,
+    exited: Vec<bool>,
+    finishing: bool,
+    checkpointer: Checkpointer,
+    last_checkpoint: Instant,
+    counters: Counters,
+    lines: LineCounts,
+    max_line_s: f64,
+    started: Instant,
+    view: ProgressView,
+    all_silent_since: Option<Instant>,
+}
+
+impl Controller {
+    fn new(
+        cfg: ControllerConfig,
+        client: RemClient,
+        sender: RelaySender,
+        workers: Vec<WorkerProc>,
+        restored: Option<Restored>,
+        checkpointer: Checkpointer,
+    ) -> Controller {
+        let mut film = Film::new(cfg.width, cfg.height);
+        let mut finished = vec![false; cfg.height as usize];
+        let mut counters = Counters::default();
+        for l in restored.iter().flat_map(|r| r.lines.values()) {
+            let Ok(px) = messages::pixels_from_bytes(&l.pixels, cfg.width) else {
+                continue;
+            };
+            if let Some(f) = finished.get_mut(l.line as usize) {
+                *f = true;
+                film.set_line(l.line, &px);
+                counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
+            }
+        }
+        let resumed = finished.iter().filter(|f| **f).count() as u32;
+        let nodes = workers
+            .iter()
+            .enumerate()
+            .map(|(i, w)| NodeStats {
+                node: i + 1,
+                proc_id: w.proc_id.to_string(),
+                host: w.host.clone(),
+                pid: w.pid,
+                ..Default::default()
+            })
+            .collect();
+        let view = ProgressView::new(
+            cfg.height,
+            resumed,
+            cfg.show_bar,
+            cfg.events,
+            cfg.preview.clone(),
+            cfg.preview_every,
+        );
+        Controller {
+            table: GrantTable::new(cfg.strategy, cfg.height, workers.len(), &finished),
+            by_proc: workers.iter().enumerate().map(|(i, w)| (w.proc_id.to_string(), i)).collect(),
+            procs: workers.iter().map(|w| w.proc_id.clone()).collect(),
+            exited: vec![false; workers.len()],
+            lines: LineCounts {
+                total: cfg.height,
+                resumed,
+                ..Default::default()
+            },
+            cfg,
+            client,
+            sender,
+            film,
+            nodes,
+            finishing: false,
+            checkpointer,
+            last_checkpoint: Instant::now(),
+            counters,
+            max_line_s: 0.0,
+            started: Instant::now(),
+            view,
+            all_silent_since: None,
+        }
+    }
+
+    async fn run(mut self, mut inbox: mpsc::Receiver<Input>) -> Result<JobResult, ControllerError> {
+        for (i, w) in self.nodes.iter().enumerate() {
+            self.view.event(json!({"event": "spawned", "node": i + 1, "proc": w.proc_id,
+                "host": w.host, "pid": w.pid}));
+        }
+        for i in 0..self.procs.len() {
+            if let Err(e) = self.sender.send(&self.procs[i], self.cfg.scene.clone()).await {
+                self.on_gone(i, format!("cannot send the scene: {e}"), false);
+            }
+        }
+        let mut tick = tokio::time::interval(Duration::from_millis(100));
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        while !self.table.is_finished() {
+            tokio::select! {
+                input = inbox.recv() => match input {
+                    Some(Input::Relay(Ok(incoming))) => self.on_incoming(incoming),
+                    Some(Input::Relay(Err(e))) => return Err(e.into()),
+                    None => return Err(rem::Error::Closed.into()),
+                },
+                _ = tick.tick() => self.on_tick().await,
+            }
+            self.dispatch().await?;
+            if self.no_worker_left() {
+                break;
+            }
+        }
+        let finished = self.table.is_finished();
+        self.save_checkpoint(if finished { "finished" } else { "failed" }).await;
+        self.view.preview(&self.film, true);
+        self.wind_down(&mut inbox).await;
+        self.view.finish();
+        self.view.event(json!({"event": if finished { "finished" } else { "failed" },
+            "done": self.table.done()}));
+        let counts = self.table.counts();
+        self.lines.requeued = counts.requeued;
+        self.lines.duplicated = counts.duplicated;
+        self.lines.dropped = counts.dropped;
+        Ok(JobResult {
+            film: self.film,
+            nodes: self.nodes,
+            counters: self.counters,
+            lines: self.lines,
+            elapsed_s: self.started.elapsed().as_secs_f64(),
+            finished,
+        })
+    }
+
+    fn on_incoming(&mut self, incoming: Incoming) {
+        match incoming {
+            Incoming::Message { from, payload } => {
+                let Some(&i) = self.by_proc.get(&from) else { return };
+                match messages::decode(&payload) {
+                    Ok(body) => self.on_message(i, body),
+                    Err(e) => self.view.event(json!({"event": "bad-message", "node": i + 1,
+                        "error": e.to_string()})),
+                }
+            }
+            Incoming::Event(ev) => {
+                let Some(&i) = self.by_proc.get(&ev.proc_id) else { return };
+                let (reason, clean) = match ev.kind() {
+                    EventKind::Exited => match (ev.exit_code, ev.signal) {
+                        (_, Some(sig)) => (format!("killed by signal {sig}"), false),
+                        (Some(code), _) => (format!("exited with code {code}"), code == 0),
+                        _ => ("exited".to_string(), false),
+                    },
+                    EventKind::Lost => (format!("host {} lost", ev.host), false),
+                    _ => return,
+                };
+                self.on_gone(i, reason, clean);
+            }
+            Incoming::Undeliverable { to, reason } => {
+                if let Some(&i) = self.by_proc.get(&to) {
+                    self.on_gone(i, format!("unreachable: {reason}"), false);
+                }
+            }
+        }
+    }
+
+    fn on_message(&mut self, i: usize, body: Body) {
+        let n = &mut self.nodes[i];
+        match body {
+            Body::Ready(r) => {
+                n.host = if r.host.is_empty() { n.host.clone() } else { r.host };
+                (n.cores, n.threads, n.load_at_start) = (r.cores, r.threads, r.load_avg);
+                if n.outcome == Outcome::Starting {
+                    n.outcome = Outcome::Ok;
+                }
+                self.view.event(json!({"event": "ready", "node": i + 1, "host": n.host,
+                    "cores": r.cores, "threads": r.threads, "pid": r.pid}));
+            }
+            Body::Request(r) => {
+                n.preprocess_s = r.preprocess_s;
+                self.table.request(i, r.lines);
+            }
+            Body::Done(d) => self.on_done(i, d),
+            Body::WorkerError(e) => {
+                self.view.note(&format!("sunray: worker {} ({}): {}", i + 1, n.host, e.message));
+                n.fault = Some(e.message);
+            }
+            _ => {}
+        }
+    }
+
+    fn on_done(&mut self, i: usize, d: proto::Done) {
+        let width = self.cfg.width;
+        let Ok(pixels) = messages::pixels_from_bytes(&d.pixels, width) else {
+            self.view.event(json!({"event": "bad-line", "node": i + 1, "line": d.line}));
+            return;
+        };
+        let n = &mut self.nodes[i];
+        if let Some(c) = &d.clock {
+            (n.cpu_s, n.elapsed_s, n.preprocess_s, n.render_s) =
+                (c.cpu_s, c.elapsed_s, c.preprocess_s, c.render_s);
+        }
+        if n.outcome == Outcome::Silent {
+            n.outcome = Outcome::Ok;
+        }
+        match self.table.complete(i, d.grant, d.line) {
+            Completion::Accepted => {
+                let proto_counters = d.counters.unwrap_or_default();
+                let c = Counters::from(&proto_counters);
+                self.max_line_s = self.max_line_s.max(proto_counters.line_s);
+                self.film.set_line(d.line, &pixels);
+                n.add_line(&c);
+                n.finished_at_s = self.started.elapsed().as_secs_f64();
+                self.counters += c;
+                self.lines.rendered += 1;
+                self.checkpointer.record(proto::FinishedLine {
+                    line: d.line,
+                    pixels: d.pixels,
+                    counters: Some(proto_counters),
+                });
+                let done = self.table.done();
+                self.view.set_done(done);
+                self.view.event(json!({"event": "line", "node": i + 1, "line": d.line,
+                    "done": done, "total": self.cfg.height}));
+            }
+            Completion::Duplicate => n.dropped += 1,
+            Completion::Unknown => {}
+        }
+        self.table.request(i, d.want);
+    }
+
+    /// Node `i`'s process exited, its host was lost, or it cannot be reached. `clean`: it
+    /// exited with code 0, which is a fault only before it was told to stop.
+    fn on_gone(&mut self, i: usize, reason: String, clean: bool) {
+        if self.exited[i] {
+            return;
+        }
+        self.exited[i] = true;
+        let held = self.table.node_gone(i);
+        let n = &mut self.nodes[i];
+        n.lines_given_back += held as u64;
+        if self.finishing && clean {
+            return;
+        }
+        n.outcome = Outcome::Fault;
+        let why = match &n.fault {
+            Some(f) => format!("{reason}: {f}"),
+            None => reason,
+        };
+        self.view.note(&format!(
+            "sunray: node {} ({}) FAULT: {why}; {held} line(s) go back to the queue",
+            i + 1,
+            n.host
+        ));
+        self.view.event(json!({"event": "fault", "node": i + 1, "reason": why,
+            "given_back": held}));
+        n.fault = Some(why);
+    }
+
+    fn timeout(&self) -> Duration {
+        self.cfg
+            .worker_timeout
+            .unwrap_or_else(|| Duration::from_secs_f64((20.0 * self.max_line_s).max(10.0)))
+    }
+
+    async fn on_tick(&mut self) {
+        let now = Instant::now();
+        for (i, held) in self.table.expire(now, self.timeout()) {
+            let n = &mut self.nodes[i];
+            n.outcome = Outcome::Silent;
+            n.lines_given_back += held as u64;
+            self.view.event(json!({"event": "silent", "node": i + 1, "given_back": held}));
+        }
+        if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every && self.checkpointer.has_pending() {
+            self.save_checkpoint("running").await;
+        }
+        self.view.preview(&self.film, false);
+        self.view.set_workers(self.table.active_nodes());
+    }
+
+    async fn save_checkpoint(&mut self, state: &str) {
+        self.last_checkpoint = Instant::now();
+        match self.checkpointer.save(&self.client, state).await {
+            Ok(()) => self.view.event(json!({"event": "checkpoint", "state": state,
+                "lines": self.checkpointer.lines_done()})),
+            Err(e) => self.view.note(&format!("sunray: warning: checkpoint: {e}")),
+        }
+    }
+
+    /// Sends out whatever the table can hand out now.
+    async fn dispatch(&mut self) -> Result<(), ControllerError> {
+        let now = Instant::now();
+        let mut out = self.table.assign(now);
+        let min_age = Duration::from_secs_f64(2.0 * self.max_line_s + 0.25);
+        out.extend(self.table.duplicate_stragglers(now, min_age));
+        for a in out {
+            let msg = messages::encode(Body::Assign(proto::Assign { line: a.line, grant: a.grant }));
+            match self.sender.send(&self.procs[a.node], msg).await {
+                Ok(()) => {}
+                Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
+                Err(e) => self.on_gone(a.node, format!("cannot send: {e}"), false),
+            }
+        }
+        Ok(())
+    }
+
+    fn no_worker_left(&mut self) -> bool {
+        if self.table.live_nodes() == 0 {
+            return true;
+        }
+        if self.table.active_nodes() > 0 {
+            self.all_silent_since = None;
+            return false;
+        }
+        let since = *self.all_silent_since.get_or_insert_with(Instant::now);
+        since.elapsed() > self.timeout()
+    }
+
+    /// Tells every worker still there to stop, waits a bounded time for them to exit
+    /// (late completions are counted as dropped), then kills the rest.
+    async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
+        self.finishing = true;
+        let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
+        for i in 0..self.procs.len() {
+            if !self.exited[i] {
+                let _ = self.sender.send(&self.procs[i], stop.clone()).await;
+            }
+        }
+        let deadline = tokio::time::Instant::now() + self.cfg.finish_grace;
+        while self.exited.iter().any(|e| !e) {
+            match tokio::time::timeout_at(deadline, inbox.recv()).await {
+                Ok(Some(Input::Relay(Ok(incoming)))) => self.on_incoming(incoming),
+                _ => break,
+            }
+        }
+        for i in 0..self.procs.len() {
+            if !self.exited[i] {
+                if self.table.node_state(i) != Some(NodeState::Gone) {
+                    self.nodes[i].outcome = Outcome::Silent;
+                }
+                let _ = self.client.kill(&self.procs[i]).await;
+            }
+        }
+    }
+}

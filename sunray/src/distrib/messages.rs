@@ -1,0 +1,237 @@
+//! The controller <-> worker messages of `proto/sunray.proto` and their conversions: one
+//! [`proto::SunrayMessage`] per REM envelope, pixels as little-endian `f32`, counters as in
+//! [`crate::stats::Counters`], render settings as [`RenderOptions`] + [`AccelOptions`].
+
+use crate::accel::{AccelKind, AccelOptions};
+use crate::render::RenderOptions;
+use crate::shading::TraceOptions;
+use crate::stats::Counters;
+use prost::Message;
+
+/// Generated from `proto/sunray.proto`.
+#[allow(clippy::all, missing_docs)]
+pub mod proto {
+    include!(concat!(env!("OUT_DIR"), "/sunray.v1.rs"));
+}
+
+pub use proto::sunray_message::Body;
+
+/// A message that is not a valid SunRay message.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MessageError {
+    #[error("undecodable message: {0}")]
+    Decode(#[from] prost::DecodeError),
+    #[error("empty message")]
+    Empty,
+    #[error("{got} bytes of pixels for a line of {width} pixels")]
+    PixelCount { got: usize, width: u32 },
+    #[error("unknown accelerator {0:?}")]
+    Accel(String),
+}
+
+/// Encodes one message body for an envelope.
+pub fn encode(body: Body) -> Vec<u8> {
+    proto::SunrayMessage { body: Some(body) }.encode_to_vec()
+}
+
+/// Decodes an envelope's payload.
+pub fn decode(bytes: &[u8]) -> Result<Body, MessageError> {
+    proto::SunrayMessage::decode(bytes)?
+        .body
+        .ok_or(MessageError::Empty)
+}
+
+/// A scanline's pixels as bytes: 3 little-endian `f32` per pixel.
+pub fn pixels_to_bytes(pixels: &[[f32; 3]]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(pixels.len() * 12);
+    for p in pixels {
+        for c in p {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// The inverse of [`pixels_to_bytes`], checking there are exactly `width` pixels.
+pub fn pixels_from_bytes(bytes: &[u8], width: u32) -> Result<Vec<[f32; 3]>, MessageError> {
+    if bytes.len() != width as usize * 12 {
+        return Err(MessageError::PixelCount {
+            got: bytes.len(),
+            width,
+        });
+    }
+    Ok(bytes
+        .chunks_exact(12)
+        .map(|p| {
+            let f = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+            [f(0), f(4), f(8)]
+        })
+        .collect())
+}
+
+impl From<&Counters> for proto::Counters {
+    fn from(c: &Counters) -> proto::Counters {
+        proto::Counters {
+            eye: c.eye,
+            eye_hits: c.eye_hits,
+            shadow: c.shadow,
+            shadow_behind: c.shadow_behind,
+            reflected: c.reflected,
+            refracted: c.refracted,
+            intersection_tests: c.intersection_tests,
+            voxels: c.voxels,
+            mailbox_hits: c.mailbox_hits,
+            mailbox_uses: c.mailbox_uses,
+            line_s: 0.0,
+        }
+    }
+}
+
+impl From<&proto::Counters> for Counters {
+    fn from(c: &proto::Counters) -> Counters {
+        Counters {
+            eye: c.eye,
+            eye_hits: c.eye_hits,
+            shadow: c.shadow,
+            shadow_behind: c.shadow_behind,
+            reflected: c.reflected,
+            refracted: c.refracted,
+            intersection_tests: c.intersection_tests,
+            voxels: c.voxels,
+            mailbox_hits: c.mailbox_hits,
+            mailbox_uses: c.mailbox_uses,
+        }
+    }
+}
+
+/// Everything a worker needs besides the model to render what `sunray render` would.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub render: RenderOptions,
+    pub accel: AccelOptions,
+    pub mailbox: bool,
+}
+
+impl Settings {
+    pub fn to_proto(&self) -> proto::RenderSettings {
+        let r = &self.render;
+        proto::RenderSettings {
+            width: r.width,
+            height: r.height,
+            samples: r.samples,
+            max_depth: r.trace.max_depth,
+            min_weight: r.trace.min_weight,
+            accel: self.accel.kind.name().to_string(),
+            max_per_voxel: self.accel.max_per_voxel.min(u32::MAX as usize) as u32,
+            octree_max_depth: self.accel.max_depth,
+            mailbox: self.mailbox,
+        }
+    }
+
+    pub fn from_proto(p: &proto::RenderSettings) -> Result<Settings, MessageError> {
+        let kind = accel_from_name(&p.accel).ok_or_else(|| MessageError::Accel(p.accel.clone()))?;
+        Ok(Settings {
+            render: RenderOptions {
+                width: p.width.max(1),
+                height: p.height.max(1),
+                samples: p.samples.max(1),
+                trace: TraceOptions {
+                    max_depth: p.max_depth,
+                    min_weight: p.min_weight,
+                },
+            },
+            accel: AccelOptions {
+                kind,
+                max_per_voxel: (p.max_per_voxel as usize).max(1),
+                max_depth: p.octree_max_depth,
+            },
+            mailbox: p.mailbox,
+        })
+    }
+}
+
+/// The accelerator kind of a command-line name ([`AccelKind::name`]).
+pub fn accel_from_name(name: &str) -> Option<AccelKind> {
+    [
+        AccelKind::Auto,
+        AccelKind::Octree,
+        AccelKind::Bvh,
+        AccelKind::Exhaustive,
+    ]
+    .into_iter()
+    .find(|k| k.name() == name)
+}
+
+/// FNV-1a, 64 bits: the model hash a resumed job is checked against.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pixels_round_trip_bit_for_bit() {
+        let px = vec![[0.0, -1.5, f32::MAX], [1e-30, 0.25, f32::MIN_POSITIVE]];
+        let bytes = pixels_to_bytes(&px);
+        assert_eq!(bytes.len(), 24);
+        assert_eq!(pixels_from_bytes(&bytes, 2).unwrap(), px);
+        assert!(matches!(
+            pixels_from_bytes(&bytes, 3),
+            Err(MessageError::PixelCount { got: 24, width: 3 })
+        ));
+    }
+
+    #[test]
+    fn messages_round_trip_and_garbage_is_an_error() {
+        let m = Body::Assign(proto::Assign { line: 7, grant: 42 });
+        assert_eq!(decode(&encode(m.clone())).unwrap(), m);
+        assert!(decode(&[0xff, 0xff, 0xff]).is_err());
+        assert!(matches!(decode(&[]), Err(MessageError::Empty)));
+    }
+
+    #[test]
+    fn counters_and_settings_round_trip() {
+        let c = Counters {
+            eye: 1,
+            eye_hits: 2,
+            shadow: 3,
+            shadow_behind: 4,
+            reflected: 5,
+            refracted: 6,
+            intersection_tests: 7,
+            voxels: 8,
+            mailbox_hits: 9,
+            mailbox_uses: 10,
+        };
+        assert_eq!(Counters::from(&proto::Counters::from(&c)), c);
+        let s = Settings {
+            render: RenderOptions {
+                width: 64,
+                height: 48,
+                samples: 4,
+                trace: TraceOptions {
+                    max_depth: 3,
+                    min_weight: 0.01,
+                },
+            },
+            accel: AccelOptions {
+                kind: AccelKind::Bvh,
+                max_per_voxel: 12,
+                max_depth: 6,
+            },
+            mailbox: false,
+        };
+        assert_eq!(Settings::from_proto(&s.to_proto()).unwrap(), s);
+        let mut bad = s.to_proto();
+        bad.accel = "kd-tree".into();
+        assert!(Settings::from_proto(&bad).is_err());
+    }
+}

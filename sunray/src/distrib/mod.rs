@@ -1,0 +1,41 @@
+//! SunRay III (thesis section 4.2.4): a controller hands out scanlines to worker processes
+//! that REM started on the least-loaded hosts; every message goes through REM's relay.
+//!
+//! ```text
+//! sunray submit --hosts N scene            remd (each host)            sunray worker
+//!   compile scene once  --spawn N------->  place on least-loaded  ---> attach to relay
+//!   controller actor    --Scene--------------------------------------> build accelerator
+//!                       <-Ready, Request(threads + 1)----------------
+//!                       --Assign(line, grant)------------------------> render threads
+//!                       <-Done(line, grant, pixels, counters)--------  (one more each)
+//!                       --NoMoreWork---------------------------------> exit
+//! ```
+//!
+//! # Layout
+//! - [`messages`]: the protobuf messages of `proto/sunray.proto` and their conversions.
+//! - [`strategy`]: SunRay I, II and III line distribution, and the queue of lines to hand out.
+//! - [`grants`]: the grant table (assign, complete, first completion wins, faults, timeouts,
+//!   duplication of stragglers).
+//! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
+//! - [`jobs`]: the job index behind `sunray jobs`.
+//! - [`nodes`]: per-node statistics and the thesis's per-node table.
+//! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
+//! - [`worker`]: the worker process; [`pool`]: its render threads.
+//! - [`cluster`]: reaching REM; [`embedded`]: the private remd of the default set-up.
+//! - [`scene_input`]: the job's scene (a file or the built-in example) and render settings.
+
+pub mod checkpoint;
+pub mod cluster;
+pub mod controller;
+pub mod embedded;
+pub mod grants;
+pub mod jobs;
+pub mod messages;
+pub mod nodes;
+pub mod pool;
+pub mod progress;
+pub mod scene_input;
+pub mod strategy;
+pub mod worker;
+
+pub use scene_input::DEFAULT_SCENE;

@@ -1,0 +1,251 @@
+//! Per-node statistics and the thesis's per-node table (Tables 4.5 to 4.9): node, host,
+//! cores, load at start, scanlines, eye and secondary rays, intersection tests, CPU,
+//! elapsed, preprocessing and render seconds. A failed node's row says FAULT (Table 4.7).
+//! The same data is written by `--stats-json` as the `nodes` array of [`JobStats`].
+
+use super::strategy::Strategy;
+use crate::stats::{Counters, RenderStats};
+use serde::Serialize;
+
+/// How a node ended.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Outcome {
+    /// Still starting (never sent Ready).
+    #[default]
+    Starting,
+    /// Worked to the end.
+    Ok,
+    /// Stopped answering and never came back.
+    Silent,
+    /// Its process exited early or its host was lost.
+    Fault,
+}
+
+/// One worker's figures. Counters are those of the lines accepted from it.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct NodeStats {
+    /// 1-based, in spawn order.
+    pub node: usize,
+    pub proc_id: String,
+    pub host: String,
+    pub pid: u32,
+    pub cores: u32,
+    pub threads: u32,
+    pub load_at_start: f64,
+    pub outcome: Outcome,
+    /// Why a faulty node failed.
+    pub fault: Option<String>,
+    /// Lines accepted from this node.
+    pub scanlines: u64,
+    /// Completions dropped because another node finished the line first.
+    pub dropped: u64,
+    /// Lines it held when it failed or timed out, given back to the queue.
+    pub lines_given_back: u64,
+    pub eye_rays: u64,
+    pub secondary_rays: u64,
+    pub counters: Counters,
+    pub cpu_s: f64,
+    pub elapsed_s: f64,
+    pub preprocess_s: f64,
+    pub render_s: f64,
+    /// Seconds from the start of the job to this node's last accepted line.
+    pub finished_at_s: f64,
+}
+
+impl NodeStats {
+    pub fn add_line(&mut self, c: &Counters) {
+        self.scanlines += 1;
+        self.counters += *c;
+        self.eye_rays = self.counters.eye;
+        self.secondary_rays = self.counters.rays() - self.counters.eye;
+    }
+}
+
+/// Line accounting of a job.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct LineCounts {
+    pub total: u32,
+    /// Taken from the checkpoint of an earlier run.
+    pub resumed: u32,
+    /// Rendered and accepted in this run.
+    pub rendered: u32,
+    /// Given back to the queue by failed or silent nodes (and rendered again).
+    pub requeued: u64,
+    /// Extra copies of straggling lines handed to idle nodes.
+    pub duplicated: u64,
+    /// Completions dropped because the line was already in.
+    pub dropped: u64,
+}
+
+/// What `sunray submit --stats-json` writes.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct JobStats {
+    pub job: String,
+    pub strategy: Option<Strategy>,
+    pub hosts: u32,
+    pub lines: LineCounts,
+    /// Wall time of the whole job in this run.
+    pub elapsed_s: f64,
+    /// Scene, image and counted totals over every line of the image, as `sunray render`
+    /// reports them (load and preprocessing are the controller's).
+    pub totals: RenderStats,
+    pub nodes: Vec<NodeStats>,
+}
+
+/// `1234567` as `1,234,567`.
+pub fn thousands(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, ch) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
+}
+
+/// The per-node table, with a total row.
+pub fn table(nodes: &[NodeStats]) -> String {
+    let mut s = format!(
+        "{:>4}  {:<12} {:>5} {:>6} {:>9} {:>12} {:>12} {:>15} {:>9} {:>9} {:>9} {:>9}\n",
+        "node",
+        "host",
+        "cores",
+        "load",
+        "scanlines",
+        "eye rays",
+        "secondary",
+        "intersections",
+        "cpu s",
+        "elapsed s",
+        "preproc s",
+        "render s"
+    );
+    let mut total = NodeStats::default();
+    for n in nodes {
+        let host = truncate(&n.host, 12);
+        if n.outcome == Outcome::Fault || n.outcome == Outcome::Starting && n.scanlines == 0 {
+            let why = n.fault.as_deref().unwrap_or("never started");
+            s.push_str(&format!(
+                "{:>4}  {:<12} {:>5} {:>6} FAULT ({} line(s) in before: {})\n",
+                n.node, host, "-", "-", n.scanlines, why
+            ));
+        } else {
+            let mark = if n.outcome == Outcome::Silent {
+                " (silent)"
+            } else {
+                ""
+            };
+            s.push_str(&format!(
+                "{:>4}  {:<12} {:>5} {:>6.2} {:>9} {:>12} {:>12} {:>15} {:>9.2} {:>9.2} {:>9.2} {:>9.2}{}\n",
+                n.node,
+                host,
+                n.cores,
+                n.load_at_start,
+                n.scanlines,
+                thousands(n.eye_rays),
+                thousands(n.secondary_rays),
+                thousands(n.counters.intersection_tests),
+                n.cpu_s,
+                n.elapsed_s,
+                n.preprocess_s,
+                n.render_s,
+                mark
+            ));
+        }
+        total.scanlines += n.scanlines;
+        total.eye_rays += n.eye_rays;
+        total.secondary_rays += n.secondary_rays;
+        total.counters += n.counters;
+        total.cpu_s += n.cpu_s;
+    }
+    s.push_str(&format!(
+        "{:>4}  {:<12} {:>5} {:>6} {:>9} {:>12} {:>12} {:>15} {:>9.2}\n",
+        "all",
+        "",
+        "",
+        "",
+        total.scanlines,
+        thousands(total.eye_rays),
+        thousands(total.secondary_rays),
+        thousands(total.counters.intersection_tests),
+        total.cpu_s
+    ));
+    s
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_string()
+    } else {
+        s.chars().take(n - 1).chain(['~']).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thousands_separators() {
+        assert_eq!(thousands(0), "0");
+        assert_eq!(thousands(999), "999");
+        assert_eq!(thousands(1000), "1,000");
+        assert_eq!(thousands(1_336_510), "1,336,510");
+    }
+
+    fn node(i: usize, lines: u64) -> NodeStats {
+        let mut n = NodeStats {
+            node: i,
+            host: format!("host{i}"),
+            cores: 2,
+            load_at_start: 0.5,
+            outcome: Outcome::Ok,
+            cpu_s: 1.5,
+            elapsed_s: 2.0,
+            ..Default::default()
+        };
+        for _ in 0..lines {
+            n.add_line(&Counters {
+                eye: 100,
+                shadow: 30,
+                reflected: 20,
+                intersection_tests: 1000,
+                ..Default::default()
+            });
+        }
+        n
+    }
+
+    #[test]
+    fn table_has_a_row_per_node_a_fault_row_and_totals() {
+        let mut bad = node(2, 3);
+        bad.outcome = Outcome::Fault;
+        bad.fault = Some("host b lost".into());
+        let t = table(&[node(1, 5), bad, node(3, 4)]);
+        let rows: Vec<&str> = t.lines().collect();
+        assert_eq!(rows.len(), 5, "{t}");
+        assert!(rows[0].contains("intersections") && rows[0].contains("preproc s"));
+        assert!(rows[1].contains("host1") && rows[1].contains("5,000"), "{t}");
+        assert!(rows[2].contains("FAULT") && rows[2].contains("host b lost"), "{t}");
+        assert!(rows[2].contains("3 line(s)"), "{t}");
+        // Totals count every accepted line, the faulty node's included.
+        assert!(rows[4].starts_with(" all") && rows[4].contains(" 12 "), "{t}");
+        assert!(rows[4].contains("12,000"), "{t}");
+    }
+
+    #[test]
+    fn secondary_rays_are_all_but_eye_rays() {
+        let n = node(1, 2);
+        assert_eq!((n.eye_rays, n.secondary_rays), (200, 100));
+        let v = serde_json::to_value(&n).unwrap();
+        for key in ["/host", "/cores", "/load_at_start", "/scanlines", "/eye_rays",
+            "/secondary_rays", "/counters/intersection_tests", "/cpu_s", "/elapsed_s",
+            "/preprocess_s", "/render_s", "/outcome"] {
+            assert!(v.pointer(key).is_some(), "{key}");
+        }
+        assert_eq!(v.pointer("/outcome").unwrap(), "ok");
+    }
+}

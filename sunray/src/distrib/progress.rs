@@ -1,0 +1,94 @@
+//! What a running job shows: a progress bar (lines done, lines per second, workers alive,
+//! ETA), machine-readable events (`--events`: one JSON object per line on stderr, for
+//! scripts and tests), and the `--preview` image rewritten every few seconds.
+
+use crate::film::Film;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+pub struct ProgressView {
+    bar: Option<indicatif::ProgressBar>,
+    events: bool,
+    preview: Option<PathBuf>,
+    preview_every: Duration,
+    last_preview: Instant,
+}
+
+impl ProgressView {
+    /// A view of a job of `total` lines, `done` of them already in. The bar is drawn only
+    /// when asked for and events are off.
+    pub fn new(
+        total: u32,
+        done: u32,
+        show_bar: bool,
+        events: bool,
+        preview: Option<PathBuf>,
+        preview_every: Duration,
+    ) -> ProgressView {
+        let bar = (show_bar && !events).then(|| {
+            let b = indicatif::ProgressBar::new(u64::from(total));
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} lines  {per_sec}  {msg}  eta {eta}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b.set_position(u64::from(done));
+            b.reset_eta();
+            b
+        });
+        ProgressView {
+            bar,
+            events,
+            preview,
+            preview_every,
+            last_preview: Instant::now(),
+        }
+    }
+
+    /// Prints an event when `--events` is on.
+    pub fn event(&self, value: serde_json::Value) {
+        if self.events {
+            eprintln!("{value}");
+        }
+    }
+
+    /// A human message, printed above the bar.
+    pub fn note(&self, text: &str) {
+        match &self.bar {
+            Some(b) => b.println(text),
+            None if !self.events => eprintln!("{text}"),
+            None => {}
+        }
+    }
+
+    pub fn set_done(&self, done: u32) {
+        if let Some(b) = &self.bar {
+            b.set_position(u64::from(done));
+        }
+    }
+
+    pub fn set_workers(&self, alive: usize) {
+        if let Some(b) = &self.bar {
+            b.set_message(format!("{alive} worker(s)"));
+        }
+    }
+
+    /// Writes the partial image if a preview is due (or `force`).
+    pub fn preview(&mut self, film: &Film, force: bool) {
+        let Some(path) = &self.preview else { return };
+        if !force && self.last_preview.elapsed() < self.preview_every {
+            return;
+        }
+        self.last_preview = Instant::now();
+        if let Err(e) = film.write(path) {
+            self.note(&format!("sunray: warning: preview {}: {e}", path.display()));
+        }
+    }
+
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}

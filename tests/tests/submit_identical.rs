@@ -1,0 +1,122 @@
+//! `sunray submit` on three real remd daemons on loopback gives a PNG byte-identical to
+//! `sunray render`, with every strategy, and its statistics count every line exactly once.
+//! Also: the embedded default (no remd) and the built-in scene.
+
+mod submit_support;
+
+use submit_support::*;
+
+/// Submits `scene` with `strategy` and checks the image and the statistics.
+fn identical(cluster: &Cluster, scene: &str, strategy: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let flags = ["--resolution", "64x64"];
+    let (want, want_stats) = reference(dir.path(), &spd(scene), &flags);
+    let out = dir.path().join("submit.png");
+    let json = dir.path().join("submit.json");
+    let st = output(
+        cluster
+            .submit()
+            .args(["--hosts", "3", "--strategy", strategy, "-q"])
+            .args(flags)
+            .arg(spd(scene))
+            .arg("-o")
+            .arg(&out)
+            .arg("--stats-json")
+            .arg(&json),
+    );
+    assert!(st.status.success(), "{scene} {strategy}");
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "{scene} with {strategy}: the image differs from sunray render"
+    );
+    let s = read_json(&json);
+    let nodes = s["nodes"].as_array().unwrap();
+    assert_eq!(nodes.len(), 3);
+    let hosts: std::collections::BTreeSet<&str> =
+        nodes.iter().map(|n| n["host"].as_str().unwrap()).collect();
+    assert_eq!(hosts.len(), 3, "one worker per host: {hosts:?}");
+    let lines: u64 = nodes.iter().map(|n| n["scanlines"].as_u64().unwrap()).sum();
+    assert_eq!(lines, 64, "every line accepted exactly once");
+    for n in nodes {
+        assert_eq!(n["outcome"], "ok", "{n}");
+        assert!(n["cores"].as_u64().unwrap() >= 1);
+    }
+    assert_eq!(s["lines"]["rendered"], 64);
+    // Counted, not estimated: the totals are those of the local render.
+    for key in [
+        "/rays/eye",
+        "/rays/shadow",
+        "/rays/reflected",
+        "/rays/refracted",
+        "/intersection_tests",
+    ] {
+        assert_eq!(
+            s["totals"].pointer(key),
+            want_stats.pointer(key),
+            "{scene} {strategy} {key}"
+        );
+    }
+    if strategy == "blocks" {
+        // SunRay I: each node renders its own contiguous band, about a third.
+        for n in nodes {
+            let l = n["scanlines"].as_u64().unwrap();
+            assert!((21..=22).contains(&l), "{n}");
+        }
+    }
+}
+
+#[test]
+fn tetra6_and_mount6_on_three_daemons_with_every_strategy() {
+    let cluster = Cluster::start(3);
+    for scene in ["tetra6", "mount6"] {
+        for strategy in ["dynamic", "blocks", "interleaved"] {
+            identical(&cluster, scene, strategy);
+        }
+    }
+}
+
+#[test]
+fn the_embedded_default_renders_the_built_in_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let flags = ["--resolution", "48x40", "--samples", "2"];
+    let (want, _) = reference(dir.path(), &default_scene(), &flags);
+    let out = dir.path().join("default.png");
+    let json = dir.path().join("default.json");
+    // No --remd and no REM_ADDR: a private remd and two local worker processes.
+    let st = output(
+        sunray()
+            .current_dir(dir.path())
+            .env("SUNRAY_STATE_DIR", dir.path().join("state"))
+            .args(["submit", "--hosts", "2", "--nice"])
+            .args(flags)
+            .arg("-o")
+            .arg(&out)
+            .arg("--stats-json")
+            .arg(&json),
+    );
+    assert!(st.status.success());
+    let table = String::from_utf8_lossy(&st.stderr);
+    assert!(table.contains("intersections") && table.contains("local"), "{table}");
+    assert!(std::fs::read(&out).unwrap() == want, "differs from sunray render");
+    let s = read_json(&json);
+    assert_eq!(s["nodes"].as_array().unwrap().len(), 2);
+    assert_eq!(s["lines"]["rendered"], 40);
+
+    // The job is listed by `sunray jobs` on the same private state.
+    let jobs = output(
+        sunray()
+            .env("SUNRAY_STATE_DIR", dir.path().join("state"))
+            .args(["jobs", "--json"]),
+    );
+    assert!(jobs.status.success());
+    let listed: serde_json::Value = serde_json::from_slice(&jobs.stdout).unwrap();
+    let job = s["job"].as_str().unwrap();
+    let entry = listed
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| j["job"] == job)
+        .unwrap_or_else(|| panic!("{job} not in {listed}"));
+    assert_eq!(entry["state"], "finished");
+    assert_eq!(entry["lines_done"], 40);
+}
