@@ -69,12 +69,6 @@ pub struct Membership {
     accepting: Arc<AtomicBool>,
 }
 
-impl std::fmt::Debug for Cmd {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Cmd")
-    }
-}
-
 impl Membership {
     /// Starts the actor and its heartbeat loop; it stops when `stop` fires.
     pub fn start(
@@ -367,12 +361,4 @@ impl Actor {
             });
         }
     }
-}
-
-/// (alive hosts, all hosts) among the others, for tests and logs.
-pub fn count_alive(view: &View) -> (usize, usize) {
-    (
-        view.hosts.values().filter(|e| e.alive).count(),
-        view.hosts.len(),
-    )
 }

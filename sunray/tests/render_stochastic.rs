@@ -10,8 +10,16 @@ use yari::model::{Camera, Light, Object, Shape, Surface, World};
 
 /// A white floor (y = 0) under a sphere, one light above, camera looking down at an angle.
 fn world() -> World {
-    let floor = Surface { color: DVec3::ONE, ka: 0.0, ..Surface::default() };
-    let ball = Surface { color: DVec3::new(1.0, 0.2, 0.2), ka: 0.0, ..Surface::default() };
+    let floor = Surface {
+        color: DVec3::ONE,
+        ka: 0.0,
+        ..Surface::default()
+    };
+    let ball = Surface {
+        color: DVec3::new(1.0, 0.0, 0.0),
+        ka: 0.0,
+        ..Surface::default()
+    };
     let mut w = World {
         resolution: [64, 64],
         background: DVec3::ZERO,
@@ -24,7 +32,12 @@ fn world() -> World {
             aperture: 0.0,
             focus_distance: 1.0,
         },
-        lights: vec![Light { position: DVec3::new(0.0, 8.0, 0.0), color: DVec3::ONE, radius: 0.0 }],
+        // Far away, so the floor is lit evenly; to the side, so the shadow shows.
+        lights: vec![Light {
+            position: DVec3::new(600.0, 800.0, 0.0),
+            color: DVec3::ONE,
+            radius: 0.0,
+        }],
         samples: 16,
         surfaces: vec![floor, ball],
         objects: vec![
@@ -41,7 +54,10 @@ fn world() -> World {
                 motion: DVec3::ZERO,
             },
             Object {
-                shape: Shape::Sphere { center: DVec3::new(0.0, 1.5, 0.0), radius: 1.0 },
+                shape: Shape::Sphere {
+                    center: DVec3::new(0.0, 1.5, 0.0),
+                    radius: 1.0,
+                },
                 surface: 1,
                 motion: DVec3::ZERO,
             },
@@ -57,7 +73,26 @@ fn world() -> World {
 fn render(w: &World) -> Film {
     let scene = Scene::new(w.clone());
     let accel = Accel::build(&scene.prims, &AccelOptions::default());
-    render_image(&scene, &accel, &RenderOptions::for_scene(&scene), 2, true, Progress::Hidden).0
+    let film = render_image(
+        &scene,
+        &accel,
+        &RenderOptions::for_scene(&scene),
+        2,
+        true,
+        Progress::Hidden,
+    )
+    .0;
+    if let Some(dir) = std::env::var_os("SUNRAY_TEST_IMAGES") {
+        let name = format!(
+            "{:x}.png",
+            film.pixels
+                .iter()
+                .map(|p| p[0].to_bits() as u64)
+                .sum::<u64>()
+        );
+        film.write(&std::path::Path::new(&dir).join(name)).unwrap();
+    }
+    film
 }
 
 /// Pixels of the floor (grey: r = g = b) that are neither fully lit nor fully dark.
@@ -68,18 +103,27 @@ fn partial_floor(f: &Film, lit: f32) -> usize {
         .count()
 }
 
-/// Pixels that are partly red (the ball's colour mixed with something else).
+/// Pixels that mix the pure red ball with the grey floor.
 fn partial_ball(f: &Film) -> usize {
-    f.pixels.iter().filter(|p| p[0] > p[1] + 0.01 && p[1] > 0.02).count()
+    f.pixels
+        .iter()
+        .filter(|p| p[0] > p[1] + 0.05 && p[1] > 0.05)
+        .count()
 }
 
 #[test]
 fn area_light_casts_a_penumbra() {
     let point = world();
     let mut area = world();
-    area.lights[0].radius = 1.5;
+    area.lights[0].radius = 200.0;
     area.features.area_lights = true;
-    let lit = render(&point).pixels.iter().map(|p| p[0]).fold(0.0, f32::max);
+    let grey = |p: &&[f32; 3]| (p[0] - p[1]).abs() < 1e-6;
+    let lit = render(&point)
+        .pixels
+        .iter()
+        .filter(grey)
+        .map(|p| p[0])
+        .fold(0.0, f32::max);
     let hard = partial_floor(&render(&point), lit);
     let soft = partial_floor(&render(&area), lit);
     assert!(soft > 3 * hard.max(10), "penumbra pixels: {soft} vs {hard}");

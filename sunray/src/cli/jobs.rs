@@ -32,15 +32,22 @@ pub fn run(args: JobsArgs) -> anyhow::Result<ExitCode> {
 
 async fn list(args: JobsArgs) -> anyhow::Result<ExitCode> {
     let program = std::env::current_exe()?;
-    let cluster = Cluster::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
+    let cluster =
+        Cluster::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
     let result = print_jobs(&cluster, args.json).await;
     cluster.close().await;
     result.map(|()| ExitCode::SUCCESS)
 }
 
 async fn print_jobs(cluster: &Cluster, json: bool) -> anyhow::Result<()> {
-    let index = jobs::read_index(&cluster.client).await.map_err(|e| cluster.rpc_error(e))?;
-    let procs = cluster.client.ps().await.map_err(|e| cluster.rpc_error(e))?;
+    let index = jobs::read_index(&cluster.client)
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
+    let procs = cluster
+        .client
+        .ps()
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
     let now = unix_ms();
     let rows: Vec<serde_json::Value> = index
         .jobs

@@ -4,9 +4,9 @@
 pub mod bench;
 pub mod check;
 pub mod check_board;
-pub mod jobs;
 pub mod compile;
 pub mod convert;
+pub mod jobs;
 pub mod render;
 pub mod spd;
 pub mod submit;

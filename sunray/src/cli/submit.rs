@@ -119,7 +119,8 @@ async fn submit(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         None => Some(scene_input::load(&args.render)?),
         Some(_) => None,
     };
-    let cluster = Cluster::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
+    let cluster =
+        Cluster::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
     let result = run_job(&args, &cluster, fresh, &program).await;
     cluster.close().await;
     result
@@ -166,12 +167,25 @@ async fn run_job(
         strategy: plan.strategy.name().to_string(),
         hosts: plan.hosts,
         nice: plan.nice,
-        colours: args.render.colours.as_ref().map(|c| c.display().to_string()).unwrap_or_default(),
+        colours: args
+            .render
+            .colours
+            .as_ref()
+            .map(|c| c.display().to_string())
+            .unwrap_or_default(),
         spd_corners: args.render.spd_corners,
         threads: plan.threads.unwrap_or(0) as u32,
     };
-    let mut checkpointer = Checkpointer::new(&plan.job, spec, messages::fnv1a(&plan.model), plan.restored.as_ref());
-    checkpointer.save(&cluster.client, "running").await.context("writing the first checkpoint")?;
+    let mut checkpointer = Checkpointer::new(
+        &plan.job,
+        spec,
+        messages::fnv1a(&plan.model),
+        plan.restored.as_ref(),
+    );
+    checkpointer
+        .save(&cluster.client, "running")
+        .await
+        .context("writing the first checkpoint")?;
     let mut entry = proto::JobEntry {
         job: plan.job.clone(),
         scene: plan.input.display_name(),
@@ -185,10 +199,16 @@ async fn run_job(
     };
     index_update(cluster, &entry).await;
 
-    let relay = cluster.client.attach(Some(&plan.job)).await.map_err(|e| cluster.rpc_error(e))?;
+    let relay = cluster
+        .client
+        .attach(Some(&plan.job))
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
     let threads = plan.threads.or_else(|| {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        cluster.is_embedded().then(|| (cores / plan.hosts as usize).max(1))
+        cluster
+            .is_embedded()
+            .then(|| (cores / plan.hosts as usize).max(1))
     });
     let mut worker_args = vec!["worker".to_string()];
     if let Some(t) = threads {
@@ -200,7 +220,9 @@ async fn run_job(
         .spawn(rem::SpawnRequest {
             program: program.display().to_string(),
             args: worker_args,
-            env: std::env::vars().filter(|(k, _)| k.starts_with("SUNRAY_WORKER_")).collect(),
+            env: std::env::vars()
+                .filter(|(k, _)| k.starts_with("SUNRAY_WORKER_"))
+                .collect(),
             nice: plan.nice.then_some(10),
             count: plan.hosts,
             allow_same_host,
@@ -213,7 +235,11 @@ async fn run_job(
     let workers: Vec<WorkerProc> = spawned
         .processes
         .iter()
-        .map(|p| WorkerProc { proc_id: p.proc_id.clone(), host: p.host.clone(), pid: p.pid })
+        .map(|p| WorkerProc {
+            proc_id: p.proc_id.clone(),
+            host: p.host.clone(),
+            pid: p.pid,
+        })
         .collect();
     let (sender, receiver) = relay.split();
     let show_bar = !args.render.quiet && std::io::stderr().is_terminal();
@@ -243,7 +269,12 @@ async fn run_job(
     let result = handle.join().await?;
 
     entry.lines_done = result.lines.resumed + result.lines.rendered;
-    entry.state = if result.finished { "finished" } else { "failed" }.into();
+    entry.state = if result.finished {
+        "finished"
+    } else {
+        "failed"
+    }
+    .into();
     index_update(cluster, &entry).await;
     if result.finished {
         result.film.write(&plan.output)?;
@@ -291,10 +322,18 @@ async fn run_job(
 
 fn new_plan(args: &SubmitArgs, input: SceneInput) -> anyhow::Result<Plan> {
     let settings = input.settings(&args.render);
-    let output = args.render.output.clone().unwrap_or_else(|| input.default_output());
+    let output = args
+        .render
+        .output
+        .clone()
+        .unwrap_or_else(|| input.default_output());
     crate::film::Format::from_path(&output)?;
     let job = args.job.clone().unwrap_or_else(|| {
-        format!("sunray-{}-{}", checkpoint::unix_ms() / 1000, std::process::id())
+        format!(
+            "sunray-{}-{}",
+            checkpoint::unix_ms() / 1000,
+            std::process::id()
+        )
     });
     Ok(Plan {
         job,
@@ -331,7 +370,11 @@ async fn resume_plan(args: &SubmitArgs, cluster: &Cluster) -> anyhow::Result<Pla
         .map(Settings::from_proto)
         .transpose()?
         .context("the checkpoint has no render settings")?;
-    let output = args.render.output.clone().unwrap_or_else(|| PathBuf::from(&spec.output));
+    let output = args
+        .render
+        .output
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(&spec.output));
     crate::film::Format::from_path(&output)?;
     Ok(Plan {
         job,
@@ -345,7 +388,10 @@ async fn resume_plan(args: &SubmitArgs, cluster: &Cluster) -> anyhow::Result<Pla
             .unwrap_or(Strategy::Dynamic),
         hosts: args.hosts.unwrap_or(spec.hosts.max(1)),
         nice: args.nice || spec.nice,
-        threads: args.render.threads.or((spec.threads > 0).then_some(spec.threads as usize)),
+        threads: args
+            .render
+            .threads
+            .or((spec.threads > 0).then_some(spec.threads as usize)),
         restored: Some(restored),
     })
 }

@@ -123,7 +123,10 @@ impl Checkpointer {
                 lines: self.pending[..n].to_vec(),
             };
             store
-                .put(&segment_key(&self.job, self.segments), segment.encode_to_vec())
+                .put(
+                    &segment_key(&self.job, self.segments),
+                    segment.encode_to_vec(),
+                )
                 .await?;
             self.segments += 1;
             self.pending.drain(..n);
@@ -262,7 +265,10 @@ pub(crate) mod tests {
             assert!(r.header.segments >= 3, "split under the limit");
             assert_eq!(r.header.model_hash, 77);
             assert_eq!(r.header.spec.as_ref().unwrap().hosts, 3);
-            assert_eq!(r.lines.keys().copied().collect::<Vec<_>>(), (0..8).collect::<Vec<_>>());
+            assert_eq!(
+                r.lines.keys().copied().collect::<Vec<_>>(),
+                (0..8).collect::<Vec<_>>()
+            );
             assert_eq!(r.lines[&5].pixels, vec![5u8; 120]);
 
             // A resumed job continues the segment numbering.

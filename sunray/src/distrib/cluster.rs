@@ -80,7 +80,10 @@ impl Cluster {
     /// The live hosts that take work.
     pub async fn live_hosts(&self) -> Result<Vec<rem::HostInfo>, ClusterError> {
         let hosts = self.client.hosts().await.map_err(|e| self.rpc_error(e))?;
-        Ok(hosts.into_iter().filter(|h| h.alive && h.accepting).collect())
+        Ok(hosts
+            .into_iter()
+            .filter(|h| h.alive && h.accepting)
+            .collect())
     }
 
     pub fn rpc_error(&self, e: rem::Error) -> ClusterError {
@@ -97,12 +100,13 @@ impl Cluster {
 
 /// Connects and checks the secret with one call.
 async fn connect(addr: &str, secret: Secret) -> Result<RemClient, ClusterError> {
-    let client = RemClient::connect(addr, secret)
-        .await
-        .map_err(|source| ClusterError::Unreachable {
-            addr: addr.to_string(),
-            source,
-        })?;
+    let client =
+        RemClient::connect(addr, secret)
+            .await
+            .map_err(|source| ClusterError::Unreachable {
+                addr: addr.to_string(),
+                source,
+            })?;
     client.hosts().await.map_err(|e| classify(addr, e))?;
     Ok(client)
 }

@@ -13,7 +13,7 @@ use super::progress::ProgressView;
 use super::strategy::Strategy;
 use crate::film::Film;
 use crate::stats::Counters;
-use rem::{EventKind, Incoming, ProcId, RemClient, RelayReceiver, RelaySender};
+use rem::{EventKind, Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use serde_json::json;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -83,9 +83,11 @@ pub struct ControllerHandle {
 impl ControllerHandle {
     pub async fn join(self) -> Result<JobResult, ControllerError> {
         drop(self.tx);
-        self.task
-            .await
-            .unwrap_or_else(|e| Err(ControllerError::Relay(rem::Error::Io(std::io::Error::other(e)))))
+        self.task.await.unwrap_or_else(|e| {
+            Err(ControllerError::Relay(rem::Error::Io(
+                std::io::Error::other(e),
+            )))
+        })
     }
 }
 
@@ -114,7 +116,14 @@ pub fn spawn(start: Start) -> ControllerHandle {
             }
         }
     });
-    let c = Controller::new(start.cfg, start.client, start.sender, start.workers, start.restored, start.checkpointer);
+    let c = Controller::new(
+        start.cfg,
+        start.client,
+        start.sender,
+        start.workers,
+        start.restored,
+        start.checkpointer,
+    );
     ControllerHandle {
         tx,
         task: tokio::spawn(c.run(rx)),
@@ -186,7 +195,11 @@ impl Controller {
         );
         Controller {
             table: GrantTable::new(cfg.strategy, cfg.height, workers.len(), &finished),
-            by_proc: workers.iter().enumerate().map(|(i, w)| (w.proc_id.to_string(), i)).collect(),
+            by_proc: workers
+                .iter()
+                .enumerate()
+                .map(|(i, w)| (w.proc_id.to_string(), i))
+                .collect(),
             procs: workers.iter().map(|w| w.proc_id.clone()).collect(),
             exited: vec![false; workers.len()],
             lines: LineCounts {
@@ -212,11 +225,16 @@ impl Controller {
 
     async fn run(mut self, mut inbox: mpsc::Receiver<Input>) -> Result<JobResult, ControllerError> {
         for (i, w) in self.nodes.iter().enumerate() {
-            self.view.event(json!({"event": "spawned", "node": i + 1, "proc": w.proc_id,
+            self.view
+                .event(json!({"event": "spawned", "node": i + 1, "proc": w.proc_id,
                 "host": w.host, "pid": w.pid}));
         }
         for i in 0..self.procs.len() {
-            if let Err(e) = self.sender.send(&self.procs[i], self.cfg.scene.clone()).await {
+            if let Err(e) = self
+                .sender
+                .send(&self.procs[i], self.cfg.scene.clone())
+                .await
+            {
                 self.on_gone(i, format!("cannot send the scene: {e}"), false);
             }
         }
@@ -237,12 +255,15 @@ impl Controller {
             }
         }
         let finished = self.table.is_finished();
-        self.save_checkpoint(if finished { "finished" } else { "failed" }).await;
+        self.save_checkpoint(if finished { "finished" } else { "failed" })
+            .await;
         self.view.preview(&self.film, true);
         self.wind_down(&mut inbox).await;
         self.view.finish();
-        self.view.event(json!({"event": if finished { "finished" } else { "failed" },
-            "done": self.table.done()}));
+        self.view.event(
+            json!({"event": if finished { "finished" } else { "failed" },
+            "done": self.table.done()}),
+        );
         let counts = self.table.counts();
         self.lines.requeued = counts.requeued;
         self.lines.duplicated = counts.duplicated;
@@ -260,15 +281,21 @@ impl Controller {
     fn on_incoming(&mut self, incoming: Incoming) {
         match incoming {
             Incoming::Message { from, payload } => {
-                let Some(&i) = self.by_proc.get(&from) else { return };
+                let Some(&i) = self.by_proc.get(&from) else {
+                    return;
+                };
                 match messages::decode(&payload) {
                     Ok(body) => self.on_message(i, body),
-                    Err(e) => self.view.event(json!({"event": "bad-message", "node": i + 1,
+                    Err(e) => self
+                        .view
+                        .event(json!({"event": "bad-message", "node": i + 1,
                         "error": e.to_string()})),
                 }
             }
             Incoming::Event(ev) => {
-                let Some(&i) = self.by_proc.get(&ev.proc_id) else { return };
+                let Some(&i) = self.by_proc.get(&ev.proc_id) else {
+                    return;
+                };
                 let (reason, clean) = match ev.kind() {
                     EventKind::Exited => match (ev.exit_code, ev.signal) {
                         (_, Some(sig)) => (format!("killed by signal {sig}"), false),
@@ -292,12 +319,17 @@ impl Controller {
         let n = &mut self.nodes[i];
         match body {
             Body::Ready(r) => {
-                n.host = if r.host.is_empty() { n.host.clone() } else { r.host };
+                n.host = if r.host.is_empty() {
+                    n.host.clone()
+                } else {
+                    r.host
+                };
                 (n.cores, n.threads, n.load_at_start) = (r.cores, r.threads, r.load_avg);
                 if n.outcome == Outcome::Starting {
                     n.outcome = Outcome::Ok;
                 }
-                self.view.event(json!({"event": "ready", "node": i + 1, "host": n.host,
+                self.view
+                    .event(json!({"event": "ready", "node": i + 1, "host": n.host,
                     "cores": r.cores, "threads": r.threads, "pid": r.pid}));
             }
             Body::Request(r) => {
@@ -306,7 +338,12 @@ impl Controller {
             }
             Body::Done(d) => self.on_done(i, d),
             Body::WorkerError(e) => {
-                self.view.note(&format!("sunray: worker {} ({}): {}", i + 1, n.host, e.message));
+                self.view.note(&format!(
+                    "sunray: worker {} ({}): {}",
+                    i + 1,
+                    n.host,
+                    e.message
+                ));
                 n.fault = Some(e.message);
             }
             _ => {}
@@ -316,7 +353,8 @@ impl Controller {
     fn on_done(&mut self, i: usize, d: proto::Done) {
         let width = self.cfg.width;
         let Ok(pixels) = messages::pixels_from_bytes(&d.pixels, width) else {
-            self.view.event(json!({"event": "bad-line", "node": i + 1, "line": d.line}));
+            self.view
+                .event(json!({"event": "bad-line", "node": i + 1, "line": d.line}));
             return;
         };
         let n = &mut self.nodes[i];
@@ -344,7 +382,8 @@ impl Controller {
                 });
                 let done = self.table.done();
                 self.view.set_done(done);
-                self.view.event(json!({"event": "line", "node": i + 1, "line": d.line,
+                self.view
+                    .event(json!({"event": "line", "node": i + 1, "line": d.line,
                     "done": done, "total": self.cfg.height}));
             }
             Completion::Duplicate => n.dropped += 1,
@@ -376,7 +415,8 @@ impl Controller {
             i + 1,
             n.host
         ));
-        self.view.event(json!({"event": "fault", "node": i + 1, "reason": why,
+        self.view
+            .event(json!({"event": "fault", "node": i + 1, "reason": why,
             "given_back": held}));
         n.fault = Some(why);
     }
@@ -393,9 +433,12 @@ impl Controller {
             let n = &mut self.nodes[i];
             n.outcome = Outcome::Silent;
             n.lines_given_back += held as u64;
-            self.view.event(json!({"event": "silent", "node": i + 1, "given_back": held}));
+            self.view
+                .event(json!({"event": "silent", "node": i + 1, "given_back": held}));
         }
-        if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every && self.checkpointer.has_pending() {
+        if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every
+            && self.checkpointer.has_pending()
+        {
             self.save_checkpoint("running").await;
         }
         self.view.preview(&self.film, false);
@@ -405,7 +448,9 @@ impl Controller {
     async fn save_checkpoint(&mut self, state: &str) {
         self.last_checkpoint = Instant::now();
         match self.checkpointer.save(&self.client, state).await {
-            Ok(()) => self.view.event(json!({"event": "checkpoint", "state": state,
+            Ok(()) => self
+                .view
+                .event(json!({"event": "checkpoint", "state": state,
                 "lines": self.checkpointer.lines_done()})),
             Err(e) => self.view.note(&format!("sunray: warning: checkpoint: {e}")),
         }
@@ -418,7 +463,10 @@ impl Controller {
         let min_age = Duration::from_secs_f64(2.0 * self.max_line_s + 0.25);
         out.extend(self.table.duplicate_stragglers(now, min_age));
         for a in out {
-            let msg = messages::encode(Body::Assign(proto::Assign { line: a.line, grant: a.grant }));
+            let msg = messages::encode(Body::Assign(proto::Assign {
+                line: a.line,
+                grant: a.grant,
+            }));
             match self.sender.send(&self.procs[a.node], msg).await {
                 Ok(()) => {}
                 Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),

@@ -60,7 +60,11 @@ impl EmbeddedRem {
 
 /// Where the embedded daemon keeps checkpoints.
 pub fn state_dir() -> Option<PathBuf> {
-    let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let env = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
     if let Some(d) = env("SUNRAY_STATE_DIR") {
         return Some(d);
     }

@@ -307,7 +307,11 @@ impl GrantTable {
 
     /// `node` exited or its host was lost: its lines go back. Returns how many it held.
     pub fn node_gone(&mut self, node: usize) -> usize {
-        if self.nodes.get(node).is_none_or(|n| n.state == NodeState::Gone) {
+        if self
+            .nodes
+            .get(node)
+            .is_none_or(|n| n.state == NodeState::Gone)
+        {
             return 0;
         }
         self.nodes[node].state = NodeState::Gone;
@@ -406,10 +410,7 @@ mod tests {
         while !g.is_finished() {
             let a = g.assign(t(0));
             assert_eq!(a.len(), 1);
-            assert_eq!(
-                g.complete(0, a[0].grant, a[0].line),
-                Completion::Accepted
-            );
+            assert_eq!(g.complete(0, a[0].grant, a[0].line), Completion::Accepted);
             seen.push(a[0].line);
             g.request(0, 1);
         }
@@ -431,7 +432,11 @@ mod tests {
         assert_eq!(g.complete(0, a.grant, 0), Completion::Duplicate);
         assert_eq!(g.done(), 1);
         assert_eq!(g.counts().dropped, 2);
-        assert_eq!(g.outstanding(0), 0, "the slow copy is no longer outstanding");
+        assert_eq!(
+            g.outstanding(0),
+            0,
+            "the slow copy is no longer outstanding"
+        );
     }
 
     #[test]
@@ -541,9 +546,7 @@ mod tests {
         g.assign(t(0));
         g.request(1, 1);
         // Node 1 has credit but line 1 is still queued for it: assign, not duplicate.
-        assert!(g
-            .duplicate_stragglers(t(1000), Duration::ZERO)
-            .is_empty());
+        assert!(g.duplicate_stragglers(t(1000), Duration::ZERO).is_empty());
     }
 
     #[test]

@@ -66,7 +66,9 @@ mod tests {
 
     #[test]
     fn entries_are_inserted_replaced_and_kept_in_start_order() {
-        let rt = tokio::runtime::Builder::new_current_thread().build().unwrap();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
         rt.block_on(async {
             let store = MemStore {
                 limit: 1 << 20,
@@ -79,7 +81,10 @@ mod tests {
             done.lines_done = 64;
             update(&store, done).await.unwrap();
             let jobs = read_index(&store).await.unwrap().jobs;
-            assert_eq!(jobs.iter().map(|j| j.job.as_str()).collect::<Vec<_>>(), vec!["a", "b"]);
+            assert_eq!(
+                jobs.iter().map(|j| j.job.as_str()).collect::<Vec<_>>(),
+                vec!["a", "b"]
+            );
             assert_eq!(jobs[1].state, "finished");
             assert_eq!(jobs[1].started_unix_ms, 20, "the start time is kept");
             assert!(jobs[1].updated_unix_ms > 0);

@@ -228,11 +228,20 @@ mod tests {
         let rows: Vec<&str> = t.lines().collect();
         assert_eq!(rows.len(), 5, "{t}");
         assert!(rows[0].contains("intersections") && rows[0].contains("preproc s"));
-        assert!(rows[1].contains("host1") && rows[1].contains("5,000"), "{t}");
-        assert!(rows[2].contains("FAULT") && rows[2].contains("host b lost"), "{t}");
+        assert!(
+            rows[1].contains("host1") && rows[1].contains("5,000"),
+            "{t}"
+        );
+        assert!(
+            rows[2].contains("FAULT") && rows[2].contains("host b lost"),
+            "{t}"
+        );
         assert!(rows[2].contains("3 line(s)"), "{t}");
         // Totals count every accepted line, the faulty node's included.
-        assert!(rows[4].starts_with(" all") && rows[4].contains(" 12 "), "{t}");
+        assert!(
+            rows[4].starts_with(" all") && rows[4].contains(" 12 "),
+            "{t}"
+        );
         assert!(rows[4].contains("12,000"), "{t}");
     }
 
@@ -241,9 +250,20 @@ mod tests {
         let n = node(1, 2);
         assert_eq!((n.eye_rays, n.secondary_rays), (200, 100));
         let v = serde_json::to_value(&n).unwrap();
-        for key in ["/host", "/cores", "/load_at_start", "/scanlines", "/eye_rays",
-            "/secondary_rays", "/counters/intersection_tests", "/cpu_s", "/elapsed_s",
-            "/preprocess_s", "/render_s", "/outcome"] {
+        for key in [
+            "/host",
+            "/cores",
+            "/load_at_start",
+            "/scanlines",
+            "/eye_rays",
+            "/secondary_rays",
+            "/counters/intersection_tests",
+            "/cpu_s",
+            "/elapsed_s",
+            "/preprocess_s",
+            "/render_s",
+            "/outcome",
+        ] {
             assert!(v.pointer(key).is_some(), "{key}");
         }
         assert_eq!(v.pointer("/outcome").unwrap(), "ok");

@@ -159,6 +159,9 @@ mod tests {
             assert_eq!(r.counters, want.counters);
         }
         drop(pool);
-        assert!(rx.blocking_recv().is_none(), "threads stop when the pool is dropped");
+        assert!(
+            rx.blocking_recv().is_none(),
+            "threads stop when the pool is dropped"
+        );
     }
 }

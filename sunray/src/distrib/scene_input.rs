@@ -2,12 +2,12 @@
 //! scene, and the render settings taken from the same flags, with the same meaning, as
 //! `sunray render`.
 
+use super::messages::Settings;
 use crate::accel::{AccelKind, AccelOptions};
 use crate::cli::render::{load_world, OnOff, RenderArgs};
 use crate::render::RenderOptions;
 use crate::scene::Scene;
 use crate::stats::{Counters, RenderStats};
-use super::messages::Settings;
 use std::path::{Path, PathBuf};
 
 /// The SCENE argument that names the built-in example scene (the default of `submit`).
@@ -40,16 +40,22 @@ pub fn load_path(path: Option<PathBuf>, colours: Option<&Path>) -> anyhow::Resul
         Some(p) => load_world(p, colours)?,
         None => {
             let table = yari::colour::ColourTable::for_run(colours)?;
-            yari::load::load_str("built-in example", DEFAULT_SCENE, yari::load::InputKind::Yari, &table)
-                .map_err(|e| anyhow::anyhow!("{e}"))?
-                .world
+            yari::load::load_str(
+                "built-in example",
+                DEFAULT_SCENE,
+                yari::load::InputKind::Yari,
+                &table,
+            )
+            .map_err(|e| anyhow::anyhow!("{e}"))?
+            .world
         }
     };
     let scene = Scene::new(world);
     for d in &scene.dropped {
         eprintln!(
             "sunray: warning: {}: object {} dropped: {}",
-            path.as_deref().map_or_else(|| BUILTIN.into(), |p| p.display().to_string()),
+            path.as_deref()
+                .map_or_else(|| BUILTIN.into(), |p| p.display().to_string()),
             d.object,
             d.reason
         );
@@ -115,7 +121,12 @@ impl SceneInput {
 
     /// The statistics of the whole image in `sunray render`'s form.
     pub fn stats(&self, settings: &Settings, counters: &Counters) -> RenderStats {
-        let bounded = self.scene.prims.iter().filter(|p| p.bounds().is_some()).count();
+        let bounded = self
+            .scene
+            .prims
+            .iter()
+            .filter(|p| p.bounds().is_some())
+            .count();
         let kind = settings.accel.kind.resolve(bounded);
         let mut s = RenderStats {
             scene: self.display_name(),

@@ -165,10 +165,7 @@ mod tests {
 
     #[test]
     fn interleaved_is_i_plus_j_n() {
-        assert_eq!(
-            Strategy::Interleaved.owned_lines(10, 3, 1),
-            vec![1, 4, 7]
-        );
+        assert_eq!(Strategy::Interleaved.owned_lines(10, 3, 1), vec![1, 4, 7]);
         let mut all: Vec<u32> = (0..4)
             .flat_map(|i| Strategy::Interleaved.owned_lines(13, 4, i))
             .collect();

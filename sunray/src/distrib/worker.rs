@@ -168,9 +168,7 @@ fn prepare(msg: proto::Scene) -> Result<(Arc<Scene>, Arc<Accel>, Settings), Work
         .settings
         .as_ref()
         .ok_or_else(|| WorkerError::BadScene("no render settings".into()))
-        .and_then(|s| {
-            Settings::from_proto(s).map_err(|e| WorkerError::BadScene(e.to_string()))
-        })?;
+        .and_then(|s| Settings::from_proto(s).map_err(|e| WorkerError::BadScene(e.to_string())))?;
     let world = yari::modelfile::from_bytes(&msg.model)
         .map_err(|e| WorkerError::BadScene(e.to_string()))?;
     let scene = Scene::new(world);
