@@ -55,6 +55,7 @@
 //! - [`transport`]: channels, plain or TLS (rustls).
 //! - [`config`]: remd settings from flags, environment and TOML.
 //! - [`load`]: this host's load (sysinfo) and REM process count.
+//! - [`cgroup`]: the CPU limit and use of remd's control group (containers).
 //! - [`placement`]: ranking hosts by load per core.
 //! - [`membership`]: heartbeats, joining, lost and returning hosts.
 //! - [`peers`]: cached connections to other daemons.
@@ -69,6 +70,7 @@
 
 pub mod attach;
 pub mod auth;
+pub mod cgroup;
 pub mod checkpoint;
 pub mod child;
 pub mod client;

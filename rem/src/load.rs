@@ -4,6 +4,14 @@
 //! The figure placement ranks by is `load_per_core = (load_avg_1m + rem_processes) / cores`.
 //! The REM count is added because the load average lags by a minute: a host that was just
 //! given work must look busier at once, or a burst of spawns would all land on it.
+//!
+//! In a control group with a CPU limit below the host's cores (a container with `cpus: 0.5`,
+//! a systemd slice with `CPUQuota=`), the host-wide figures say nothing about this daemon's
+//! share, so the group's own are used (see [`crate::cgroup`]): `capacity` is the limit in
+//! cores (fractional), `cores` its ceiling, `cpu_busy` the group's CPU use over the last
+//! sample divided by the capacity, and
+//! `load_per_core = (cores used by the group + rem_processes) / capacity`.
+//! `load_avg_1m` stays the host's figure, for information.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
@@ -12,6 +20,7 @@ use std::time::Duration;
 use sysinfo::{MemoryRefreshKind, System};
 use tokio::sync::watch;
 
+use crate::cgroup::{CpuGroup, UsageSample};
 use crate::proto;
 
 /// One sysinfo sample.
@@ -22,6 +31,10 @@ pub struct Sample {
     pub cpu_busy: f64,
     pub mem_free_bytes: u64,
     pub mem_total_bytes: u64,
+    /// The cgroup's CPU limit in cores, when it is below the host's cores.
+    pub capacity: Option<f64>,
+    /// Cores the cgroup used over the last sample (with `capacity`).
+    pub group_busy_cores: f64,
 }
 
 /// Cloneable view of this host's load.
@@ -35,14 +48,14 @@ impl LoadGauge {
     /// Starts sampling every `interval` on a thread of its own (sysinfo calls block);
     /// the thread ends when every gauge is dropped.
     pub fn start(interval: Duration) -> Self {
-        let mut sys = System::new();
-        let first = measure(&mut sys);
+        let mut meter = Meter::new();
+        let first = meter.measure();
         let (tx, rx) = watch::channel(first);
         std::thread::Builder::new()
             .name("remd-load".into())
             .spawn(move || loop {
                 std::thread::sleep(interval);
-                if tx.send(measure(&mut sys)).is_err() {
+                if tx.send(meter.measure()).is_err() {
                     break;
                 }
             })
@@ -67,33 +80,78 @@ impl LoadGauge {
 
 /// Combines a sample and the REM process count into the reported figures.
 pub fn to_load(s: &Sample, rem_processes: u32) -> proto::Load {
-    let cores = s.cores.max(1);
+    let host_cores = s.cores.max(1);
+    let (cores, capacity, cpu_busy, load) = match s.capacity.filter(|c| *c > 0.0) {
+        Some(capacity) => (
+            (capacity.ceil() as u32).clamp(1, host_cores),
+            capacity,
+            (s.group_busy_cores / capacity).clamp(0.0, 1.0),
+            s.group_busy_cores,
+        ),
+        None => (host_cores, host_cores as f64, s.cpu_busy, s.load_avg_1m),
+    };
     proto::Load {
         cores,
         load_avg_1m: s.load_avg_1m,
-        cpu_busy: s.cpu_busy,
+        cpu_busy,
         mem_free_bytes: s.mem_free_bytes,
         mem_total_bytes: s.mem_total_bytes,
         rem_processes,
-        load_per_core: (s.load_avg_1m + rem_processes as f64) / cores as f64,
+        load_per_core: (load + rem_processes as f64) / capacity,
+        capacity,
     }
 }
 
-fn measure(sys: &mut System) -> Sample {
-    sys.refresh_cpu_usage();
-    sys.refresh_memory_specifics(MemoryRefreshKind::nothing().with_ram());
-    let cores = sys.cpus().len() as u32;
-    let cores = if cores == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get() as u32)
-    } else {
-        cores
-    };
-    Sample {
-        cores,
-        load_avg_1m: System::load_average().one,
-        cpu_busy: (sys.global_cpu_usage() as f64 / 100.0).clamp(0.0, 1.0),
-        mem_free_bytes: sys.available_memory(),
-        mem_total_bytes: sys.total_memory(),
+/// What the sampling thread keeps between samples.
+struct Meter {
+    sys: System,
+    group: Option<CpuGroup>,
+    last_usage: Option<UsageSample>,
+}
+
+impl Meter {
+    fn new() -> Self {
+        let mut sys = System::new();
+        sys.refresh_cpu_usage();
+        let group = CpuGroup::detect(host_cores(&sys)).filter(|g| g.capacity.is_some());
+        let last_usage = group.as_ref().and_then(CpuGroup::usage);
+        Meter {
+            sys,
+            group,
+            last_usage,
+        }
+    }
+
+    fn measure(&mut self) -> Sample {
+        let sys = &mut self.sys;
+        sys.refresh_cpu_usage();
+        sys.refresh_memory_specifics(MemoryRefreshKind::nothing().with_ram());
+        let mut group_busy_cores = 0.0;
+        if let Some(group) = &self.group {
+            let now = group.usage();
+            if let (Some(before), Some(after)) = (&self.last_usage, &now) {
+                group_busy_cores = CpuGroup::busy_cores(before, after);
+            }
+            if now.is_some() {
+                self.last_usage = now;
+            }
+        }
+        Sample {
+            cores: host_cores(sys),
+            load_avg_1m: System::load_average().one,
+            cpu_busy: (sys.global_cpu_usage() as f64 / 100.0).clamp(0.0, 1.0),
+            mem_free_bytes: sys.available_memory(),
+            mem_total_bytes: sys.total_memory(),
+            capacity: self.group.as_ref().and_then(|g| g.capacity),
+            group_busy_cores,
+        }
+    }
+}
+
+fn host_cores(sys: &System) -> u32 {
+    match sys.cpus().len() as u32 {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get() as u32),
+        n => n,
     }
 }
 
@@ -111,6 +169,32 @@ mod tests {
         let l = to_load(&s, 3);
         assert_eq!(l.load_per_core, 1.0);
         assert_eq!(to_load(&Sample::default(), 1).cores, 1);
+        assert_eq!(l.capacity, 4.0);
+    }
+
+    #[test]
+    fn a_cpu_limit_is_the_capacity() {
+        // A container limited to a quarter of a core on a 2-core host: the host's load
+        // average does not count, the group's own use does.
+        let s = Sample {
+            cores: 2,
+            load_avg_1m: 5.0,
+            cpu_busy: 0.9,
+            capacity: Some(0.25),
+            group_busy_cores: 0.125,
+            ..Sample::default()
+        };
+        let l = to_load(&s, 1);
+        assert_eq!((l.cores, l.capacity), (1, 0.25));
+        assert!((l.cpu_busy - 0.5).abs() < 1e-9);
+        assert!((l.load_per_core - 4.5).abs() < 1e-9);
+        assert_eq!(l.load_avg_1m, 5.0);
+        let big = Sample {
+            cores: 8,
+            capacity: Some(2.5),
+            ..Sample::default()
+        };
+        assert_eq!(to_load(&big, 0).cores, 3);
     }
 
     #[test]

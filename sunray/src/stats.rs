@@ -5,7 +5,7 @@ use serde::Serialize;
 use std::ops::AddAssign;
 
 /// Event counts of one thread, one scanline or a whole render.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub struct Counters {
     pub eye: u64,
     pub eye_hits: u64,

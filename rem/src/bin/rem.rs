@@ -268,7 +268,7 @@ async fn wait_for_exits(
 fn host_json(h: &rem::HostInfo) -> serde_json::Value {
     let l = h.load.unwrap_or_default();
     json!({
-        "name": h.name, "addr": h.addr, "cores": l.cores, "load_avg_1m": l.load_avg_1m,
+        "name": h.name, "addr": h.addr, "cores": l.cores, "capacity": l.capacity, "load_avg_1m": l.load_avg_1m,
         "load_per_core": l.load_per_core, "cpu_busy": l.cpu_busy, "mem_free_bytes": l.mem_free_bytes,
         "mem_total_bytes": l.mem_total_bytes, "rem_processes": l.rem_processes, "alive": h.alive,
         "accepting": h.accepting,

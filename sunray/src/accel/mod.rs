@@ -37,9 +37,11 @@ impl Hit {
 }
 
 /// Which accelerator to build.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
 pub enum AccelKind {
-    /// Octree for small scenes, BVH for large ones (see [`AccelKind::resolve`]).
+    /// Exhaustive for tiny scenes, the BVH otherwise (see [`AccelKind::resolve`]).
     Auto,
     Octree,
     Bvh,
@@ -47,7 +49,7 @@ pub enum AccelKind {
 }
 
 /// Build parameters.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AccelOptions {
     pub kind: AccelKind,
     /// Octree: subdivide a voxel holding more than this many primitives.

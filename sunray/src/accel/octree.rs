@@ -55,6 +55,7 @@ impl Octree {
         tree
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn subdivide(
         &mut self,
         node: usize,

@@ -91,8 +91,8 @@ async fn print_jobs(cluster: &Cluster, json: bool) -> anyhow::Result<()> {
             r["job"].as_str().unwrap_or(""),
             r["state"].as_str().unwrap_or(""),
             format!("{}/{}", r["lines_done"], r["lines"]),
-            r["hosts"],
-            r["workers"],
+            r["hosts"].to_string(),
+            r["workers"].to_string(),
             format!("{}", Ago(ago)),
             r["scene"].as_str().unwrap_or("")
         );

@@ -20,7 +20,8 @@ pub enum OnOff {
 pub struct RenderArgs {
     /// Scene: .yari, .nff, .off or a compiled model.
     pub scene: PathBuf,
-    /// Output image (.png, .ppm or .pfm); default: the scene's name with .png.
+    /// Output image (.png, .ppm or .pfm); default: the scene's name with .png, in the
+    /// current directory.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Threads (default: all cores).
@@ -95,10 +96,10 @@ pub fn load_world(path: &Path, colours: Option<&Path>) -> anyhow::Result<yari::m
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
-    let out = args
-        .output
-        .clone()
-        .unwrap_or_else(|| args.scene.with_extension("png"));
+    let out = args.output.clone().unwrap_or_else(|| {
+        let stem = args.scene.file_stem().unwrap_or_else(|| "image".as_ref());
+        PathBuf::from(stem).with_extension("png")
+    });
     crate::film::Format::from_path(&out)?;
     let t_load = Instant::now();
     let world = load_world(&args.scene, args.colours.as_deref())?;

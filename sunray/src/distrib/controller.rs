@@ -493,13 +493,16 @@ impl Controller {
     async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
         self.finishing = true;
         let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
+        let mut wait_for = vec![false; self.procs.len()];
         for i in 0..self.procs.len() {
             if !self.exited[i] {
                 let _ = self.sender.send(&self.procs[i], stop.clone()).await;
+                // A silent worker is not waited for.
+                wait_for[i] = self.table.node_state(i) == Some(NodeState::Active);
             }
         }
         let deadline = tokio::time::Instant::now() + self.cfg.finish_grace;
-        while self.exited.iter().any(|e| !e) {
+        while (0..self.procs.len()).any(|i| wait_for[i] && !self.exited[i]) {
             match tokio::time::timeout_at(deadline, inbox.recv()).await {
                 Ok(Some(Input::Relay(Ok(incoming)))) => self.on_incoming(incoming),
                 _ => break,

@@ -17,7 +17,7 @@ use crate::stats::Counters;
 pub use parallel::{render_image, Progress};
 
 /// Everything besides the scene that decides the pixels.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RenderOptions {
     pub width: u32,
     pub height: u32,
@@ -56,7 +56,7 @@ impl RenderOptions {
 }
 
 /// One rendered scanline.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Line {
     pub y: u32,
     pub pixels: Vec<[f32; 3]>,

@@ -21,7 +21,7 @@ use crate::stats::Counters;
 use crate::texture;
 
 /// Ray-tree limits.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TraceOptions {
     /// Maximum depth of the ray tree; the eye ray is level 1 (SPD rule: 5).
     pub max_depth: u32,

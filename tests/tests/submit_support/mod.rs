@@ -249,28 +249,31 @@ impl Running {
         }
     }
 
-    /// The first event (seen before or arriving within `timeout`) that `pred` accepts.
-    pub fn wait_for(
+    /// Waits (bounded) until `cond` holds of the events seen so far, and returns its value.
+    pub fn wait_until<T>(
         &mut self,
         timeout: Duration,
-        pred: impl Fn(&serde_json::Value) -> bool,
-    ) -> serde_json::Value {
-        if let Some(v) = self.seen.iter().find(|v| pred(v)) {
-            return v.clone();
-        }
+        cond: impl Fn(&[serde_json::Value]) -> Option<T>,
+    ) -> T {
         let end = Instant::now() + timeout;
         loop {
+            if let Some(t) = cond(&self.seen) {
+                return t;
+            }
             let left = end.saturating_duration_since(Instant::now());
             match self.events.recv_timeout(left) {
-                Ok(v) => {
-                    self.seen.push(v.clone());
-                    if pred(&v) {
-                        return v;
-                    }
-                }
-                Err(_) => panic!("event not seen in {timeout:?}; saw {:#?}", self.seen),
+                Ok(v) => self.seen.push(v),
+                Err(_) => panic!("condition not reached in {timeout:?}; saw {:#?}", self.seen),
             }
         }
+    }
+
+    /// Waits until node `node` has had `n` lines accepted.
+    pub fn wait_lines_of(&mut self, node: u64, n: usize) {
+        self.wait_until(Duration::from_secs(60), |seen| {
+            (seen.iter().filter(|v| v["event"] == "line" && v["node"] == node).count() >= n)
+                .then_some(())
+        })
     }
 
     /// Waits for the process to end (bounded) and returns its status.

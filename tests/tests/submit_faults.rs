@@ -1,0 +1,171 @@
+//! Faults during `sunray submit` on three real remd daemons: a worker killed, a worker
+//! host's remd killed, a worker stopped (SIGSTOP), the controller killed and resumed. Each
+//! run still gives an image byte-identical to `sunray render`, with the lost lines rendered
+//! again and counted.
+//!
+//! "Mid-job" is made deterministic by watching the controller's `--events` and by making
+//! every line take at least SUNRAY_WORKER_LINE_DELAY_MS (a worker test hook), so the job
+//! is still running when the fault is made.
+
+mod submit_support;
+
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Duration;
+use submit_support::*;
+
+const FLAGS: [&str; 2] = ["--resolution", "64x128"];
+const LINES: u64 = 128;
+
+struct Job {
+    dir: tempfile::TempDir,
+    want: Vec<u8>,
+    out: PathBuf,
+    json: PathBuf,
+}
+
+fn job() -> Job {
+    let dir = tempfile::tempdir().unwrap();
+    let (want, _) = reference(dir.path(), &spd("mount6"), &FLAGS);
+    Job {
+        out: dir.path().join("submit.png"),
+        json: dir.path().join("submit.json"),
+        dir,
+        want,
+    }
+}
+
+fn slow_submit(cluster: &Cluster, job: &Job, delay_ms: u32, extra: &[&str]) -> Command {
+    let mut c = cluster.submit();
+    c.env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
+        .args(["--hosts", "3"])
+        .args(FLAGS)
+        .args(extra)
+        .arg(spd("mount6"))
+        .arg("-o")
+        .arg(&job.out)
+        .arg("--stats-json")
+        .arg(&job.json);
+    c
+}
+
+/// The image is right, every line was accepted once, and node `victim` has `outcome`.
+fn check(job: &Job, victim: u64, outcome: &str) -> serde_json::Value {
+    assert!(
+        std::fs::read(&job.out).unwrap() == job.want,
+        "the image differs from sunray render"
+    );
+    let s = read_json(&job.json);
+    let nodes = s["nodes"].as_array().unwrap();
+    let accepted: u64 = nodes.iter().map(|n| n["scanlines"].as_u64().unwrap()).sum();
+    assert_eq!(accepted + s["lines"]["resumed"].as_u64().unwrap(), LINES);
+    let v = &nodes[victim as usize - 1];
+    assert_eq!(v["outcome"], outcome, "{v}");
+    s
+}
+
+#[test]
+fn a_worker_killed_mid_job_gives_its_lines_back() {
+    let cluster = Cluster::start(3);
+    let job = job();
+    let mut run = Running::start(slow_submit(&cluster, &job, 60, &[]));
+    run.wait_lines_of(2, 2);
+    signal(worker_pid(&run, 2), libc::SIGKILL);
+    assert!(run.wait(Duration::from_secs(120)).success());
+    let s = check(&job, 2, "fault");
+    let victim = &s["nodes"][1];
+    assert!(victim["fault"].as_str().unwrap().contains("signal 9"), "{victim}");
+    assert!(victim["lines_given_back"].as_u64().unwrap() >= 1, "{victim}");
+    assert!(s["lines"]["requeued"].as_u64().unwrap() >= 1);
+    let fault = run.wait_until(Duration::ZERO, |seen| {
+        seen.iter().find(|v| v["event"] == "fault").cloned()
+    });
+    assert_eq!(fault["node"], 2);
+}
+
+#[test]
+fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
+    let cluster = Cluster::start(3);
+    let job = job();
+    let mut run = Running::start(slow_submit(&cluster, &job, 80, &[]));
+    // A worker that is not on the controller's host (a).
+    let (victim, host) = run.wait_until(Duration::from_secs(60), |seen| {
+        seen.iter()
+            .find(|v| v["event"] == "spawned" && v["host"] != "a")
+            .map(|v| (v["node"].as_u64().unwrap(), v["host"].as_str().unwrap().to_string()))
+    });
+    run.wait_lines_of(victim, 2);
+    cluster.daemon(&host).signal(libc::SIGKILL);
+    assert!(run.wait(Duration::from_secs(120)).success());
+    let s = check(&job, victim, "fault");
+    let v = &s["nodes"][victim as usize - 1];
+    let why = v["fault"].as_str().unwrap();
+    assert!(why.contains("lost") || why.contains("unreachable"), "{v}");
+    let redone = s["lines"]["requeued"].as_u64().unwrap() + s["lines"]["duplicated"].as_u64().unwrap();
+    assert!(redone >= 1, "{s}");
+}
+
+#[test]
+fn a_stopped_worker_times_out_and_the_job_finishes_without_it() {
+    let cluster = Cluster::start(3);
+    let job = job();
+    let mut run = Running::start(slow_submit(&cluster, &job, 60, &["--worker-timeout-ms", "800"]));
+    run.wait_lines_of(3, 2);
+    let pid = worker_pid(&run, 3);
+    signal(pid, libc::SIGSTOP);
+    let status = run.wait(Duration::from_secs(120));
+    signal(pid, libc::SIGKILL);
+    signal(pid, libc::SIGCONT);
+    assert!(status.success());
+    let s = check(&job, 3, "silent");
+    assert!(s["nodes"][2]["lines_given_back"].as_u64().unwrap() >= 1, "{s}");
+    assert!(run.seen.iter().any(|v| v["event"] == "silent" && v["node"] == 3));
+}
+
+#[test]
+fn a_killed_controller_resumes_from_its_checkpoint() {
+    let cluster = Cluster::start(3);
+    let job = job();
+    let id = "resume-test-1";
+    let mut run = Running::start(slow_submit(
+        &cluster,
+        &job,
+        60,
+        &["--job", id, "--checkpoint-ms", "100"],
+    ));
+    let stored = run.wait_until(Duration::from_secs(60), |seen| {
+        seen.iter()
+            .filter(|v| v["event"] == "checkpoint")
+            .filter_map(|v| v["lines"].as_u64())
+            .find(|&l| l >= 12)
+    });
+    assert!(stored < LINES);
+    run.child.kill().unwrap();
+    run.child.wait().unwrap();
+    assert!(!job.out.exists(), "no image from the killed run");
+
+    let jobs = |state: &str| {
+        let out = output(
+            sunray()
+                .args(["jobs", "--json", "--remd", &cluster.daemons[0].addr])
+                .arg("--secret-file")
+                .arg(&cluster.secret_file),
+        );
+        assert!(out.status.success());
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let entry = v.as_array().unwrap().iter().find(|j| j["job"] == id).cloned();
+        let entry = entry.unwrap_or_else(|| panic!("{id} not listed: {v}"));
+        assert_eq!(entry["state"], state, "{entry}");
+    };
+    jobs("running");
+
+    // The checkpoint remembers the scene, the options and the output.
+    let out = output(cluster.submit().args(["--resume", id, "-q", "--stats-json"]).arg(&job.json));
+    assert!(out.status.success());
+    let s = check(&job, 1, "ok");
+    let resumed = s["lines"]["resumed"].as_u64().unwrap();
+    assert!(resumed >= stored, "resumed {resumed} < checkpointed {stored}");
+    assert_eq!(resumed + s["lines"]["rendered"].as_u64().unwrap(), LINES);
+    jobs("finished");
+    let _ = &job.dir;
+}
