@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Builds the `sunray-rem:latest` container image from our own release binaries, with no
-# registry and no base image: a FROM-scratch image holding remd, rem and sunray, the shared
-# libraries `ldd` lists for them, the dynamic loader, and empty /tmp and state folders.
+# registry and no base image: a FROM-scratch image holding remd, rem, sunray and rem-echo
+# (the load generator's spinner), the shared libraries `ldd` lists for them, the dynamic
+# loader, and empty /tmp and state folders.
 #
 #   deploy/build-image.sh            # builds the release binaries first
 #   SKIP_CARGO=1 BIN_DIR=DIR deploy/build-image.sh   # uses the binaries in DIR as they are
+#   SUNRAY_IMAGE=name:tag deploy/build-image.sh      # another tag
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin_dir="${BIN_DIR:-${CARGO_TARGET_DIR:-target}/release}"
@@ -15,9 +17,12 @@ ctx="$(mktemp -d)"
 trap 'rm -rf "$ctx"' EXIT
 root="$ctx/root"
 mkdir -p "$root/bin" "$root/tmp" "$root/var/lib/rem" "$root/etc"
-chmod 1777 "$root/tmp"
-for b in remd rem sunray; do
+chmod 1777 "$root/tmp" "$root/var/lib/rem"
+image="${SUNRAY_IMAGE:-sunray-rem:latest}"
+for b in remd rem sunray rem-echo; do
   cp "$bin_dir/$b" "$root/bin/$b"
+  # Release builds keep line tables for profiling; the image does not need them.
+  if command -v strip >/dev/null; then strip --strip-debug "$root/bin/$b"; fi
   ldd "$bin_dir/$b" | awk '/=> \// {print $3} /^[ \t]*\/.*ld-linux/ {print $1}' \
     | while read -r lib; do
         mkdir -p "$root$(dirname "$lib")"
@@ -27,5 +32,5 @@ done
 printf 'hosts: files dns\n' > "$root/etc/nsswitch.conf"
 printf 'root:x:0:0:root:/:/bin/remd\n' > "$root/etc/passwd"
 cp deploy/Dockerfile "$ctx/Dockerfile"
-docker build -q -t sunray-rem:latest "$ctx"
-echo "built sunray-rem:latest"
+docker build -q -t "$image" "$ctx" >/dev/null
+echo "built $image"

@@ -89,10 +89,7 @@ pub fn detect_at(mount: &Path, proc_self_cgroup: &str, host_cores: u32) -> Optio
             .iter()
             .find_map(|d| read(d, "cpuset.cpus.effective"))
             .and_then(|t| parse_cpu_list(&t));
-        let usage_file = dirs
-            .iter()
-            .map(|d| d.join("cpu.stat"))
-            .find(|f| f.exists());
+        let usage_file = dirs.iter().map(|d| d.join("cpu.stat")).find(|f| f.exists());
         return Some(CpuGroup {
             version: Version::V2,
             capacity: capacity_below_host(min_opt(quota, cpuset.map(f64::from))),
@@ -257,8 +254,14 @@ mod tests {
 
     #[test]
     fn own_path_picks_the_right_line() {
-        assert_eq!(own_path(V1_DOCKER, Some("cpu")).as_deref(), Some("/docker/abc"));
-        assert_eq!(own_path(V1_DOCKER, Some("cpuacct")).as_deref(), Some("/docker/abc"));
+        assert_eq!(
+            own_path(V1_DOCKER, Some("cpu")).as_deref(),
+            Some("/docker/abc")
+        );
+        assert_eq!(
+            own_path(V1_DOCKER, Some("cpuacct")).as_deref(),
+            Some("/docker/abc")
+        );
         assert_eq!(own_path(V1_DOCKER, None).as_deref(), Some("/system.slice"));
         assert_eq!(own_path("0::/\n", Some("cpu")), None);
     }
@@ -295,7 +298,11 @@ mod tests {
         write(&docker, "cpu.cfs_period_us", "100000\n");
         write(&docker.join("abc"), "cpu.cfs_quota_us", "-1\n");
         write(&docker.join("abc"), "cpu.cfs_period_us", "100000\n");
-        write(&root.path().join("cpuset/docker/abc"), "cpuset.cpus", "0-1\n");
+        write(
+            &root.path().join("cpuset/docker/abc"),
+            "cpuset.cpus",
+            "0-1\n",
+        );
         let g = detect_at(root.path(), V1_DOCKER, 8).unwrap();
         assert_eq!(g.capacity, Some(2.0), "cpuset 2 CPUs is below quota 3");
         // Without any limit below the host's 2 cores there is no capacity figure.
@@ -305,7 +312,11 @@ mod tests {
     #[test]
     fn v2_private_namespace_and_nested_groups() {
         let root = tempfile::tempdir().unwrap();
-        write(root.path(), "cgroup.controllers", "cpuset cpu io memory pids\n");
+        write(
+            root.path(),
+            "cgroup.controllers",
+            "cpuset cpu io memory pids\n",
+        );
         write(root.path(), "cpu.max", "max 100000\n");
         write(root.path(), "cpu.stat", "usage_usec 7\n");
         // A private namespace: "0::/" is the container's group, the mount root.
@@ -330,7 +341,10 @@ mod tests {
     #[test]
     fn busy_cores_is_cpu_time_over_wall_time() {
         let t0 = Instant::now();
-        let a = UsageSample { at: t0, cpu_ns: 1_000_000_000 };
+        let a = UsageSample {
+            at: t0,
+            cpu_ns: 1_000_000_000,
+        };
         let b = UsageSample {
             at: t0 + Duration::from_secs(2),
             cpu_ns: 1_500_000_000,

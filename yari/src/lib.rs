@@ -14,6 +14,7 @@
 //! - [`modelfile`]: the compiled model in binary (`.srw`), for workers.
 //! - [`load`]: any scene file (YARI, NFF, OFF, model) to a compiled world.
 //! - [`nff`], [`off`]: converters from NFF and OFF to the syntax tree (`nff2gfx`, `off2gfx`).
+//! - [`pov`]: a compiled world written as POV-Ray 3.7 SDL, to compare with POV-Ray.
 //! - [`spd`]: Haines's Standard Procedural Databases (`tetra`, `mount`, `balls`) and `check`
 //!   checkerboards, generated as NFF scenes.
 //!
@@ -43,3 +44,4 @@ pub mod load;
 pub mod nff;
 pub mod off;
 pub mod spd;
+pub mod pov;

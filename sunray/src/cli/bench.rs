@@ -1,4 +1,6 @@
-//! `sunray bench table41|table42|throughput|build`: the thesis's tables with our numbers.
+//! `sunray bench table41|table42|throughput|build`: the thesis's tables with our numbers;
+//! `sunray bench accuracy|precision|features`: error against time, f32 against f64, and what a
+//! scene pays for (docs/accuracy.md).
 
 use crate::accel::AccelKind;
 use clap::{Args, ValueEnum};
@@ -14,6 +16,13 @@ pub enum Which {
     Throughput,
     /// Accelerator build time for a 1,000,000-triangle scene.
     Build,
+    /// Error against time of antialiasing, penumbra, gloss and depth of field at 1, 2, 4, ...
+    /// samples per pixel; writes --out-dir/accuracy.png (log-log plot).
+    Accuracy,
+    /// The hot path in f32 and f64: speed, and error on hard cases.
+    Precision,
+    /// Unused feature paths switched on vs off; `--accel auto` against the fastest.
+    Features,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -31,6 +40,18 @@ pub struct BenchArgs {
     /// Triangles for `build`.
     #[arg(long, default_value_t = 1_000_000)]
     pub triangles: usize,
+    /// accuracy: image size (square).
+    #[arg(long, default_value_t = 128)]
+    pub accuracy_resolution: u32,
+    /// accuracy: the largest sample count measured (1, 2, 4, ... up to this).
+    #[arg(long, default_value_t = 256)]
+    pub max_samples: u32,
+    /// accuracy: samples per pixel of the converged reference.
+    #[arg(long, default_value_t = 16384)]
+    pub reference_samples: u32,
+    /// accuracy: where to write accuracy.png and accuracy.md.
+    #[arg(long, default_value = "bench/results")]
+    pub out_dir: std::path::PathBuf,
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
@@ -54,6 +75,21 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             s += &format!("peak resident memory: {:.0} MiB\n", peak_rss_mib());
             s
         }
+        Which::Accuracy => {
+            std::fs::create_dir_all(&args.out_dir)?;
+            let plot = args.out_dir.join("accuracy.png");
+            let (_rows, text) = crate::bench::accuracy::run(
+                args.accuracy_resolution,
+                args.max_samples,
+                args.reference_samples,
+                threads,
+                Some(&plot),
+            )?;
+            crate::cli::convert::write_output(Some(&args.out_dir.join("accuracy.md")), &text)?;
+            format!("{text}\nplot: {}\n", plot.display())
+        }
+        Which::Precision => crate::bench::precision::run(),
+        Which::Features => crate::bench::features::run(args.resolution)?,
     };
     print!("{text}");
     Ok(ExitCode::SUCCESS)

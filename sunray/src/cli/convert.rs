@@ -1,5 +1,6 @@
 //! `sunray convert IN [-o OUT.yari]`: NFF or OFF to YARI (the thesis's `nff2gfx` and
-//! `off2gfx`). Also the output helpers the scene generators (`spd`, `check-board`) share:
+//! `off2gfx`); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to POV-Ray
+//! SDL ([`yari::pov`]), for the side-by-side benchmark in bench/pov. Also the output helpers the scene generators (`spd`, `check-board`) share:
 //! YARI or NFF text chosen by the output's extension, written to a temporary file and
 //! renamed, or printed to stdout.
 
@@ -11,7 +12,8 @@ use std::process::ExitCode;
 use yari::diag::Diagnostics;
 use yari::span::Source;
 
-/// Convert an NFF (`.nff`) or OFF (`.off`) scene to YARI.
+/// Convert an NFF (`.nff`) or OFF (`.off`) scene to YARI, or any scene to POV-Ray SDL
+/// (`-o OUT.pov`).
 #[derive(Args, Debug)]
 pub struct ConvertArgs {
     /// The scene to convert (`-` reads stdin; then give --from).
@@ -39,6 +41,11 @@ pub enum OutputFormat {
 }
 
 pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
+    if let Some(out) = &args.output {
+        if extension(out).as_deref() == Some("pov") {
+            return to_pov(&args.input, out);
+        }
+    }
     let format = match args.from {
         Some(f) => f,
         None => match extension(&args.input).as_deref() {
@@ -87,6 +94,23 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
                 if n == 1 { "" } else { "s" },
                 src.name
             );
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+/// Compiles any scene file and writes it as POV-Ray SDL.
+fn to_pov(input: &Path, output: &Path) -> anyhow::Result<ExitCode> {
+    let colours = yari::colour::ColourTable::builtin();
+    match yari::load::load_path(input, &colours) {
+        Ok(loaded) => {
+            eprint!("{}", loaded.render_warnings());
+            write_output(Some(output), &yari::pov::write_pov(&loaded.world))?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            eprintln!("{e}");
+            eprintln!("sunray: {} not converted; nothing written", input.display());
             Ok(ExitCode::FAILURE)
         }
     }

@@ -152,7 +152,12 @@ async fn run_job(
         settings: Some(plan.settings.to_proto()),
         job: plan.job.clone(),
     }));
-    let limit = cluster.client.options().max_message;
+    let relay = cluster
+        .client
+        .attach(Some(&plan.job))
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
+    let limit = relay.sender().max_message();
     if scene_msg.len() > limit {
         bail!(
             "the compiled model ({} bytes) is larger than REM's message limit ({limit} bytes); raise remd --max-message",
@@ -163,7 +168,10 @@ async fn run_job(
     let spec = proto::JobSpec {
         scene: plan.input.spec_path(),
         settings: Some(plan.settings.to_proto()),
-        output: plan.output.display().to_string(),
+        output: std::path::absolute(&plan.output)
+            .unwrap_or_else(|_| plan.output.clone())
+            .display()
+            .to_string(),
         strategy: plan.strategy.name().to_string(),
         hosts: plan.hosts,
         nice: plan.nice,
@@ -199,11 +207,6 @@ async fn run_job(
     };
     index_update(cluster, &entry).await;
 
-    let relay = cluster
-        .client
-        .attach(Some(&plan.job))
-        .await
-        .map_err(|e| cluster.rpc_error(e))?;
     let threads = plan.threads.or_else(|| {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         cluster
@@ -215,23 +218,35 @@ async fn run_job(
         worker_args.extend(["--threads".to_string(), t.to_string()]);
     }
     let rem_job = format!("{}.{}", plan.job, checkpoint::unix_ms() / 1000);
-    let spawned = cluster
-        .client
-        .spawn(rem::SpawnRequest {
-            program: program.display().to_string(),
-            args: worker_args,
-            env: std::env::vars()
-                .filter(|(k, _)| k.starts_with("SUNRAY_WORKER_"))
-                .collect(),
-            nice: plan.nice.then_some(10),
-            count: plan.hosts,
-            allow_same_host,
-            job: Some(rem_job),
-            owner: Some(relay.id().clone()),
-        })
-        .await
-        .map_err(|e| cluster.rpc_error(e))
-        .context("starting the workers")?;
+    // A resumed job whose lines are all in needs no worker.
+    let all_in = plan
+        .restored
+        .as_ref()
+        .is_some_and(|r| r.lines.len() as u32 >= plan.settings.render.height);
+    let spawned = if all_in {
+        rem::Job {
+            id: rem_job,
+            processes: Vec::new(),
+        }
+    } else {
+        cluster
+            .client
+            .spawn(rem::SpawnRequest {
+                program: program.display().to_string(),
+                args: worker_args,
+                env: std::env::vars()
+                    .filter(|(k, _)| k.starts_with("SUNRAY_WORKER_"))
+                    .collect(),
+                nice: plan.nice.then_some(10),
+                count: plan.hosts,
+                allow_same_host,
+                job: Some(rem_job),
+                owner: Some(relay.id().clone()),
+            })
+            .await
+            .map_err(|e| cluster.rpc_error(e))
+            .context("starting the workers")?
+    };
     let workers: Vec<WorkerProc> = spawned
         .processes
         .iter()
@@ -284,6 +299,12 @@ async fn run_job(
     totals.time.render_s = result.elapsed_s;
     totals.time.cpu_s = result.nodes.iter().map(|n| n.cpu_s).sum();
     totals.set_counters(&result.counters);
+    let busy: f64 = result
+        .nodes
+        .iter()
+        .map(|n| n.render_s * f64::from(n.threads))
+        .sum();
+    let waited: f64 = result.nodes.iter().map(|n| n.wait_s).sum();
     let stats = JobStats {
         job: plan.job.clone(),
         strategy: Some(plan.strategy),
@@ -291,6 +312,8 @@ async fn run_job(
         lines: result.lines,
         elapsed_s: result.elapsed_s,
         totals,
+        controller: result.cost,
+        wait_share: if busy > 0.0 { waited / busy } else { 0.0 },
         nodes: result.nodes,
     };
     if !args.render.quiet {
@@ -303,6 +326,13 @@ async fn run_job(
         eprintln!(
             "lines: {} ({} from the checkpoint, {} rendered; {} given back, {} duplicated, {} dropped)",
             l.total, l.resumed, l.rendered, l.requeued, l.duplicated, l.dropped
+        );
+        let c = &stats.controller;
+        eprintln!(
+            "controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time",
+            c.cpu_ms_per_line,
+            c.messages_per_line,
+            stats.wait_share * 100.0
         );
     }
     if let Some(path) = &args.render.stats_json {

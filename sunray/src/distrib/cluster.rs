@@ -13,8 +13,8 @@ pub enum ClusterError {
     NoSecret { addr: String },
     #[error("cannot read the cluster secret: {0}")]
     Secret(rem::Error),
-    #[error("cannot reach remd at {addr}: {source}")]
-    Unreachable { addr: String, source: rem::Error },
+    #[error("cannot reach remd at {addr}: {reason}")]
+    Unreachable { addr: String, reason: String },
     #[error("remd at {addr} refused the cluster secret (is it the right one?)")]
     WrongSecret { addr: String },
     #[error("remd at {addr} failed: {source}")]
@@ -100,13 +100,12 @@ impl Cluster {
 
 /// Connects and checks the secret with one call.
 async fn connect(addr: &str, secret: Secret) -> Result<RemClient, ClusterError> {
-    let client =
-        RemClient::connect(addr, secret)
-            .await
-            .map_err(|source| ClusterError::Unreachable {
-                addr: addr.to_string(),
-                source,
-            })?;
+    let client = RemClient::connect(addr, secret)
+        .await
+        .map_err(|e| ClusterError::Unreachable {
+            addr: addr.to_string(),
+            reason: root_cause(&e),
+        })?;
     client.hosts().await.map_err(|e| classify(addr, e))?;
     Ok(client)
 }
@@ -119,9 +118,22 @@ fn classify(addr: &str, e: rem::Error) -> ClusterError {
         {
             ClusterError::WrongSecret { addr }
         }
-        tonic_code::UNAVAILABLE => ClusterError::Unreachable { addr, source: e },
+        tonic_code::UNAVAILABLE => ClusterError::Unreachable {
+            addr,
+            reason: root_cause(&e),
+        },
         _ => ClusterError::Rpc { addr, source: e },
     }
+}
+
+/// The innermost error of a chain: "Connection refused (os error 111)" rather than four
+/// layers of "transport error".
+fn root_cause(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut cur = e;
+    while let Some(next) = cur.source() {
+        cur = next;
+    }
+    cur.to_string()
 }
 
 /// The gRPC codes we tell apart, without depending on tonic here.

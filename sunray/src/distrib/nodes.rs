@@ -49,6 +49,11 @@ pub struct NodeStats {
     pub elapsed_s: f64,
     pub preprocess_s: f64,
     pub render_s: f64,
+    /// Render threads' time waiting for their next line, summed over threads (after their
+    /// first line).
+    pub wait_s: f64,
+    /// Render threads' time waiting for their first line (start-up).
+    pub first_wait_s: f64,
     /// Seconds from the start of the job to this node's last accepted line.
     pub finished_at_s: f64,
 }
@@ -78,6 +83,18 @@ pub struct LineCounts {
     pub dropped: u64,
 }
 
+/// The controller's own cost: CPU time of the submit process (which, with the embedded
+/// default, includes the private remd) and the messages it traded.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ControllerCost {
+    pub cpu_s: f64,
+    pub messages_in: u64,
+    pub messages_out: u64,
+    /// Per line rendered in this run.
+    pub cpu_ms_per_line: f64,
+    pub messages_per_line: f64,
+}
+
 /// What `sunray submit --stats-json` writes.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct JobStats {
@@ -90,6 +107,10 @@ pub struct JobStats {
     /// Scene, image and counted totals over every line of the image, as `sunray render`
     /// reports them (load and preprocessing are the controller's).
     pub totals: RenderStats,
+    pub controller: ControllerCost,
+    /// Render threads' time waiting for their next line over their render time, all nodes
+    /// (0..1); the start-up wait for the first line is not included.
+    pub wait_share: f64,
     pub nodes: Vec<NodeStats>,
 }
 

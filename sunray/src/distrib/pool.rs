@@ -25,6 +25,10 @@ pub struct Rendered {
     pub counters: Counters,
     /// Wall time the thread spent on the line.
     pub line_s: f64,
+    /// Wall time the thread waited for this line (since its previous one, or its start).
+    pub wait_s: f64,
+    /// The thread's first line (its wait includes the start-up).
+    pub first: bool,
 }
 
 /// What the threads render.
@@ -79,14 +83,17 @@ fn render_loop(
     results: &tokio::sync::mpsc::UnboundedSender<Rendered>,
 ) {
     let mut scratch = Scratch::new(what.scene.prims.len(), what.mailbox);
+    let mut first = true;
     loop {
         // The lock is held only while waiting for the next job.
+        let waiting = Instant::now();
         let job = match jobs.lock() {
             Ok(rx) => rx.recv(),
             Err(_) => return,
         };
         let Ok(job) = job else { return };
         let t = Instant::now();
+        let wait_s = (t - waiting).as_secs_f64();
         let line = render_line(&what.scene, &what.accel, job.line, &what.opts, &mut scratch);
         if !what.delay.is_zero() {
             std::thread::sleep(what.delay);
@@ -96,7 +103,10 @@ fn render_loop(
             pixels: line.pixels,
             counters: line.counters,
             line_s: t.elapsed().as_secs_f64(),
+            wait_s,
+            first,
         };
+        first = false;
         if results.send(rendered).is_err() {
             return;
         }

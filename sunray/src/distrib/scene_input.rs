@@ -111,10 +111,14 @@ impl SceneInput {
             .map_or_else(|| BUILTIN.to_string(), |p| p.display().to_string())
     }
 
-    /// The scene's name with `.png`, or `sunray.png` for the built-in scene.
+    /// As `sunray render`: the scene's name with `.png` in the current directory, or
+    /// `sunray.png` for the built-in scene.
     pub fn default_output(&self) -> PathBuf {
         match &self.path {
-            Some(p) => p.with_extension("png"),
+            Some(p) => {
+                let stem = p.file_stem().unwrap_or_else(|| "image".as_ref());
+                PathBuf::from(stem).with_extension("png")
+            }
             None => PathBuf::from("sunray.png"),
         }
     }

@@ -2,10 +2,12 @@
 //! Ready, receives the compiled model through REM (no shared file system), builds its
 //! accelerator, then loops: request, render, report.
 //!
-//! It keeps one line in flight per render thread plus one prefetched, so a thread never
-//! waits for the network: it asks for `threads + 1` lines once, then for one more with each
-//! completion. With nothing to do it sends `Request(0)` now and then, which tells it (by an
-//! Undeliverable notice) when its controller is gone. It obeys only its job's owner.
+//! It keeps one line in flight per render thread plus one prefetched, so a thread need not
+//! wait for the network: it asks for `threads + 1` lines once, then for one more with each
+//! completion. When lines are quicker than the round trip to the controller and a thread
+//! still had to wait, it asks for one extra line ([`Window`]), up to [`MAX_WINDOW`]. With
+//! nothing to do it sends `Request(0)` now and then, which tells it (by an Undeliverable
+//! notice) when its controller is gone. It obeys only its job's owner.
 
 use super::messages::{self, proto, Body, Settings};
 use super::pool::{LineJob, PoolScene, RenderPool, Rendered};
@@ -120,6 +122,8 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     .await?;
 
     let mut outstanding = 0usize;
+    let (mut wait_s, mut first_wait_s) = (0.0, 0.0);
+    let mut window = Window::new(threads);
     let mut probe = tokio::time::interval(cfg.idle_probe);
     probe.tick().await;
     loop {
@@ -136,6 +140,12 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
             r = results.recv() => {
                 let Some(r) = r else { return Err(WorkerError::BadScene("render threads stopped".into())) };
                 outstanding = outstanding.saturating_sub(1);
+                if r.first {
+                    first_wait_s += r.wait_s;
+                } else {
+                    wait_s += r.wait_s;
+                }
+                let want = window.after(&r);
                 let mut counters = proto::Counters::from(&r.counters);
                 counters.line_s = r.line_s;
                 link.send(Body::Done(proto::Done {
@@ -143,12 +153,14 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                     grant: r.job.grant,
                     pixels: messages::pixels_to_bytes(&r.pixels),
                     counters: Some(counters),
-                    want: 1,
+                    want,
                     clock: Some(proto::NodeClock {
                         cpu_s: process_cpu_seconds(),
                         elapsed_s: started.elapsed().as_secs_f64(),
                         preprocess_s,
                         render_s: render_start.elapsed().as_secs_f64(),
+                        wait_s,
+                        first_wait_s,
                     }),
                 }))
                 .await?;
@@ -159,6 +171,37 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                 }
             }
         }
+    }
+}
+
+/// The most lines a worker holds at once.
+pub const MAX_WINDOW: u32 = 64;
+
+/// How many lines a worker keeps: `threads + 1`, doubled (up to [`MAX_WINDOW`]) each time a
+/// thread had to wait for its next line longer than a quarter of a line's render time, so
+/// the window quickly covers a round trip that is longer than a line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub lines: u32,
+}
+
+impl Window {
+    pub fn new(threads: usize) -> Window {
+        Window {
+            lines: (threads as u32).saturating_add(1).min(MAX_WINDOW),
+        }
+    }
+
+    /// Lines to ask for after `r` is done: 1, or more to grow the window.
+    pub fn after(&mut self, r: &Rendered) -> u32 {
+        let starved = !r.first && r.wait_s > 0.25 * r.line_s;
+        let grow = if starved {
+            self.lines.min(MAX_WINDOW - self.lines)
+        } else {
+            0
+        };
+        self.lines += grow;
+        1 + grow
     }
 }
 
@@ -237,5 +280,39 @@ pub fn load_average() -> f64 {
         avg[0]
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::Counters;
+
+    fn rendered(first: bool, wait_s: f64, line_s: f64) -> Rendered {
+        Rendered {
+            job: LineJob { line: 0, grant: 1 },
+            pixels: Vec::new(),
+            counters: Counters::default(),
+            line_s,
+            wait_s,
+            first,
+        }
+    }
+
+    #[test]
+    fn the_window_grows_only_when_a_thread_starved() {
+        let mut w = Window::new(2);
+        assert_eq!(w.lines, 3);
+        assert_eq!(w.after(&rendered(true, 1.0, 0.01)), 1, "start-up wait");
+        assert_eq!(w.after(&rendered(false, 0.001, 0.01)), 1, "short wait");
+        assert_eq!(w.after(&rendered(false, 0.005, 0.01)), 4, "doubled: 3 more");
+        assert_eq!(w.lines, 6);
+        for _ in 0..10 {
+            w.after(&rendered(false, 1.0, 0.01));
+        }
+        assert_eq!(w.lines, MAX_WINDOW);
+        let mut w = Window::new(100);
+        assert_eq!(w.lines, MAX_WINDOW);
+        assert_eq!(w.after(&rendered(false, 1.0, 0.01)), 1, "capped");
     }
 }

@@ -91,10 +91,30 @@ impl RayPre {
 
 /// Offsets a point off a surface along the normal `n` (unit, pointing to the side the new ray
 /// leaves into), by an amount scaled to the magnitude of the point, so a ray spawned there does
-/// not re-hit the surface it starts on.
+/// not re-hit the surface it starts on. Assumes a scene of unit scale or larger; the renderer
+/// uses [`offset_from`], which also works for tiny scenes.
 pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
     let scale = p.abs().max_element().max(1.0);
     p + n * (scale * 1e-9)
+}
+
+/// Relative size of the offset of [`offset_from`]: about 2^23 units in the last place of the
+/// largest coordinate involved, far above the error of a computed hit point (a few ulps) and
+/// far below any feature a scene resolves (see docs/accuracy.md).
+pub const OFFSET_RELATIVE: Real = 1e-9;
+
+/// Offsets hit point `p`, found by a ray that started at `from`, off its surface along the unit
+/// normal `n` (pointing to the side the new ray leaves into). The error of `p = o + t d` is a
+/// few ulps of the larger of |p| and |o|, so the offset is scaled to that, not to 1: the same
+/// scene scaled by 1e-4 or 1e+4, or moved 1e5 away from the origin, renders the same.
+#[inline]
+pub fn offset_from(p: Vec3, n: Vec3, from: Vec3) -> Vec3 {
+    let scale = p
+        .abs()
+        .max_element()
+        .max(from.abs().max_element())
+        .max(1e-200);
+    p + n * (scale * OFFSET_RELATIVE)
 }
 
 /// `1 / d` per component, with an infinite quotient replaced by a huge finite one of the same

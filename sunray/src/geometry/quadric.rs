@@ -40,8 +40,12 @@ pub fn intersect_quadric(ray: &Ray, q: &Quadric, t_min: Real, t_max: Real) -> Op
     let a = q3_times(&q.q, ray.dir).dot(ray.dir);
     let b = qo.dot(ray.dir);
     let c = qo.dot(ray.origin) + qo_w;
-    let roots = if a.abs() <= 1e-12 * (b.abs() + c.abs()).max(1e-300) {
-        // Linear in t (e.g. a ray parallel to a cylinder's or cone's surface line).
+    // The stable form needs no threshold on `a`: as `a -> 0` the root `q / a` runs off to
+    // infinity and `c / q` tends to the linear root `-c / 2b`, both computed without
+    // cancellation. Only `a == 0` exactly (a ray parallel to a cylinder's or cone's line) is
+    // linear; a cut-off like `|a| < 1e-12 (|b| + |c|)` would lose the true hit of a ray
+    // nearly parallel to a cylinder's axis (`a = eps^2`).
+    let roots = if a == 0.0 {
         if b == 0.0 {
             return None;
         }

@@ -14,7 +14,7 @@
 
 use super::optics::{fresnel, reflect, refract};
 use crate::accel::{Accel, Scratch};
-use crate::geometry::{offset_origin, Ray, RayPre, Real, Vec3};
+use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
 use crate::sampler::{sample_disc, SampleStream};
 use crate::scene::Scene;
 use crate::stats::Counters;
@@ -159,7 +159,7 @@ impl Tracer<'_> {
             let l = to_light / dist;
             let ndl = nf.dot(l);
             if ndl > 0.0 {
-                let i = light.color * self.shadow(p, nf, l, dist, ray.time);
+                let i = light.color * self.shadow(p, nf, l, dist, ray);
                 if i == Vec3::ZERO {
                     continue;
                 }
@@ -170,7 +170,7 @@ impl Tracer<'_> {
                 }
             } else if ndl < 0.0 && kst > 0.0 {
                 self.counters.shadow_behind += 1;
-                let i = light.color * self.shadow(p, -nf, l, dist, ray.time);
+                let i = light.color * self.shadow(p, -nf, l, dist, ray);
                 if i == Vec3::ZERO {
                     continue;
                 }
@@ -220,7 +220,7 @@ impl Tracer<'_> {
                 }
             }
             let r = Ray {
-                origin: offset_origin(p, nf),
+                origin: offset_from(p, nf, ray.origin),
                 dir,
                 time: ray.time,
             };
@@ -250,7 +250,7 @@ impl Tracer<'_> {
                     }
                 }
                 let r = Ray {
-                    origin: offset_origin(p, -nf),
+                    origin: offset_from(p, -nf, ray.origin),
                     dir,
                     time: ray.time,
                 };
@@ -271,9 +271,12 @@ impl Tracer<'_> {
     /// The filter a shadow ray from `p` (leaving on the side of `side`) towards a light at
     /// distance `dist` in direction `l` receives: 1 if unblocked, 0 if an opaque surface is in
     /// the way, and the product of `kst * colour` of every transparent surface crossed.
-    fn shadow(&mut self, p: Vec3, side: Vec3, l: Vec3, dist: Real, time: Real) -> Vec3 {
+    /// `ray` is the ray that found `p` (its origin scales the offset, its time is the shadow
+    /// ray's).
+    fn shadow(&mut self, p: Vec3, side: Vec3, l: Vec3, dist: Real, ray: &Ray) -> Vec3 {
         self.counters.shadow += 1;
-        let origin = offset_origin(p, side);
+        let time = ray.time;
+        let origin = offset_from(p, side, ray.origin);
         let t_max = (p + l * dist - origin).dot(l);
         let ray = Ray {
             origin,
@@ -331,7 +334,7 @@ impl Tracer<'_> {
             let q = from.ray.at(h.t);
             let n = scene.prims[h.prim as usize].normal(q, time);
             let push = if n.dot(l) >= 0.0 { n } else { -n };
-            let o = offset_origin(q, push);
+            let o = offset_from(q, push, from.ray.origin);
             remaining -= (o - from.ray.origin).dot(l);
             from = RayPre::new(Ray {
                 origin: o,

@@ -5,15 +5,17 @@
 //! stragglers at the end, checkpoints every few seconds and, when every line is in, tells
 //! the workers to stop.
 
-use super::checkpoint::{Checkpointer, Restored};
-use super::grants::{Completion, GrantTable, NodeState};
-use super::messages::{self, proto, Body};
-use super::nodes::{LineCounts, NodeStats, Outcome};
-use super::progress::ProgressView;
-use super::strategy::Strategy;
+mod incoming;
+
+use crate::distrib::checkpoint::{Checkpointer, Restored};
+use crate::distrib::grants::{GrantTable, NodeState};
+use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::nodes::{ControllerCost, LineCounts, NodeStats, Outcome};
+use crate::distrib::progress::ProgressView;
+use crate::distrib::strategy::Strategy;
 use crate::film::Film;
 use crate::stats::Counters;
-use rem::{EventKind, Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
+use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use serde_json::json;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -59,6 +61,7 @@ pub struct JobResult {
     pub elapsed_s: f64,
     /// False when no worker was left to finish the image.
     pub finished: bool,
+    pub cost: ControllerCost,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -147,6 +150,9 @@ struct Controller {
     lines: LineCounts,
     max_line_s: f64,
     started: Instant,
+    cpu_at_start: f64,
+    messages_in: u64,
+    messages_out: u64,
     view: ProgressView,
     all_silent_since: Option<Instant>,
 }
@@ -218,6 +224,9 @@ impl Controller {
             counters,
             max_line_s: 0.0,
             started: Instant::now(),
+            cpu_at_start: crate::stats::process_cpu_seconds(),
+            messages_in: 0,
+            messages_out: 0,
             view,
             all_silent_since: None,
         }
@@ -268,6 +277,7 @@ impl Controller {
         self.lines.requeued = counts.requeued;
         self.lines.duplicated = counts.duplicated;
         self.lines.dropped = counts.dropped;
+        let cost = self.cost();
         Ok(JobResult {
             film: self.film,
             nodes: self.nodes,
@@ -275,150 +285,21 @@ impl Controller {
             lines: self.lines,
             elapsed_s: self.started.elapsed().as_secs_f64(),
             finished,
+            cost,
         })
     }
 
-    fn on_incoming(&mut self, incoming: Incoming) {
-        match incoming {
-            Incoming::Message { from, payload } => {
-                let Some(&i) = self.by_proc.get(&from) else {
-                    return;
-                };
-                match messages::decode(&payload) {
-                    Ok(body) => self.on_message(i, body),
-                    Err(e) => self
-                        .view
-                        .event(json!({"event": "bad-message", "node": i + 1,
-                        "error": e.to_string()})),
-                }
-            }
-            Incoming::Event(ev) => {
-                let Some(&i) = self.by_proc.get(&ev.proc_id) else {
-                    return;
-                };
-                let (reason, clean) = match ev.kind() {
-                    EventKind::Exited => match (ev.exit_code, ev.signal) {
-                        (_, Some(sig)) => (format!("killed by signal {sig}"), false),
-                        (Some(code), _) => (format!("exited with code {code}"), code == 0),
-                        _ => ("exited".to_string(), false),
-                    },
-                    EventKind::Lost => (format!("host {} lost", ev.host), false),
-                    _ => return,
-                };
-                self.on_gone(i, reason, clean);
-            }
-            Incoming::Undeliverable { to, reason } => {
-                if let Some(&i) = self.by_proc.get(&to) {
-                    self.on_gone(i, format!("unreachable: {reason}"), false);
-                }
-            }
+    fn cost(&self) -> ControllerCost {
+        let cpu_s = crate::stats::process_cpu_seconds() - self.cpu_at_start;
+        let lines = f64::from(self.lines.rendered.max(1));
+        let messages = (self.messages_in + self.messages_out) as f64;
+        ControllerCost {
+            cpu_s,
+            messages_in: self.messages_in,
+            messages_out: self.messages_out,
+            cpu_ms_per_line: cpu_s * 1000.0 / lines,
+            messages_per_line: messages / lines,
         }
-    }
-
-    fn on_message(&mut self, i: usize, body: Body) {
-        let n = &mut self.nodes[i];
-        match body {
-            Body::Ready(r) => {
-                n.host = if r.host.is_empty() {
-                    n.host.clone()
-                } else {
-                    r.host
-                };
-                (n.cores, n.threads, n.load_at_start) = (r.cores, r.threads, r.load_avg);
-                if n.outcome == Outcome::Starting {
-                    n.outcome = Outcome::Ok;
-                }
-                self.view
-                    .event(json!({"event": "ready", "node": i + 1, "host": n.host,
-                    "cores": r.cores, "threads": r.threads, "pid": r.pid}));
-            }
-            Body::Request(r) => {
-                n.preprocess_s = r.preprocess_s;
-                self.table.request(i, r.lines);
-            }
-            Body::Done(d) => self.on_done(i, d),
-            Body::WorkerError(e) => {
-                self.view.note(&format!(
-                    "sunray: worker {} ({}): {}",
-                    i + 1,
-                    n.host,
-                    e.message
-                ));
-                n.fault = Some(e.message);
-            }
-            _ => {}
-        }
-    }
-
-    fn on_done(&mut self, i: usize, d: proto::Done) {
-        let width = self.cfg.width;
-        let Ok(pixels) = messages::pixels_from_bytes(&d.pixels, width) else {
-            self.view
-                .event(json!({"event": "bad-line", "node": i + 1, "line": d.line}));
-            return;
-        };
-        let n = &mut self.nodes[i];
-        if let Some(c) = &d.clock {
-            (n.cpu_s, n.elapsed_s, n.preprocess_s, n.render_s) =
-                (c.cpu_s, c.elapsed_s, c.preprocess_s, c.render_s);
-        }
-        if n.outcome == Outcome::Silent {
-            n.outcome = Outcome::Ok;
-        }
-        match self.table.complete(i, d.grant, d.line) {
-            Completion::Accepted => {
-                let proto_counters = d.counters.unwrap_or_default();
-                let c = Counters::from(&proto_counters);
-                self.max_line_s = self.max_line_s.max(proto_counters.line_s);
-                self.film.set_line(d.line, &pixels);
-                n.add_line(&c);
-                n.finished_at_s = self.started.elapsed().as_secs_f64();
-                self.counters += c;
-                self.lines.rendered += 1;
-                self.checkpointer.record(proto::FinishedLine {
-                    line: d.line,
-                    pixels: d.pixels,
-                    counters: Some(proto_counters),
-                });
-                let done = self.table.done();
-                self.view.set_done(done);
-                self.view
-                    .event(json!({"event": "line", "node": i + 1, "line": d.line,
-                    "done": done, "total": self.cfg.height}));
-            }
-            Completion::Duplicate => n.dropped += 1,
-            Completion::Unknown => {}
-        }
-        self.table.request(i, d.want);
-    }
-
-    /// Node `i`'s process exited, its host was lost, or it cannot be reached. `clean`: it
-    /// exited with code 0, which is a fault only before it was told to stop.
-    fn on_gone(&mut self, i: usize, reason: String, clean: bool) {
-        if self.exited[i] {
-            return;
-        }
-        self.exited[i] = true;
-        let held = self.table.node_gone(i);
-        let n = &mut self.nodes[i];
-        n.lines_given_back += held as u64;
-        if self.finishing && clean {
-            return;
-        }
-        n.outcome = Outcome::Fault;
-        let why = match &n.fault {
-            Some(f) => format!("{reason}: {f}"),
-            None => reason,
-        };
-        self.view.note(&format!(
-            "sunray: node {} ({}) FAULT: {why}; {held} line(s) go back to the queue",
-            i + 1,
-            n.host
-        ));
-        self.view
-            .event(json!({"event": "fault", "node": i + 1, "reason": why,
-            "given_back": held}));
-        n.fault = Some(why);
     }
 
     fn timeout(&self) -> Duration {
@@ -468,7 +349,7 @@ impl Controller {
                 grant: a.grant,
             }));
             match self.sender.send(&self.procs[a.node], msg).await {
-                Ok(()) => {}
+                Ok(()) => self.messages_out += 1,
                 Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
                 Err(e) => self.on_gone(a.node, format!("cannot send: {e}"), false),
             }
@@ -496,7 +377,9 @@ impl Controller {
         let mut wait_for = vec![false; self.procs.len()];
         for i in 0..self.procs.len() {
             if !self.exited[i] {
-                let _ = self.sender.send(&self.procs[i], stop.clone()).await;
+                if self.sender.send(&self.procs[i], stop.clone()).await.is_ok() {
+                    self.messages_out += 1;
+                }
                 // A silent worker is not waited for.
                 wait_for[i] = self.table.node_state(i) == Some(NodeState::Active);
             }

@@ -1,0 +1,209 @@
+#!/usr/bin/env python3
+"""SunRay III benchmarks on the compose clusters (run through deploy/bench/run.sh).
+
+scaling    1, 2, 4, 6, 8 workers of 0.25 CPU each (docker-compose.bench.yml), mount6:
+           elapsed, speed-up and efficiency, total and render-only (thesis Table 4.9).
+hetero     the six workstations of deploy/docker-compose.yml at half their CPU limits, two of
+           them loaded by deploy/load.sh: per-node table and finish-time spread for SunRay I
+           (blocks), II (interleaved) and III (dynamic) side by side (Table 4.8).
+fault      8 workers, 2 killed once a quarter of the image is in: the extra time against the
+           ideal for the remaining capacity (Table 4.7).
+
+Raw outputs go to deploy/bench/work/ (ignored by git); the report and plots to
+deploy/bench/results/. Every figure in the report is computed from the saved JSON.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DEPLOY = os.path.dirname(HERE)
+WORK = os.path.join(HERE, "work")
+RESULTS = os.path.join(HERE, "results")
+RES = os.environ.get("BENCH_RES", "512x512")
+SAMPLES = os.environ.get("BENCH_SAMPLES", "")
+COUNTS = [int(n) for n in os.environ.get("BENCH_COUNTS", "1 2 4 6 8").split()]
+
+
+def compose_cmd():
+    if shutil.which("docker-compose"):
+        return ["docker-compose"]
+    return ["docker", "compose"]
+
+
+def env_for(project):
+    e = dict(os.environ)
+    e["SUNRAY_OUT"] = WORK
+    e["REM_SECRET_PATH"] = os.path.join(WORK, "secret")
+    e["COMPOSE_PROJECT_NAME"] = project
+    e.pop("COMPOSE_FILE", None)
+    return e
+
+
+class Farm:
+    def __init__(self, project, file, extra_env=None):
+        self.project, self.file = project, file
+        self.env = env_for(project)
+        self.env.update(extra_env or {})
+        self.env["COMPOSE_FILE"] = file
+
+    def compose(self, *args, **kw):
+        return subprocess.run(compose_cmd() + ["-p", self.project, "-f", self.file, *args],
+                              env=self.env, **kw)
+
+    def up(self, hosts, via, remd=None):
+        self.compose("down", "-v", "-t", "1", capture_output=True)
+        self.compose("up", "-d", check=True, capture_output=True)
+        end = time.time() + 90
+        while time.time() < end:
+            h = self.hosts(via, remd)
+            if sum(1 for x in h if x.get("alive")) >= hosts:
+                return h
+            time.sleep(0.5)
+        raise SystemExit(f"{self.project}: the cluster did not form")
+
+    def down(self):
+        self.compose("down", "-v", "-t", "1", capture_output=True)
+
+    def hosts(self, via, remd=None):
+        args = ["exec", "-T", via, "/bin/rem"] + (["--remd", remd] if remd else []) + ["hosts", "--json"]
+        r = self.compose(*args, capture_output=True)
+        try:
+            return json.loads(r.stdout)
+        except ValueError:
+            return []
+
+    def exec_argv(self, via, argv):
+        return compose_cmd() + ["-p", self.project, "-f", self.file, "exec", "-T", via] + argv
+
+
+def render_flags():
+    f = ["--resolution", RES]
+    if SAMPLES:
+        f += ["--samples", SAMPLES]
+    return f
+
+
+def submit(farm, via, name, hosts, extra=(), kill=None):
+    """Runs one submit with --events; returns (wall seconds, stats, events, kill time)."""
+    argv = ["/bin/sunray", "submit", "--hosts", str(hosts), *render_flags(), *extra,
+            "--events", "/scenes/mount6.nff", "-o", f"/out/{name}.png",
+            "--stats-json", f"/out/{name}.json"]
+    t0 = time.time()
+    p = subprocess.Popen(farm.exec_argv(via, argv), env=farm.env, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True)
+    events, text, killed_at = [], [], None
+    for line in p.stderr:
+        try:
+            ev = json.loads(line)
+        except ValueError:
+            text.append(line)
+            continue
+        if not isinstance(ev, dict) or "event" not in ev:
+            text.append(line)
+            continue
+        ev["t"] = time.time() - t0
+        events.append(ev)
+        if kill and killed_at is None and ev["event"] == "line" and ev["done"] >= kill["after"]:
+            killed_at = time.time() - t0
+            for host in kill["hosts"]:
+                cid = farm.compose("ps", "-q", host, capture_output=True, text=True).stdout.strip()
+                subprocess.run(["docker", "kill", cid], capture_output=True)
+    p.wait()
+    wall = time.time() - t0
+    with open(os.path.join(WORK, f"{name}.table.txt"), "w") as f:
+        f.writelines(text)
+    if p.returncode != 0:
+        sys.stderr.writelines(text)
+        raise SystemExit(f"{name}: submit failed ({p.returncode})")
+    with open(os.path.join(WORK, f"{name}.json")) as f:
+        stats = json.load(f)
+    with open(os.path.join(WORK, f"{name}.events.json"), "w") as f:
+        json.dump(events, f)
+    print(f"{name}: {wall:.2f} s wall, {stats['elapsed_s']:.2f} s job", flush=True)
+    return {"wall_s": wall, "stats": stats, "killed_at_s": killed_at,
+            "table": "".join(text)}
+
+
+def bench_farm():
+    return Farm("sunraybench8", os.path.join(HERE, "docker-compose.bench.yml"),
+                {"SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]})
+
+
+def scaling():
+    farm = bench_farm()
+    farm.up(8, "ctl", "n1:7070")
+    runs = {}
+    try:
+        for n in COUNTS:
+            runs[n] = submit(farm, "ctl", f"scale-{n}", n)
+    finally:
+        farm.down()
+    return runs
+
+
+def fault():
+    farm = bench_farm()
+    farm.up(8, "ctl", "n1:7070")
+    try:
+        total = int(RES.split("x")[1])
+        clean = submit(farm, "ctl", "fault-none", 8)
+        hit = submit(farm, "ctl", "fault-kill2", 8,
+                     kill={"after": total // 4, "hosts": ["n7", "n8"]})
+    finally:
+        farm.down()
+    return {"clean": clean, "kill2": hit}
+
+
+def hetero():
+    scale = {"WS_CPUS_FAST": "0.5", "WS_CPUS_MEDIUM": "0.25", "WS_CPUS_SLOW": "0.125",
+             "SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]}
+    farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"), scale)
+    farm.up(6, "ws1")
+    loaded = ["ws2", "ws5"]
+    load_env = dict(farm.env)
+    subprocess.run(["bash", os.path.join(DEPLOY, "load.sh"), "start", "--seconds", "1800",
+                    *loaded], env=load_env, check=True, capture_output=True)
+    runs = {}
+    try:
+        # Let the loaded hosts' figures show the load before placing.
+        end = time.time() + 30
+        while time.time() < end:
+            h = {x["name"]: x for x in farm.hosts("ws1")}
+            if all(h.get(n, {}).get("load_per_core", 0) > 0.6 for n in loaded):
+                break
+            time.sleep(0.5)
+        runs["hosts"] = farm.hosts("ws1")
+        for strategy in ["blocks", "interleaved", "dynamic"]:
+            runs[strategy] = submit(farm, "ws1", f"hetero-{strategy}", 6,
+                                    ["--strategy", strategy])
+    finally:
+        farm.down()
+    return runs
+
+
+def main():
+    os.makedirs(WORK, exist_ok=True)
+    os.makedirs(RESULTS, exist_ok=True)
+    which = sys.argv[1:] or ["scaling", "hetero", "fault"]
+    data = {}
+    path = os.path.join(WORK, "bench.json")
+    if os.path.exists(path):
+        with open(path) as f:
+            data = json.load(f)
+    data["settings"] = {"resolution": RES, "samples": SAMPLES or "default"}
+    data["machine"] = (f"{os.cpu_count()} cores, load average "
+                       f"{os.getloadavg()[0]:.1f} when the run started")
+    for name in which:
+        data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault}[name]()
+        with open(path, "w") as f:
+            json.dump(data, f, indent=1, default=str)
+    print(f"raw results in {path}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,166 @@
+#!/usr/bin/env python3
+"""Writes deploy/bench/results/report.md and its plots from deploy/bench/work/bench.json
+(made by bench.py). Plots need matplotlib (run.sh installs it with pip when missing)."""
+
+import json
+import os
+import shutil
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+WORK = os.path.join(HERE, "work")
+RESULTS = os.path.join(HERE, "results")
+
+
+def render_only(stats):
+    """The render phase: the longest of the nodes' render times (each node's time spent
+    rendering its lines, without start-up, scene transfer and preprocessing)."""
+    return max(n["render_s"] for n in stats["nodes"])
+
+
+def scaling_section(data, out):
+    runs = {int(k): v for k, v in data.items()}
+    counts = sorted(runs)
+    base = runs[counts[0]]
+    t1, r1 = base["wall_s"], render_only(base["stats"])
+    out.append("## Scaling (thesis Table 4.9)\n")
+    out.append("Workers of 0.25 CPU each (`deploy/bench/docker-compose.bench.yml`), controller in "
+               "its own container. *Total* is the wall time of `sunray submit` (scene compiled, "
+               "workers started, scene shipped, every line rendered, image written); "
+               "*render-only* is the longest node render time (lines only).\n")
+    out.append("| workers | total s | speed-up | efficiency | render-only s | speed-up | efficiency | lines per node |")
+    out.append("|---|---|---|---|---|---|---|---|")
+    rows = []
+    for n in counts:
+        r = runs[n]
+        tot, ren = r["wall_s"], render_only(r["stats"])
+        su, sr = t1 / tot, r1 / ren
+        lines = ", ".join(str(x["scanlines"]) for x in r["stats"]["nodes"])
+        out.append(f"| {n} | {tot:.2f} | {su:.2f}x | {su / n * 100:.0f}% | {ren:.2f} | "
+                   f"{sr:.2f}x | {sr / n * 100:.0f}% | {lines} |")
+        rows.append((n, su, sr))
+    out.append("")
+    out.append("Thesis (8 nodes): 5.3x total, 7.81x render-only.\n")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5, 4))
+        ns = [r[0] for r in rows]
+        ax.plot(ns, ns, "k:", label="ideal")
+        ax.plot(ns, [r[1] for r in rows], "o-", label="total")
+        ax.plot(ns, [r[2] for r in rows], "s-", label="render-only")
+        ax.plot([8], [5.3], "x", color="grey", label="thesis total (8)")
+        ax.plot([8], [7.81], "+", color="grey", label="thesis render-only (8)")
+        ax.set_xlabel("workers (0.25 CPU each)")
+        ax.set_ylabel("speed-up")
+        ax.set_title("SunRay III scaling, mount6")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(os.path.join(RESULTS, "scaling.png"), dpi=100)
+        out.append("![scaling](scaling.png)\n")
+    except ImportError:
+        out.append("(matplotlib is not installed: no plot)\n")
+
+
+def hetero_section(data, out):
+    out.append("## Heterogeneous hosts with external load (thesis Table 4.8)\n")
+    hosts = {h["name"]: h for h in data.get("hosts", [])}
+    out.append("Six workstations at half the compose file's limits (ws1–2 0.5 CPU, ws3–4 0.25, "
+               "ws5–6 0.125); ws2 and ws5 each run a spinner from `deploy/load.sh` inside their "
+               "container. Host figures as `rem hosts --json` showed them before the runs:\n")
+    out.append("| host | capacity | load per core |")
+    out.append("|---|---|---|")
+    for name in sorted(hosts):
+        h = hosts[name]
+        out.append(f"| {name} | {h.get('capacity', 0):.3f} | {h.get('load_per_core', 0):.2f} |")
+    out.append("")
+    spreads = {}
+    for strategy, label in [("blocks", "SunRay I"), ("interleaved", "SunRay II"),
+                            ("dynamic", "SunRay III")]:
+        r = data.get(strategy)
+        if not r:
+            continue
+        s = r["stats"]
+        nodes = sorted(s["nodes"], key=lambda n: n["host"])
+        fin = [n["finished_at_s"] for n in nodes]
+        spreads[label] = (min(fin), max(fin), r["wall_s"])
+        out.append(f"### {label} ({strategy}): {r['wall_s']:.2f} s total\n")
+        out.append("| node | host | load at start | scanlines | CPU s | render s | finished at s |")
+        out.append("|---|---|---|---|---|---|---|")
+        for n in nodes:
+            out.append(f"| {n['node']} | {n['host']} | {n['load_at_start']:.2f} | {n['scanlines']} | "
+                       f"{n['cpu_s']:.2f} | {n['render_s']:.2f} | {n['finished_at_s']:.2f} |")
+        out.append(f"\nFinish-time spread: {max(fin) - min(fin):.2f} s "
+                   f"(first node done at {min(fin):.2f} s, last at {max(fin):.2f} s).\n")
+    out.append("| strategy | total s | first node done s | last node done s | spread s |")
+    out.append("|---|---|---|---|---|")
+    for label, (lo, hi, wall) in spreads.items():
+        out.append(f"| {label} | {wall:.2f} | {lo:.2f} | {hi:.2f} | {hi - lo:.2f} |")
+    out.append("")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, axes = plt.subplots(1, len(spreads), figsize=(4 * len(spreads), 3.2), sharey=True)
+        for ax, (strategy, label) in zip(axes, [("blocks", "SunRay I"), ("interleaved", "SunRay II"),
+                                                ("dynamic", "SunRay III")]):
+            nodes = sorted(data[strategy]["stats"]["nodes"], key=lambda n: n["host"])
+            ax.bar([n["host"] for n in nodes], [n["finished_at_s"] for n in nodes])
+            ax.set_title(label)
+            ax.set_xlabel("host")
+        axes[0].set_ylabel("node finished at (s)")
+        fig.tight_layout()
+        fig.savefig(os.path.join(RESULTS, "hetero.png"), dpi=100)
+        out.append("![finish times](hetero.png)\n")
+    except ImportError:
+        pass
+
+
+def fault_section(data, out):
+    clean, hit = data["clean"], data["kill2"]
+    t8, tk, t = clean["wall_s"], hit["killed_at_s"] or 0.0, hit["wall_s"]
+    ideal = tk + (t8 - tk) * 8 / 6
+    out.append("## Fault recovery (thesis Table 4.7)\n")
+    out.append("Eight workers of 0.25 CPU; `docker kill` of n7 and n8 once a quarter of the "
+               "lines are in. *Ideal* assumes the remaining work is spread at once over the "
+               "remaining capacity: t_kill + (T8 − t_kill) × 8/6.\n")
+    out.append("| run | total s |")
+    out.append("|---|---|")
+    out.append(f"| 8 workers, no fault | {t8:.2f} |")
+    out.append(f"| 8 workers, 2 killed at {tk:.2f} s | {t:.2f} |")
+    out.append(f"| ideal for the remaining capacity | {ideal:.2f} |")
+    out.append(f"| extra time over the ideal | {t - ideal:.2f} ({(t - ideal) / ideal * 100:.1f}%) |")
+    l = hit["stats"]["lines"]
+    out.append(f"\nLines given back and rendered again: {l['requeued']}; duplicated: "
+               f"{l['duplicated']}; dropped: {l['dropped']}.\n")
+    out.append("Per-node table of the run with faults:\n")
+    out.append("```")
+    out.append(hit.get("table", "").rstrip())
+    out.append("```\n")
+
+
+def main():
+    with open(os.path.join(WORK, "bench.json")) as f:
+        data = json.load(f)
+    os.makedirs(RESULTS, exist_ok=True)
+    s = data.get("settings", {})
+    out = ["# SunRay III benchmarks on the compose clusters\n",
+           f"Scene: mount6 (`../shared/scenes/spd/mount6.nff`), {s.get('resolution')}, "
+           f"samples: {s.get('samples')}. Made by `deploy/bench/run.sh` on "
+           f"{data.get('machine', 'this machine')}.\n"]
+    if "scaling" in data:
+        scaling_section(data["scaling"], out)
+    if "hetero" in data:
+        hetero_section(data["hetero"], out)
+    if "fault" in data:
+        fault_section(data["fault"], out)
+    with open(os.path.join(RESULTS, "report.md"), "w") as f:
+        f.write("\n".join(out) + "\n")
+    shutil.copy(os.path.join(WORK, "bench.json"), os.path.join(RESULTS, "bench.json"))
+    print(f"wrote {os.path.join(RESULTS, 'report.md')}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

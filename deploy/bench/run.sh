@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# SunRay III benchmarks on the compose clusters; writes deploy/bench/results/report.md and
+# PNG plots. Takes the machine's cores for several minutes: run it on a quiet machine.
+#
+#   deploy/bench/run.sh                  # scaling, hetero, fault
+#   deploy/bench/run.sh scaling          # one of them (the others' results are kept)
+#
+# BENCH_RES (default 512x512) and BENCH_SAMPLES set the render; SKIP_IMAGE=1 uses the
+# image as it is; SUNRAY_SCENES is the folder holding mount6.nff (default: the shared
+# scenes beside the repository, else one generated with `sunray spd mount`).
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+root="$(cd "$here/../.." && pwd)"
+cd "$root"
+if [ -z "${SKIP_IMAGE:-}" ]; then deploy/build-image.sh; fi
+mkdir -p "$here/work"
+[ -s "$here/work/secret" ] || (umask 077 && head -c 32 /dev/urandom | base64 > "$here/work/secret")
+if [ -z "${SUNRAY_SCENES:-}" ]; then
+  if [ -f "$root/../shared/scenes/spd/mount6.nff" ]; then
+    SUNRAY_SCENES="$(cd "$root/../shared/scenes/spd" && pwd)"
+  else
+    SUNRAY_SCENES="$here/work/scenes"; mkdir -p "$SUNRAY_SCENES"
+    "${CARGO_TARGET_DIR:-target}/release/sunray" spd mount -o "$SUNRAY_SCENES/mount6.nff"
+  fi
+fi
+export SUNRAY_SCENES
+python3 -c 'import matplotlib' 2>/dev/null || pip install -q matplotlib || true
+python3 "$here/bench.py" "$@"
+python3 "$here/report.py"

@@ -1,0 +1,157 @@
+//! The controller's handling of what the relay delivers: worker messages (Ready, Request,
+//! Done, WorkerError), job events (Exited, Lost) and undeliverable notices.
+
+use super::Controller;
+use crate::distrib::grants::Completion;
+use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::nodes::Outcome;
+use crate::stats::Counters;
+use rem::{EventKind, Incoming};
+use serde_json::json;
+
+impl Controller {
+    pub(super) fn on_incoming(&mut self, incoming: Incoming) {
+        match incoming {
+            Incoming::Message { from, payload } => {
+                self.messages_in += 1;
+                let Some(&i) = self.by_proc.get(&from) else {
+                    return;
+                };
+                match messages::decode(&payload) {
+                    Ok(body) => self.on_message(i, body),
+                    Err(e) => self
+                        .view
+                        .event(json!({"event": "bad-message", "node": i + 1,
+                        "error": e.to_string()})),
+                }
+            }
+            Incoming::Event(ev) => {
+                let Some(&i) = self.by_proc.get(&ev.proc_id) else {
+                    return;
+                };
+                let (reason, clean) = match ev.kind() {
+                    EventKind::Exited => match (ev.exit_code, ev.signal) {
+                        (_, Some(sig)) => (format!("killed by signal {sig}"), false),
+                        (Some(code), _) => (format!("exited with code {code}"), code == 0),
+                        _ => ("exited".to_string(), false),
+                    },
+                    EventKind::Lost => (format!("host {} lost", ev.host), false),
+                    _ => return,
+                };
+                self.on_gone(i, reason, clean);
+            }
+            Incoming::Undeliverable { to, reason } => {
+                if let Some(&i) = self.by_proc.get(&to) {
+                    self.on_gone(i, format!("unreachable: {reason}"), false);
+                }
+            }
+        }
+    }
+
+    fn on_message(&mut self, i: usize, body: Body) {
+        let n = &mut self.nodes[i];
+        match body {
+            Body::Ready(r) => {
+                n.host = if r.host.is_empty() {
+                    n.host.clone()
+                } else {
+                    r.host
+                };
+                (n.cores, n.threads, n.load_at_start) = (r.cores, r.threads, r.load_avg);
+                if n.outcome == Outcome::Starting {
+                    n.outcome = Outcome::Ok;
+                }
+                self.view
+                    .event(json!({"event": "ready", "node": i + 1, "host": n.host,
+                    "cores": r.cores, "threads": r.threads, "pid": r.pid}));
+            }
+            Body::Request(r) => {
+                n.preprocess_s = r.preprocess_s;
+                self.table.request(i, r.lines);
+            }
+            Body::Done(d) => self.on_done(i, d),
+            Body::WorkerError(e) => {
+                self.view.note(&format!(
+                    "sunray: worker {} ({}): {}",
+                    i + 1,
+                    n.host,
+                    e.message
+                ));
+                n.fault = Some(e.message);
+            }
+            _ => {}
+        }
+    }
+
+    fn on_done(&mut self, i: usize, d: proto::Done) {
+        let width = self.cfg.width;
+        let Ok(pixels) = messages::pixels_from_bytes(&d.pixels, width) else {
+            self.view
+                .event(json!({"event": "bad-line", "node": i + 1, "line": d.line}));
+            return;
+        };
+        let n = &mut self.nodes[i];
+        if let Some(c) = &d.clock {
+            (n.cpu_s, n.elapsed_s, n.preprocess_s, n.render_s) =
+                (c.cpu_s, c.elapsed_s, c.preprocess_s, c.render_s);
+            (n.wait_s, n.first_wait_s) = (c.wait_s, c.first_wait_s);
+        }
+        if n.outcome == Outcome::Silent {
+            n.outcome = Outcome::Ok;
+        }
+        match self.table.complete(i, d.grant, d.line) {
+            Completion::Accepted => {
+                let proto_counters = d.counters.unwrap_or_default();
+                let c = Counters::from(&proto_counters);
+                self.max_line_s = self.max_line_s.max(proto_counters.line_s);
+                self.film.set_line(d.line, &pixels);
+                n.add_line(&c);
+                n.finished_at_s = self.started.elapsed().as_secs_f64();
+                self.counters += c;
+                self.lines.rendered += 1;
+                self.checkpointer.record(proto::FinishedLine {
+                    line: d.line,
+                    pixels: d.pixels,
+                    counters: Some(proto_counters),
+                });
+                let done = self.table.done();
+                self.view.set_done(done);
+                self.view
+                    .event(json!({"event": "line", "node": i + 1, "line": d.line,
+                    "done": done, "total": self.cfg.height}));
+            }
+            Completion::Duplicate => n.dropped += 1,
+            Completion::Unknown => {}
+        }
+        self.table.request(i, d.want);
+    }
+
+    /// Node `i`'s process exited, its host was lost, or it cannot be reached. `clean`: it
+    /// exited with code 0, which is a fault only before it was told to stop.
+    pub(super) fn on_gone(&mut self, i: usize, reason: String, clean: bool) {
+        if self.exited[i] {
+            return;
+        }
+        self.exited[i] = true;
+        let held = self.table.node_gone(i);
+        let n = &mut self.nodes[i];
+        n.lines_given_back += held as u64;
+        if self.finishing && clean {
+            return;
+        }
+        n.outcome = Outcome::Fault;
+        let why = match &n.fault {
+            Some(f) => format!("{reason}: {f}"),
+            None => reason,
+        };
+        self.view.note(&format!(
+            "sunray: node {} ({}) FAULT: {why}; {held} line(s) go back to the queue",
+            i + 1,
+            n.host
+        ));
+        self.view
+            .event(json!({"event": "fault", "node": i + 1, "reason": why,
+            "given_back": held}));
+        n.fault = Some(why);
+    }
+}

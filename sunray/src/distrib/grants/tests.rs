@@ -1,0 +1,225 @@
+//! Unit tests of the grant table.
+
+use super::*;
+
+fn t(ms: u64) -> Instant {
+    thread_local!(static T0: Instant = Instant::now());
+    T0.with(|t0| *t0 + Duration::from_millis(ms))
+}
+
+fn lines(a: &[Assignment]) -> Vec<u32> {
+    a.iter().map(|a| a.line).collect()
+}
+
+#[test]
+fn assigns_round_robin_within_credit() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 6, 2, &[]);
+    g.request(0, 2);
+    g.request(1, 1);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![0, 1, 2]);
+    assert_eq!(a.iter().map(|a| a.node).collect::<Vec<_>>(), vec![0, 1, 0]);
+    assert_eq!(
+        a.iter().map(|a| a.grant).collect::<Vec<_>>(),
+        vec![1, 2, 3],
+        "grant numbers are fresh"
+    );
+    assert!(g.assign(t(0)).is_empty(), "no credit left");
+    assert_eq!((g.outstanding(0), g.outstanding(1)), (2, 1));
+}
+
+#[test]
+fn completes_every_line_once() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 3, 1, &[]);
+    g.request(0, 1);
+    let mut seen = Vec::new();
+    while !g.is_finished() {
+        let a = g.assign(t(0));
+        assert_eq!(a.len(), 1);
+        assert_eq!(g.complete(0, a[0].grant, a[0].line), Completion::Accepted);
+        seen.push(a[0].line);
+        g.request(0, 1);
+    }
+    assert_eq!(seen, vec![0, 1, 2]);
+    assert_eq!(g.done(), 3);
+}
+
+#[test]
+fn first_completion_wins() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 1, 2, &[]);
+    g.request(0, 1);
+    let a = g.assign(t(0))[0];
+    g.request(1, 1);
+    let d = g.duplicate_stragglers(t(1000), Duration::from_millis(500));
+    assert_eq!(d.len(), 1);
+    assert!(d[0].duplicate && d[0].line == a.line && d[0].node == 1);
+    assert_eq!(g.complete(1, d[0].grant, 0), Completion::Accepted);
+    assert_eq!(g.complete(0, a.grant, 0), Completion::Duplicate);
+    assert_eq!(g.complete(0, a.grant, 0), Completion::Duplicate);
+    assert_eq!(g.done(), 1);
+    assert_eq!(g.counts().dropped, 2);
+    assert_eq!(
+        g.outstanding(0),
+        0,
+        "the slow copy is no longer outstanding"
+    );
+}
+
+#[test]
+fn unknown_grants_are_ignored() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 2, 2, &[]);
+    g.request(0, 1);
+    let a = g.assign(t(0))[0];
+    assert_eq!(g.complete(0, 0, 0), Completion::Unknown);
+    assert_eq!(g.complete(0, 99, 0), Completion::Unknown);
+    assert_eq!(g.complete(0, a.grant, 1), Completion::Unknown, "wrong line");
+    assert_eq!(g.complete(1, a.grant, 0), Completion::Unknown, "wrong node");
+    assert_eq!(g.done(), 0);
+}
+
+#[test]
+fn a_gone_node_gives_its_lines_back_first() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 6, 2, &[]);
+    g.request(0, 2);
+    g.request(1, 2);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![0, 1, 2, 3]);
+    assert_eq!(g.node_gone(1), 2);
+    assert_eq!(g.node_gone(1), 0, "only once");
+    assert_eq!(g.counts().requeued, 2);
+    assert_eq!(g.live_nodes(), 1);
+    g.request(1, 5);
+    assert!(
+        g.assign(t(0)).is_empty(),
+        "a gone node gets nothing and node 0 has no credit"
+    );
+    g.complete(0, a[0].grant, 0);
+    g.request(0, 3);
+    let b = g.assign(t(1));
+    assert_eq!(lines(&b), vec![3, 1, 4], "lost lines come first");
+    // A late completion from the gone node is still good pixels.
+    assert_eq!(g.complete(1, a[1].grant, 1), Completion::Accepted);
+    assert_eq!(g.complete(0, b[1].grant, 1), Completion::Duplicate);
+}
+
+#[test]
+fn silent_nodes_time_out_and_come_back() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 2, &[]);
+    g.request(0, 1);
+    g.request(1, 1);
+    let a = g.assign(t(0));
+    g.complete(0, a[0].grant, 0);
+    g.request(0, 1);
+    let b = g.assign(t(900));
+    assert_eq!(lines(&b), vec![2]);
+    let timeout = Duration::from_millis(1000);
+    assert!(g.expire(t(1000), timeout).is_empty());
+    assert_eq!(g.expire(t(1001), timeout), vec![(1, 1)]);
+    assert_eq!(g.node_state(1), Some(NodeState::Silent));
+    assert_eq!(g.active_nodes(), 1);
+    assert_eq!(g.live_nodes(), 2);
+    g.request(1, 1);
+    assert_eq!(g.node_state(1), Some(NodeState::Active), "heard from again");
+    let c = g.assign(t(1002));
+    assert_eq!(lines(&c), vec![1], "the timed-out line is handed out again");
+    // The silent node's own late completion of line 1 is still accepted first.
+    assert_eq!(g.complete(1, a[1].grant, 1), Completion::Accepted);
+    assert_eq!(g.complete(1, c[0].grant, 1), Completion::Duplicate);
+}
+
+#[test]
+fn a_line_finished_by_a_revoked_grant_is_not_handed_out_again() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 2, 1, &[]);
+    g.request(0, 1);
+    let a = g.assign(t(0))[0];
+    assert_eq!(g.expire(t(10), Duration::from_millis(5)), vec![(0, 1)]);
+    assert_eq!(g.complete(0, a.grant, 0), Completion::Accepted);
+    g.request(0, 2);
+    assert_eq!(lines(&g.assign(t(11))), vec![1]);
+}
+
+#[test]
+fn stragglers_are_duplicated_oldest_first_and_only_once() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 3, &[]);
+    g.request(0, 2);
+    let a = g.assign(t(0));
+    g.request(1, 2);
+    let b = g.assign(t(100));
+    assert_eq!((lines(&a), lines(&b)), (vec![0, 1], vec![2, 3]));
+    g.request(2, 3);
+    let min_age = Duration::from_millis(50);
+    assert!(
+        g.duplicate_stragglers(t(10), min_age).is_empty(),
+        "too young"
+    );
+    let d = g.duplicate_stragglers(t(200), min_age);
+    assert_eq!(lines(&d), vec![0, 1, 2], "oldest first, limited by credit");
+    assert!(d.iter().all(|x| x.node == 2 && x.duplicate));
+    g.request(1, 5);
+    let e = g.duplicate_stragglers(t(300), min_age);
+    assert_eq!(lines(&e), Vec::<u32>::new(), "line 3 is node 1's own");
+    g.request(0, 1);
+    let f = g.duplicate_stragglers(t(300), min_age);
+    assert_eq!(lines(&f), vec![3]);
+    assert!(g.duplicate_stragglers(t(400), min_age).is_empty());
+    assert_eq!(g.counts().duplicated, 4);
+}
+
+#[test]
+fn no_duplicates_while_lines_are_queued() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 3, 2, &[]);
+    g.request(0, 1);
+    g.assign(t(0));
+    g.request(1, 1);
+    // Node 1 has credit but line 1 is still queued for it: assign, not duplicate.
+    assert!(g.duplicate_stragglers(t(1000), Duration::ZERO).is_empty());
+}
+
+#[test]
+fn static_strategies_keep_their_order_and_survive_a_lost_node() {
+    let mut g = GrantTable::new(Strategy::Blocks, 6, 2, &[]);
+    g.request(0, 1);
+    g.request(1, 1);
+    assert_eq!(lines(&g.assign(t(0))), vec![0, 3]);
+    g.node_gone(1);
+    g.request(0, 10);
+    assert_eq!(lines(&g.assign(t(1))), vec![1, 2, 3, 4, 5]);
+
+    let mut g = GrantTable::new(Strategy::Interleaved, 6, 3, &[]);
+    for n in 0..3 {
+        g.request(n, 2);
+    }
+    assert_eq!(lines(&g.assign(t(0))), vec![0, 1, 2, 3, 4, 5]);
+}
+
+#[test]
+fn static_nodes_do_not_take_queued_lines_of_a_slow_node() {
+    let mut g = GrantTable::new(Strategy::Blocks, 4, 2, &[]);
+    g.request(0, 2);
+    g.request(1, 1);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![0, 2, 1]);
+    g.complete(0, a[0].grant, 0);
+    g.complete(0, a[2].grant, 1);
+    g.request(0, 2);
+    // Node 1 still owns line 3 (queued): node 0 only duplicates what is outstanding.
+    assert!(g.assign(t(1)).is_empty());
+    let d = g.duplicate_stragglers(t(1000), Duration::ZERO);
+    assert_eq!(lines(&d), vec![2]);
+}
+
+#[test]
+fn resume_skips_finished_lines() {
+    let finished = [true, false, true, false];
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 1, &finished);
+    assert_eq!(g.done(), 2);
+    g.request(0, 4);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![1, 3]);
+    for x in &a {
+        assert_eq!(g.complete(0, x.grant, x.line), Completion::Accepted);
+    }
+    assert!(g.is_finished());
+    let all = GrantTable::new(Strategy::Interleaved, 2, 2, &[true, true]);
+    assert!(all.is_finished());
+}

@@ -1,0 +1,223 @@
+//! Analytic checks: a diffuse sphere under one point light against the closed form of the
+//! Hall diffuse term; refraction through a glass sphere against Snell's law and Fresnel's
+//! equations; total internal reflection keeps light inside; bad input gives a diagnostic and
+//! never a NaN pixel.
+
+mod hard_common;
+
+use glam::DVec3;
+use hard_common::{assert_finite, render, world};
+use sunray::accel::{Accel, AccelOptions, Scratch};
+use sunray::camera::Camera;
+use sunray::geometry::Ray;
+use sunray::sampler::SampleStream;
+use sunray::scene::Scene;
+use sunray::shading::hall::RayKind;
+use sunray::shading::{TraceOptions, Tracer};
+use sunray::stats::Counters;
+
+/// Hall diffuse term, kdr C I (N.L), with nothing else: every pixel of the sphere equals the
+/// closed form computed here independently of the renderer's shading code.
+#[test]
+fn diffuse_sphere_matches_the_closed_form() {
+    let w = world(
+        "resolution(65, 65);
+background(color = 0,0,0);
+ambient(color = 0,0,0);
+light(position = 3,4,5 ; color = 0.9,0.9,0.9);
+camera(position = 0,0,6 ; at = 0,0,0 ; up = 0,1,0 ; angle = 12);
+begin attribute(color = 1,0.5,0.25 ; kdr = 1 ; ka = 0); sphere(center = 0,0,0 ; radius = 1); end",
+    );
+    let film = render(&w);
+    let cam = Camera::new(&w.camera, 65, 65);
+    let light = DVec3::new(3.0, 4.0, 5.0);
+    let mut checked = 0;
+    for y in 0..65u32 {
+        for x in 0..65u32 {
+            let d = cam.direction(x as f64 + 0.5, y as f64 + 0.5).normalize();
+            let o = w.camera.position;
+            // |o + t d|^2 = 1
+            let b = o.dot(d);
+            let disc = b * b - (o.length_squared() - 1.0);
+            let got = film.pixels[(y * 65 + x) as usize];
+            if disc < 1e-3 {
+                if disc < -1e-3 {
+                    assert_eq!(got, [0.0; 3], "background at ({x}, {y})");
+                }
+                continue;
+            }
+            let t = -b - disc.sqrt();
+            let p = o + d * t;
+            let n = p.normalize();
+            let ndl = n.dot((light - p).normalize()).max(0.0);
+            let want = [0.9 * ndl, 0.45 * ndl, 0.225 * ndl];
+            for c in 0..3 {
+                assert!(
+                    (got[c] as f64 - want[c]).abs() < 1e-6,
+                    "pixel ({x}, {y}) channel {c}: {} vs {}",
+                    got[c],
+                    want[c]
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 1500, "{checked}");
+}
+
+struct Probe {
+    scene: Scene,
+    accel: Accel,
+}
+
+impl Probe {
+    fn new(text: &str) -> Probe {
+        let scene = Scene::new(world(text));
+        let accel = Accel::build(&scene.prims, &AccelOptions::default());
+        Probe { scene, accel }
+    }
+    fn trace(&self, ray: Ray, max_depth: u32) -> DVec3 {
+        let mut scratch = Scratch::new(self.scene.prims.len(), true);
+        let mut counters = Counters::default();
+        let mut tracer = Tracer {
+            scene: &self.scene,
+            accel: &self.accel,
+            opts: TraceOptions {
+                max_depth,
+                min_weight: 0.0,
+            },
+            scratch: &mut scratch,
+            counters: &mut counters,
+        };
+        let mut rng = SampleStream::new(0, 0, 0);
+        tracer.trace(ray, RayKind::Eye, 1, 1.0, None, &mut rng)
+    }
+}
+
+/// Fresnel reflectance for unpolarised light, written out here independently.
+fn fresnel(cos_i: f64, n1: f64, n2: f64) -> f64 {
+    let sin_t = n1 / n2 * (1.0 - cos_i * cos_i).sqrt();
+    let cos_t = (1.0 - sin_t * sin_t).sqrt();
+    let rs = ((n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t)).powi(2);
+    let rp = ((n1 * cos_t - n2 * cos_i) / (n1 * cos_t + n2 * cos_i)).powi(2);
+    0.5 * (rs + rp)
+}
+
+/// A ray parallel to the axis at height b enters a glass sphere (n = 1.5) at incidence
+/// asin(b), bends to asin(b / n), leaves deviated by 2 (theta_i - theta_t) and lands on a
+/// diffuse detector plane lit from 1 above it (off to the side, so the light itself is not
+/// seen through the glass), whose brightness tells where the ray landed.
+/// The traced colour must equal (1 - F_in)(1 - F_out) times the detector's N.L there.
+#[test]
+fn refraction_through_a_sphere_follows_snell_and_fresnel() {
+    let probe = Probe::new(
+        "background(color = 0,0,0);
+ambient(color = 0,0,0);
+light(position = 0,8,-9 ; color = 1,1,1);
+begin
+  begin attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.5 ; phong = 1e7); sphere(center = 0,0,0 ; radius = 1); end
+  begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -50,-50,-10 50,-50,-10 50,50,-10 -50,50,-10); end
+end",
+    );
+    let n = 1.5_f64;
+    for b in [0.05, 0.2, 0.35, 0.5, 0.6] {
+        let ti = (b as f64).asin();
+        let tt = (b / n).asin();
+        let dev = 2.0 * (ti - tt);
+        // Exit point: the chord inside subtends pi - 2 theta_t at the centre; the entry point
+        // is at angle ti from +z in the y-z plane.
+        let entry_angle = ti; // measured from +z towards +y
+        let exit_angle = entry_angle + (std::f64::consts::PI - 2.0 * tt);
+        let exit = DVec3::new(0.0, exit_angle.sin(), exit_angle.cos());
+        let dir = DVec3::new(0.0, -dev.sin(), -dev.cos());
+        let t = (-10.0 - exit.z) / dir.z;
+        let land = exit + dir * t;
+        let r = (land.y - 8.0).abs();
+        let ndl = 1.0 / (1.0 + r * r).sqrt();
+        let f_in = fresnel(ti.cos(), 1.0, n);
+        let f_out = fresnel(tt.cos(), n, 1.0);
+        let want = (1.0 - f_in) * (1.0 - f_out) * ndl;
+        let got = probe.trace(Ray::new(DVec3::new(0.0, b, 5.0), -DVec3::Z), 3);
+        assert!(
+            (got.x - want).abs() < 1e-9,
+            "b = {b}: traced {} vs Snell/Fresnel {want} (lands at y = {})",
+            got.x,
+            land.y
+        );
+    }
+}
+
+/// Inside a lossless glass sphere, a ray beyond the critical angle is totally reflected and
+/// never leaks out (white background, so any leak shows); below it, light gets out.
+#[test]
+fn total_internal_reflection_traps_the_ray() {
+    let probe = Probe::new(
+        "background(color = 1,1,1);
+ambient(color = 0,0,0);
+begin attribute(color = 1,1,1 ; kdr = 0 ; kdt = 0 ; ka = 0 ; refract = 1.5); sphere(center = 0,0,0 ; radius = 1); end",
+    );
+    // sin(incidence) = 0.9 > 1/1.5: every bounce inside a sphere has the same incidence.
+    let trapped = probe.trace(Ray::new(DVec3::new(0.0, 0.9, 0.0), DVec3::X), 30);
+    assert_eq!(trapped, DVec3::ZERO, "TIR leaked {trapped}");
+    let escapes = probe.trace(Ray::new(DVec3::new(0.0, 0.3, 0.0), DVec3::X), 30);
+    assert!(escapes.x > 0.95 && escapes.x <= 1.0 + 1e-12, "{escapes}");
+}
+
+/// NaN, infinity, a zero `up` and `at == position` are diagnosed by the compiler.
+#[test]
+fn bad_numbers_and_views_are_diagnosed() {
+    let cases = [
+        ("camera(position = 0,0,5 ; at = 0,0,0 ; up = 0,0,0 ; angle = 20); begin end", "`up` must not be the zero vector"),
+        ("camera(position = 1,2,3 ; at = 1,2,3 ; up = 0,1,0 ; angle = 20); begin end", "`at` must differ"),
+        ("camera(position = 0,0,1e999 ; at = 0,0,0 ; up = 0,1,0 ; angle = 20); begin end", "infinity"),
+        ("begin sphere(center = 0,1e400,0 ; radius = 1); end", "infinity"),
+        ("begin sphere(center = 0,0,0 ; radius = 0); end", "radius"),
+        ("light(position = 0,0,1e999 ; color = 1,1,1); begin end", "infinity"),
+        ("background(color = 1e309,0,0); begin end", "infinity"),
+    ];
+    for (text, what) in cases {
+        let r = yari::load::load_str(
+            "bad.yari",
+            text,
+            yari::load::InputKind::Yari,
+            &yari::colour::ColourTable::builtin(),
+        );
+        let Err(e) = r else {
+            panic!("{text}: accepted");
+        };
+        let msg = e.to_string();
+        assert!(msg.contains(what), "{text}: diagnostic {msg:?} does not mention {what}");
+    }
+}
+
+/// A model built without the compiler (as a .model file or a program could) with NaN and
+/// infinite numbers and a degenerate view still renders finite pixels only.
+#[test]
+fn non_finite_model_renders_no_nan() {
+    let mut w = world(
+        "resolution(24, 16);
+light(position = 3,4,5 ; color = 1,1,1);
+camera(position = 0,0,6 ; at = 0,0,0 ; up = 0,1,0 ; angle = 20);
+begin sphere(center = 0,0,0 ; radius = 1); sphere(center = 2,0,0 ; radius = 1);
+  polygon(vertices = 3; 0,0,0 1,0,0 0,1,0); end",
+    );
+    if let yari::model::Shape::Sphere { center, .. } = &mut w.objects[0].shape {
+        center.x = f64::NAN;
+    }
+    if let yari::model::Shape::Polygon { vertices } = &mut w.objects[2].shape {
+        vertices[1].y = f64::INFINITY;
+    }
+    w.lights.push(yari::model::Light {
+        position: DVec3::new(f64::NAN, 0.0, 0.0),
+        color: DVec3::ONE,
+        radius: 0.0,
+    });
+    for (at, up) in [(w.camera.position, DVec3::Y), (DVec3::ZERO, DVec3::ZERO), (DVec3::ZERO, DVec3::Z)] {
+        let mut v = w.clone();
+        v.camera.at = at;
+        v.camera.up = up;
+        let scene = Scene::new(v.clone());
+        assert_eq!(scene.dropped.len(), 2, "the NaN sphere and infinite polygon are dropped");
+        assert_finite(&render(&v));
+    }
+}
