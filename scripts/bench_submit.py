@@ -122,7 +122,7 @@ def workers(bin_dir, size):
                   f"{times[1][0] / times[2][0]:.2f}")
 
 
-def strategies(bin_dir, size):
+def strategies(bin_dir, size, samples):
     cpus = os.cpu_count() or 1
     with tempfile.TemporaryDirectory() as tmp:
         procs, addrs, secret = remds(bin_dir, tmp, ["a", "b", "c"])
@@ -148,7 +148,8 @@ def strategies(bin_dir, size):
                 s, wall = submit(bin_dir, tmp, ["--remd", addrs[0], "--secret-file", secret,
                                                 "--hosts", "3", "--threads", "1",
                                                 "--strategy", strategy, "--resolution",
-                                                f"{size}x{size}", MOUNT6],
+                                                f"{size}x{size}", "--samples", str(samples),
+                                                MOUNT6],
                                  on_event=on_event)
                 hog.kill()
                 hog.wait()
@@ -169,7 +170,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
     ap.add_argument("--size", type=int, default=512)
-    ap.add_argument("--strategy-size", type=int, default=256)
+    ap.add_argument("--strategy-size", type=int, default=512)
+    ap.add_argument("--strategy-samples", type=int, default=4)
     ap.add_argument("--only", default="overhead,workers,strategies")
     a = ap.parse_args()
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
@@ -180,7 +182,9 @@ def main():
     if "workers" in only:
         workers(a.bin, a.size)
     if "strategies" in only:
-        strategies(a.bin, a.strategy_size)
+        print(f"strategies: mount6 {a.strategy_size}x{a.strategy_size} x{a.strategy_samples}, "
+              "3 workers of 1 thread, worker 3 at nice 10 behind a CPU hog")
+        strategies(a.bin, a.strategy_size, a.strategy_samples)
 
 
 if __name__ == "__main__":

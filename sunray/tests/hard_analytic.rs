@@ -167,12 +167,27 @@ begin attribute(color = 1,1,1 ; kdr = 0 ; kdt = 0 ; ka = 0 ; refract = 1.5); sph
 #[test]
 fn bad_numbers_and_views_are_diagnosed() {
     let cases = [
-        ("camera(position = 0,0,5 ; at = 0,0,0 ; up = 0,0,0 ; angle = 20); begin end", "`up` must not be the zero vector"),
-        ("camera(position = 1,2,3 ; at = 1,2,3 ; up = 0,1,0 ; angle = 20); begin end", "`at` must differ"),
-        ("camera(position = 0,0,1e999 ; at = 0,0,0 ; up = 0,1,0 ; angle = 20); begin end", "infinity"),
-        ("begin sphere(center = 0,1e400,0 ; radius = 1); end", "infinity"),
+        (
+            "camera(position = 0,0,5 ; at = 0,0,0 ; up = 0,0,0 ; angle = 20); begin end",
+            "`up` must not be the zero vector",
+        ),
+        (
+            "camera(position = 1,2,3 ; at = 1,2,3 ; up = 0,1,0 ; angle = 20); begin end",
+            "`at` must differ",
+        ),
+        (
+            "camera(position = 0,0,1e999 ; at = 0,0,0 ; up = 0,1,0 ; angle = 20); begin end",
+            "infinity",
+        ),
+        (
+            "begin sphere(center = 0,1e400,0 ; radius = 1); end",
+            "infinity",
+        ),
         ("begin sphere(center = 0,0,0 ; radius = 0); end", "radius"),
-        ("light(position = 0,0,1e999 ; color = 1,1,1); begin end", "infinity"),
+        (
+            "light(position = 0,0,1e999 ; color = 1,1,1); begin end",
+            "infinity",
+        ),
         ("background(color = 1e309,0,0); begin end", "infinity"),
     ];
     for (text, what) in cases {
@@ -186,7 +201,10 @@ fn bad_numbers_and_views_are_diagnosed() {
             panic!("{text}: accepted");
         };
         let msg = e.to_string();
-        assert!(msg.contains(what), "{text}: diagnostic {msg:?} does not mention {what}");
+        assert!(
+            msg.contains(what),
+            "{text}: diagnostic {msg:?} does not mention {what}"
+        );
     }
 }
 
@@ -212,12 +230,20 @@ begin sphere(center = 0,0,0 ; radius = 1); sphere(center = 2,0,0 ; radius = 1);
         color: DVec3::ONE,
         radius: 0.0,
     });
-    for (at, up) in [(w.camera.position, DVec3::Y), (DVec3::ZERO, DVec3::ZERO), (DVec3::ZERO, DVec3::Z)] {
+    for (at, up) in [
+        (w.camera.position, DVec3::Y),
+        (DVec3::ZERO, DVec3::ZERO),
+        (DVec3::ZERO, DVec3::Z),
+    ] {
         let mut v = w.clone();
         v.camera.at = at;
         v.camera.up = up;
         let scene = Scene::new(v.clone());
-        assert_eq!(scene.dropped.len(), 2, "the NaN sphere and infinite polygon are dropped");
+        assert_eq!(
+            scene.dropped.len(),
+            2,
+            "the NaN sphere and infinite polygon are dropped"
+        );
         assert_finite(&render(&v));
     }
 }

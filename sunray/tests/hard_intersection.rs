@@ -61,7 +61,10 @@ fn secondary_rays_leave_spheres_cleanly_at_every_scale() {
             let refl = d - n * (2.0 * d.dot(n));
             let out = Ray::new(offset_from(p, n, eye), refl);
             let again = sphere.intersect(&RayPre::new(out), 0.0, f64::INFINITY);
-            assert_eq!(again, None, "reflected ray re-hit at r = {radius}, centre {centre}");
+            assert_eq!(
+                again, None,
+                "reflected ray re-hit at r = {radius}, centre {centre}"
+            );
             // A shadow ray towards a light outside.
             let to_light = (n + refl).normalize();
             let shadow = Ray::new(offset_from(p, n, eye), to_light);
@@ -97,7 +100,11 @@ fn ray_starting_on_a_sphere_and_tangent_rays_are_handled() {
     assert!((t - 2.0).abs() < 1e-12, "{t}");
     // Tangent rays: exactly tangent gives at most a (double) root on the tangent point; just
     // inside hits near it, just outside misses; never a NaN.
-    for (offset, hits) in [(1.0, None), (1.0 - 1e-12, Some(true)), (1.0 + 1e-12, Some(false))] {
+    for (offset, hits) in [
+        (1.0, None),
+        (1.0 - 1e-12, Some(true)),
+        (1.0 + 1e-12, Some(false)),
+    ] {
         let r = Ray::new(DVec3::new(-5.0, offset, 0.0), DVec3::X);
         let t = intersect_sphere(&r, c, 1.0, 0.0, 1e9);
         if let Some(t) = t {
@@ -125,7 +132,10 @@ fn tiny_and_distant_spheres_are_hit_on_their_surface() {
             let t = intersect_sphere(&ray, centre, radius, 0.0, f64::INFINITY)
                 .unwrap_or_else(|| panic!("missed sphere r = {radius} at {centre}"));
             let err = ((ray.at(t) - centre).length() - radius).abs() / radius;
-            assert!(err < 1e-6, "r = {radius} at {centre}: relative error {err:e}");
+            assert!(
+                err < 1e-6,
+                "r = {radius} at {centre}: relative error {err:e}"
+            );
         }
     }
 }

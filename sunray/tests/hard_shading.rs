@@ -11,7 +11,9 @@ use sunray::accel::AccelKind;
 /// A floor, a mirror ball, a glass ball, a diffuse ball casting a shadow, one light;
 /// every coordinate multiplied by `s` and moved by `off`.
 fn scaled_scene(s: f64, off: [f64; 3]) -> String {
-    let p = |x: f64, y: f64, z: f64| format!("{},{},{}", x * s + off[0], y * s + off[1], z * s + off[2]);
+    let p = |x: f64, y: f64, z: f64| {
+        format!("{},{},{}", x * s + off[0], y * s + off[1], z * s + off[2])
+    };
     format!(
         "resolution(96, 72);
 background(color = 0.2,0.3,0.5);
@@ -77,7 +79,8 @@ begin
 end"
         )
     };
-    let glass = "begin attribute(color = 1,1,1 ; kdr = 0 ; kdt = 0 ; ka = 0 ; refract = 1 ; phong = 1e7);
+    let glass =
+        "begin attribute(color = 1,1,1 ; kdr = 0 ; kdt = 0 ; ka = 0 ; refract = 1 ; phong = 1e7);
       sphere(center = 0,1,0 ; radius = 1.2); sphere(center = 0.2,1,0.1 ; radius = 0.6); end";
     for eye in ["0,2.5,9", "0.1,1,0.2"] {
         let without = render(&world(&base("", eye)));
@@ -121,7 +124,11 @@ end",
     let reference = render(&world(&scene(false)));
     hard_common::save(&mirrored, "mirror");
     hard_common::save(&reference, "mirror_reference");
-    let lit = reference.pixels.iter().filter(|p| p[0].max(p[1]) > 0.2).count();
+    let lit = reference
+        .pixels
+        .iter()
+        .filter(|p| p[0].max(p[1]) > 0.2)
+        .count();
     assert!(lit > 60, "the reference shows the balls ({lit} pixels)");
     assert_same_picture(&reference, &mirrored, "mirror");
 }
@@ -149,10 +156,19 @@ end",
     assert_eq!(films[0], films[2], "BVH differs from exhaustive");
     let rgb = films[0].to_rgb8();
     let green = rgb.chunks(3).filter(|p| p[1] > 0 && p[0] == 0).count();
-    let blue_only = rgb.chunks(3).filter(|p| p[2] > 0 && p[0] == 0 && p[1] == 0).count();
+    let blue_only = rgb
+        .chunks(3)
+        .filter(|p| p[2] > 0 && p[0] == 0 && p[1] == 0)
+        .count();
     let red = rgb.chunks(3).filter(|p| p[0] > 0).count();
     // Red (object 1) wins wherever it is; green only outside red; no pixel mixes.
-    assert!(red > 300 && green > 100 && blue_only > 10, "{red} {green} {blue_only}");
-    let mixed = rgb.chunks(3).filter(|p| p.iter().filter(|c| **c > 0).count() > 1).count();
+    assert!(
+        red > 300 && green > 100 && blue_only > 10,
+        "{red} {green} {blue_only}"
+    );
+    let mixed = rgb
+        .chunks(3)
+        .filter(|p| p.iter().filter(|c| **c > 0).count() > 1)
+        .count();
     assert_eq!(mixed, 0);
 }

@@ -115,26 +115,45 @@ fn camera_inside_a_grid_cube_never_sees_the_background() {
         (DVec3::ZERO, DVec3::X, DVec3::Y),
         (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0), DVec3::Z),
         (DVec3::ZERO, DVec3::new(1.0, 1.0, 1.0), DVec3::Y),
-        (DVec3::new(0.25, -0.5, 0.125), DVec3::new(0.25, -0.5, -1.0), DVec3::Y),
-        (DVec3::new(0.5, 0.5, 0.5), DVec3::new(1.0, 1.0, 1.0), DVec3::X),
+        (
+            DVec3::new(0.25, -0.5, 0.125),
+            DVec3::new(0.25, -0.5, -1.0),
+            DVec3::Y,
+        ),
+        (
+            DVec3::new(0.5, 0.5, 0.5),
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::X,
+        ),
     ];
     for (pos, at, up) in views {
         let w = inside_world(grid_cube(8), pos, at, up);
         for kind in KINDS {
             let film = render_with(&w, kind);
             let leaks = count_colour(&film, [255, 0, 255]);
-            assert_eq!(leaks, 0, "{kind:?} from {pos} towards {at}: {leaks} pixels leak");
+            assert_eq!(
+                leaks, 0,
+                "{kind:?} from {pos} towards {at}: {leaks} pixels leak"
+            );
         }
     }
 }
 
 #[test]
 fn camera_inside_a_triangle_sphere_sees_no_hole_at_its_poles() {
-    for (at, up) in [(DVec3::Z, DVec3::Y), (-DVec3::Z, DVec3::X), (DVec3::X, DVec3::Z)] {
+    for (at, up) in [
+        (DVec3::Z, DVec3::Y),
+        (-DVec3::Z, DVec3::X),
+        (DVec3::X, DVec3::Z),
+    ] {
         let w = inside_world(lat_long_sphere(12, 24), DVec3::ZERO, at, up);
         for kind in KINDS {
             let film = render_with(&w, kind);
-            assert_eq!(count_colour(&film, [255, 0, 255]), 0, "{kind:?} towards {at}");
+            assert_eq!(
+                count_colour(&film, [255, 0, 255]),
+                0,
+                "{kind:?} towards {at}"
+            );
         }
     }
 }
@@ -143,7 +162,13 @@ fn closest(scene: &Scene, accel: &Accel, ray: Ray) -> Option<f64> {
     let mut scratch = Scratch::new(scene.prims.len(), true);
     let mut c = Counters::default();
     accel
-        .closest(&scene.prims, &RayPre::new(ray), f64::INFINITY, &mut scratch, &mut c)
+        .closest(
+            &scene.prims,
+            &RayPre::new(ray),
+            f64::INFINITY,
+            &mut scratch,
+            &mut c,
+        )
         .map(|h| h.t)
 }
 
@@ -214,7 +239,14 @@ fn spd_tetra_is_watertight_through_vertices_edges_and_axes() {
                 );
                 rays += 2;
             }
-            for axis in [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z] {
+            for axis in [
+                DVec3::X,
+                DVec3::Y,
+                DVec3::Z,
+                -DVec3::X,
+                -DVec3::Y,
+                -DVec3::Z,
+            ] {
                 assert!(
                     closest(&scene, &accel, Ray::new(c, axis)).is_some(),
                     "{kind:?}: along {axis} from inside"

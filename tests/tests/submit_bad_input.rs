@@ -19,7 +19,12 @@ fn a_bad_scene_is_refused_with_diagnostics_before_any_worker_starts() {
         "resolution(32, 32);\nbegin\n  sphere(center = 0,0,0 ; radius = );\nend\n",
     )
     .unwrap();
-    let out = cluster.submit().args(["--hosts", "1"]).arg(&scene).output().unwrap();
+    let out = cluster
+        .submit()
+        .args(["--hosts", "1"])
+        .arg(&scene)
+        .output()
+        .unwrap();
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("bad.yari:3:"), "no file:line:col in {err}");
@@ -33,7 +38,11 @@ fn zero_hosts_too_many_hosts_unreachable_and_wrong_secret_are_clear_errors() {
     let cluster = Cluster::start(2);
     let scene = spd("tetra6");
     let run = |cmd: &mut std::process::Command| {
-        let out = cmd.args(["--resolution", "16x16"]).arg(&scene).output().unwrap();
+        let out = cmd
+            .args(["--resolution", "16x16"])
+            .arg(&scene)
+            .output()
+            .unwrap();
         assert!(!out.status.success(), "{}", stderr(&out));
         stderr(&out)
     };
@@ -42,7 +51,10 @@ fn zero_hosts_too_many_hosts_unreachable_and_wrong_secret_are_clear_errors() {
     assert!(err.contains("--hosts must be at least 1"), "{err}");
 
     let err = run(cluster.submit().args(["--hosts", "3"]));
-    assert!(err.contains("asked for 3 hosts") && err.contains("2 live host"), "{err}");
+    assert!(
+        err.contains("asked for 3 hosts") && err.contains("2 live host"),
+        "{err}"
+    );
 
     let dir = tempfile::tempdir().unwrap();
     let wrong = dir.path().join("wrong");
@@ -54,7 +66,10 @@ fn zero_hosts_too_many_hosts_unreachable_and_wrong_secret_are_clear_errors() {
     assert!(err.contains("refused the cluster secret"), "{err}");
 
     // A port nobody listens on (bound, then released).
-    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
     let err = run(sunray()
         .args(["submit", "--remd", &port.to_string()])
         .arg("--secret-file")

@@ -74,8 +74,14 @@ fn a_worker_killed_mid_job_gives_its_lines_back() {
     assert!(run.wait(Duration::from_secs(120)).success());
     let s = check(&job, 2, "fault");
     let victim = &s["nodes"][1];
-    assert!(victim["fault"].as_str().unwrap().contains("signal 9"), "{victim}");
-    assert!(victim["lines_given_back"].as_u64().unwrap() >= 1, "{victim}");
+    assert!(
+        victim["fault"].as_str().unwrap().contains("signal 9"),
+        "{victim}"
+    );
+    assert!(
+        victim["lines_given_back"].as_u64().unwrap() >= 1,
+        "{victim}"
+    );
     assert!(s["lines"]["requeued"].as_u64().unwrap() >= 1);
     let fault = run.wait_until(Duration::ZERO, |seen| {
         seen.iter().find(|v| v["event"] == "fault").cloned()
@@ -92,7 +98,12 @@ fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
     let (victim, host) = run.wait_until(Duration::from_secs(60), |seen| {
         seen.iter()
             .find(|v| v["event"] == "spawned" && v["host"] != "a")
-            .map(|v| (v["node"].as_u64().unwrap(), v["host"].as_str().unwrap().to_string()))
+            .map(|v| {
+                (
+                    v["node"].as_u64().unwrap(),
+                    v["host"].as_str().unwrap().to_string(),
+                )
+            })
     });
     run.wait_lines_of(victim, 2);
     cluster.daemon(&host).signal(libc::SIGKILL);
@@ -101,7 +112,8 @@ fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
     let v = &s["nodes"][victim as usize - 1];
     let why = v["fault"].as_str().unwrap();
     assert!(why.contains("lost") || why.contains("unreachable"), "{v}");
-    let redone = s["lines"]["requeued"].as_u64().unwrap() + s["lines"]["duplicated"].as_u64().unwrap();
+    let redone =
+        s["lines"]["requeued"].as_u64().unwrap() + s["lines"]["duplicated"].as_u64().unwrap();
     assert!(redone >= 1, "{s}");
 }
 
@@ -109,7 +121,12 @@ fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
 fn a_stopped_worker_times_out_and_the_job_finishes_without_it() {
     let cluster = Cluster::start(3);
     let job = job();
-    let mut run = Running::start(slow_submit(&cluster, &job, 60, &["--worker-timeout-ms", "800"]));
+    let mut run = Running::start(slow_submit(
+        &cluster,
+        &job,
+        60,
+        &["--worker-timeout-ms", "800"],
+    ));
     run.wait_lines_of(3, 2);
     let pid = worker_pid(&run, 3);
     signal(pid, libc::SIGSTOP);
@@ -118,8 +135,14 @@ fn a_stopped_worker_times_out_and_the_job_finishes_without_it() {
     signal(pid, libc::SIGCONT);
     assert!(status.success());
     let s = check(&job, 3, "silent");
-    assert!(s["nodes"][2]["lines_given_back"].as_u64().unwrap() >= 1, "{s}");
-    assert!(run.seen.iter().any(|v| v["event"] == "silent" && v["node"] == 3));
+    assert!(
+        s["nodes"][2]["lines_given_back"].as_u64().unwrap() >= 1,
+        "{s}"
+    );
+    assert!(run
+        .seen
+        .iter()
+        .any(|v| v["event"] == "silent" && v["node"] == 3));
 }
 
 #[test]
@@ -153,19 +176,80 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
         );
         assert!(out.status.success());
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        let entry = v.as_array().unwrap().iter().find(|j| j["job"] == id).cloned();
+        let entry = v
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|j| j["job"] == id)
+            .cloned();
         let entry = entry.unwrap_or_else(|| panic!("{id} not listed: {v}"));
         assert_eq!(entry["state"], state, "{entry}");
     };
     jobs("running");
 
     // The checkpoint remembers the scene, the options and the output.
-    let out = output(cluster.submit().args(["--resume", id, "-q", "--stats-json"]).arg(&job.json));
+    let out = output(
+        cluster
+            .submit()
+            .args(["--resume", id, "-q", "--stats-json"])
+            .arg(&job.json),
+    );
     assert!(out.status.success());
     let s = check(&job, 1, "ok");
     let resumed = s["lines"]["resumed"].as_u64().unwrap();
-    assert!(resumed >= stored, "resumed {resumed} < checkpointed {stored}");
+    assert!(
+        resumed >= stored,
+        "resumed {resumed} < checkpointed {stored}"
+    );
     assert_eq!(resumed + s["lines"]["rendered"].as_u64().unwrap(), LINES);
     jobs("finished");
-    let _ = &job.dir;
+
+    // Resuming a finished job writes the image again without starting anyone.
+    std::fs::remove_file(&job.out).unwrap();
+    let out = output(
+        cluster
+            .submit()
+            .args(["--resume", id, "-q", "--stats-json"])
+            .arg(&job.json),
+    );
+    assert!(out.status.success());
+    let s = read_json(&job.json);
+    assert_eq!(s["lines"]["resumed"], LINES);
+    assert!(s["nodes"].as_array().unwrap().is_empty());
+    assert!(std::fs::read(&job.out).unwrap() == job.want);
+}
+
+#[test]
+fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
+    let cluster = Cluster::start(1);
+    let job = job();
+    let id = "no-workers-1";
+    let mut c = cluster.submit();
+    c.env("SUNRAY_WORKER_LINE_DELAY_MS", "60")
+        .args(["--hosts", "1", "--job", id, "--checkpoint-ms", "100"])
+        .args(FLAGS)
+        .arg(spd("mount6"))
+        .arg("-o")
+        .arg(&job.out);
+    let mut run = Running::start(c);
+    run.wait_lines_of(1, 4);
+    signal(worker_pid(&run, 1), libc::SIGKILL);
+    let status = run.wait(Duration::from_secs(60));
+    assert_eq!(status.code(), Some(3), "exit code 3: no worker left");
+    let failed = run.wait_until(Duration::ZERO, |seen| {
+        seen.iter().find(|v| v["event"] == "failed").cloned()
+    });
+    let kept = failed["done"].as_u64().unwrap();
+    assert!((4..LINES).contains(&kept), "{failed}");
+    assert!(!job.out.exists(), "no image from a failed job");
+
+    let out = output(
+        cluster
+            .submit()
+            .args(["--resume", id, "-q", "--stats-json"])
+            .arg(&job.json),
+    );
+    assert!(out.status.success());
+    let s = check(&job, 1, "ok");
+    assert_eq!(s["lines"]["resumed"].as_u64().unwrap(), kept);
 }

@@ -96,8 +96,14 @@ fn the_embedded_default_renders_the_built_in_scene() {
     );
     assert!(st.status.success());
     let table = String::from_utf8_lossy(&st.stderr);
-    assert!(table.contains("intersections") && table.contains("local"), "{table}");
-    assert!(std::fs::read(&out).unwrap() == want, "differs from sunray render");
+    assert!(
+        table.contains("intersections") && table.contains("local"),
+        "{table}"
+    );
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "differs from sunray render"
+    );
     let s = read_json(&json);
     assert_eq!(s["nodes"].as_array().unwrap().len(), 2);
     assert_eq!(s["lines"]["rendered"], 40);

@@ -34,7 +34,10 @@ pub fn write_pov(world: &World) -> String {
     let mut out = String::new();
     let [w, h] = world.resolution;
     let (w, h) = (w.max(1), h.max(1));
-    let _ = writeln!(out, "// Written by `sunray convert` (yari::pov); render with +W{w} +H{h}.");
+    let _ = writeln!(
+        out,
+        "// Written by `sunray convert` (yari::pov); render with +W{w} +H{h}."
+    );
     let _ = writeln!(out, "#version 3.7;");
     let a = world.ambient;
     let _ = writeln!(
@@ -54,13 +57,22 @@ pub fn write_pov(world: &World) -> String {
                 d = 2.0 * l.radius
             );
         } else {
-            let _ = writeln!(out, "light_source {{ {} color rgb {} }}", v(l.position), v(l.color));
+            let _ = writeln!(
+                out,
+                "light_source {{ {} color rgb {} }}",
+                v(l.position),
+                v(l.color)
+            );
         }
     }
     for (i, s) in world.surfaces.iter().enumerate() {
         let _ = writeln!(out, "#declare Surface{i} = {};", texture(s));
         if s.kst() > 0.0 {
-            let _ = writeln!(out, "#declare Interior{i} = interior {{ ior {} }};", s.refract);
+            let _ = writeln!(
+                out,
+                "#declare Interior{i} = interior {{ ior {} }};",
+                s.refract
+            );
         }
     }
     let surface_ref = |i: u32| -> (String, String) {
@@ -87,7 +99,11 @@ pub fn write_pov(world: &World) -> String {
         };
         match &obj.shape {
             Shape::Sphere { center, radius } => {
-                let _ = writeln!(out, "sphere {{ {}, {radius} {tex}{int} }}{moving}", v(*center));
+                let _ = writeln!(
+                    out,
+                    "sphere {{ {}, {radius} {tex}{int} }}{moving}",
+                    v(*center)
+                );
             }
             Shape::Ellipsoid { to_world } => {
                 let m = to_world.matrix3;
@@ -110,7 +126,11 @@ pub fn write_pov(world: &World) -> String {
                 );
             }
             Shape::Polygon { vertices } => {
-                let pts: Vec<String> = vertices.iter().chain(vertices.first()).map(|p| v(*p)).collect();
+                let pts: Vec<String> = vertices
+                    .iter()
+                    .chain(vertices.first())
+                    .map(|p| v(*p))
+                    .collect();
                 let _ = writeln!(
                     out,
                     "polygon {{ {}, {} {tex}{int} }}{moving}",
@@ -171,7 +191,11 @@ fn write_camera(out: &mut String, world: &World, w: u32, h: u32) {
         v(up * (pixel * h as f64))
     );
     if c.aperture > 0.0 {
-        let _ = writeln!(out, "// depth of field (aperture {}) not carried over", c.aperture);
+        let _ = writeln!(
+            out,
+            "// depth of field (aperture {}) not carried over",
+            c.aperture
+        );
     }
 }
 
@@ -184,7 +208,11 @@ fn texture(s: &Surface) -> String {
     let mut t = format!(
         "texture {{ pigment {{ color rgb {}{} }} finish {{ ambient {} diffuse {}",
         v(s.color),
-        if kst > 0.0 { format!(" transmit {kst}") } else { String::new() },
+        if kst > 0.0 {
+            format!(" transmit {kst}")
+        } else {
+            String::new()
+        },
         s.ka * keep,
         s.kdr * keep,
     );
@@ -211,7 +239,9 @@ mod tests {
     fn world(text: &str) -> World {
         let src = crate::span::Source::new("t.yari", text);
         let scene = crate::parse::parse(&src).unwrap();
-        crate::compile::compile(&scene, &ColourTable::builtin()).unwrap().world
+        crate::compile::compile(&scene, &ColourTable::builtin())
+            .unwrap()
+            .world
     }
 
     #[test]

@@ -109,10 +109,6 @@ impl Bvh {
         self.nodes.len()
     }
 
-    /// The closest hit: children are box-tested at their parent and visited nearest entry
-    /// first; a subtree whose entry lies beyond the best hit so far is skipped. Primitives are
-    /// still tested against `t_max` (not the best `t`), so equal-`t` ties resolve by index
-    /// exactly as in the other accelerators.
     pub fn closest(
         &self,
         prims: &[Primitive],
@@ -124,69 +120,48 @@ impl Bvh {
         if self.nodes.is_empty() {
             return best;
         }
-        c.voxels += 1;
-        if self.nodes[0]
-            .bounds
-            .hit(r, 0.0, best.map_or(t_max, |b| b.t))
-            .is_none()
-        {
-            return best;
-        }
-        let mut stack = [(0u32, 0.0 as Real); 64];
+        let mut stack = [0u32; 64];
         let mut sp = 0;
         let mut node = 0usize;
         loop {
             let n = &self.nodes[node];
+            c.voxels += 1;
+            let limit = best.map_or(t_max, |b| b.t);
             let mut next = None;
-            if n.count > 0 {
-                let first = n.index as usize;
-                for &i in &self.items[first..first + n.count as usize] {
-                    c.intersection_tests += 1;
-                    if let Some(t) = prims[i as usize].intersect(r, 0.0, t_max) {
-                        if Hit::improves(t, i, &best) {
-                            best = Some(Hit { t, prim: i });
+            if n.bounds.hit(r, 0.0, limit).is_some() {
+                if n.count > 0 {
+                    let first = n.index as usize;
+                    for &i in &self.items[first..first + n.count as usize] {
+                        c.intersection_tests += 1;
+                        if let Some(t) = prims[i as usize].intersect(r, 0.0, t_max) {
+                            if Hit::improves(t, i, &best) {
+                                best = Some(Hit { t, prim: i });
+                            }
                         }
                     }
-                }
-            } else {
-                let limit = best.map_or(t_max, |b| b.t);
-                let (left, right) = (node + 1, n.index as usize);
-                c.voxels += 2;
-                let hl = self.nodes[left].bounds.hit(r, 0.0, limit);
-                let hr = self.nodes[right].bounds.hit(r, 0.0, limit);
-                match (hl, hr) {
-                    (Some(a), Some(b)) => {
-                        let ((near, _), (far, far_t)) = if a.0 <= b.0 {
-                            ((left, a.0), (right, b.0))
-                        } else {
-                            ((right, b.0), (left, a.0))
-                        };
-                        if sp < stack.len() {
-                            stack[sp] = (far as u32, far_t);
-                            sp += 1;
-                        } else {
-                            // Pathologically deep tree: search the far subtree recursively.
-                            best = self.closest_subtree(prims, r, t_max, best, far, c);
-                        }
+                } else {
+                    let (near, far) = if r.ray.dir[n.axis as usize] < 0.0 {
+                        (n.index as usize, node + 1)
+                    } else {
+                        (node + 1, n.index as usize)
+                    };
+                    if sp < stack.len() {
+                        stack[sp] = far as u32;
+                        sp += 1;
                         next = Some(near);
+                    } else {
+                        // Pathologically deep tree: fall back to testing the whole subtree.
+                        best = self.closest_subtree(prims, r, t_max, best, node, c);
                     }
-                    (Some(_), None) => next = Some(left),
-                    (None, Some(_)) => next = Some(right),
-                    (None, None) => {}
                 }
             }
             node = match next {
                 Some(n) => n,
-                None => loop {
-                    if sp == 0 {
-                        return best;
-                    }
+                None if sp > 0 => {
                     sp -= 1;
-                    let (n, entry) = stack[sp];
-                    if best.is_none_or(|b| entry <= b.t) {
-                        break n as usize;
-                    }
-                },
+                    stack[sp] as usize
+                }
+                None => return best,
             };
         }
     }

@@ -4,9 +4,9 @@
 //! with a converged reference rendered from sample streams disjoint from the measured ones
 //! (so the reference's own noise is independent of the error it measures).
 //!
-//! Sampling: the pixel offset is jittered-stratified on an m x m grid when the sample count is
-//! a square (1, 4, 16, 64, 256, and the reference's 4096), uniform jitter otherwise; the
-//! light-disc, gloss-cone and lens samples are uniform (counter-based hashes). See
+//! Sampling (see [`crate::sampler`]): the pixel offset is jittered in cell s of an a x b grid
+//! of the pixel (a b = samples), and every other 2-D draw (light disc, gloss cone, lens) is
+//! jittered in a cell chosen by a per-pixel random permutation of the sample indices. See
 //! docs/accuracy.md for the measured slopes.
 
 use super::plot::{loglog, Series};
@@ -144,7 +144,8 @@ pub fn render_streams(
                                 let n = opts.samples;
                                 let mut sum = Vec3::ZERO;
                                 for k in 0..n {
-                                    let mut rng = SampleStream::new(x, y, first_stream + k);
+                                    let mut rng =
+                                        SampleStream::stratified(x, y, first_stream + k, k, n);
                                     let (dx, dy) = pixel_offset(n, k, &mut rng);
                                     let ray = camera.ray(
                                         x as Real + dx,
@@ -220,7 +221,13 @@ pub fn run(
         let scene = scene(name, body, size)?;
         let accel = Accel::build(&scene.prims, &AccelOptions::default());
         let t = Instant::now();
-        let reference = render_streams(&scene, &accel, reference_samples, REFERENCE_STREAMS, threads);
+        let reference = render_streams(
+            &scene,
+            &accel,
+            reference_samples,
+            REFERENCE_STREAMS,
+            threads,
+        );
         let ref_s = t.elapsed().as_secs_f64();
         let mut points = Vec::new();
         let mut by_time = Vec::new();
@@ -246,7 +253,11 @@ pub fn run(
         let slope_t = loglog_slope(&by_time);
         slopes += &format!(
             "| {name} | {slope:.3} | {slope_t:.3} | {} |\n",
-            if slope <= -0.5 + 0.03 { "met" } else { "NOT met" }
+            if slope <= -0.5 + 0.03 {
+                "met"
+            } else {
+                "NOT met"
+            }
         );
         text += &format!("| {name} (reference) | {reference_samples} | {ref_s:.3} | 0 | 0 |\n");
         series.push(Series {
@@ -267,7 +278,9 @@ mod tests {
 
     #[test]
     fn slope_of_a_power_law() {
-        let pts: Vec<(f64, f64)> = (0..6).map(|k| (2f64.powi(k), 3.0 * 2f64.powi(k).powf(-0.5))).collect();
+        let pts: Vec<(f64, f64)> = (0..6)
+            .map(|k| (2f64.powi(k), 3.0 * 2f64.powi(k).powf(-0.5)))
+            .collect();
         assert!((loglog_slope(&pts) + 0.5).abs() < 1e-12);
     }
 

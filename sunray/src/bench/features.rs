@@ -69,10 +69,11 @@ pub fn run(resolution: u32) -> Result<String, BenchError> {
     ] {
         let w = spd_world(db, size)?;
         let n = crate::scene::Scene::new(w.clone()).prims.len();
-        let times: Vec<(AccelKind, f64)> = [AccelKind::Exhaustive, AccelKind::Octree, AccelKind::Bvh]
-            .into_iter()
-            .map(|k| (k, best_of(3, &w, 128, k).0))
-            .collect();
+        let times: Vec<(AccelKind, f64)> =
+            [AccelKind::Exhaustive, AccelKind::Octree, AccelKind::Bvh]
+                .into_iter()
+                .map(|k| (k, best_of(3, &w, 128, k).0))
+                .collect();
         let fastest = times
             .iter()
             .min_by(|a, b| a.1.total_cmp(&b.1))

@@ -20,7 +20,10 @@ const MARGIN: f64 = 40.0;
 /// renamed).
 pub fn loglog(series: &[Series], path: &Path) -> Result<(), image::ImageError> {
     let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
-    let pts = series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0 > 0.0 && p.1 > 0.0);
+    let pts = series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0);
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for &(x, y) in pts {
         x0 = x0.min(x.log10());
@@ -44,7 +47,13 @@ pub fn loglog(series: &[Series], path: &Path) -> Result<(), image::ImageError> {
     for d in (x0 as i32)..=(x1 as i32) {
         let (px, _) = to_px(10f64.powi(d), 10f64.powi(y0 as i32));
         line(&mut img, (px, MARGIN), (px, H as f64 - MARGIN), grey, 1);
-        line(&mut img, (px, H as f64 - MARGIN), (px, H as f64 - MARGIN + 8.0), black, 1);
+        line(
+            &mut img,
+            (px, H as f64 - MARGIN),
+            (px, H as f64 - MARGIN + 8.0),
+            black,
+            1,
+        );
     }
     for d in (y0 as i32)..=(y1 as i32) {
         let (_, py) = to_px(10f64.powi(x0 as i32), 10f64.powi(d));
@@ -52,8 +61,20 @@ pub fn loglog(series: &[Series], path: &Path) -> Result<(), image::ImageError> {
         line(&mut img, (MARGIN - 8.0, py), (MARGIN, py), black, 1);
     }
     // Axes.
-    line(&mut img, (MARGIN, H as f64 - MARGIN), (W as f64 - MARGIN, H as f64 - MARGIN), black, 1);
-    line(&mut img, (MARGIN, MARGIN), (MARGIN, H as f64 - MARGIN), black, 1);
+    line(
+        &mut img,
+        (MARGIN, H as f64 - MARGIN),
+        (W as f64 - MARGIN, H as f64 - MARGIN),
+        black,
+        1,
+    );
+    line(
+        &mut img,
+        (MARGIN, MARGIN),
+        (MARGIN, H as f64 - MARGIN),
+        black,
+        1,
+    );
     for s in series {
         let c = Rgb(s.colour);
         // The 1/sqrt guide through the series' first point, dashed, in a light tint.

@@ -167,7 +167,12 @@ fn speed(out: &mut String) {
         })
         .collect();
     let spheres: Vec<(glam::DVec3, f64)> = (0..1000)
-        .map(|_| (unit(&mut seed) * rng(&mut seed), 0.01 + 0.05 * rng(&mut seed)))
+        .map(|_| {
+            (
+                unit(&mut seed) * rng(&mut seed),
+                0.01 + 0.05 * rng(&mut seed),
+            )
+        })
         .collect();
     let t32: Vec<[glam::Vec3; 3]> = tris.iter().map(|t| t.map(v32)).collect();
     let s32: Vec<(glam::Vec3, f32)> = spheres.iter().map(|s| (v32(s.0), s.1 as f32)).collect();
@@ -190,7 +195,10 @@ fn speed(out: &mut String) {
         let mut n = 0;
         for (o, d) in &rays {
             let p = p64::pre(*o, *d);
-            n += tris.iter().filter(|t| p64::triangle(&p, t).is_some()).count();
+            n += tris
+                .iter()
+                .filter(|t| p64::triangle(&p, t).is_some())
+                .count();
         }
         n
     });
@@ -198,14 +206,20 @@ fn speed(out: &mut String) {
         let mut n = 0;
         for (o, d) in &rays {
             let p = p32::pre(v32(*o), v32(*d));
-            n += t32.iter().filter(|t| p32::triangle(&p, t).is_some()).count();
+            n += t32
+                .iter()
+                .filter(|t| p32::triangle(&p, t).is_some())
+                .count();
         }
         n
     });
     let sph64 = time(&mut || {
         let mut n = 0;
         for (o, d) in &rays {
-            n += spheres.iter().filter(|s| p64::sphere(*o, *d, s.0, s.1).is_some()).count();
+            n += spheres
+                .iter()
+                .filter(|s| p64::sphere(*o, *d, s.0, s.1).is_some())
+                .count();
         }
         n
     });
@@ -213,7 +227,10 @@ fn speed(out: &mut String) {
         let mut n = 0;
         for (o, d) in &rays {
             let (o, d) = (v32(*o), v32(*d));
-            n += s32.iter().filter(|s| p32::sphere(o, d, s.0, s.1).is_some()).count();
+            n += s32
+                .iter()
+                .filter(|s| p32::sphere(o, d, s.0, s.1).is_some())
+                .count();
         }
         n
     });
@@ -300,12 +317,14 @@ fn offsets(out: &mut String) {
          the renderer uses 1e-9 in f64)\n\n| case | f64 | f32 |\n|---|---:|---:|"
     );
     for (name, centre, radius) in cases() {
-        let safe64 = (4..=40).rev().map(|k| 10f64.powi(-k)).find(|&eps| {
-            rehits(centre, radius, eps, false) == 0
-        });
-        let safe32 = (1..=20).rev().map(|k| 10f64.powi(-k)).find(|&eps| {
-            rehits(centre, radius, eps, true) == 0
-        });
+        let safe64 = (4..=40)
+            .rev()
+            .map(|k| 10f64.powi(-k))
+            .find(|&eps| rehits(centre, radius, eps, false) == 0);
+        let safe32 = (1..=20)
+            .rev()
+            .map(|k| 10f64.powi(-k))
+            .find(|&eps| rehits(centre, radius, eps, true) == 0);
         let f = |x: Option<f64>| x.map_or("none".to_string(), |x| format!("{x:.0e}"));
         let _ = writeln!(out, "| {name} | {} | {} |", f(safe64), f(safe32));
     }
@@ -320,7 +339,9 @@ fn rehits(centre: glam::DVec3, radius: f64, eps: f64, single: bool) -> usize {
         let d = (aim - eye).normalize();
         if single {
             let (e, d, c, r) = (v32(eye), v32(d), v32(centre), radius as f32);
-            let Some(t) = p32::sphere(e, d, c, r) else { continue };
+            let Some(t) = p32::sphere(e, d, c, r) else {
+                continue;
+            };
             let p = e + d * t;
             let nrm = (p - c).normalize();
             let refl = d - nrm * (2.0 * d.dot(nrm));
@@ -328,7 +349,9 @@ fn rehits(centre: glam::DVec3, radius: f64, eps: f64, single: bool) -> usize {
             let o = p + nrm * (scale * eps) as f32;
             n += usize::from(p32::sphere(o, refl, c, r).is_some());
         } else {
-            let Some(t) = p64::sphere(eye, d, centre, radius) else { continue };
+            let Some(t) = p64::sphere(eye, d, centre, radius) else {
+                continue;
+            };
             let p = eye + d * t;
             let nrm = (p - centre).normalize();
             let refl = d - nrm * (2.0 * d.dot(nrm));
@@ -360,7 +383,11 @@ fn watertight(out: &mut String) {
     let mut seed = 5;
     for tet in tris.chunks(4) {
         let mut verts: Vec<glam::DVec3> = tet.iter().flatten().copied().collect();
-        verts.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).unwrap_or(std::cmp::Ordering::Equal));
+        verts.sort_by(|a, b| {
+            a.to_array()
+                .partial_cmp(&b.to_array())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
         verts.dedup();
         let c = verts.iter().copied().sum::<glam::DVec3>() / verts.len() as f64;
         let mut targets = verts.clone();
@@ -379,9 +406,7 @@ fn watertight(out: &mut String) {
                 rays += 1;
                 miss64 += usize::from(tet.iter().all(|t| p64::triangle(&p, t).is_none()));
                 let p = p32::pre(v32(from), v32((target - from).normalize()));
-                miss32 += usize::from(
-                    tet.iter().all(|t| p32::triangle(&p, &t.map(v32)).is_none()),
-                );
+                miss32 += usize::from(tet.iter().all(|t| p32::triangle(&p, &t.map(v32)).is_none()));
             }
         }
     }
@@ -403,13 +428,28 @@ mod tests {
         assert_eq!(p64::triangle(&p, &tri), Some(1.0));
         let p = p32::pre(glam::Vec3::new(0.2, 0.2, 1.0), -glam::Vec3::Z);
         assert_eq!(p32::triangle(&p, &tri.map(v32)), Some(1.0));
-        assert_eq!(p64::sphere(glam::DVec3::Z * 5.0, -glam::DVec3::Z, glam::DVec3::ZERO, 1.0), Some(4.0));
+        assert_eq!(
+            p64::sphere(
+                glam::DVec3::Z * 5.0,
+                -glam::DVec3::Z,
+                glam::DVec3::ZERO,
+                1.0
+            ),
+            Some(4.0)
+        );
     }
 
     #[test]
     fn f32_needs_a_far_larger_offset_far_from_the_origin() {
         let (c, r) = (glam::DVec3::new(1e5, 0.0, 0.0), 1.0);
-        assert_eq!(rehits(c, r, 1e-9, false), 0, "f64 with the renderer's offset");
-        assert!(rehits(c, r, 1e-9, true) > 0, "f32 with the same offset re-hits");
+        assert_eq!(
+            rehits(c, r, 1e-9, false),
+            0,
+            "f64 with the renderer's offset"
+        );
+        assert!(
+            rehits(c, r, 1e-9, true) > 0,
+            "f32 with the same offset re-hits"
+        );
     }
 }

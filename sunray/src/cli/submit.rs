@@ -431,3 +431,51 @@ async fn index_update(cluster: &Cluster, entry: &proto::JobEntry) {
         eprintln!("sunray: warning: job index: {e}");
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+
+    fn submit(args: &[&str]) -> super::SubmitArgs {
+        let argv = ["sunray", "submit"].iter().chain(args);
+        match Cli::try_parse_from(argv).unwrap().command {
+            Command::Submit(a) => a,
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn scene_is_optional_and_render_flags_are_shared() {
+        let a = submit(&[]);
+        assert!(crate::distrib::scene_input::given_path(&a.render).is_none());
+        let a = submit(&[
+            "--hosts",
+            "3",
+            "--strategy",
+            "blocks",
+            "--samples",
+            "4",
+            "--resolution",
+            "64x32",
+            "scene.yari",
+        ]);
+        assert_eq!(a.hosts, Some(3));
+        assert_eq!(a.strategy, Some(crate::distrib::strategy::Strategy::Blocks));
+        assert_eq!(a.render.samples, Some(4));
+        assert_eq!(a.render.resolution, Some((64, 32)));
+        assert_eq!(
+            crate::distrib::scene_input::given_path(&a.render),
+            Some("scene.yari".into())
+        );
+        assert!(Cli::try_parse_from(["sunray", "submit", "--job", "a", "--resume", "b"]).is_err());
+    }
+
+    #[test]
+    fn job_ids_are_checked() {
+        assert!(super::check_job_id("render-7.b_c").is_ok());
+        for bad in ["", "a/b", "a b", "sunray-jobs"] {
+            assert!(super::check_job_id(bad).is_err(), "{bad:?}");
+        }
+    }
+}

@@ -129,10 +129,8 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     loop {
         tokio::select! {
             body = next_from_owner(&mut inbox, &owner) => match body? {
-                Body::Assign(a) => {
-                    if pool.submit(LineJob { line: a.line, grant: a.grant }) {
-                        outstanding += 1;
-                    }
+                Body::Assign(a) if pool.submit(LineJob { line: a.line, grant: a.grant }) => {
+                    outstanding += 1;
                 }
                 Body::NoMoreWork(_) => return Ok(()),
                 _ => {}

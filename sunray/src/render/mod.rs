@@ -87,7 +87,7 @@ pub fn render_line(
     for x in 0..opts.width {
         let mut sum = glam::DVec3::ZERO;
         for s in 0..n {
-            let mut rng = SampleStream::new(x, y, s);
+            let mut rng = SampleStream::stratified(x, y, s, s, n);
             let (dx, dy) = pixel_offset(n, s, &mut rng);
             let time = if motion { rng.next_real() } else { 0.0 };
             let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));

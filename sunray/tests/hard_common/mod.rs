@@ -66,7 +66,10 @@ pub fn differing_pixels(a: &Film, b: &Film) -> usize {
 pub fn assert_same_picture(a: &Film, b: &Film, what: &str) {
     let d = differing_pixels(a, b);
     let n = a.pixels.len();
-    assert!(d * 1000 <= n, "{what}: {d} of {n} pixels differ by more than 1/255");
+    assert!(
+        d * 1000 <= n,
+        "{what}: {d} of {n} pixels differ by more than 1/255"
+    );
 }
 
 /// Pixels exactly equal to `colour` (in 8 bits).

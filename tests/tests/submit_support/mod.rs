@@ -16,7 +16,10 @@ pub const SECRET: &str = "submit-test-secret";
 fn bin_dir() -> PathBuf {
     let exe = std::env::current_exe().expect("test executable path");
     // target/<profile>/deps/<test> -> target/<profile>
-    exe.parent().and_then(Path::parent).expect("target dir").to_path_buf()
+    exe.parent()
+        .and_then(Path::parent)
+        .expect("target dir")
+        .to_path_buf()
 }
 
 /// Builds `sunray` and `remd` once per test binary (a no-op when they are up to date).
@@ -172,10 +175,15 @@ impl Cluster {
 
     /// Waits until the first daemon sees all `n` hosts alive (bounded).
     fn converge(&self, n: usize) {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
         rt.block_on(async {
             let secret = rem::Secret::new(SECRET).unwrap();
-            let client = rem::RemClient::connect(&self.daemons[0].addr, secret).await.unwrap();
+            let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
+                .await
+                .unwrap();
             let end = Instant::now() + Duration::from_secs(20);
             loop {
                 let hosts = client.hosts().await.unwrap();
@@ -190,10 +198,15 @@ impl Cluster {
 
     /// The REM processes of the cluster (to check that nothing was started).
     pub fn processes(&self) -> Vec<rem::ProcessInfo> {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
         rt.block_on(async {
             let secret = rem::Secret::new(SECRET).unwrap();
-            let client = rem::RemClient::connect(&self.daemons[0].addr, secret).await.unwrap();
+            let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
+                .await
+                .unwrap();
             client.ps().await.unwrap()
         })
     }
@@ -271,7 +284,11 @@ impl Running {
     /// Waits until node `node` has had `n` lines accepted.
     pub fn wait_lines_of(&mut self, node: u64, n: usize) {
         self.wait_until(Duration::from_secs(60), |seen| {
-            (seen.iter().filter(|v| v["event"] == "line" && v["node"] == node).count() >= n)
+            (seen
+                .iter()
+                .filter(|v| v["event"] == "line" && v["node"] == node)
+                .count()
+                >= n)
                 .then_some(())
         })
     }

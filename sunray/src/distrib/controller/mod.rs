@@ -69,6 +69,8 @@ pub struct JobResult {
 pub enum ControllerError {
     #[error("the relay to remd failed: {0}")]
     Relay(#[from] rem::Error),
+    #[error("the controller task failed: {0}")]
+    Task(String),
 }
 
 /// What the actor is fed.
@@ -86,11 +88,9 @@ pub struct ControllerHandle {
 impl ControllerHandle {
     pub async fn join(self) -> Result<JobResult, ControllerError> {
         drop(self.tx);
-        self.task.await.unwrap_or_else(|e| {
-            Err(ControllerError::Relay(rem::Error::Io(
-                std::io::Error::other(e),
-            )))
-        })
+        self.task
+            .await
+            .unwrap_or_else(|e| Err(ControllerError::Task(e.to_string())))
     }
 }
 
@@ -374,14 +374,13 @@ impl Controller {
     async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
         self.finishing = true;
         let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
-        let mut wait_for = vec![false; self.procs.len()];
+        // A silent worker is not waited for.
+        let wait_for: Vec<bool> = (0..self.procs.len())
+            .map(|i| !self.exited[i] && self.table.node_state(i) == Some(NodeState::Active))
+            .collect();
         for i in 0..self.procs.len() {
-            if !self.exited[i] {
-                if self.sender.send(&self.procs[i], stop.clone()).await.is_ok() {
-                    self.messages_out += 1;
-                }
-                // A silent worker is not waited for.
-                wait_for[i] = self.table.node_state(i) == Some(NodeState::Active);
+            if !self.exited[i] && self.sender.send(&self.procs[i], stop.clone()).await.is_ok() {
+                self.messages_out += 1;
             }
         }
         let deadline = tokio::time::Instant::now() + self.cfg.finish_grace;
