@@ -4,11 +4,13 @@
 //!
 //! - [`accuracy`]: error against time of the stochastic features (`sunray bench accuracy`).
 //! - [`precision`]: the hot path in f32 and f64, speed and error on hard cases.
+//! - [`hot_path`]: that hot path, written once for both precisions.
 //! - [`features`]: unused feature paths cost nothing; `--accel auto` against the fastest.
 //! - [`plot`]: the log-log plot of the accuracy benchmark, drawn with `image`.
 
 pub mod accuracy;
 pub mod features;
+pub mod hot_path;
 pub mod plot;
 pub mod precision;
 

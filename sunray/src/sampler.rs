@@ -122,7 +122,7 @@ fn permute(index: u32, n: u32, hash: u64) -> u32 {
 #[inline]
 fn grid(n: u32) -> (u32, u32) {
     let mut a = (n as f64).sqrt() as u32;
-    while a > 1 && n % a != 0 {
+    while a > 1 && !n.is_multiple_of(a) {
         a -= 1;
     }
     let a = a.max(1);

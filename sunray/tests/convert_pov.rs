@@ -15,7 +15,12 @@ fn nff_converts_to_pov() {
     .unwrap();
     let out = dir.join("s.pov");
     let status = Command::new(env!("CARGO_BIN_EXE_sunray"))
-        .args(["convert", nff.to_str().unwrap(), "-o", out.to_str().unwrap()])
+        .args([
+            "convert",
+            nff.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
         .status()
         .unwrap();
     assert!(status.success());
@@ -35,7 +40,12 @@ fn nff_converts_to_pov() {
     std::fs::write(&bad, "s 0 0\n").unwrap();
     let bad_out = dir.join("bad.pov");
     let status = Command::new(env!("CARGO_BIN_EXE_sunray"))
-        .args(["convert", bad.to_str().unwrap(), "-o", bad_out.to_str().unwrap()])
+        .args([
+            "convert",
+            bad.to_str().unwrap(),
+            "-o",
+            bad_out.to_str().unwrap(),
+        ])
         .status()
         .unwrap();
     assert!(!status.success());

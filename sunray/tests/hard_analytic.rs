@@ -120,8 +120,8 @@ begin
 end",
     );
     let n = 1.5_f64;
-    for b in [0.05, 0.2, 0.35, 0.5, 0.6] {
-        let ti = (b as f64).asin();
+    for b in [0.05_f64, 0.2, 0.35, 0.5, 0.6] {
+        let ti = b.asin();
         let tt = (b / n).asin();
         let dev = 2.0 * (ti - tt);
         // Exit point: the chord inside subtends pi - 2 theta_t at the centre; the entry point
