@@ -96,7 +96,11 @@ pub enum AttrField {
     Phong(f64),
     Refract(f64),
     /// `texture = id r,g,b sx,sy,sz`: texture kind, second colour, scale.
-    Texture { id: f64, color: Vec3, scale: Vec3 },
+    Texture {
+        id: f64,
+        color: Vec3,
+        scale: Vec3,
+    },
     /// Extension: blurry reflection, the half-angle spread in degrees (0 = mirror).
     Gloss(f64),
     /// Extension: blurry transmission, the half-angle spread in degrees (0 = clear).
@@ -111,11 +115,19 @@ pub enum AttrField {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Primitive {
-    Sphere { center: Vec3, radius: f64 },
-    Polygon { vertices: Vec<Vec3> },
+    Sphere {
+        center: Vec3,
+        radius: f64,
+    },
+    Polygon {
+        vertices: Vec<Vec3>,
+    },
     /// Ten coefficients, the upper triangle of the symmetric 4x4 matrix Q, row by row
     /// (see [`crate::model::Quadric`]), and optional clipping.
-    Quadric { coeffs: [f64; 10], clip: Vec<Clip> },
+    Quadric {
+        coeffs: [f64; 10],
+        clip: Vec<Clip>,
+    },
 }
 
 /// Extension: how a quadric is clipped, in the same (object) space as its coefficients.

@@ -21,10 +21,18 @@ pub struct Diagnostic {
 
 impl Diagnostic {
     pub fn error(span: Span, message: impl Into<String>) -> Diagnostic {
-        Diagnostic { severity: Severity::Error, span, message: message.into() }
+        Diagnostic {
+            severity: Severity::Error,
+            span,
+            message: message.into(),
+        }
     }
     pub fn warning(span: Span, message: impl Into<String>) -> Diagnostic {
-        Diagnostic { severity: Severity::Warning, span, message: message.into() }
+        Diagnostic {
+            severity: Severity::Warning,
+            span,
+            message: message.into(),
+        }
     }
 
     /// `file:line:col: error: message`, then the line and a caret (`^~~~`) under the span.
@@ -34,7 +42,10 @@ impl Diagnostic {
             Severity::Error => "error",
             Severity::Warning => "warning",
         };
-        let mut out = format!("{}:{}:{}: {}: {}\n", src.name, line, col, kind, self.message);
+        let mut out = format!(
+            "{}:{}:{}: {}: {}\n",
+            src.name, line, col, kind, self.message
+        );
         let text = src.line_text(line);
         let _ = writeln!(out, "  {text}");
         let width = {
@@ -45,7 +56,11 @@ impl Diagnostic {
                 1
             }
         };
-        let pad: String = text.chars().take(col - 1).map(|c| if c == '\t' { '\t' } else { ' ' }).collect();
+        let pad: String = text
+            .chars()
+            .take(col - 1)
+            .map(|c| if c == '\t' { '\t' } else { ' ' })
+            .collect();
         let _ = writeln!(out, "  {pad}^{}", "~".repeat(width.saturating_sub(1)));
         out
     }
@@ -68,7 +83,9 @@ impl Diagnostics {
         self.items.iter().filter(|d| d.severity == Severity::Error)
     }
     pub fn warnings(&self) -> impl Iterator<Item = &Diagnostic> {
-        self.items.iter().filter(|d| d.severity == Severity::Warning)
+        self.items
+            .iter()
+            .filter(|d| d.severity == Severity::Warning)
     }
     /// All diagnostics rendered against their source, in order.
     pub fn render(&self, src: &Source) -> String {

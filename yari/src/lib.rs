@@ -31,17 +31,17 @@
 //! ```
 
 pub mod ast;
-pub mod diag;
-pub mod model;
-pub mod span;
-pub mod lexer;
-pub mod parse;
-pub mod writer;
 pub mod colour;
 pub mod compile;
-pub mod modelfile;
+pub mod diag;
+pub mod lexer;
 pub mod load;
+pub mod model;
+pub mod modelfile;
 pub mod nff;
 pub mod off;
-pub mod spd;
+pub mod parse;
 pub mod pov;
+pub mod span;
+pub mod spd;
+pub mod writer;

@@ -139,11 +139,18 @@ pub struct Object {
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Shape {
-    Sphere { center: DVec3, radius: f64 },
+    Sphere {
+        center: DVec3,
+        radius: f64,
+    },
     /// The unit sphere at the origin mapped by `to_world` (a sphere under a non-similarity).
-    Ellipsoid { to_world: DAffine3 },
+    Ellipsoid {
+        to_world: DAffine3,
+    },
     /// A planar polygon, 3 or more vertices, convex or concave, in order.
-    Polygon { vertices: Vec<DVec3> },
+    Polygon {
+        vertices: Vec<DVec3>,
+    },
     Quadric(Quadric),
 }
 
