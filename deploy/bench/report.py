@@ -57,7 +57,10 @@ def scaling_section(data, out):
                "workers, which needs the machine's 2 cores free for the 8 x 0.25 CPU.\n")
     top = runs[counts[-1]]
     wanted = 0.25 * counts[-1]
-    if cores(top) < 0.9 * wanted:
+    top_su = rows[-1][1]
+    out.append(f"Result: {top_su:.2f}x total on {counts[-1]} workers; the 7.2x target is "
+               f"{'met' if top_su >= 7.2 else 'not met'}.\n")
+    if top_su < 7.2 and cores(top) < 0.9 * wanted:
         out.append(f"**This run does not measure that target:** with {counts[-1]} workers they "
                    f"obtained {cores(top):.2f} of the {wanted:.2f} cores they were allowed, "
                    "because other work was using the machine. Worker CPU time: "
