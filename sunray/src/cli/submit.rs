@@ -254,6 +254,11 @@ async fn run_job(
             proc_id: p.proc_id.clone(),
             host: p.host.clone(),
             pid: p.pid,
+            load_at_start: live
+                .iter()
+                .find(|h| h.name == p.host)
+                .and_then(|h| h.load.as_ref())
+                .map(|l| l.load_per_core),
         })
         .collect();
     let (sender, receiver) = relay.split();

@@ -32,7 +32,10 @@ pub struct NodeStats {
     pub pid: u32,
     pub cores: u32,
     pub threads: u32,
+    /// Load per core when the job started: REM's figure (cgroup-aware) when `rem_load`, else
+    /// the load average the worker reported.
     pub load_at_start: f64,
+    pub rem_load: bool,
     pub outcome: Outcome,
     /// Why a faulty node failed.
     pub fault: Option<String>,

@@ -57,7 +57,10 @@ impl Controller {
                 } else {
                     r.host
                 };
-                (n.cores, n.threads, n.load_at_start) = (r.cores, r.threads, r.load_avg);
+                (n.cores, n.threads) = (r.cores, r.threads);
+                if !n.rem_load {
+                    n.load_at_start = r.load_avg;
+                }
                 if n.outcome == Outcome::Starting {
                     n.outcome = Outcome::Ok;
                 }

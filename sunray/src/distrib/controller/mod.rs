@@ -48,6 +48,9 @@ pub struct WorkerProc {
     pub proc_id: ProcId,
     pub host: String,
     pub pid: u32,
+    /// The host's load per core as REM reported it when the job started (cgroup-aware);
+    /// `None` leaves the column to the worker's own load average.
+    pub load_at_start: Option<f64>,
 }
 
 /// The end of a job.
@@ -188,6 +191,8 @@ impl Controller {
                 proc_id: w.proc_id.to_string(),
                 host: w.host.clone(),
                 pid: w.pid,
+                load_at_start: w.load_at_start.unwrap_or_default(),
+                rem_load: w.load_at_start.is_some(),
                 ..Default::default()
             })
             .collect();
