@@ -37,6 +37,22 @@ async fn hundred_thousand_messages_between_two_daemons_in_order() {
         .clone();
     assert_eq!(owner.host(), "a");
 
+    // Wait until the echo has attached: until then b queues at most 4096 messages for it,
+    // and the burst below would overflow that queue (a documented limit, not a loss).
+    let probe = u64::MAX.to_le_bytes().to_vec();
+    owner.send(&echo, probe.clone()).await.unwrap();
+    tokio::time::timeout(T, async {
+        loop {
+            match owner.recv().await.unwrap() {
+                Incoming::Message { payload, .. } if payload == probe => break,
+                Incoming::Undeliverable { to, reason } => panic!("undeliverable to {to}: {reason}"),
+                _ => {}
+            }
+        }
+    })
+    .await
+    .expect("the echo attaches within 10 s");
+
     let sender = owner.sender();
     let to = echo.clone();
     let t0 = Instant::now();
