@@ -95,6 +95,35 @@ pub fn load_world(path: &Path, colours: Option<&Path>) -> anyhow::Result<yari::m
     Ok(loaded.world)
 }
 
+impl RenderArgs {
+    /// What the flags make of the scene's own settings. `sunray render` and `sunray submit`
+    /// both use this, so a distributed render decides its pixels exactly as a local one.
+    pub fn render_options(&self, scene: &Scene) -> RenderOptions {
+        let mut opts = RenderOptions::for_scene(scene);
+        if let Some((w, h)) = self.resolution {
+            (opts.width, opts.height) = (w, h);
+        }
+        if let Some(s) = self.samples {
+            opts.samples = s.max(1);
+        }
+        opts.trace.max_depth = self.depth;
+        opts.trace.min_weight = self.min_weight;
+        if self.spd_corners {
+            opts = opts.spd_corners();
+        }
+        opts
+    }
+
+    /// The accelerator the flags ask for.
+    pub fn accel_options(&self) -> AccelOptions {
+        AccelOptions {
+            kind: self.accel,
+            max_per_voxel: self.max_per_voxel.max(1),
+            max_depth: self.max_depth,
+        }
+    }
+}
+
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let out = args.output.clone().unwrap_or_else(|| {
         let stem = args.scene.file_stem().unwrap_or_else(|| "image".as_ref());
@@ -116,26 +145,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
             d.reason
         );
     }
-    let accel_opts = AccelOptions {
-        kind: args.accel,
-        max_per_voxel: args.max_per_voxel.max(1),
-        max_depth: args.max_depth,
-    };
-    let accel = Accel::build(&scene.prims, &accel_opts);
+    let accel = Accel::build(&scene.prims, &args.accel_options());
     let preprocess_s = t_pre.elapsed().as_secs_f64();
 
-    let mut opts = RenderOptions::for_scene(&scene);
-    if let Some((w, h)) = args.resolution {
-        (opts.width, opts.height) = (w, h);
-    }
-    if let Some(s) = args.samples {
-        opts.samples = s.max(1);
-    }
-    opts.trace.max_depth = args.depth;
-    opts.trace.min_weight = args.min_weight;
-    if args.spd_corners {
-        opts = opts.spd_corners();
-    }
+    let opts = args.render_options(&scene);
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))

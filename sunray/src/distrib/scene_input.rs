@@ -3,9 +3,8 @@
 //! `sunray render`.
 
 use super::messages::Settings;
-use crate::accel::{AccelKind, AccelOptions};
+use crate::accel::AccelKind;
 use crate::cli::render::{load_world, OnOff, RenderArgs};
-use crate::render::RenderOptions;
 use crate::scene::Scene;
 use crate::stats::{Counters, RenderStats};
 use std::path::{Path, PathBuf};
@@ -66,25 +65,9 @@ pub fn load_path(path: Option<PathBuf>, colours: Option<&Path>) -> anyhow::Resul
 impl SceneInput {
     /// The render settings `sunray render` would use with these flags.
     pub fn settings(&self, args: &RenderArgs) -> Settings {
-        let mut opts = RenderOptions::for_scene(&self.scene);
-        if let Some((w, h)) = args.resolution {
-            (opts.width, opts.height) = (w, h);
-        }
-        if let Some(s) = args.samples {
-            opts.samples = s.max(1);
-        }
-        opts.trace.max_depth = args.depth;
-        opts.trace.min_weight = args.min_weight;
-        if args.spd_corners {
-            opts = opts.spd_corners();
-        }
         Settings {
-            render: opts,
-            accel: AccelOptions {
-                kind: args.accel,
-                max_per_voxel: args.max_per_voxel.max(1),
-                max_depth: args.max_depth,
-            },
+            render: args.render_options(&self.scene),
+            accel: args.accel_options(),
             mailbox: args.mailbox == OnOff::On,
         }
     }
