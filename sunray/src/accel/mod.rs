@@ -2,7 +2,7 @@
 //!
 //! - [`exhaustive`]: every primitive, in index order (the thesis's exhaustive mode).
 //! - [`octree`]: Glassner's adaptive octree with voxel-by-voxel traversal (thesis 4.2.1).
-//! - [`bvh`]: a binned-SAH bounding volume hierarchy, flattened.
+//! - [`bvh`]: a binned-SAH bounding volume hierarchy, collapsed to 4 children per node.
 //!
 //! All of them return the same closest hit: the smallest `t`, ties broken by the lower
 //! primitive index, and every primitive's `t` comes from the same function; so the images of
@@ -137,7 +137,7 @@ impl Accel {
                     |i: u32, b: &crate::geometry::Aabb| prims[i as usize].overlaps_box(b);
                 Structure::Octree(octree::Octree::build(&bounded, &overlaps, opts))
             }
-            AccelKind::Bvh => Structure::Bvh(bvh::Bvh::build(&bounded)),
+            AccelKind::Bvh => Structure::Bvh(bvh::Bvh::build(prims, &bounded)),
             _ => Structure::Exhaustive(bounded.iter().map(|(i, _)| *i).collect()),
         };
         Accel {
@@ -169,7 +169,11 @@ impl Accel {
         scratch: &mut Scratch,
         c: &mut Counters,
     ) -> Option<Hit> {
-        let mut best = exhaustive::closest_in(prims, &self.unbounded, r, t_max, None, c);
+        let mut best = if self.unbounded.is_empty() {
+            None
+        } else {
+            exhaustive::closest_in(prims, &self.unbounded, r, t_max, None, c)
+        };
         match &self.structure {
             Structure::Exhaustive(list) => {
                 best = exhaustive::closest_in(prims, list, r, t_max, best, c);
@@ -194,8 +198,10 @@ impl Accel {
         scratch: &mut Scratch,
         c: &mut Counters,
     ) -> Option<Hit> {
-        if let Some(h) = exhaustive::any_in(prims, &self.unbounded, r, t_max, accept, c) {
-            return Some(h);
+        if !self.unbounded.is_empty() {
+            if let Some(h) = exhaustive::any_in(prims, &self.unbounded, r, t_max, accept, c) {
+                return Some(h);
+            }
         }
         match &self.structure {
             Structure::Exhaustive(list) => exhaustive::any_in(prims, list, r, t_max, accept, c),

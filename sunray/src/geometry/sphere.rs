@@ -46,6 +46,11 @@ pub fn intersect_sphere(
     let a = ray.dir.length_squared();
     let b = oc.dot(ray.dir);
     let c = oc.length_squared() - radius * radius;
+    if c > 0.0 && b > 0.0 && t_min >= 0.0 {
+        // Outside and moving away: both roots are negative (their product c/a is positive,
+        // their sum -2b/a negative), exactly as the full computation below would find.
+        return None;
+    }
     // b^2 - ac rewritten as a (r^2 - |oc - (b/a) d|^2) (Hearn and Baker), which keeps its
     // precision for rays that pass far from the centre.
     let l = oc - ray.dir * (b / a);

@@ -10,10 +10,11 @@ use super::{RayPre, Real, Vec3};
 #[inline]
 pub fn intersect_triangle(r: &RayPre, v: &[Vec3; 3], t_min: Real, t_max: Real) -> Option<Real> {
     let o = r.ray.origin;
-    let a = v[0] - o;
-    let b = v[1] - o;
-    let c = v[2] - o;
-    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    // The axes as array indices the compiler can see are in range (no bounds checks).
+    let (kx, ky, kz) = (r.kx.min(2), r.ky.min(2), r.kz.min(2));
+    let a = (v[0] - o).to_array();
+    let b = (v[1] - o).to_array();
+    let c = (v[2] - o).to_array();
     let ax = a[kx] - r.sx * a[kz];
     let ay = a[ky] - r.sy * a[kz];
     let bx = b[kx] - r.sx * b[kz];
@@ -23,7 +24,10 @@ pub fn intersect_triangle(r: &RayPre, v: &[Vec3; 3], t_min: Real, t_max: Real) -
     let u = cx * by - cy * bx;
     let vv = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
-    if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
+    // Non-short-circuit operators: six compares, one branch.
+    let negative = (u < 0.0) | (vv < 0.0) | (w < 0.0);
+    let positive = (u > 0.0) | (vv > 0.0) | (w > 0.0);
+    if negative & positive {
         return None;
     }
     let det = u + vv + w;

@@ -301,6 +301,20 @@ impl Tracer<'_> {
             };
         }
         let opaque = |i: u32| scene.surface(i).kst() <= 0.0;
+        // Most shadow rays meet nothing or an opaque surface first: one any-hit query
+        // settles those; only a ray that met a transparent surface takes the long way.
+        match self.accel.any(
+            &scene.prims,
+            &pre,
+            t_max,
+            &|_| true,
+            self.scratch,
+            self.counters,
+        ) {
+            None => return Vec3::ONE,
+            Some(h) if opaque(h.prim) => return Vec3::ZERO,
+            Some(_) => {}
+        }
         if self
             .accel
             .any(

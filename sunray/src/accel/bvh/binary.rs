@@ -1,0 +1,179 @@
+//! The binary tree the BVH starts from, built with the binned surface area heuristic (Wald
+//! 2007) and flattened depth-first: a node's left child follows it, the right child is at
+//! `index`. [`super::wide`] collapses it into the 4-wide tree that rays traverse.
+
+use crate::geometry::{Aabb, Real, Vec3};
+
+const BINS: usize = 16;
+const MAX_LEAF: usize = 4;
+/// Cost of a node traversal relative to one primitive test.
+const TRAVERSAL_COST: Real = 1.0;
+
+#[derive(Clone, Debug)]
+pub struct Node {
+    pub bounds: Aabb,
+    /// Leaf: first item; interior: index of the right child (the left one follows the node).
+    pub index: u32,
+    /// Leaf: number of items (> 0); interior: 0.
+    pub count: u16,
+}
+
+/// A binary BVH: nodes depth-first, and the primitive indices its leaves point into.
+#[derive(Clone, Debug)]
+pub struct BinaryBvh {
+    pub nodes: Vec<Node>,
+    pub items: Vec<u32>,
+}
+
+struct BuildItem {
+    prim: u32,
+    bounds: Aabb,
+    centre: Vec3,
+}
+
+impl BinaryBvh {
+    /// Builds over `(primitive index, bounds)` pairs.
+    pub fn build(bounded: &[(u32, Aabb)]) -> BinaryBvh {
+        let mut items: Vec<BuildItem> = bounded
+            .iter()
+            .map(|(p, b)| BuildItem {
+                prim: *p,
+                bounds: *b,
+                centre: b.centre(),
+            })
+            .collect();
+        let mut bvh = BinaryBvh {
+            nodes: Vec::with_capacity(2 * items.len() / MAX_LEAF + 1),
+            items: Vec::new(),
+        };
+        if !items.is_empty() {
+            let n = items.len();
+            bvh.build_node(&mut items, 0, n);
+        }
+        bvh.items = items.iter().map(|i| i.prim).collect();
+        bvh
+    }
+
+    fn build_node(&mut self, items: &mut [BuildItem], start: usize, end: usize) -> usize {
+        let node = self.nodes.len();
+        let slice = &mut items[start..end];
+        let bounds = slice.iter().fold(Aabb::EMPTY, |b, i| b.union(i.bounds));
+        self.nodes.push(Node {
+            bounds,
+            index: start as u32,
+            count: slice.len() as u16,
+        });
+        if slice.len() <= MAX_LEAF {
+            return node;
+        }
+        let Some((axis, split)) = best_split(slice, &bounds) else {
+            if slice.len() <= u16::MAX as usize && slice.len() <= 16 {
+                return node;
+            }
+            // No useful SAH split (all centres equal, or a leaf is cheaper but too big):
+            // split in the middle of the list.
+            let mid = start + slice.len() / 2;
+            self.finish_interior(node, items, start, mid, end);
+            return node;
+        };
+        let range = centre_range(slice, axis);
+        let mid = start + partition(slice, |i| bin_of(i.centre[axis], &range) < split);
+        let mid = if mid == start || mid == end {
+            start + (end - start) / 2
+        } else {
+            mid
+        };
+        self.finish_interior(node, items, start, mid, end);
+        node
+    }
+
+    fn finish_interior(
+        &mut self,
+        node: usize,
+        items: &mut [BuildItem],
+        start: usize,
+        mid: usize,
+        end: usize,
+    ) {
+        self.build_node(items, start, mid);
+        let right = self.build_node(items, mid, end);
+        let n = &mut self.nodes[node];
+        n.index = right as u32;
+        n.count = 0;
+    }
+}
+
+fn centre_range(items: &[BuildItem], axis: usize) -> (Real, Real) {
+    items
+        .iter()
+        .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), i| {
+            (lo.min(i.centre[axis]), hi.max(i.centre[axis]))
+        })
+}
+
+#[inline]
+fn bin_of(x: Real, range: &(Real, Real)) -> usize {
+    let (lo, hi) = *range;
+    let f = (x - lo) / (hi - lo) * BINS as Real;
+    (f as usize).min(BINS - 1)
+}
+
+/// The best (axis, bin boundary) by SAH, or None when a leaf is cheaper or centres coincide.
+fn best_split(items: &[BuildItem], bounds: &Aabb) -> Option<(usize, usize)> {
+    let mut best: Option<(Real, usize, usize)> = None;
+    for axis in 0..3 {
+        let range = centre_range(items, axis);
+        if range.1.is_nan() || range.1 <= range.0 {
+            continue;
+        }
+        let mut boxes = [Aabb::EMPTY; BINS];
+        let mut counts = [0usize; BINS];
+        for i in items {
+            let b = bin_of(i.centre[axis], &range);
+            boxes[b] = boxes[b].union(i.bounds);
+            counts[b] += 1;
+        }
+        // Sweep from the right to get suffix areas, then from the left.
+        let mut right_area = [0.0; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        for b in (1..BINS).rev() {
+            acc = acc.union(boxes[b]);
+            n += counts[b];
+            right_area[b] = acc.surface_area();
+            right_count[b] = n;
+        }
+        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        for b in 1..BINS {
+            acc = acc.union(boxes[b - 1]);
+            n += counts[b - 1];
+            if n == 0 || right_count[b] == 0 {
+                continue;
+            }
+            let cost = acc.surface_area() * n as Real + right_area[b] * right_count[b] as Real;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, b));
+            }
+        }
+    }
+    let (cost, axis, split) = best?;
+    let area = bounds.surface_area().max(1e-300);
+    let split_cost = TRAVERSAL_COST + cost / area;
+    let leaf_cost = items.len() as Real;
+    if split_cost >= leaf_cost && items.len() <= 16 {
+        return None;
+    }
+    Some((axis, split))
+}
+
+/// Moves the items for which `left` holds to the front; returns how many there are.
+fn partition(items: &mut [BuildItem], left: impl Fn(&BuildItem) -> bool) -> usize {
+    let mut k = 0;
+    for i in 0..items.len() {
+        if left(&items[i]) {
+            items.swap(i, k);
+            k += 1;
+        }
+    }
+    k
+}

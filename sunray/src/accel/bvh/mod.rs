@@ -1,0 +1,432 @@
+//! A bounding volume hierarchy: built as a binary tree with the binned surface area heuristic
+//! ([`binary`]), then collapsed into a 4-wide tree ([`wide`]) whose leaves point into a
+//! compact copy of their primitives ([`items`]).
+//!
+//! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
+//! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
+//! accepted hit. Ties between equal `t` go to the lower primitive index, as everywhere.
+
+pub mod binary;
+pub mod items;
+pub mod wide;
+
+use super::Hit;
+use crate::geometry::{Aabb, Primitive, RayPre, Real};
+use crate::stats::Counters;
+use arrayvec::ArrayVec;
+use binary::BinaryBvh;
+use items::LeafItems;
+use wide::{BoxRay, Child, WIDTH};
+
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    nodes: Vec<wide::Node>,
+    items: LeafItems,
+}
+
+/// A child waiting on the traversal stack, with the `t` at which the ray enters it.
+#[derive(Clone, Copy)]
+struct Pending {
+    t: Real,
+    child: Child,
+}
+
+/// Traversal stack size. Each node visited pushes at most three children beyond the one it
+/// continues with, so this covers trees 40 levels deep; deeper subtrees are searched
+/// recursively instead.
+const STACK: usize = 128;
+
+impl Bvh {
+    /// Builds over `(primitive index, bounds)` pairs of `prims`.
+    pub fn build(prims: &[Primitive], bounded: &[(u32, Aabb)]) -> Bvh {
+        let bin = BinaryBvh::build(bounded);
+        Bvh {
+            nodes: wide::collapse(&bin),
+            items: LeafItems::new(prims, &bin.items),
+        }
+    }
+
+    /// Nodes of the 4-wide tree.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn closest(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        best: Option<Hit>,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the one requirement of `closest_avx2`.
+            return unsafe { self.closest_avx2(prims, r, t_max, best, c) };
+        }
+        self.closest_impl(prims, r, t_max, best, c)
+    }
+
+    /// The same query compiled for AVX2, which tests the four boxes of a node in one go.
+    /// No code changes its results: Rust never fuses a multiply and an add on its own.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn closest_avx2(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        best: Option<Hit>,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        self.closest_impl(prims, r, t_max, best, c)
+    }
+
+    #[inline(always)]
+    fn closest_impl(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        mut best: Option<Hit>,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        if self.nodes.is_empty() {
+            return best;
+        }
+        let br = BoxRay::new(r);
+        let mut stack = ArrayVec::<Pending, STACK>::new();
+        let mut child = Child { index: 0, count: 0 };
+        loop {
+            if child.is_leaf() {
+                best = self.closest_in_leaf(prims, child, r, t_max, best, c);
+            } else {
+                c.voxels += 1;
+                let limit = best.map_or(t_max, |b| b.t);
+                let node = &self.nodes[child.index as usize];
+                let t = node.entries(&br, limit);
+                // The nearest child hit is visited next; the others wait on the stack,
+                // farthest deepest.
+                let mut near = WIDTH;
+                let mut pushed = 0;
+                for k in 0..WIDTH {
+                    if t[k] == Real::INFINITY {
+                        continue;
+                    }
+                    if near == WIDTH {
+                        near = k;
+                        continue;
+                    }
+                    let far = if t[k] < t[near] {
+                        std::mem::replace(&mut near, k)
+                    } else {
+                        k
+                    };
+                    let entry = Pending {
+                        t: t[far],
+                        child: node.children[far],
+                    };
+                    if stack.try_push(entry).is_err() {
+                        best = self.closest_subtree(prims, entry.child, r, t_max, best, c);
+                        continue;
+                    }
+                    // Keep the entries of this node sorted, nearest on top.
+                    let mut at = stack.len() - 1;
+                    for _ in 0..pushed {
+                        if stack[at - 1].t < stack[at].t {
+                            stack.swap(at - 1, at);
+                            at -= 1;
+                        } else {
+                            break;
+                        }
+                    }
+                    pushed += 1;
+                }
+                if near < WIDTH {
+                    child = node.children[near];
+                    continue;
+                }
+            }
+            let limit = best.map_or(t_max, |b| b.t);
+            loop {
+                let Some(p) = stack.pop() else { return best };
+                if p.t <= limit {
+                    child = p.child;
+                    break;
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn closest_in_leaf(
+        &self,
+        prims: &[Primitive],
+        leaf: Child,
+        r: &RayPre,
+        t_max: Real,
+        mut best: Option<Hit>,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        let first = leaf.index as usize;
+        for k in first..first + leaf.count as usize {
+            c.intersection_tests += 1;
+            if let Some(t) = self.items.intersect(prims, k, r, t_max) {
+                let i = self.items.prim(k);
+                if Hit::improves(t, i, &best) {
+                    best = Some(Hit { t, prim: i });
+                }
+            }
+        }
+        best
+    }
+
+    /// Every primitive of a subtree (the fallback for trees deeper than the stack).
+    fn closest_subtree(
+        &self,
+        prims: &[Primitive],
+        child: Child,
+        r: &RayPre,
+        t_max: Real,
+        mut best: Option<Hit>,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        if child.is_leaf() {
+            return self.closest_in_leaf(prims, child, r, t_max, best, c);
+        }
+        let node = &self.nodes[child.index as usize];
+        for (k, ch) in node.children.iter().enumerate() {
+            if node.min[0][k] != Real::INFINITY {
+                best = self.closest_subtree(prims, *ch, r, t_max, best, c);
+            }
+        }
+        best
+    }
+
+    /// Some hit in `(0, t_max)` that `accept` takes, or None.
+    pub fn any(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        accept: &dyn Fn(u32) -> bool,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the one requirement of `any_avx2`.
+            return unsafe { self.any_avx2(prims, r, t_max, accept, c) };
+        }
+        self.any_impl(prims, r, t_max, accept, c)
+    }
+
+    /// The same query compiled for AVX2, which tests the four boxes of a node in one go.
+    /// No code changes its results: Rust never fuses a multiply and an add on its own.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn any_avx2(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        accept: &dyn Fn(u32) -> bool,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        self.any_impl(prims, r, t_max, accept, c)
+    }
+
+    #[inline(always)]
+    fn any_impl(
+        &self,
+        prims: &[Primitive],
+        r: &RayPre,
+        t_max: Real,
+        accept: &dyn Fn(u32) -> bool,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let br = BoxRay::new(r);
+        let mut stack = ArrayVec::<Child, STACK>::new();
+        stack.push(Child { index: 0, count: 0 });
+        while let Some(child) = stack.pop() {
+            if child.is_leaf() {
+                if let Some(h) = self.any_in_leaf(prims, child, r, t_max, accept, c) {
+                    return Some(h);
+                }
+                continue;
+            }
+            c.voxels += 1;
+            let node = &self.nodes[child.index as usize];
+            let t = node.entries(&br, t_max);
+            for (tk, child) in t.iter().zip(node.children) {
+                if *tk == Real::INFINITY {
+                    continue;
+                }
+                if stack.try_push(child).is_err() {
+                    if let Some(h) = self.any_subtree(prims, child, r, t_max, accept, c) {
+                        return Some(h);
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    #[inline(always)]
+    fn any_in_leaf(
+        &self,
+        prims: &[Primitive],
+        leaf: Child,
+        r: &RayPre,
+        t_max: Real,
+        accept: &dyn Fn(u32) -> bool,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        let first = leaf.index as usize;
+        for k in first..first + leaf.count as usize {
+            c.intersection_tests += 1;
+            if let Some(t) = self.items.intersect(prims, k, r, t_max) {
+                let i = self.items.prim(k);
+                if accept(i) {
+                    return Some(Hit { t, prim: i });
+                }
+            }
+        }
+        None
+    }
+
+    fn any_subtree(
+        &self,
+        prims: &[Primitive],
+        child: Child,
+        r: &RayPre,
+        t_max: Real,
+        accept: &dyn Fn(u32) -> bool,
+        c: &mut Counters,
+    ) -> Option<Hit> {
+        if child.is_leaf() {
+            return self.any_in_leaf(prims, child, r, t_max, accept, c);
+        }
+        let node = &self.nodes[child.index as usize];
+        node.children
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| node.min[0][*k] != Real::INFINITY)
+            .find_map(|(_, ch)| self.any_subtree(prims, *ch, r, t_max, accept, c))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{PrimitiveKind, Ray, Vec3};
+    use crate::sampler::splitmix64;
+
+    fn rand(s: &mut u64) -> f64 {
+        (splitmix64(s) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn sphere(centre: Vec3, radius: Real, i: u32) -> Primitive {
+        Primitive {
+            kind: PrimitiveKind::Sphere { centre, radius },
+            object: i,
+            surface: 0,
+            motion: Vec3::ZERO,
+        }
+    }
+
+    fn bvh_of(prims: &[Primitive]) -> Bvh {
+        let bounded: Vec<(u32, Aabb)> = prims
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| p.bounds().map(|b| (i as u32, b)))
+            .collect();
+        Bvh::build(prims, &bounded)
+    }
+
+    fn brute_force(prims: &[Primitive], r: &RayPre, t_max: Real) -> Option<Hit> {
+        let mut best = None;
+        for (i, p) in prims.iter().enumerate() {
+            if let Some(t) = p.intersect(r, 0.0, t_max) {
+                if Hit::improves(t, i as u32, &best) {
+                    best = Some(Hit { t, prim: i as u32 });
+                }
+            }
+        }
+        best
+    }
+
+    /// Spheres along the x axis, each twice as far out and twice as big as the one before:
+    /// the surface area heuristic peels them off one by one, so the tree is as deep as the
+    /// list is long, deeper than the traversal stack.
+    fn deep_scene(n: usize) -> Vec<Primitive> {
+        (0..n)
+            .map(|i| {
+                let x = 1.3f64.powi(i as i32);
+                sphere(Vec3::new(x, 0.0, 0.0), x * 0.1, i as u32)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_tree_deeper_than_the_stack_still_finds_every_hit() {
+        let prims = deep_scene(400);
+        let bvh = bvh_of(&prims);
+        let depth = |bvh: &Bvh| {
+            let mut deepest = 0;
+            let mut stack = vec![(0usize, 1)];
+            while let Some((i, d)) = stack.pop() {
+                deepest = deepest.max(d);
+                for ch in bvh.nodes[i].children.iter().filter(|c| !c.is_leaf()) {
+                    if ch.index != 0 {
+                        stack.push((ch.index as usize, d + 1));
+                    }
+                }
+            }
+            deepest
+        };
+        assert!(depth(&bvh) * 3 > STACK, "only {} levels", depth(&bvh));
+        let mut c = Counters::default();
+        let mut s = 5u64;
+        let mut hits = 0;
+        for _ in 0..300 {
+            // From beyond the far end back along the axis: every box is on the way.
+            let o = Vec3::new(1.3f64.powi(401), rand(&mut s) - 0.5, rand(&mut s) - 0.5);
+            let d = Vec3::new(-1.0, (rand(&mut s) - 0.5) * 1e-3, 0.0);
+            let r = RayPre::new(Ray::new(o, d));
+            let want = brute_force(&prims, &r, Real::INFINITY);
+            hits += usize::from(want.is_some());
+            assert_eq!(bvh.closest(&prims, &r, Real::INFINITY, None, &mut c), want);
+            assert_eq!(
+                bvh.any(&prims, &r, Real::INFINITY, &|_| true, &mut c).is_some(),
+                want.is_some()
+            );
+        }
+        assert!(hits > 100, "{hits}");
+    }
+
+    #[test]
+    fn the_plain_and_the_vector_builds_agree() {
+        let mut s = 11u64;
+        let prims: Vec<Primitive> = (0..500)
+            .map(|i| {
+                let c = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) * 20.0 - 10.0;
+                sphere(c, 0.1 + rand(&mut s), i)
+            })
+            .collect();
+        let bvh = bvh_of(&prims);
+        let mut c = Counters::default();
+        for _ in 0..2000 {
+            let o = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) * 30.0 - 15.0;
+            let d = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) - 0.5;
+            let r = RayPre::new(Ray::new(o, d));
+            let want = brute_force(&prims, &r, Real::INFINITY);
+            assert_eq!(bvh.closest_impl(&prims, &r, Real::INFINITY, None, &mut c), want);
+            assert_eq!(bvh.closest(&prims, &r, Real::INFINITY, None, &mut c), want);
+            let any = bvh.any_impl(&prims, &r, Real::INFINITY, &|_| true, &mut c);
+            assert_eq!(any.is_some(), want.is_some());
+        }
+    }
+}
