@@ -196,7 +196,7 @@ impl Bvh {
         }
         let node = &self.nodes[child.index as usize];
         for (k, ch) in node.children.iter().enumerate() {
-            if node.min[0][k] != Real::INFINITY {
+            if node.used(k) {
                 best = self.closest_subtree(prims, *ch, r, t_max, best, c);
             }
         }
@@ -313,7 +313,7 @@ impl Bvh {
         node.children
             .iter()
             .enumerate()
-            .filter(|(k, _)| node.min[0][*k] != Real::INFINITY)
+            .filter(|(k, _)| node.used(*k))
             .find_map(|(_, ch)| self.any_subtree(prims, *ch, r, t_max, accept, c))
     }
 }

@@ -27,23 +27,22 @@ impl Child {
     }
 }
 
-/// Four child boxes, one array per coordinate. An empty slot's box is `+inf..+inf`, which no
-/// ray with a finite `t` limit hits.
+/// Four child boxes, one array per coordinate: `planes[0]` the minima, `planes[1]` the
+/// maxima. An empty slot's box is `+inf..+inf`, which no ray with a finite `t` limit hits.
 #[derive(Clone, Debug)]
 #[repr(C, align(64))]
 pub struct Node {
-    pub min: [[Real; WIDTH]; 3],
-    pub max: [[Real; WIDTH]; 3],
+    pub planes: [[[Real; WIDTH]; 3]; 2],
     pub children: [Child; WIDTH],
 }
 
 /// A ray prepared for the box tests: origin and inverse direction per axis, and which of
-/// min and max is the near plane on each axis.
+/// min (0) and max (1) is the near plane on each axis.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
     origin: [Real; 3],
     inv: [Real; 3],
-    negative: [bool; 3],
+    near: [usize; 3],
 }
 
 impl BoxRay {
@@ -51,7 +50,11 @@ impl BoxRay {
         BoxRay {
             origin: r.ray.origin.to_array(),
             inv: r.inv_dir.to_array(),
-            negative: [r.inv_dir.x < 0.0, r.inv_dir.y < 0.0, r.inv_dir.z < 0.0],
+            near: [
+                usize::from(r.inv_dir.x < 0.0),
+                usize::from(r.inv_dir.y < 0.0),
+                usize::from(r.inv_dir.z < 0.0),
+            ],
         }
     }
 }
@@ -59,16 +62,20 @@ impl BoxRay {
 impl Node {
     fn empty() -> Node {
         Node {
-            min: [[Real::INFINITY; WIDTH]; 3],
-            max: [[Real::INFINITY; WIDTH]; 3],
+            planes: [[[Real::INFINITY; WIDTH]; 3]; 2],
             children: [Child { index: 0, count: 0 }; WIDTH],
         }
     }
 
+    /// Whether slot `k` holds a child.
+    pub fn used(&self, k: usize) -> bool {
+        self.planes[0][0][k] != Real::INFINITY
+    }
+
     fn set(&mut self, k: usize, b: &Aabb, child: Child) {
         for axis in 0..3 {
-            self.min[axis][k] = b.min[axis];
-            self.max[axis][k] = b.max[axis];
+            self.planes[0][axis][k] = b.min[axis];
+            self.planes[1][axis][k] = b.max[axis];
         }
         self.children[k] = child;
     }
@@ -81,11 +88,9 @@ impl Node {
         let mut t0 = [0.0; WIDTH];
         let mut t1 = [limit; WIDTH];
         for axis in 0..3 {
-            let (near, far) = if r.negative[axis] {
-                (&self.max[axis], &self.min[axis])
-            } else {
-                (&self.min[axis], &self.max[axis])
-            };
+            // Indices, not a branch: `& 1` shows the compiler they are in range.
+            let n = r.near[axis] & 1;
+            let (near, far) = (&self.planes[n][axis], &self.planes[n ^ 1][axis]);
             let (o, inv) = (r.origin[axis], r.inv[axis]);
             for k in 0..WIDTH {
                 let a = (near[k] - o) * inv;
@@ -186,7 +191,7 @@ mod tests {
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             for (k, c) in nodes[i].children.iter().enumerate() {
-                if nodes[i].min[0][k] == Real::INFINITY {
+                if !nodes[i].used(k) {
                     continue;
                 }
                 if c.is_leaf() {
