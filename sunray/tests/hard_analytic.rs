@@ -1,6 +1,6 @@
 //! Analytic checks: a diffuse sphere under one point light against the closed form of the
-//! Hall diffuse term; refraction through a glass sphere against Snell's law and Fresnel's
-//! equations; total internal reflection keeps light inside; bad input gives a diagnostic and
+//! Hall diffuse term; refraction through a glass sphere, a glass slab and a glass ball inside
+//! a water sphere against Snell's law and Fresnel's equations; total internal reflection keeps light inside; bad input gives a diagnostic and
 //! never a NaN pixel.
 
 mod hard_common;
@@ -90,7 +90,14 @@ impl Probe {
             counters: &mut counters,
         };
         let mut rng = SampleStream::new(0, 0, 0);
-        tracer.trace(ray, RayKind::Eye, 1, 1.0, None, &mut rng)
+        tracer.trace(
+            ray,
+            RayKind::Eye,
+            1,
+            1.0,
+            sunray::shading::Media::AIR,
+            &mut rng,
+        )
     }
 }
 
@@ -141,6 +148,142 @@ end",
         assert!(
             (got.x - want).abs() < 1e-9,
             "b = {b}: traced {} vs Snell/Fresnel {want} (lands at y = {})",
+            got.x,
+            land.y
+        );
+    }
+}
+
+/// A glass slab (a closed box of six polygons, n = 1.5, 2 thick) bends a ray by Snell's law
+/// on the way in and back on the way out: it leaves parallel to itself, shifted sideways by
+/// 2 (tan theta_i - tan theta_t) cos theta_i, and lands on the lit detector plane of the
+/// sphere test. With one face removed the polygons are thin sheets and the ray goes straight.
+#[test]
+fn refraction_through_a_slab_follows_snell_and_fresnel() {
+    let glass =
+        "attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.5 ; phong = 1e7)";
+    // Faces wound with their normals out of the box [-50, 50] x [-50, 50] x [-1, 1].
+    let faces = [
+        "-50,-50,-1 -50,50,-1 50,50,-1 50,-50,-1",
+        "-50,-50,1 50,-50,1 50,50,1 -50,50,1",
+        "-50,-50,-1 50,-50,-1 50,-50,1 -50,-50,1",
+        "-50,50,-1 -50,50,1 50,50,1 50,50,-1",
+        "-50,-50,-1 -50,-50,1 -50,50,1 -50,50,-1",
+        "50,-50,-1 50,50,-1 50,50,1 50,-50,1",
+    ];
+    let scene = |faces: &[&str]| {
+        let polys: String = faces
+            .iter()
+            .map(|f| format!("polygon(vertices = 4; {f});\n"))
+            .collect();
+        Probe::new(&format!(
+            "background(color = 0,0,0);
+ambient(color = 0,0,0);
+light(position = 0,8,-9 ; color = 1,1,1);
+begin
+  begin {glass}; {polys} end
+  begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -90,-90,-10 90,-90,-10 90,90,-10 -90,90,-10); end
+end"
+        ))
+    };
+    let slab = scene(&faces);
+    let sheets = scene(&faces[..5]);
+    let n = 1.5_f64;
+    let detector = |land_y: f64| {
+        let r = (land_y - 8.0).abs();
+        1.0 / (1.0 + r * r).sqrt()
+    };
+    for ti in [0.1_f64, 0.3, 0.5, 0.7] {
+        let tt = (ti.sin() / n).asin();
+        // From (0, y0, 5) heading down and towards -y; it meets z = 1 at y = 0.
+        let y0 = 4.0 * ti.tan();
+        let dir = DVec3::new(0.0, -ti.sin(), -ti.cos());
+        let ray = Ray::new(DVec3::new(0.0, y0, 5.0), dir);
+        let exit_y = -2.0 * tt.tan();
+        let bent = exit_y - 9.0 * ti.tan();
+        let f_in = fresnel(ti.cos(), 1.0, n);
+        let f_out = fresnel(tt.cos(), n, 1.0);
+        let want = (1.0 - f_in) * (1.0 - f_out) * detector(bent);
+        let got = slab.trace(ray, 3);
+        assert!(
+            (got.x - want).abs() < 1e-9,
+            "theta {ti}: traced {} vs Snell/Fresnel {want} (lands at y = {bent})",
+            got.x
+        );
+        // Snell's law makes the in and out Fresnel terms equal for a slab.
+        assert!((f_in - f_out).abs() < 1e-12);
+        let straight = -11.0 * ti.tan();
+        let want = (1.0 - f_in).powi(2) * detector(straight);
+        let got = sheets.trace(ray, 3);
+        assert!(
+            (got.x - want).abs() < 1e-9,
+            "theta {ti}, thin sheets: traced {} vs straight {want}",
+            got.x
+        );
+    }
+}
+
+/// A glass ball (n = 1.5, radius 1) inside a water sphere (n = 1.33, radius 2), both centred
+/// at the origin: a ray crosses four interfaces, air to water, water to glass, glass to water
+/// and water to air, bending by Snell's law at each with the indices on both sides (not via
+/// air), and lands on the lit detector plane. The path is computed here in the plane of the
+/// ray, independently of the renderer.
+#[test]
+fn nested_media_refract_between_their_own_indices() {
+    let probe = Probe::new(
+        "background(color = 0,0,0);
+ambient(color = 0,0,0);
+light(position = 0,8,-9 ; color = 1,1,1);
+begin
+  begin attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.33 ; phong = 1e7); sphere(center = 0,0,0 ; radius = 2); end
+  begin attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.5 ; phong = 1e7); sphere(center = 0,0,0 ; radius = 1); end
+  begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -90,-90,-10 90,-90,-10 90,90,-10 -90,90,-10); end
+end",
+    );
+    // (y, z) plane: refract d at a sphere point p (outward normal p / |p|) from n1 into n2.
+    let bend = |d: DVec3, p: DVec3, n1: f64, n2: f64| {
+        let mut n = p.normalize();
+        if d.dot(n) > 0.0 {
+            n = -n;
+        }
+        let cos_i = -d.dot(n);
+        let eta = n1 / n2;
+        let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+        assert!(k > 0.0, "no total internal reflection on these paths");
+        let t = d * eta + n * (eta * cos_i - k.sqrt());
+        (t.normalize(), fresnel(cos_i, n1, n2))
+    };
+    // Where a ray from o along unit d meets the sphere of radius r: nearest t > 1e-9.
+    let meet = |o: DVec3, d: DVec3, r: f64| {
+        let b = o.dot(d);
+        let c = o.length_squared() - r * r;
+        let s = (b * b - c).sqrt();
+        let t = if -b - s > 1e-9 { -b - s } else { -b + s };
+        o + d * t
+    };
+    for b in [0.1_f64, 0.4, 0.7] {
+        let o = DVec3::new(0.0, b, 5.0);
+        let mut d = -DVec3::Z;
+        let mut weight = 1.0;
+        let mut p = o;
+        for (r, n1, n2) in [
+            (2.0, 1.0, 1.33),
+            (1.0, 1.33, 1.5),
+            (1.0, 1.5, 1.33),
+            (2.0, 1.33, 1.0),
+        ] {
+            p = meet(p, d, r);
+            let (nd, f) = bend(d, p, n1, n2);
+            d = nd;
+            weight *= 1.0 - f;
+        }
+        let land = p + d * ((-10.0 - p.z) / d.z);
+        let r = (land.y - 8.0).abs();
+        let want = weight / (1.0 + r * r).sqrt();
+        let got = probe.trace(Ray::new(o, -DVec3::Z), 6);
+        assert!(
+            (got.x - want).abs() < 1e-9,
+            "b = {b}: traced {} vs four Snell refractions {want} (lands at y = {})",
             got.x,
             land.y
         );

@@ -153,7 +153,14 @@ pub fn render_streams(
                                         0.0,
                                         Some(&mut rng),
                                     );
-                                    sum += tracer.trace(ray, RayKind::Eye, 1, 1.0, None, &mut rng);
+                                    sum += tracer.trace(
+                                        ray,
+                                        RayKind::Eye,
+                                        1,
+                                        1.0,
+                                        crate::shading::Media::AIR,
+                                        &mut rng,
+                                    );
                                 }
                                 sum / n as Real
                             })

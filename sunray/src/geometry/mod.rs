@@ -1,7 +1,8 @@
 //! Geometry: rays, bounding boxes and the primitives the renderer intersects.
 //!
 //! The compiled [`yari::model::World`] is turned into a flat list of [`Primitive`]s: spheres,
-//! ellipsoids, triangles (polygons are triangulated, see [`polygon`]) and clipped quadrics.
+//! ellipsoids, triangles (polygons are triangulated, see [`polygon`]; faces of closed
+//! transparent meshes bound a volume, see [`solid`]) and clipped quadrics.
 //! Intersection returns only the ray parameter `t`; the normal is computed afterwards for the
 //! closest hit alone.
 //!
@@ -13,6 +14,7 @@ pub mod overlap;
 pub mod polygon;
 pub mod primitive;
 pub mod quadric;
+pub mod solid;
 pub mod sphere;
 pub mod triangle;
 

@@ -2,6 +2,7 @@
 
 use super::polygon::{triangulate, Degenerate};
 use super::quadric::{intersect_quadric, quadric_bounds, quadric_normal};
+use super::solid::{closed_faces, Face};
 use super::sphere::{ellipsoid_normal, intersect_ellipsoid, intersect_sphere};
 use super::triangle::intersect_triangle;
 use super::{Aabb, RayPre, Real, Vec3};
@@ -17,10 +18,13 @@ pub enum PrimitiveKind {
     Ellipsoid {
         to_local: DAffine3,
     },
-    /// One triangle of a polygon; `normal` is the polygon's unit plane normal.
+    /// One triangle of a polygon; `normal` is the polygon's unit plane normal. `solid`: the
+    /// polygon is a face of a closed transparent mesh ([`super::solid`]), and `normal`
+    /// points out of the volume.
     Triangle {
         v: [Vec3; 3],
         normal: Vec3,
+        solid: bool,
     },
     Quadric(Quadric),
 }
@@ -48,6 +52,7 @@ impl Primitive {
     pub fn build_all(world: &World) -> (Vec<Primitive>, Vec<Dropped>) {
         let mut prims = Vec::with_capacity(world.objects.len());
         let mut dropped = Vec::new();
+        let faces = closed_faces(world);
         for (index, obj) in world.objects.iter().enumerate() {
             let mk = |kind| Primitive {
                 kind,
@@ -88,11 +93,13 @@ impl Primitive {
                 }
                 Shape::Polygon { vertices } => match triangulate(vertices) {
                     Ok(t) => {
+                        let (solid, normal) = match faces[index] {
+                            Face::Open => (false, t.normal),
+                            Face::Outward => (true, t.normal),
+                            Face::Inward => (true, -t.normal),
+                        };
                         for v in t.triangles {
-                            prims.push(mk(PrimitiveKind::Triangle {
-                                v,
-                                normal: t.normal,
-                            }));
+                            prims.push(mk(PrimitiveKind::Triangle { v, normal, solid }));
                         }
                     }
                     Err(Degenerate::TooFewVertices) => {
@@ -198,7 +205,9 @@ impl Primitive {
     pub fn is_closed(&self) -> bool {
         matches!(
             self.kind,
-            PrimitiveKind::Sphere { .. } | PrimitiveKind::Ellipsoid { .. }
+            PrimitiveKind::Sphere { .. }
+                | PrimitiveKind::Ellipsoid { .. }
+                | PrimitiveKind::Triangle { solid: true, .. }
         )
     }
 }

@@ -91,7 +91,14 @@ pub fn render_line(
             let (dx, dy) = pixel_offset(n, s, &mut rng);
             let time = if motion { rng.next_real() } else { 0.0 };
             let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));
-            sum += tracer.trace(ray, RayKind::Eye, 1, 1.0, None, &mut rng);
+            sum += tracer.trace(
+                ray,
+                RayKind::Eye,
+                1,
+                1.0,
+                crate::shading::Media::AIR,
+                &mut rng,
+            );
         }
         let c = sum / n as Real;
         pixels.push([c.x as f32, c.y as f32, c.z as f32]);

@@ -12,6 +12,7 @@
 //! + kst (1-F) I_t T^dist                          refracted ray  (kst > 0)
 //! ```
 
+use super::media::{Media, Medium};
 use super::optics::{fresnel, reflect, refract};
 use crate::accel::{Accel, Scratch};
 use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
@@ -60,15 +61,15 @@ const MAX_SHADOW_CROSSINGS: usize = 64;
 
 impl Tracer<'_> {
     /// The colour seen along `ray` (unit direction). `depth` is the ray's level in the tree
-    /// (eye = 1), `weight` its contribution to the pixel, `medium` the transmissivity per unit
-    /// length of the object the ray travels inside (None = outside everything).
+    /// (eye = 1), `weight` its contribution to the pixel, `media` the transparent volumes it
+    /// travels inside ([`Media::AIR`] for eye rays).
     pub fn trace(
         &mut self,
         ray: Ray,
         kind: RayKind,
         depth: u32,
         weight: Real,
-        medium: Option<Real>,
+        media: Media,
         rng: &mut SampleStream,
     ) -> Vec3 {
         match kind {
@@ -84,6 +85,7 @@ impl Tracer<'_> {
             self.scratch,
             self.counters,
         );
+        let medium = media.transmissivity();
         let Some(hit) = hit else {
             return match medium {
                 Some(t) if t < 1.0 => Vec3::ZERO,
@@ -93,7 +95,7 @@ impl Tracer<'_> {
         if kind == RayKind::Eye {
             self.counters.eye_hits += 1;
         }
-        let colour = self.shade(&ray, hit.t, hit.prim, depth, weight, medium, rng);
+        let colour = self.shade(&ray, hit.t, hit.prim, depth, weight, media, rng);
         match medium {
             Some(t) if t < 1.0 => colour * t.max(0.0).powf(hit.t),
             _ => colour,
@@ -108,7 +110,7 @@ impl Tracer<'_> {
         prim_index: u32,
         depth: u32,
         weight: Real,
-        medium: Option<Real>,
+        media: Media,
         rng: &mut SampleStream,
     ) -> Vec3 {
         let scene = self.scene;
@@ -133,10 +135,26 @@ impl Tracer<'_> {
         let v = -ray.dir;
         let (ksr, kst) = (surf.ksr(), surf.kst());
         let closed = prim.is_closed();
-        // Refractive indices on the viewer's side and the far side.
-        let (n_view, n_far) = match (closed, entering) {
-            (true, false) => (surf.refract, 1.0),
-            _ => (1.0, surf.refract),
+        // The volumes on the viewer's side and on the far side, and their refractive indices.
+        // A thin sheet (an open polygon, a quadric) has air on both sides and bends nothing.
+        let own = Medium {
+            surface: prim.surface,
+            refract: surf.refract,
+            transmissivity: surf.transmissivity,
+        };
+        let (media_view, media_far, n_view, n_far) = match (closed, entering) {
+            (true, true) => (media, media.entering(own), media.index(), surf.refract),
+            (true, false) => {
+                // Leaving: inside this volume, even if the ray was not known to be.
+                let view = if media.contains(prim.surface) {
+                    media
+                } else {
+                    media.entering(own)
+                };
+                let far = view.leaving(prim.surface);
+                (view, far, surf.refract, far.index())
+            }
+            (false, _) => (media, media, 1.0, surf.refract),
         };
 
         let mut result = world.ambient * colour * surf.ka;
@@ -194,21 +212,6 @@ impl Tracer<'_> {
         } else {
             1.0
         };
-        let inside_medium = if closed {
-            Some(surf.transmissivity)
-        } else {
-            None
-        };
-        // Medium of rays on the viewer's side / the far side.
-        let (medium_view, medium_far) = if closed {
-            if entering {
-                (None, inside_medium)
-            } else {
-                (inside_medium, None)
-            }
-        } else {
-            (medium, medium)
-        };
 
         let w_refl = ksr * f;
         if ksr > 0.0 && weight * w_refl > self.opts.min_weight {
@@ -229,7 +232,7 @@ impl Tracer<'_> {
                 RayKind::Reflected,
                 depth + 1,
                 weight * w_refl,
-                medium_view,
+                media_view,
                 rng,
             );
             result += c * w_refl;
@@ -259,7 +262,7 @@ impl Tracer<'_> {
                     RayKind::Refracted,
                     depth + 1,
                     weight * w_refr,
-                    medium_far,
+                    media_far,
                     rng,
                 );
                 result += c * w_refr;

@@ -60,7 +60,7 @@ fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
         RayKind::Eye,
         1,
         1.0,
-        None,
+        crate::shading::Media::AIR,
         &mut SampleStream::new(0, 0, 0),
     );
     (c, counters)
@@ -308,7 +308,7 @@ fn shadows_block_and_transparent_occluders_filter() {
             RayKind::Eye,
             1,
             1.0,
-            None,
+            crate::shading::Media::AIR,
             &mut SampleStream::new(0, 0, 0),
         )
     };
@@ -348,7 +348,7 @@ fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
             RayKind::Eye,
             1,
             1.0,
-            None,
+            crate::shading::Media::AIR,
             &mut SampleStream::new(0, 0, 0),
         );
         counters
