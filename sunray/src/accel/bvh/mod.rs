@@ -400,7 +400,8 @@ mod tests {
             hits += usize::from(want.is_some());
             assert_eq!(bvh.closest(&prims, &r, Real::INFINITY, None, &mut c), want);
             assert_eq!(
-                bvh.any(&prims, &r, Real::INFINITY, &|_| true, &mut c).is_some(),
+                bvh.any(&prims, &r, Real::INFINITY, &|_| true, &mut c)
+                    .is_some(),
                 want.is_some()
             );
         }
@@ -423,7 +424,10 @@ mod tests {
             let d = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) - 0.5;
             let r = RayPre::new(Ray::new(o, d));
             let want = brute_force(&prims, &r, Real::INFINITY);
-            assert_eq!(bvh.closest_impl(&prims, &r, Real::INFINITY, None, &mut c), want);
+            assert_eq!(
+                bvh.closest_impl(&prims, &r, Real::INFINITY, None, &mut c),
+                want
+            );
             assert_eq!(bvh.closest(&prims, &r, Real::INFINITY, None, &mut c), want);
             let any = bvh.any_impl(&prims, &r, Real::INFINITY, &|_| true, &mut c);
             assert_eq!(any.is_some(), want.is_some());
