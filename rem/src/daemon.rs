@@ -98,6 +98,7 @@ impl Daemon {
                     name: h.name,
                     load_per_core: load.load_per_core,
                     cores: load.cores,
+                    capacity: load.capacity,
                 }
             })
             .collect();

@@ -1,8 +1,8 @@
 //! Placement: which hosts get the processes of a spawn request.
 //!
 //! Hosts are ranked by load per core, ties broken by name. Without `allow_same_host` the
-//! N lowest distinct hosts are taken; with it, each pick adds `1 / cores` to the chosen host's
-//! figure (the process it will run) before the next pick. Fewer eligible hosts than N is an
+//! N lowest distinct hosts are taken; with it, each pick adds `1 / capacity` to the chosen
+//! host's figure (the process it will run, on the CPUs it may use) before the next pick. Fewer eligible hosts than N is an
 //! error.
 
 use crate::error::Error;
@@ -13,6 +13,19 @@ pub struct Candidate {
     pub name: String,
     pub load_per_core: f64,
     pub cores: u32,
+    /// CPUs the host may use (a cgroup's limit, fractional); 0 when unknown (then `cores`).
+    pub capacity: f64,
+}
+
+impl Candidate {
+    /// The CPUs one more process shares: the capacity, else the core count.
+    fn cpus(&self) -> f64 {
+        if self.capacity.is_finite() && self.capacity > 0.0 {
+            self.capacity
+        } else {
+            f64::from(self.cores.max(1))
+        }
+    }
 }
 
 /// The host for each of `count` processes, in order.
@@ -58,7 +71,7 @@ pub fn place(
             .min_by(|a, b| key(a).total_cmp(&key(b)).then_with(|| a.name.cmp(&b.name)))
             .expect("ranked is not empty");
         chosen.push(best.name.clone());
-        best.load_per_core += 1.0 / best.cores.max(1) as f64;
+        best.load_per_core += 1.0 / best.cpus();
     }
     Ok(chosen)
 }
@@ -72,6 +85,7 @@ mod tests {
             name: name.into(),
             load_per_core: lpc,
             cores,
+            capacity: 0.0,
         }
     }
 
@@ -107,5 +121,17 @@ mod tests {
         // a: 0 -> .25 -> .5 (then b at .1 wins) ...
         assert_eq!(got, ["a", "b", "a", "a", "a"]);
         assert_eq!(got.len(), 5);
+    }
+
+    #[test]
+    fn same_host_weighs_a_process_by_the_cpus_a_container_may_use() {
+        // Both have 8 cores, but a's cgroup may use 0.5 of a CPU: one process there adds 2.
+        let mut a = c("a", 0.0, 8);
+        a.capacity = 0.5;
+        let mut b = c("b", 0.3, 8);
+        b.capacity = 4.0;
+        let got = place(&[a, b], 4, true).unwrap();
+        // a: 0 -> 2; b: .3 -> .55 -> .8 -> 1.05
+        assert_eq!(got, ["a", "b", "b", "b"]);
     }
 }

@@ -288,7 +288,7 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
     writeln!(
         out,
         "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10}",
-        "NAME", "ADDRESS", "CORES", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD"
+        "NAME", "ADDRESS", "CPUS", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD"
     )?;
     for h in hosts {
         let l = h.load.unwrap_or_default();
@@ -308,7 +308,7 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
             "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:<9} {:>10}",
             h.name,
             h.addr,
-            l.cores,
+            cpus(&l),
             l.load_per_core,
             l.cpu_busy * 100.0,
             mib(l.mem_free_bytes),
@@ -318,6 +318,15 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
         )?;
     }
     Ok(())
+}
+
+/// The CPUs a host offers: its cgroup's limit when it has one (e.g. "0.25"), else its cores.
+fn cpus(l: &rem::proto::Load) -> String {
+    if l.capacity > 0.0 && l.capacity != f64::from(l.cores) {
+        format!("{:.2}", l.capacity)
+    } else {
+        l.cores.to_string()
+    }
 }
 
 fn mib(bytes: u64) -> String {
