@@ -119,3 +119,29 @@ fn ppm_and_pfm_by_extension_and_bad_input_fails_cleanly() {
     );
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// Without SCENE, `sunray render` renders the built-in example (as `sunray submit` does),
+/// to example.png in the current directory; `@example` names it explicitly.
+#[test]
+fn no_scene_renders_the_built_in_example() {
+    let d = tmp("builtin");
+    let st = sunray()
+        .current_dir(&d)
+        .args(["render", "-q", "--resolution", "32x24"])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let by_name = d.join("named.png");
+    let st = sunray()
+        .args(["render", "-q", "--resolution", "32x24", "@example", "-o"])
+        .arg(&by_name)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let default = std::fs::read(d.join("example.png")).unwrap();
+    assert_eq!(default, std::fs::read(&by_name).unwrap());
+    let img = image::load_from_memory(&default).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (32, 24));
+    let distinct: std::collections::HashSet<_> = img.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 20, "a real picture, not a blank");
+}

@@ -1,6 +1,7 @@
-//! `sunray render SCENE`: renders a scene on this machine with all cores.
+//! `sunray render [SCENE]`: renders a scene (by default the built-in example) on this machine with all cores.
 
 use crate::accel::{Accel, AccelKind, AccelOptions};
+use crate::distrib::scene_input;
 use crate::render::{render_image, Progress, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::{process_cpu_seconds, RenderStats};
@@ -18,7 +19,9 @@ pub enum OnOff {
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// Scene: .yari, .nff, .off or a compiled model.
+    /// Scene: .yari, .nff, .off or a compiled model [default: the built-in example scene,
+    /// also named `@example`]
+    #[arg(default_value = scene_input::BUILTIN, hide_default_value = true)]
     pub scene: PathBuf,
     /// Output image (.png, .ppm or .pfm); default: the scene's name with .png, in the
     /// current directory.
@@ -125,13 +128,20 @@ impl RenderArgs {
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
+    let path = scene_input::given_path(&args);
     let out = args.output.clone().unwrap_or_else(|| {
-        let stem = args.scene.file_stem().unwrap_or_else(|| "image".as_ref());
+        let stem = match &path {
+            Some(p) => p.file_stem().unwrap_or_else(|| "image".as_ref()),
+            None => "example".as_ref(),
+        };
         PathBuf::from(stem).with_extension("png")
     });
     crate::film::Format::from_path(&out)?;
     let t_load = Instant::now();
-    let world = load_world(&args.scene, args.colours.as_deref())?;
+    let world = match &path {
+        Some(p) => load_world(p, args.colours.as_deref())?,
+        None => scene_input::builtin_world(args.colours.as_deref())?,
+    };
     let load_s = t_load.elapsed().as_secs_f64();
     let cpu0 = process_cpu_seconds();
 

@@ -33,21 +33,24 @@ pub fn load(args: &RenderArgs) -> anyhow::Result<SceneInput> {
     load_path(given_path(args), args.colours.as_deref())
 }
 
+/// The built-in example scene, compiled.
+pub fn builtin_world(colours: Option<&Path>) -> anyhow::Result<yari::model::World> {
+    let table = yari::colour::ColourTable::for_run(colours)?;
+    Ok(yari::load::load_str(
+        "built-in example",
+        DEFAULT_SCENE,
+        yari::load::InputKind::Yari,
+        &table,
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?
+    .world)
+}
+
 /// Loads `path`, or the built-in scene for `None`.
 pub fn load_path(path: Option<PathBuf>, colours: Option<&Path>) -> anyhow::Result<SceneInput> {
     let world = match &path {
         Some(p) => load_world(p, colours)?,
-        None => {
-            let table = yari::colour::ColourTable::for_run(colours)?;
-            yari::load::load_str(
-                "built-in example",
-                DEFAULT_SCENE,
-                yari::load::InputKind::Yari,
-                &table,
-            )
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .world
-        }
+        None => builtin_world(colours)?,
     };
     let scene = Scene::new(world);
     for d in &scene.dropped {
