@@ -288,24 +288,11 @@ impl Tracer<'_> {
         };
         let pre = RayPre::new(ray);
         let scene = self.scene;
-        if !scene.world.features.transparency {
-            let blocked = self.accel.any(
-                &scene.prims,
-                &pre,
-                t_max,
-                &|_| true,
-                self.scratch,
-                self.counters,
-            );
-            return if blocked.is_some() {
-                Vec3::ZERO
-            } else {
-                Vec3::ONE
-            };
-        }
         let opaque = |i: u32| scene.surface(i).kst() <= 0.0;
         // Most shadow rays meet nothing or an opaque surface first: one any-hit query
-        // settles those; only a ray that met a transparent surface takes the long way.
+        // settles those (and every ray of a scene without transparency); only a ray that met
+        // a transparent surface takes the long way.
+        let transparency = scene.world.features.transparency;
         match self.accel.any(
             &scene.prims,
             &pre,
@@ -315,7 +302,7 @@ impl Tracer<'_> {
             self.counters,
         ) {
             None => return Vec3::ONE,
-            Some(h) if opaque(h.prim) => return Vec3::ZERO,
+            Some(h) if !transparency || opaque(h.prim) => return Vec3::ZERO,
             Some(_) => {}
         }
         if self
