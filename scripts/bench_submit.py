@@ -5,7 +5,8 @@
     python3 scripts/bench_submit.py [--bin target/release] [--size 512] [--only overhead,workers,strategies]
 
 1. overhead:   controller CPU and messages per scanline and the workers' share of render
-               time spent waiting for work: mount6 SIZExSIZE, two remd daemons on loopback.
+               time spent waiting for work (and, apart, at the tail for duplicates of
+               stragglers): mount6 SIZExSIZE, 1 and 4 samples, two remd daemons on loopback.
 2. workers:    1 vs 2 local workers (embedded default, one render thread each, and all
                cores), elapsed and speed-up, next to `sunray render`.
 3. strategies: SunRay I, II and III side by side on mount6 with three workers, one thread
@@ -96,11 +97,13 @@ def overhead(bin_dir, size, samples):
               f"{s['elapsed_s']:.2f} s; controller {c['cpu_ms_per_line']:.3f} ms CPU and "
               f"{c['messages_per_line']:.2f} messages per line ({c['messages_in']} in, "
               f"{c['messages_out']} out); workers waited {100 * s['wait_share']:.3f}% "
-              f"of their render-thread time")
+              f"of their render-thread time (and {100 * s.get('tail_wait_share', 0):.3f}% at the "
+              f"tail for copies of stragglers)")
         for n in s["nodes"]:
             print(f"  node {n['node']} {n['host']}: {n['scanlines']} lines, threads "
                   f"{n['threads']}, render {n['render_s']:.2f} s, waited {n['wait_s']:.3f} s "
-                  f"(and {n['first_wait_s']:.3f} s for the first lines)")
+                  f"(and {n['first_wait_s']:.3f} s for the first lines, "
+                  f"{n.get('tail_wait_s', 0):.3f} s at the tail)")
 
 
 def workers(bin_dir, size):

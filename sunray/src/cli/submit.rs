@@ -310,6 +310,8 @@ async fn run_job(
         .map(|n| n.render_s * f64::from(n.threads))
         .sum();
     let waited: f64 = result.nodes.iter().map(|n| n.wait_s).sum();
+    let tail_waited: f64 = result.nodes.iter().map(|n| n.tail_wait_s).sum();
+    let share = |s: f64| if busy > 0.0 { s / busy } else { 0.0 };
     let stats = JobStats {
         job: plan.job.clone(),
         strategy: Some(plan.strategy),
@@ -318,7 +320,8 @@ async fn run_job(
         elapsed_s: result.elapsed_s,
         totals,
         controller: result.cost,
-        wait_share: if busy > 0.0 { waited / busy } else { 0.0 },
+        wait_share: share(waited),
+        tail_wait_share: share(tail_waited),
         nodes: result.nodes,
     };
     if !args.render.quiet {
@@ -329,15 +332,16 @@ async fn run_job(
         eprint!("{}", nodes::table(&stats.nodes));
         let l = &stats.lines;
         eprintln!(
-            "lines: {} ({} from the checkpoint, {} rendered; {} given back, {} duplicated, {} dropped)",
-            l.total, l.resumed, l.rendered, l.requeued, l.duplicated, l.dropped
+            "lines: {} ({} from the checkpoint, {} rendered; {} given back, {} handed back unstarted, {} duplicated, {} dropped)",
+            l.total, l.resumed, l.rendered, l.requeued, l.released, l.duplicated, l.dropped
         );
         let c = &stats.controller;
         eprintln!(
-            "controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time",
+            "controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time for work ({:.2}% at the tail for copies of stragglers)",
             c.cpu_ms_per_line,
             c.messages_per_line,
-            stats.wait_share * 100.0
+            stats.wait_share * 100.0,
+            stats.tail_wait_share * 100.0
         );
     }
     if let Some(path) = &args.render.stats_json {

@@ -191,7 +191,21 @@ mod tests {
 
     #[test]
     fn messages_round_trip_and_garbage_is_an_error() {
-        let m = Body::Assign(proto::Assign { line: 7, grant: 42 });
+        let m = Body::Assign(proto::Assign {
+            lines: vec![
+                proto::LineGrant {
+                    line: 7,
+                    grant: 42,
+                    duplicate: false,
+                },
+                proto::LineGrant {
+                    line: 3,
+                    grant: 43,
+                    duplicate: true,
+                },
+            ],
+            echo_s: 1.25,
+        });
         assert_eq!(decode(&encode(m.clone())).unwrap(), m);
         assert!(decode(&[0xff, 0xff, 0xff]).is_err());
         assert!(matches!(decode(&[]), Err(MessageError::Empty)));

@@ -5,9 +5,9 @@
 //! sunray submit --hosts N scene            remd (each host)            sunray worker
 //!   compile scene once  --spawn N------->  place on least-loaded  ---> attach to relay
 //!   controller actor    --Scene--------------------------------------> build accelerator
-//!                       <-Ready, Request(threads + 1)----------------
-//!                       --Assign(line, grant)------------------------> render threads
-//!                       <-Done(line, grant, pixels, counters)--------  (one more each)
+//!                       <-Ready, Request(window)---------------------
+//!                       --Assign(lines, grants)----------------------> render threads
+//!                       <-Done(line, grant, pixels, counters, window)  (lines to hold)
 //!                       --NoMoreWork---------------------------------> exit
 //! ```
 //!
@@ -20,7 +20,8 @@
 //! - [`jobs`]: the job index behind `sunray jobs`.
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
-//! - [`worker`]: the worker process; [`pool`]: its render threads.
+//! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
+//!   lines it holds.
 //! - [`cluster`]: reaching REM; [`embedded`]: the private remd of the default set-up.
 //! - [`scene_input`]: the job's scene (a file or the built-in example) and render settings.
 
@@ -36,6 +37,7 @@ pub mod pool;
 pub mod progress;
 pub mod scene_input;
 pub mod strategy;
+pub mod window;
 pub mod worker;
 
 pub use scene_input::DEFAULT_SCENE;

@@ -52,11 +52,13 @@ pub struct NodeStats {
     pub elapsed_s: f64,
     pub preprocess_s: f64,
     pub render_s: f64,
-    /// Render threads' time waiting for their next line, summed over threads (after their
-    /// first line).
+    /// Render threads' time waiting for their next fresh line, summed over threads (after
+    /// their first line).
     pub wait_s: f64,
     /// Render threads' time waiting for their first line (start-up).
     pub first_wait_s: f64,
+    /// Render threads' time waiting for a duplicate line (the tail: no fresh line was left).
+    pub tail_wait_s: f64,
     /// Seconds from the start of the job to this node's last accepted line.
     pub finished_at_s: f64,
 }
@@ -84,6 +86,8 @@ pub struct LineCounts {
     pub duplicated: u64,
     /// Completions dropped because the line was already in.
     pub dropped: u64,
+    /// Lines handed back unstarted by workers whose window shrank (and handed out again).
+    pub released: u64,
 }
 
 /// The controller's own cost: CPU time of the submit process (which, with the embedded
@@ -111,9 +115,12 @@ pub struct JobStats {
     /// reports them (load and preprocessing are the controller's).
     pub totals: RenderStats,
     pub controller: ControllerCost,
-    /// Render threads' time waiting for their next line over their render time, all nodes
-    /// (0..1); the start-up wait for the first line is not included.
+    /// Render threads' time waiting for work over their render time, all nodes (0..1): the
+    /// waits that ended with a fresh line. Neither the start-up wait for the first line nor
+    /// the tail (waits for duplicates of stragglers, when no fresh line is left) is included.
     pub wait_share: f64,
+    /// Render threads' time waiting for duplicates at the tail over their render time.
+    pub tail_wait_share: f64,
     pub nodes: Vec<NodeStats>,
 }
 

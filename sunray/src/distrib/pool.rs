@@ -6,8 +6,9 @@ use crate::accel::{Accel, Scratch};
 use crate::render::{render_line, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::Counters;
-use std::sync::mpsc;
-use std::sync::{Arc, Mutex};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 /// A line to render under a grant.
@@ -15,6 +16,8 @@ use std::time::{Duration, Instant};
 pub struct LineJob {
     pub line: u32,
     pub grant: u64,
+    /// A copy of a line outstanding elsewhere, handed out at the tail of the job.
+    pub duplicate: bool,
 }
 
 /// A rendered line.
@@ -25,10 +28,17 @@ pub struct Rendered {
     pub counters: Counters,
     /// Wall time the thread spent on the line.
     pub line_s: f64,
-    /// Wall time the thread waited for this line (since its previous one, or its start).
+    /// Wall time the thread took for this line besides waiting for it: since it finished the
+    /// previous one, so it also holds the time the host gave to other threads in between
+    /// (the line rate of a thread that shares its core).
+    pub cycle_s: f64,
+    /// Wall time the thread waited for this line with nothing queued (since its previous
+    /// one, or its start).
     pub wait_s: f64,
     /// The thread's first line (its wait includes the start-up).
     pub first: bool,
+    /// When the thread finished it.
+    pub finished: Instant,
 }
 
 /// What the threads render.
@@ -43,8 +53,62 @@ pub struct PoolScene {
 
 /// The render threads. Dropping the pool lets them finish their current line and stop.
 pub struct RenderPool {
-    jobs: mpsc::Sender<LineJob>,
+    queue: Arc<Queue>,
     threads: usize,
+}
+
+/// The lines not yet started, shared by the worker's I/O thread and the render threads.
+#[derive(Debug, Default)]
+struct Queue {
+    state: Mutex<QueueState>,
+    /// Signalled when a line is queued or the pool closes.
+    ready: Condvar,
+    /// Lines the worker means to keep queued.
+    target: AtomicUsize,
+}
+
+#[derive(Debug, Default)]
+struct QueueState {
+    jobs: VecDeque<LineJob>,
+    closed: bool,
+}
+
+impl Queue {
+    /// The next line and how long the thread waited for it: from the moment it found the
+    /// queue empty (time spent getting the lock while lines were queued is not waiting for
+    /// work). `None` when the pool is closed.
+    fn next(&self) -> Option<(LineJob, f64)> {
+        let mut state = self.state.lock().ok()?;
+        let mut waited = 0.0;
+        if state.jobs.is_empty() && !state.closed {
+            let empty_at = Instant::now();
+            while state.jobs.is_empty() && !state.closed {
+                state = self.ready.wait(state).ok()?;
+            }
+            waited = empty_at.elapsed().as_secs_f64();
+        }
+        if state.closed {
+            return None;
+        }
+        state.jobs.pop_front().map(|job| (job, waited))
+    }
+
+    /// Below half its target the queue is running low: the worker's I/O thread, which
+    /// reports lines and queues new ones, must not be kept waiting for a core by the render
+    /// threads (on a host with more runnable threads than cores it would otherwise wait for
+    /// their time slices, 5 to 30 ms measured). Above it, the render threads keep their
+    /// cores: yielding each time would also hand part of their share to other processes.
+    fn running_low(&self) -> bool {
+        let queued = self.state.lock().map_or(0, |s| s.jobs.len());
+        2 * queued < self.target.load(Ordering::Relaxed)
+    }
+
+    fn close(&self) {
+        if let Ok(mut state) = self.state.lock() {
+            state.closed = true;
+        }
+        self.ready.notify_all();
+    }
 }
 
 impl RenderPool {
@@ -54,22 +118,54 @@ impl RenderPool {
         threads: usize,
         results: tokio::sync::mpsc::UnboundedSender<Rendered>,
     ) -> std::io::Result<RenderPool> {
-        let (tx, rx) = mpsc::channel::<LineJob>();
-        let rx = Arc::new(Mutex::new(rx));
+        let queue = Arc::new(Queue::default());
         let what = Arc::new(what);
         let threads = threads.max(1);
+        let pool = RenderPool {
+            queue: queue.clone(),
+            threads,
+        };
         for i in 0..threads {
-            let (rx, what, results) = (rx.clone(), what.clone(), results.clone());
+            let (queue, what, results) = (queue.clone(), what.clone(), results.clone());
             std::thread::Builder::new()
                 .name(format!("render-{i}"))
-                .spawn(move || render_loop(&what, &rx, &results))?;
+                .spawn(move || render_loop(&what, &queue, &results))?;
         }
-        Ok(RenderPool { jobs: tx, threads })
+        Ok(pool)
     }
 
     /// Queues a line; false when the threads are gone.
     pub fn submit(&self, job: LineJob) -> bool {
-        self.jobs.send(job).is_ok()
+        let Ok(mut state) = self.queue.state.lock() else {
+            return false;
+        };
+        if state.closed {
+            return false;
+        }
+        state.jobs.push_back(job);
+        drop(state);
+        self.queue.ready.notify_one();
+        true
+    }
+
+    /// Lines queued and not yet started.
+    pub fn queued(&self) -> usize {
+        self.queue.state.lock().map_or(0, |s| s.jobs.len())
+    }
+
+    /// Takes back the `n` lines queued last (not started), in queue order.
+    pub fn take_back(&self, n: usize) -> Vec<LineJob> {
+        let Ok(mut state) = self.queue.state.lock() else {
+            return Vec::new();
+        };
+        let keep = state.jobs.len().saturating_sub(n);
+        state.jobs.split_off(keep).into()
+    }
+
+    /// How many lines the worker means to keep queued (not yet started); below half of
+    /// that, a render thread that has reported a line lets the I/O thread run first.
+    pub fn set_queue_target(&self, lines: usize) {
+        self.queue.target.store(lines, Ordering::Relaxed);
     }
 
     pub fn threads(&self) -> usize {
@@ -77,38 +173,47 @@ impl RenderPool {
     }
 }
 
+impl Drop for RenderPool {
+    fn drop(&mut self) {
+        self.queue.close();
+    }
+}
+
 fn render_loop(
     what: &PoolScene,
-    jobs: &Mutex<mpsc::Receiver<LineJob>>,
+    queue: &Queue,
     results: &tokio::sync::mpsc::UnboundedSender<Rendered>,
 ) {
     let mut scratch = Scratch::new(what.scene.prims.len(), what.mailbox);
     let mut first = true;
-    loop {
-        // The lock is held only while waiting for the next job.
-        let waiting = Instant::now();
-        let job = match jobs.lock() {
-            Ok(rx) => rx.recv(),
-            Err(_) => return,
-        };
-        let Ok(job) = job else { return };
+    let mut previous: Option<Instant> = None;
+    while let Some((job, wait_s)) = queue.next() {
         let t = Instant::now();
-        let wait_s = (t - waiting).as_secs_f64();
         let line = render_line(&what.scene, &what.accel, job.line, &what.opts, &mut scratch);
         if !what.delay.is_zero() {
             std::thread::sleep(what.delay);
         }
+        let finished = Instant::now();
+        let line_s = (finished - t).as_secs_f64();
+        let cycle_s = previous.map_or(line_s, |p| (finished - p).as_secs_f64() - wait_s);
         let rendered = Rendered {
             job,
             pixels: line.pixels,
             counters: line.counters,
-            line_s: t.elapsed().as_secs_f64(),
+            line_s,
+            cycle_s: cycle_s.max(line_s),
             wait_s,
             first,
+            finished,
         };
         first = false;
+        previous = Some(finished);
         if results.send(rendered).is_err() {
             return;
+        }
+        // The send woke the worker's I/O thread.
+        if queue.running_low() {
+            std::thread::yield_now();
         }
     }
 }
@@ -135,6 +240,57 @@ mod tests {
     }
 
     #[test]
+    fn the_queue_runs_low_below_half_its_target() {
+        let queue = Queue::default();
+        assert!(!queue.running_low(), "no target");
+        queue.target.store(8, Ordering::Relaxed);
+        let job = LineJob {
+            line: 0,
+            grant: 1,
+            duplicate: false,
+        };
+        queue.state.lock().unwrap().jobs.extend([job; 4]);
+        assert!(!queue.running_low());
+        queue.state.lock().unwrap().jobs.pop_front();
+        assert!(queue.running_low());
+    }
+
+    #[test]
+    fn the_last_queued_lines_are_taken_back_in_order() {
+        // A pool without threads: nothing takes the lines.
+        let pool = RenderPool {
+            queue: Arc::new(Queue::default()),
+            threads: 1,
+        };
+        for line in 0..5 {
+            assert!(pool.submit(LineJob {
+                line,
+                grant: u64::from(line) + 1,
+                duplicate: false,
+            }));
+        }
+        let back: Vec<u32> = pool.take_back(2).iter().map(|j| j.line).collect();
+        assert_eq!(back, vec![3, 4]);
+        assert_eq!(pool.queued(), 3);
+        assert_eq!(pool.take_back(9).len(), 3);
+        assert_eq!(pool.queued(), 0);
+    }
+
+    #[test]
+    fn a_thread_waits_only_while_the_queue_is_empty() {
+        let queue = Queue::default();
+        let job = LineJob {
+            line: 3,
+            grant: 7,
+            duplicate: false,
+        };
+        queue.state.lock().unwrap().jobs.push_back(job);
+        assert_eq!(queue.next(), Some((job, 0.0)), "queued: no wait");
+        queue.close();
+        assert_eq!(queue.next(), None, "closed");
+    }
+
+    #[test]
     fn threads_render_exactly_what_render_line_does() {
         let (scene, accel, opts) = small_scene();
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
@@ -153,7 +309,8 @@ mod tests {
         for y in 0..opts.height {
             assert!(pool.submit(LineJob {
                 line: y,
-                grant: 100 + u64::from(y)
+                grant: 100 + u64::from(y),
+                duplicate: false,
             }));
         }
         let mut got = Vec::new();

@@ -72,6 +72,8 @@ pub struct LineQueue {
     shared: VecDeque<u32>,
     /// Static strategies: each node's own set.
     own: Vec<VecDeque<u32>>,
+    /// A static strategy: lines belong to nodes.
+    owned: bool,
 }
 
 impl LineQueue {
@@ -90,12 +92,14 @@ impl LineQueue {
             Strategy::Dynamic => LineQueue {
                 shared: keep(strategy.owned_lines(height, nodes, 0)),
                 own: vec![VecDeque::new(); nodes],
+                owned: false,
             },
             Strategy::Blocks | Strategy::Interleaved => LineQueue {
                 shared: VecDeque::new(),
                 own: (0..nodes)
                     .map(|i| keep(strategy.owned_lines(height, nodes, i)))
                     .collect(),
+                owned: true,
             },
         }
     }
@@ -111,6 +115,15 @@ impl LineQueue {
     /// Puts a line back at the front of the shared queue (it is re-rendered first).
     pub fn give_back(&mut self, line: u32) {
         self.shared.push_front(line);
+    }
+
+    /// `node` hands back a line it did not start: to the front of its own set under a static
+    /// strategy (the node still owns it), else of the shared queue.
+    pub fn return_line(&mut self, node: usize, line: u32) {
+        match self.own.get_mut(node) {
+            Some(own) if self.owned => own.push_front(line),
+            _ => self.shared.push_front(line),
+        }
     }
 
     /// A node is gone: the rest of its own set goes to the shared queue, in order.
@@ -195,6 +208,20 @@ mod tests {
         q.release_node(1);
         assert_eq!(drain(&mut q, 0), vec![4, 1, 3, 5]);
         assert!(q.is_empty_for(1));
+    }
+
+    #[test]
+    fn a_returned_line_stays_with_its_static_node() {
+        let mut q = LineQueue::new(Strategy::Interleaved, 6, 2, |_| false);
+        assert_eq!((q.next_for(1), q.next_for(1)), (Some(1), Some(3)));
+        q.return_line(1, 3);
+        q.return_line(1, 1);
+        assert_eq!(drain(&mut q, 0), vec![0, 2, 4], "node 0 does not get them");
+        assert_eq!(drain(&mut q, 1), vec![1, 3, 5]);
+        let mut q = LineQueue::new(Strategy::Dynamic, 3, 2, |_| false);
+        assert_eq!(q.next_for(1), Some(0));
+        q.return_line(1, 0);
+        assert_eq!(q.next_for(0), Some(0), "dynamic: anyone's, first");
     }
 
     #[test]

@@ -2,15 +2,16 @@
 //! Ready, receives the compiled model through REM (no shared file system), builds its
 //! accelerator, then loops: request, render, report.
 //!
-//! It keeps one line in flight per render thread plus one prefetched, so a thread need not
-//! wait for the network: it asks for `threads + 1` lines once, then for one more with each
-//! completion. When lines are quicker than the round trip to the controller and a thread
-//! still had to wait, it asks for one extra line ([`Window`]), up to [`MAX_WINDOW`]. With
-//! nothing to do it sends `Request(0)` now and then, which tells it (by an Undeliverable
+//! It holds a window of lines (rendering, queued, or on their way), so its render threads
+//! need not wait for the network: `threads + 1` at first, then as many as its threads render
+//! while a report travels to the controller and a new line comes back ([`Window`], from the
+//! measured delay and line time). Each Request and Done says the window it wants now. With
+//! nothing to do it repeats its Request now and then, which tells it (by an Undeliverable
 //! notice) when its controller is gone. It obeys only its job's owner.
 
 use super::messages::{self, proto, Body, Settings};
 use super::pool::{LineJob, PoolScene, RenderPool, Rendered};
+use super::window::{Window, MIN_COVER_S};
 use crate::accel::Accel;
 use crate::scene::Scene;
 use crate::stats::process_cpu_seconds;
@@ -115,35 +116,52 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
         results_tx,
     )
     .map_err(WorkerError::Threads)?;
+    let mut window = Window::new(threads);
+    let clock = || started.elapsed().as_secs_f64();
     link.send(Body::Request(proto::Request {
-        lines: threads as u32 + 1,
+        window: window.lines(clock()),
         preprocess_s,
+        stamp_s: clock(),
+        released: Vec::new(),
     }))
     .await?;
 
-    let mut outstanding = 0usize;
-    let (mut wait_s, mut first_wait_s) = (0.0, 0.0);
-    let mut window = Window::new(threads);
+    let mut held = 0usize;
+    let mut waits = Waits::default();
     let mut probe = tokio::time::interval(cfg.idle_probe);
     probe.tick().await;
+    // Until a line is done, how long the first lines take bounds the window.
+    let mut first_lines_at: Option<Instant> = None;
+    let mut first_check = tokio::time::interval(Duration::from_secs_f64(MIN_COVER_S));
+    first_check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
         tokio::select! {
             body = next_from_owner(&mut inbox, &owner) => match body? {
-                Body::Assign(a) if pool.submit(LineJob { line: a.line, grant: a.grant }) => {
-                    outstanding += 1;
+                Body::Assign(a) => {
+                    let now = clock();
+                    // Duplicates are not an answer to the worker's room but to an empty queue.
+                    if a.echo_s > 0.0 && a.lines.iter().any(|l| !l.duplicate) {
+                        window.delay(now, now - a.echo_s);
+                    }
+                    pool.set_queue_target(window.queued(now) as usize);
+                    first_lines_at.get_or_insert_with(Instant::now);
+                    for l in a.lines {
+                        let job = LineJob { line: l.line, grant: l.grant, duplicate: l.duplicate };
+                        if pool.submit(job) {
+                            held += 1;
+                        }
+                    }
                 }
                 Body::NoMoreWork(_) => return Ok(()),
                 _ => {}
             },
             r = results.recv() => {
                 let Some(r) = r else { return Err(WorkerError::BadScene("render threads stopped".into())) };
-                outstanding = outstanding.saturating_sub(1);
-                if r.first {
-                    first_wait_s += r.wait_s;
-                } else {
-                    wait_s += r.wait_s;
-                }
-                let want = window.after(&r);
+                held = held.saturating_sub(1);
+                waits.add(&r);
+                window.line_done(r.cycle_s);
+                let now = clock();
+                let released = give_back(&pool, &window, now, &mut held);
                 let mut counters = proto::Counters::from(&r.counters);
                 counters.line_s = r.line_s;
                 link.send(Body::Done(proto::Done {
@@ -151,55 +169,82 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                     grant: r.job.grant,
                     pixels: messages::pixels_to_bytes(&r.pixels),
                     counters: Some(counters),
-                    want,
+                    window: window.lines(now),
                     clock: Some(proto::NodeClock {
                         cpu_s: process_cpu_seconds(),
-                        elapsed_s: started.elapsed().as_secs_f64(),
+                        elapsed_s: clock(),
                         preprocess_s,
                         render_s: render_start.elapsed().as_secs_f64(),
-                        wait_s,
-                        first_wait_s,
+                        wait_s: waits.fresh_s,
+                        first_wait_s: waits.first_s,
+                        tail_wait_s: waits.tail_s,
                     }),
+                    stamp_s: r.finished.saturating_duration_since(started).as_secs_f64(),
+                    released,
                 }))
                 .await?;
             }
+            _ = first_check.tick(), if !window.has_line_time() => {
+                if let Some(at) = first_lines_at {
+                    window.first_lines_running(at.elapsed().as_secs_f64());
+                    let now = clock();
+                    let released = give_back(&pool, &window, now, &mut held);
+                    if !released.is_empty() {
+                        let request = proto::Request {
+                            window: window.lines(now),
+                            preprocess_s,
+                            stamp_s: now,
+                            released,
+                        };
+                        link.send(Body::Request(request)).await?;
+                    }
+                }
+            }
             _ = probe.tick() => {
-                if outstanding == 0 {
-                    link.send(Body::Request(proto::Request { lines: 0, preprocess_s })).await?;
+                if held == 0 {
+                    let request = proto::Request {
+                        window: window.lines(clock()),
+                        preprocess_s,
+                        stamp_s: clock(),
+                        released: Vec::new(),
+                    };
+                    link.send(Body::Request(request)).await?;
                 }
             }
         }
     }
 }
 
-/// The most lines a worker holds at once.
-pub const MAX_WINDOW: u32 = 64;
-
-/// How many lines a worker keeps: `threads + 1`, doubled (up to [`MAX_WINDOW`]) each time a
-/// thread had to wait for its next line longer than a quarter of a line's render time, so
-/// the window quickly covers a round trip that is longer than a line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Window {
-    pub lines: u32,
+/// Sets the pool's queue target from the window and takes back the queued lines beyond it
+/// ([`Window::excess`]); returns their grants, to report.
+fn give_back(pool: &RenderPool, window: &Window, now: f64, held: &mut usize) -> Vec<u64> {
+    pool.set_queue_target(window.queued(now) as usize);
+    let back = pool.take_back(window.excess(pool.queued(), now));
+    *held = held.saturating_sub(back.len());
+    back.into_iter().map(|job| job.grant).collect()
 }
 
-impl Window {
-    pub fn new(threads: usize) -> Window {
-        Window {
-            lines: (threads as u32).saturating_add(1).min(MAX_WINDOW),
-        }
-    }
+/// The render threads' waits for their next line, summed over threads, by what ended them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Waits {
+    /// For each thread's first line (start-up: at least one round trip).
+    first_s: f64,
+    /// For a fresh line: waiting for work.
+    fresh_s: f64,
+    /// For a duplicate: the tail, when no fresh line was left.
+    tail_s: f64,
+}
 
-    /// Lines to ask for after `r` is done: 1, or more to grow the window.
-    pub fn after(&mut self, r: &Rendered) -> u32 {
-        let starved = !r.first && r.wait_s > 0.25 * r.line_s;
-        let grow = if starved {
-            self.lines.min(MAX_WINDOW - self.lines)
+impl Waits {
+    fn add(&mut self, r: &Rendered) {
+        let sum = if r.first {
+            &mut self.first_s
+        } else if r.job.duplicate {
+            &mut self.tail_s
         } else {
-            0
+            &mut self.fresh_s
         };
-        self.lines += grow;
-        1 + grow
+        *sum += r.wait_s;
     }
 }
 
@@ -286,31 +331,38 @@ mod tests {
     use super::*;
     use crate::stats::Counters;
 
-    fn rendered(first: bool, wait_s: f64, line_s: f64) -> Rendered {
+    fn rendered(first: bool, duplicate: bool, wait_s: f64) -> Rendered {
         Rendered {
-            job: LineJob { line: 0, grant: 1 },
+            job: LineJob {
+                line: 0,
+                grant: 1,
+                duplicate,
+            },
             pixels: Vec::new(),
             counters: Counters::default(),
-            line_s,
+            line_s: 0.001,
+            cycle_s: 0.001,
             wait_s,
             first,
+            finished: Instant::now(),
         }
     }
 
     #[test]
-    fn the_window_grows_only_when_a_thread_starved() {
-        let mut w = Window::new(2);
-        assert_eq!(w.lines, 3);
-        assert_eq!(w.after(&rendered(true, 1.0, 0.01)), 1, "start-up wait");
-        assert_eq!(w.after(&rendered(false, 0.001, 0.01)), 1, "short wait");
-        assert_eq!(w.after(&rendered(false, 0.005, 0.01)), 4, "doubled: 3 more");
-        assert_eq!(w.lines, 6);
-        for _ in 0..10 {
-            w.after(&rendered(false, 1.0, 0.01));
-        }
-        assert_eq!(w.lines, MAX_WINDOW);
-        let mut w = Window::new(100);
-        assert_eq!(w.lines, MAX_WINDOW);
-        assert_eq!(w.after(&rendered(false, 1.0, 0.01)), 1, "capped");
+    fn waits_are_split_into_start_up_work_and_tail() {
+        let mut w = Waits::default();
+        w.add(&rendered(true, false, 1.0));
+        w.add(&rendered(true, true, 2.0));
+        w.add(&rendered(false, false, 0.25));
+        w.add(&rendered(false, false, 0.5));
+        w.add(&rendered(false, true, 4.0));
+        assert_eq!(
+            w,
+            Waits {
+                first_s: 3.0,
+                fresh_s: 0.75,
+                tail_s: 4.0
+            }
+        );
     }
 }

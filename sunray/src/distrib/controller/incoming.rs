@@ -70,7 +70,9 @@ impl Controller {
             }
             Body::Request(r) => {
                 n.preprocess_s = r.preprocess_s;
-                self.table.request(i, r.lines);
+                self.table.release(i, &r.released);
+                self.stamps_to_echo[i] = Some(r.stamp_s);
+                self.table.set_window(i, r.window);
             }
             Body::Done(d) => self.on_done(i, d),
             Body::WorkerError(e) => {
@@ -87,6 +89,8 @@ impl Controller {
     }
 
     fn on_done(&mut self, i: usize, d: proto::Done) {
+        // Lines it will not render, whatever became of this one.
+        self.table.release(i, &d.released);
         let width = self.cfg.width;
         let Ok(pixels) = messages::pixels_from_bytes(&d.pixels, width) else {
             self.view
@@ -97,7 +101,7 @@ impl Controller {
         if let Some(c) = &d.clock {
             (n.cpu_s, n.elapsed_s, n.preprocess_s, n.render_s) =
                 (c.cpu_s, c.elapsed_s, c.preprocess_s, c.render_s);
-            (n.wait_s, n.first_wait_s) = (c.wait_s, c.first_wait_s);
+            (n.wait_s, n.first_wait_s, n.tail_wait_s) = (c.wait_s, c.first_wait_s, c.tail_wait_s);
         }
         if n.outcome == Outcome::Silent {
             n.outcome = Outcome::Ok;
@@ -126,7 +130,8 @@ impl Controller {
             Completion::Duplicate => n.dropped += 1,
             Completion::Unknown => {}
         }
-        self.table.request(i, d.want);
+        self.stamps_to_echo[i] = Some(d.stamp_s);
+        self.table.set_window(i, d.window);
     }
 
     /// Node `i`'s process exited, its host was lost, or it cannot be reached. `clean`: it

@@ -156,6 +156,9 @@ struct Controller {
     cpu_at_start: f64,
     messages_in: u64,
     messages_out: u64,
+    /// The clock stamp of the Request or Done just taken from each node, echoed in the
+    /// Assign that answers it (the next dispatch), so the worker can time its delay.
+    stamps_to_echo: Vec<Option<f64>>,
     view: ProgressView,
     all_silent_since: Option<Instant>,
 }
@@ -232,6 +235,7 @@ impl Controller {
             cpu_at_start: crate::stats::process_cpu_seconds(),
             messages_in: 0,
             messages_out: 0,
+            stamps_to_echo: vec![None; workers.len()],
             view,
             all_silent_since: None,
         }
@@ -280,6 +284,7 @@ impl Controller {
         );
         let counts = self.table.counts();
         self.lines.requeued = counts.requeued;
+        self.lines.released = counts.released;
         self.lines.duplicated = counts.duplicated;
         self.lines.dropped = counts.dropped;
         let cost = self.cost();
@@ -342,23 +347,38 @@ impl Controller {
         }
     }
 
-    /// Sends out whatever the table can hand out now.
+    /// Sends out whatever the table can hand out now: one Assign per node, with every line
+    /// it gets.
     async fn dispatch(&mut self) -> Result<(), ControllerError> {
         let now = Instant::now();
         let mut out = self.table.assign(now);
         let min_age = Duration::from_secs_f64(2.0 * self.max_line_s + 0.25);
         out.extend(self.table.duplicate_stragglers(now, min_age));
-        for a in out {
+        for node in 0..self.procs.len() {
+            let lines: Vec<proto::LineGrant> = out
+                .iter()
+                .filter(|a| a.node == node)
+                .map(|a| proto::LineGrant {
+                    line: a.line,
+                    grant: a.grant,
+                    duplicate: a.duplicate,
+                })
+                .collect();
+            if lines.is_empty() {
+                continue;
+            }
             let msg = messages::encode(Body::Assign(proto::Assign {
-                line: a.line,
-                grant: a.grant,
+                lines,
+                echo_s: self.stamps_to_echo[node].unwrap_or(0.0),
             }));
-            match self.sender.send(&self.procs[a.node], msg).await {
+            match self.sender.send(&self.procs[node], msg).await {
                 Ok(()) => self.messages_out += 1,
                 Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
-                Err(e) => self.on_gone(a.node, format!("cannot send: {e}"), false),
+                Err(e) => self.on_gone(node, format!("cannot send: {e}"), false),
             }
         }
+        // Lines handed out later (when some came back to the queue) answer no message.
+        self.stamps_to_echo.fill(None);
         Ok(())
     }
 

@@ -2,13 +2,17 @@
 //! left to hand out. Plain logic (no I/O, time passed in), so every rule is unit-tested.
 //!
 //! Rules (DESIGN.md section 3, invariant 2):
-//! - A line is handed out under a fresh grant number; a node's credit is how many more lines
-//!   it asked for.
+//! - A line is handed out under a fresh grant number; a node's window is how many lines it
+//!   asked to hold, and its credit is its window less the lines it holds: those handed to it
+//!   and not yet reported by it (a line another node finished meanwhile is still in its
+//!   queue: it renders it all the same).
 //! - The first completion of a line wins; a later one (from a duplicate or a revoked grant)
 //!   is reported [`Completion::Duplicate`] and dropped. A completion from a revoked grant of a
 //!   line that is not in yet is accepted: the pixels are the same wherever they were rendered.
 //! - A node that is gone gives its outstanding lines back at once (to the front of the
 //!   queue), and a static node's unrendered set becomes anyone's.
+//! - A node may hand back lines it has not started (its window shrank): they go to the front
+//!   of the queue, or of its own set under a static strategy.
 //! - A node whose oldest grant is older than the timeout is marked silent: its lines go back
 //!   too, and it gets no more work until it is heard from again.
 //! - When nothing is left to hand out, a node with room may duplicate the oldest outstanding
@@ -72,8 +76,18 @@ enum LineState {
 #[derive(Clone, Debug)]
 struct Node {
     state: NodeState,
-    credit: u32,
+    /// Lines the node wants to hold.
+    window: u32,
     live: BTreeSet<GrantId>,
+    /// Grants handed to it that it has not reported, live or not.
+    unreported: BTreeSet<GrantId>,
+}
+
+impl Node {
+    /// Lines it may be given now.
+    fn credit(&self) -> usize {
+        (self.window as usize).saturating_sub(self.unreported.len())
+    }
 }
 
 /// Counts of the table's fault handling.
@@ -85,6 +99,8 @@ pub struct GrantCounts {
     pub duplicated: u64,
     /// Completions dropped because the line was already in.
     pub dropped: u64,
+    /// Lines handed back unstarted by nodes whose window shrank.
+    pub released: u64,
 }
 
 #[derive(Clone, Debug)]
@@ -118,8 +134,9 @@ impl GrantTable {
             nodes: vec![
                 Node {
                     state: NodeState::Active,
-                    credit: 0,
+                    window: 0,
                     live: BTreeSet::new(),
+                    unreported: BTreeSet::new(),
                 };
                 nodes
             ],
@@ -173,8 +190,9 @@ impl GrantTable {
         self.nodes.get(node).map_or(0, |n| n.live.len())
     }
 
-    /// `node` asks for `lines` more lines (it is heard from: a silent node is active again).
-    pub fn request(&mut self, node: usize, lines: u32) {
+    /// `node` wants to hold `window` lines (it is heard from: a silent node is active again).
+    /// The window is absolute: asking again for the same window adds nothing.
+    pub fn set_window(&mut self, node: usize, window: u32) {
         let Some(n) = self.nodes.get_mut(node) else {
             return;
         };
@@ -182,7 +200,7 @@ impl GrantTable {
             return;
         }
         n.state = NodeState::Active;
-        n.credit = n.credit.saturating_add(lines);
+        n.window = window;
     }
 
     /// Hands out queued lines to active nodes with credit, one per node per round.
@@ -191,7 +209,7 @@ impl GrantTable {
         loop {
             let mut progress = false;
             for node in 0..self.nodes.len() {
-                if self.nodes[node].state != NodeState::Active || self.nodes[node].credit == 0 {
+                if self.nodes[node].state != NodeState::Active || self.nodes[node].credit() == 0 {
                     continue;
                 }
                 while let Some(line) = self.queue.next_for(node) {
@@ -221,9 +239,8 @@ impl GrantTable {
             LineState::Out(gs) => gs.push(grant),
             state => *state = LineState::Out(vec![grant]),
         }
-        let n = &mut self.nodes[node];
-        n.credit -= 1;
-        n.live.insert(grant);
+        self.nodes[node].live.insert(grant);
+        self.nodes[node].unreported.insert(grant);
         if duplicate {
             self.counts.duplicated += 1;
         }
@@ -246,8 +263,10 @@ impl GrantTable {
         if g.line != line || g.node != node {
             return Completion::Unknown;
         }
-        if self.nodes[node].state == NodeState::Silent {
-            self.nodes[node].state = NodeState::Active;
+        let n = &mut self.nodes[node];
+        n.unreported.remove(&grant);
+        if n.state == NodeState::Silent {
+            n.state = NodeState::Active;
         }
         if g.live {
             self.retire(grant);
@@ -267,6 +286,35 @@ impl GrantTable {
                 }
                 self.done += 1;
                 Completion::Accepted
+            }
+        }
+    }
+
+    /// `node` hands back lines it did not start (given in the order it held them): they go
+    /// back to the queue, ahead of the rest and in the same order; a static node keeps
+    /// them. Grants that are not `node`'s or no longer live are skipped.
+    pub fn release(&mut self, node: usize, grants: &[GrantId]) {
+        for &grant in grants.iter().rev() {
+            let Some(g) = grant
+                .checked_sub(1)
+                .and_then(|i| self.grants.get(i as usize))
+            else {
+                continue;
+            };
+            if g.node != node {
+                continue;
+            }
+            let (line, live) = (g.line, g.live);
+            self.nodes[node].unreported.remove(&grant);
+            if !live {
+                continue;
+            }
+            self.retire(grant);
+            let state = &mut self.lines[line as usize];
+            if matches!(state, LineState::Out(gs) if gs.is_empty()) {
+                *state = LineState::Queued;
+                self.queue.return_line(node, line);
+                self.counts.released += 1;
             }
         }
     }
@@ -300,7 +348,9 @@ impl GrantTable {
         for g in &live {
             self.revoke(*g);
         }
-        self.nodes[node].credit = 0;
+        // Its next message says again how many lines it wants, and it starts afresh.
+        self.nodes[node].window = 0;
+        self.nodes[node].unreported.clear();
         self.queue.release_node(node);
         live.len()
     }
@@ -358,7 +408,7 @@ impl GrantTable {
         let mut out = Vec::new();
         for node in 0..self.nodes.len() {
             while self.nodes[node].state == NodeState::Active
-                && self.nodes[node].credit > 0
+                && self.nodes[node].credit() > 0
                 && self.queue.is_empty_for(node)
             {
                 let Some(i) = candidates.iter().position(|c| c.2 != node) else {

@@ -12,10 +12,10 @@ fn lines(a: &[Assignment]) -> Vec<u32> {
 }
 
 #[test]
-fn assigns_round_robin_within_credit() {
+fn assigns_round_robin_within_the_window() {
     let mut g = GrantTable::new(Strategy::Dynamic, 6, 2, &[]);
-    g.request(0, 2);
-    g.request(1, 1);
+    g.set_window(0, 2);
+    g.set_window(1, 1);
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![0, 1, 2]);
     assert_eq!(a.iter().map(|a| a.node).collect::<Vec<_>>(), vec![0, 1, 0]);
@@ -29,16 +29,85 @@ fn assigns_round_robin_within_credit() {
 }
 
 #[test]
+fn the_window_is_absolute() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 8, 1, &[]);
+    g.set_window(0, 3);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![0, 1, 2]);
+    g.set_window(0, 3);
+    assert!(g.assign(t(0)).is_empty(), "asking again adds nothing");
+    g.complete(0, a[0].grant, 0);
+    assert_eq!(lines(&g.assign(t(0))), vec![3], "a completion makes room");
+    g.set_window(0, 1);
+    g.complete(0, a[1].grant, 1);
+    assert!(
+        g.assign(t(0)).is_empty(),
+        "a smaller window: nothing until the node holds fewer lines"
+    );
+    g.complete(0, a[2].grant, 2);
+    assert!(g.assign(t(0)).is_empty(), "still holds line 3");
+    g.set_window(0, 4);
+    assert_eq!(lines(&g.assign(t(0))), vec![4, 5, 6], "grown: 4 held");
+}
+
+#[test]
+fn a_node_holds_a_line_another_finished_until_it_reports_it() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 2, &[]);
+    g.set_window(0, 1);
+    g.set_window(1, 3);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![0, 1, 2, 3]);
+    g.complete(1, a[1].grant, 1);
+    let d = g.duplicate_stragglers(t(1000), Duration::from_millis(500));
+    assert_eq!(lines(&d), vec![0]);
+    assert_eq!(g.complete(1, d[0].grant, 0), Completion::Accepted);
+    assert_eq!(g.outstanding(0), 0, "no live grant left on node 0");
+    g.node_gone(1);
+    assert!(
+        g.assign(t(1000)).is_empty(),
+        "lines 2 and 3 are back, but node 0 is still rendering line 0"
+    );
+    assert_eq!(g.complete(0, a[0].grant, 0), Completion::Duplicate);
+    assert_eq!(g.assign(t(1000)).len(), 1, "reported: room for one");
+}
+
+#[test]
+fn released_lines_go_back_first_in_order() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 8, 2, &[]);
+    g.set_window(0, 5);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), vec![0, 1, 2, 3, 4]);
+    g.set_window(0, 2);
+    let grants: Vec<GrantId> = a[2..].iter().map(|x| x.grant).collect();
+    g.release(0, &grants);
+    g.release(1, &[a[0].grant]);
+    g.release(0, &[99]);
+    assert_eq!(
+        g.counts().released,
+        3,
+        "unknown and foreign grants are skipped"
+    );
+    assert_eq!(g.outstanding(0), 2);
+    assert!(g.assign(t(1)).is_empty(), "node 0 holds its window");
+    g.set_window(1, 4);
+    assert_eq!(lines(&g.assign(t(1))), vec![2, 3, 4, 5]);
+    assert_eq!(
+        g.complete(0, a[2].grant, 2),
+        Completion::Accepted,
+        "a late completion of a released line is still good pixels"
+    );
+}
+
+#[test]
 fn completes_every_line_once() {
     let mut g = GrantTable::new(Strategy::Dynamic, 3, 1, &[]);
-    g.request(0, 1);
+    g.set_window(0, 1);
     let mut seen = Vec::new();
     while !g.is_finished() {
         let a = g.assign(t(0));
         assert_eq!(a.len(), 1);
         assert_eq!(g.complete(0, a[0].grant, a[0].line), Completion::Accepted);
         seen.push(a[0].line);
-        g.request(0, 1);
     }
     assert_eq!(seen, vec![0, 1, 2]);
     assert_eq!(g.done(), 3);
@@ -47,9 +116,9 @@ fn completes_every_line_once() {
 #[test]
 fn first_completion_wins() {
     let mut g = GrantTable::new(Strategy::Dynamic, 1, 2, &[]);
-    g.request(0, 1);
+    g.set_window(0, 1);
     let a = g.assign(t(0))[0];
-    g.request(1, 1);
+    g.set_window(1, 1);
     let d = g.duplicate_stragglers(t(1000), Duration::from_millis(500));
     assert_eq!(d.len(), 1);
     assert!(d[0].duplicate && d[0].line == a.line && d[0].node == 1);
@@ -68,7 +137,7 @@ fn first_completion_wins() {
 #[test]
 fn unknown_grants_are_ignored() {
     let mut g = GrantTable::new(Strategy::Dynamic, 2, 2, &[]);
-    g.request(0, 1);
+    g.set_window(0, 1);
     let a = g.assign(t(0))[0];
     assert_eq!(g.complete(0, 0, 0), Completion::Unknown);
     assert_eq!(g.complete(0, 99, 0), Completion::Unknown);
@@ -80,21 +149,21 @@ fn unknown_grants_are_ignored() {
 #[test]
 fn a_gone_node_gives_its_lines_back_first() {
     let mut g = GrantTable::new(Strategy::Dynamic, 6, 2, &[]);
-    g.request(0, 2);
-    g.request(1, 2);
+    g.set_window(0, 2);
+    g.set_window(1, 2);
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![0, 1, 2, 3]);
     assert_eq!(g.node_gone(1), 2);
     assert_eq!(g.node_gone(1), 0, "only once");
     assert_eq!(g.counts().requeued, 2);
     assert_eq!(g.live_nodes(), 1);
-    g.request(1, 5);
+    g.set_window(1, 5);
     assert!(
         g.assign(t(0)).is_empty(),
         "a gone node gets nothing and node 0 has no credit"
     );
     g.complete(0, a[0].grant, 0);
-    g.request(0, 3);
+    g.set_window(0, 4);
     let b = g.assign(t(1));
     assert_eq!(lines(&b), vec![3, 1, 4], "lost lines come first");
     // A late completion from the gone node is still good pixels.
@@ -105,11 +174,11 @@ fn a_gone_node_gives_its_lines_back_first() {
 #[test]
 fn silent_nodes_time_out_and_come_back() {
     let mut g = GrantTable::new(Strategy::Dynamic, 4, 2, &[]);
-    g.request(0, 1);
-    g.request(1, 1);
+    g.set_window(0, 1);
+    g.set_window(1, 1);
     let a = g.assign(t(0));
     g.complete(0, a[0].grant, 0);
-    g.request(0, 1);
+    g.set_window(0, 1);
     let b = g.assign(t(900));
     assert_eq!(lines(&b), vec![2]);
     let timeout = Duration::from_millis(1000);
@@ -118,7 +187,7 @@ fn silent_nodes_time_out_and_come_back() {
     assert_eq!(g.node_state(1), Some(NodeState::Silent));
     assert_eq!(g.active_nodes(), 1);
     assert_eq!(g.live_nodes(), 2);
-    g.request(1, 1);
+    g.set_window(1, 1);
     assert_eq!(g.node_state(1), Some(NodeState::Active), "heard from again");
     let c = g.assign(t(1002));
     assert_eq!(lines(&c), vec![1], "the timed-out line is handed out again");
@@ -130,23 +199,23 @@ fn silent_nodes_time_out_and_come_back() {
 #[test]
 fn a_line_finished_by_a_revoked_grant_is_not_handed_out_again() {
     let mut g = GrantTable::new(Strategy::Dynamic, 2, 1, &[]);
-    g.request(0, 1);
+    g.set_window(0, 1);
     let a = g.assign(t(0))[0];
     assert_eq!(g.expire(t(10), Duration::from_millis(5)), vec![(0, 1)]);
     assert_eq!(g.complete(0, a.grant, 0), Completion::Accepted);
-    g.request(0, 2);
+    g.set_window(0, 2);
     assert_eq!(lines(&g.assign(t(11))), vec![1]);
 }
 
 #[test]
 fn stragglers_are_duplicated_oldest_first_and_only_once() {
     let mut g = GrantTable::new(Strategy::Dynamic, 4, 3, &[]);
-    g.request(0, 2);
+    g.set_window(0, 2);
     let a = g.assign(t(0));
-    g.request(1, 2);
+    g.set_window(1, 2);
     let b = g.assign(t(100));
     assert_eq!((lines(&a), lines(&b)), (vec![0, 1], vec![2, 3]));
-    g.request(2, 3);
+    g.set_window(2, 3);
     let min_age = Duration::from_millis(50);
     assert!(
         g.duplicate_stragglers(t(10), min_age).is_empty(),
@@ -155,10 +224,10 @@ fn stragglers_are_duplicated_oldest_first_and_only_once() {
     let d = g.duplicate_stragglers(t(200), min_age);
     assert_eq!(lines(&d), vec![0, 1, 2], "oldest first, limited by credit");
     assert!(d.iter().all(|x| x.node == 2 && x.duplicate));
-    g.request(1, 5);
+    g.set_window(1, 5);
     let e = g.duplicate_stragglers(t(300), min_age);
     assert_eq!(lines(&e), Vec::<u32>::new(), "line 3 is node 1's own");
-    g.request(0, 1);
+    g.set_window(0, 3);
     let f = g.duplicate_stragglers(t(300), min_age);
     assert_eq!(lines(&f), vec![3]);
     assert!(g.duplicate_stragglers(t(400), min_age).is_empty());
@@ -168,9 +237,9 @@ fn stragglers_are_duplicated_oldest_first_and_only_once() {
 #[test]
 fn no_duplicates_while_lines_are_queued() {
     let mut g = GrantTable::new(Strategy::Dynamic, 3, 2, &[]);
-    g.request(0, 1);
+    g.set_window(0, 1);
     g.assign(t(0));
-    g.request(1, 1);
+    g.set_window(1, 1);
     // Node 1 has credit but line 1 is still queued for it: assign, not duplicate.
     assert!(g.duplicate_stragglers(t(1000), Duration::ZERO).is_empty());
 }
@@ -178,16 +247,16 @@ fn no_duplicates_while_lines_are_queued() {
 #[test]
 fn static_strategies_keep_their_order_and_survive_a_lost_node() {
     let mut g = GrantTable::new(Strategy::Blocks, 6, 2, &[]);
-    g.request(0, 1);
-    g.request(1, 1);
+    g.set_window(0, 1);
+    g.set_window(1, 1);
     assert_eq!(lines(&g.assign(t(0))), vec![0, 3]);
     g.node_gone(1);
-    g.request(0, 10);
+    g.set_window(0, 10);
     assert_eq!(lines(&g.assign(t(1))), vec![1, 2, 3, 4, 5]);
 
     let mut g = GrantTable::new(Strategy::Interleaved, 6, 3, &[]);
     for n in 0..3 {
-        g.request(n, 2);
+        g.set_window(n, 2);
     }
     assert_eq!(lines(&g.assign(t(0))), vec![0, 1, 2, 3, 4, 5]);
 }
@@ -195,13 +264,13 @@ fn static_strategies_keep_their_order_and_survive_a_lost_node() {
 #[test]
 fn static_nodes_do_not_take_queued_lines_of_a_slow_node() {
     let mut g = GrantTable::new(Strategy::Blocks, 4, 2, &[]);
-    g.request(0, 2);
-    g.request(1, 1);
+    g.set_window(0, 2);
+    g.set_window(1, 1);
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![0, 2, 1]);
     g.complete(0, a[0].grant, 0);
     g.complete(0, a[2].grant, 1);
-    g.request(0, 2);
+    g.set_window(0, 2);
     // Node 1 still owns line 3 (queued): node 0 only duplicates what is outstanding.
     assert!(g.assign(t(1)).is_empty());
     let d = g.duplicate_stragglers(t(1000), Duration::ZERO);
@@ -213,7 +282,7 @@ fn resume_skips_finished_lines() {
     let finished = [true, false, true, false];
     let mut g = GrantTable::new(Strategy::Dynamic, 4, 1, &finished);
     assert_eq!(g.done(), 2);
-    g.request(0, 4);
+    g.set_window(0, 4);
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![1, 3]);
     for x in &a {
