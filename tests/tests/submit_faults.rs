@@ -18,7 +18,8 @@ const FLAGS: [&str; 2] = ["--resolution", "64x128"];
 const LINES: u64 = 128;
 
 struct Job {
-    dir: tempfile::TempDir,
+    /// Keeps the job's directory (output, stats) until the test ends.
+    _dir: tempfile::TempDir,
     want: Vec<u8>,
     out: PathBuf,
     json: PathBuf,
@@ -30,7 +31,7 @@ fn job() -> Job {
     Job {
         out: dir.path().join("submit.png"),
         json: dir.path().join("submit.json"),
-        dir,
+        _dir: dir,
         want,
     }
 }
@@ -252,4 +253,32 @@ fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
     assert!(out.status.success());
     let s = check(&job, 1, "ok");
     assert_eq!(s["lines"]["resumed"].as_u64().unwrap(), kept);
+}
+
+/// Workers that hang before saying Ready (a worker test hook) are timed out like silent ones:
+/// the job does not wait for them forever; with none left it says so (exit 3).
+#[test]
+fn workers_that_never_say_ready_time_out() {
+    let cluster = Cluster::start(2);
+    let job = job();
+    let mut c = cluster.submit();
+    c.env("SUNRAY_WORKER_READY_DELAY_MS", "120000")
+        .args(["--hosts", "2", "--worker-timeout-ms", "500"])
+        .args(FLAGS)
+        .arg(spd("mount6"))
+        .arg("-o")
+        .arg(&job.out);
+    let mut run = Running::start(c);
+    let status = run.wait(Duration::from_secs(60));
+    assert_eq!(status.code(), Some(3), "exit code 3: no worker left");
+    for node in [1, 2] {
+        assert!(
+            run.seen
+                .iter()
+                .any(|v| v["event"] == "silent" && v["node"] == node),
+            "node {node} timed out: {:#?}",
+            run.seen
+        );
+    }
+    assert!(!job.out.exists(), "no image from a failed job");
 }

@@ -9,6 +9,17 @@ use std::time::Duration;
 /// Environment variable: extra milliseconds per line (a test and benchmark hook).
 pub const LINE_DELAY_ENV: &str = "SUNRAY_WORKER_LINE_DELAY_MS";
 
+/// Environment variable: milliseconds to wait before saying Ready (a test hook: a worker that
+/// hangs while starting).
+pub const READY_DELAY_ENV: &str = "SUNRAY_WORKER_READY_DELAY_MS";
+
+fn env_ms(name: &str) -> Duration {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+        .map_or(Duration::ZERO, Duration::from_millis)
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct WorkerArgs {
     /// Render threads (default: every core of this host).
@@ -17,13 +28,10 @@ pub struct WorkerArgs {
 }
 
 pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
-    let line_delay = std::env::var(LINE_DELAY_ENV)
-        .ok()
-        .and_then(|v| v.parse::<u64>().ok())
-        .map_or(Duration::ZERO, Duration::from_millis);
     let cfg = WorkerConfig {
         threads: args.threads.filter(|&t| t > 0),
-        line_delay,
+        line_delay: env_ms(LINE_DELAY_ENV),
+        ready_delay: env_ms(READY_DELAY_ENV),
         ..WorkerConfig::default()
     };
     let runtime = tokio::runtime::Builder::new_current_thread()

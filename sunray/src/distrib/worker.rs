@@ -29,6 +29,8 @@ pub struct WorkerConfig {
     pub idle_probe: Duration,
     /// Extra time per line (test and benchmark hook: a slow worker).
     pub line_delay: Duration,
+    /// Time to wait before saying Ready (test hook: a worker that hangs while starting).
+    pub ready_delay: Duration,
 }
 
 impl Default for WorkerConfig {
@@ -37,6 +39,7 @@ impl Default for WorkerConfig {
             threads: None,
             idle_probe: Duration::from_secs(2),
             line_delay: Duration::ZERO,
+            ready_delay: Duration::ZERO,
         }
     }
 }
@@ -70,6 +73,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let mut inbox = spawn_reader(receiver);
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads = cfg.threads.unwrap_or(cores).max(1);
+    tokio::time::sleep(cfg.ready_delay).await;
     link.send(Body::Ready(proto::Ready {
         host,
         cores: cores as u32,

@@ -320,7 +320,18 @@ impl Controller {
 
     async fn on_tick(&mut self) {
         let now = Instant::now();
-        for (i, held) in self.table.expire(now, self.timeout()) {
+        let mut silent = self.table.expire(now, self.timeout());
+        // A worker says Ready as soon as it is attached; one that has not within the timeout
+        // hangs (or its host is stuck) and must not keep the job waiting for it.
+        if self.started.elapsed() > self.timeout() {
+            for i in 0..self.nodes.len() {
+                if self.nodes[i].outcome == Outcome::Starting && !self.exited[i] {
+                    let held = self.table.silence(i);
+                    silent.push((i, held));
+                }
+            }
+        }
+        for (i, held) in silent {
             let n = &mut self.nodes[i];
             n.outcome = Outcome::Silent;
             n.lines_given_back += held as u64;

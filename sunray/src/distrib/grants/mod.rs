@@ -381,11 +381,20 @@ impl GrantTable {
                 now.saturating_duration_since(self.grants[g as usize - 1].issued) > timeout
             });
             if late {
-                self.nodes[node].state = NodeState::Silent;
-                out.push((node, self.revoke_all(node)));
+                out.push((node, self.silence(node)));
             }
         }
         out
+    }
+
+    /// Marks an active `node` silent (it gets no work until heard from again) and gives its
+    /// lines back to the queue; returns how many.
+    pub fn silence(&mut self, node: usize) -> usize {
+        match self.nodes.get_mut(node) {
+            Some(n) if n.state == NodeState::Active => n.state = NodeState::Silent,
+            _ => return 0,
+        }
+        self.revoke_all(node)
     }
 
     /// With nothing left to hand out, gives each active node with credit a copy of the oldest
