@@ -110,6 +110,17 @@ fn fresnel(cos_i: f64, n1: f64, n2: f64) -> f64 {
     0.5 * (rs + rp)
 }
 
+/// The light and the detector of the refraction tests: a white diffuse plane z = -10 lit by a
+/// light 1 above it at y = 8, so the brightness where a ray lands tells where that is.
+const DETECTOR_LIGHT: &str = "light(position = 0,8,-9 ; color = 1,1,1);";
+const DETECTOR_PLANE: &str = "begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -90,-90,-10 90,-90,-10 90,90,-10 -90,90,-10); end";
+
+/// N.L on the detector plane at height `y` (the light is 1 above the plane at y = 8).
+fn detector(y: f64) -> f64 {
+    let r = (y - 8.0).abs();
+    1.0 / (1.0 + r * r).sqrt()
+}
+
 /// A ray parallel to the axis at height b enters a glass sphere (n = 1.5) at incidence
 /// asin(b), bends to asin(b / n), leaves deviated by 2 (theta_i - theta_t) and lands on a
 /// diffuse detector plane lit from 1 above it (off to the side, so the light itself is not
@@ -117,15 +128,15 @@ fn fresnel(cos_i: f64, n1: f64, n2: f64) -> f64 {
 /// The traced colour must equal (1 - F_in)(1 - F_out) times the detector's N.L there.
 #[test]
 fn refraction_through_a_sphere_follows_snell_and_fresnel() {
-    let probe = Probe::new(
+    let probe = Probe::new(&format!(
         "background(color = 0,0,0);
 ambient(color = 0,0,0);
-light(position = 0,8,-9 ; color = 1,1,1);
+{DETECTOR_LIGHT}
 begin
   begin attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.5 ; phong = 1e7); sphere(center = 0,0,0 ; radius = 1); end
-  begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -50,-50,-10 50,-50,-10 50,50,-10 -50,50,-10); end
-end",
-    );
+  {DETECTOR_PLANE}
+end"
+    ));
     let n = 1.5_f64;
     for b in [0.05_f64, 0.2, 0.35, 0.5, 0.6] {
         let ti = b.asin();
@@ -139,8 +150,7 @@ end",
         let dir = DVec3::new(0.0, -dev.sin(), -dev.cos());
         let t = (-10.0 - exit.z) / dir.z;
         let land = exit + dir * t;
-        let r = (land.y - 8.0).abs();
-        let ndl = 1.0 / (1.0 + r * r).sqrt();
+        let ndl = detector(land.y);
         let f_in = fresnel(ti.cos(), 1.0, n);
         let f_out = fresnel(tt.cos(), n, 1.0);
         let want = (1.0 - f_in) * (1.0 - f_out) * ndl;
@@ -179,20 +189,16 @@ fn refraction_through_a_slab_follows_snell_and_fresnel() {
         Probe::new(&format!(
             "background(color = 0,0,0);
 ambient(color = 0,0,0);
-light(position = 0,8,-9 ; color = 1,1,1);
+{DETECTOR_LIGHT}
 begin
   begin {glass}; {polys} end
-  begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -90,-90,-10 90,-90,-10 90,90,-10 -90,90,-10); end
+  {DETECTOR_PLANE}
 end"
         ))
     };
     let slab = scene(&faces);
     let sheets = scene(&faces[..5]);
     let n = 1.5_f64;
-    let detector = |land_y: f64| {
-        let r = (land_y - 8.0).abs();
-        1.0 / (1.0 + r * r).sqrt()
-    };
     for ti in [0.1_f64, 0.3, 0.5, 0.7] {
         let tt = (ti.sin() / n).asin();
         // From (0, y0, 5) heading down and towards -y; it meets z = 1 at y = 0.
@@ -230,16 +236,16 @@ end"
 /// ray, independently of the renderer.
 #[test]
 fn nested_media_refract_between_their_own_indices() {
-    let probe = Probe::new(
+    let probe = Probe::new(&format!(
         "background(color = 0,0,0);
 ambient(color = 0,0,0);
-light(position = 0,8,-9 ; color = 1,1,1);
+{DETECTOR_LIGHT}
 begin
   begin attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.33 ; phong = 1e7); sphere(center = 0,0,0 ; radius = 2); end
   begin attribute(color = 0,0,0 ; kdr = 1 ; kdt = 0 ; ka = 0 ; refract = 1.5 ; phong = 1e7); sphere(center = 0,0,0 ; radius = 1); end
-  begin attribute(color = 1,1,1 ; kdr = 1 ; ka = 0); polygon(vertices = 4; -90,-90,-10 90,-90,-10 90,90,-10 -90,90,-10); end
-end",
-    );
+  {DETECTOR_PLANE}
+end"
+    ));
     // (y, z) plane: refract d at a sphere point p (outward normal p / |p|) from n1 into n2.
     let bend = |d: DVec3, p: DVec3, n1: f64, n2: f64| {
         let mut n = p.normalize();
@@ -278,8 +284,7 @@ end",
             weight *= 1.0 - f;
         }
         let land = p + d * ((-10.0 - p.z) / d.z);
-        let r = (land.y - 8.0).abs();
-        let want = weight / (1.0 + r * r).sqrt();
+        let want = weight * detector(land.y);
         let got = probe.trace(Ray::new(o, -DVec3::Z), 6);
         assert!(
             (got.x - want).abs() < 1e-9,
