@@ -37,9 +37,7 @@ impl Hit {
 }
 
 /// Which accelerator to build.
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
-)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum AccelKind {
     /// Exhaustive for tiny scenes, the BVH otherwise (see [`AccelKind::resolve`]).
     Auto,

@@ -12,13 +12,12 @@ use yari::model::World;
 pub struct CheckArgs {
     /// The scene: .yari, .nff, .off, or a compiled .srw model.
     pub scene: PathBuf,
-    /// A colour file (`name r g b` per line) extending the built-in colour names.
-    #[arg(long = "colors", value_name = "FILE", env = "YARI_COLORS")]
-    pub colors: Option<PathBuf>,
+    #[command(flatten)]
+    pub colours: super::colours::ColourArgs,
 }
 
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
-    let colours = ColourTable::for_run(args.colors.as_deref())?;
+    let colours = ColourTable::for_run(args.colours.colors.as_deref())?;
     match load_path(&args.scene, &colours) {
         Ok(loaded) => {
             eprint!("{}", loaded.render_warnings());

@@ -16,13 +16,12 @@ pub struct CompileArgs {
     /// and renamed.
     #[arg(short = 'o', long = "output", value_name = "MODEL")]
     pub output: PathBuf,
-    /// A colour file (`name r g b` per line) extending the built-in colour names.
-    #[arg(long = "colors", value_name = "FILE", env = "YARI_COLORS")]
-    pub colors: Option<PathBuf>,
+    #[command(flatten)]
+    pub colours: super::colours::ColourArgs,
 }
 
 pub fn run(args: CompileArgs) -> anyhow::Result<ExitCode> {
-    let colours = ColourTable::for_run(args.colors.as_deref())?;
+    let colours = ColourTable::for_run(args.colours.colors.as_deref())?;
     let loaded = match load_path(&args.scene, &colours) {
         Ok(l) => l,
         Err(e @ LoadError::Scene(_)) => {

@@ -1,15 +1,21 @@
 //! The `sunray` subcommands. Each lives in its own module with its clap `Args` struct and a
-//! `run` function returning the process exit code.
+//! `run` function returning the process exit code; they only turn flags into the library's
+//! types (`render::Overrides`, `distrib::job::JobRequest`, ...) and print what comes back.
+//! [`colours`] is the colour-name flag they share, [`values`] spells the library's choices
+//! for clap, [`exit`] names the exit codes.
 
 pub mod bench;
 pub mod check;
 pub mod check_board;
+pub mod colours;
 pub mod compile;
 pub mod convert;
+pub mod exit;
 pub mod jobs;
 pub mod render;
 pub mod spd;
 pub mod submit;
+pub mod values;
 pub mod worker;
 
 use clap::{Parser, Subcommand};

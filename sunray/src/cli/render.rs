@@ -1,27 +1,31 @@
 //! `sunray render [SCENE]`: renders a scene (by default the built-in example) on this machine with all cores.
 
+use super::colours::ColourArgs;
 use crate::accel::{Accel, AccelKind, AccelOptions};
-use crate::distrib::scene_input;
-use crate::render::{render_image, Progress, RenderOptions};
-use crate::scene::Scene;
-use crate::stats::{process_cpu_seconds, RenderStats};
+use crate::render::{render_image, Overrides, Progress};
+use crate::scene::load::{self, LoadedScene, SceneSource};
+use crate::stats::process_cpu_seconds;
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// A switch on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OnOff {
+    /// Switched on.
     On,
+    /// Switched off.
     Off,
 }
 
+/// The flags of `sunray render`, shared by `sunray submit`.
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Scene: .yari, .nff, .off or a compiled model [default: the built-in example scene,
     /// also named `@example`]
-    #[arg(default_value = scene_input::BUILTIN, hide_default_value = true)]
+    #[arg(default_value = load::BUILTIN, hide_default_value = true)]
     pub scene: PathBuf,
     /// Output image (.png, .ppm or .pfm); default: the scene's name with .png, in the
     /// current directory.
@@ -33,6 +37,7 @@ pub struct RenderArgs {
     /// Samples per pixel (default: the scene's `samples`, else 1 = pixel centres).
     #[arg(long)]
     pub samples: Option<u32>,
+    /// The accelerator.
     #[arg(long, value_enum, default_value = "auto")]
     pub accel: AccelKind,
     /// The octree's intersection buffer.
@@ -60,9 +65,8 @@ pub struct RenderArgs {
     /// Write the statistics as JSON.
     #[arg(long)]
     pub stats_json: Option<PathBuf>,
-    /// A colour-name file extending the built-in table (default: $YARI_COLORS).
-    #[arg(long)]
-    pub colours: Option<PathBuf>,
+    #[command(flatten)]
+    pub colours: ColourArgs,
     /// Do not print the statistics table.
     #[arg(long, short)]
     pub quiet: bool,
@@ -86,79 +90,56 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-/// Loads a scene file (.yari, .nff, .off or a compiled model) into a world, printing the
-/// compiler's warnings.
-pub fn load_world(path: &Path, colours: Option<&Path>) -> anyhow::Result<yari::model::World> {
-    let table = yari::colour::ColourTable::for_run(colours)?;
-    let loaded = yari::load::load_path(path, &table).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let warnings = loaded.render_warnings();
-    if !warnings.is_empty() {
-        eprintln!("{}", warnings.trim_end());
-    }
-    Ok(loaded.world)
-}
-
 impl RenderArgs {
-    /// What the flags make of the scene's own settings. `sunray render` and `sunray submit`
-    /// both use this, so a distributed render decides its pixels exactly as a local one.
-    pub fn render_options(&self, scene: &Scene) -> RenderOptions {
-        let mut opts = RenderOptions::for_scene(scene);
-        if let Some((w, h)) = self.resolution {
-            (opts.width, opts.height) = (w, h);
-        }
-        if let Some(s) = self.samples {
-            opts.samples = s.max(1);
-        }
-        opts.trace.max_depth = self.depth;
-        opts.trace.min_weight = self.min_weight;
-        if self.spd_corners {
-            opts = opts.spd_corners();
-        }
-        opts
+    /// The scene the SCENE argument names.
+    pub fn source(&self) -> SceneSource {
+        SceneSource::from_arg(&self.scene)
     }
 
-    /// The accelerator the flags ask for.
-    pub fn accel_options(&self) -> AccelOptions {
-        AccelOptions {
-            kind: self.accel,
-            max_per_voxel: self.max_per_voxel.max(1),
-            max_depth: self.max_depth,
+    /// What the flags ask for on top of the scene's own settings.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            resolution: self.resolution,
+            samples: self.samples,
+            depth: self.depth,
+            min_weight: self.min_weight,
+            spd_corners: self.spd_corners,
+            accel: AccelOptions {
+                kind: self.accel,
+                max_per_voxel: self.max_per_voxel,
+                max_depth: self.max_depth,
+            },
+            mailbox: self.mailbox == OnOff::On,
         }
+    }
+
+    /// Loads the scene, printing its warnings.
+    pub fn load(&self) -> anyhow::Result<LoadedScene> {
+        let loaded = load::load(&self.source(), self.colours.colors.as_deref())?;
+        for w in &loaded.warnings {
+            eprintln!("{w}");
+        }
+        Ok(loaded)
     }
 }
 
+/// Renders the scene on this machine and writes the image (and statistics).
 pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
-    let path = scene_input::given_path(&args);
-    let out = args.output.clone().unwrap_or_else(|| {
-        let stem = match &path {
-            Some(p) => p.file_stem().unwrap_or_else(|| "image".as_ref()),
-            None => "example".as_ref(),
-        };
-        PathBuf::from(stem).with_extension("png")
-    });
+    let source = args.source();
+    let out = args
+        .output
+        .clone()
+        .unwrap_or_else(|| source.default_output());
     crate::film::Format::from_path(&out)?;
-    let t_load = Instant::now();
-    let world = match &path {
-        Some(p) => load_world(p, args.colours.as_deref())?,
-        None => scene_input::builtin_world(args.colours.as_deref())?,
-    };
-    let load_s = t_load.elapsed().as_secs_f64();
+    let loaded = args.load()?;
+    let scene = loaded.scene;
     let cpu0 = process_cpu_seconds();
 
-    let t_pre = Instant::now();
-    let scene = Scene::new(world);
-    for d in &scene.dropped {
-        eprintln!(
-            "sunray: warning: {}: object {} dropped: {}",
-            args.scene.display(),
-            d.object,
-            d.reason
-        );
-    }
-    let accel = Accel::build(&scene.prims, &args.accel_options());
-    let preprocess_s = t_pre.elapsed().as_secs_f64();
+    let t_accel = Instant::now();
+    let settings = args.overrides().settings(&scene);
+    let accel = Accel::build(&scene.prims, &settings.accel);
+    let preprocess_s = loaded.prepare_s + t_accel.elapsed().as_secs_f64();
 
-    let opts = args.render_options(&scene);
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -173,9 +154,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let (film, counters) = render_image(
         &scene,
         &accel,
-        &opts,
+        &settings.render,
         threads,
-        args.mailbox == OnOff::On,
+        settings.mailbox,
         progress,
     );
     let render_s = t_render.elapsed().as_secs_f64();
@@ -183,21 +164,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
 
     film.write(&out)?;
 
-    let mut stats = RenderStats {
-        scene: args.scene.display().to_string(),
-        width: opts.width,
-        height: opts.height,
-        samples: opts.samples,
-        accel: accel.kind.name().to_string(),
-        mailbox: args.mailbox == OnOff::On && accel.kind == AccelKind::Octree,
-        objects: scene.world.objects.len(),
-        primitives: scene.prims.len(),
-        unbounded: accel.unbounded_count(),
-        accel_nodes: accel.node_count(),
-        threads,
-        ..Default::default()
-    };
-    stats.time.load_s = load_s;
+    let mut stats = settings.stats_header(&source.display_name(), &scene);
+    stats.accel_nodes = accel.node_count();
+    stats.threads = threads;
+    stats.time.load_s = loaded.load_s;
     stats.time.preprocess_s = preprocess_s;
     stats.time.render_s = render_s;
     stats.time.cpu_s = cpu_s;

@@ -41,7 +41,7 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
         Ok(()) => Ok(ExitCode::SUCCESS),
         Err(WorkerError::ControllerGone) => {
             eprintln!("sunray worker: the controller is gone; stopping");
-            Ok(ExitCode::from(3))
+            Ok(ExitCode::from(super::exit::CONTROLLER_GONE))
         }
         Err(e) => Err(e.into()),
     }

@@ -3,7 +3,7 @@
 //! [`crate::stats::Counters`], render settings as [`RenderOptions`] + [`AccelOptions`].
 
 use crate::accel::{AccelKind, AccelOptions};
-use crate::render::RenderOptions;
+use crate::render::{RenderOptions, Settings};
 use crate::shading::TraceOptions;
 use crate::stats::Counters;
 use prost::Message;
@@ -105,15 +105,10 @@ impl From<&proto::Counters> for Counters {
     }
 }
 
-/// Everything a worker needs besides the model to render what `sunray render` would.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Settings {
-    pub render: RenderOptions,
-    pub accel: AccelOptions,
-    pub mailbox: bool,
-}
-
+/// The render settings travel as `proto::RenderSettings`: everything a worker needs besides
+/// the model to render what `sunray render` would.
 impl Settings {
+    /// The settings as sent in a `Scene` message and kept in checkpoints.
     pub fn to_proto(&self) -> proto::RenderSettings {
         let r = &self.render;
         proto::RenderSettings {
@@ -129,6 +124,7 @@ impl Settings {
         }
     }
 
+    /// The settings of a `Scene` message or a checkpoint (the accelerator name checked).
     pub fn from_proto(p: &proto::RenderSettings) -> Result<Settings, MessageError> {
         let kind = accel_from_name(&p.accel).ok_or_else(|| MessageError::Accel(p.accel.clone()))?;
         Ok(Settings {

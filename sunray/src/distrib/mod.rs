@@ -23,21 +23,19 @@
 //! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
 //!   lines it holds.
 //! - [`cluster`]: reaching REM; [`embedded`]: the private remd of the default set-up.
-//! - [`scene_input`]: the job's scene (a file or the built-in example) and render settings.
+//! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals).
 
 pub mod checkpoint;
 pub mod cluster;
 pub mod controller;
 pub mod embedded;
 pub mod grants;
+pub mod job;
 pub mod jobs;
 pub mod messages;
 pub mod nodes;
 pub mod pool;
 pub mod progress;
-pub mod scene_input;
 pub mod strategy;
 pub mod window;
 pub mod worker;
-
-pub use scene_input::DEFAULT_SCENE;

@@ -124,6 +124,44 @@ pub struct JobStats {
     pub nodes: Vec<NodeStats>,
 }
 
+/// Render threads' time waiting for work, as shares of their render time over all nodes:
+/// (waits that ended with a fresh line, waits for duplicates at the tail). See
+/// [`JobStats::wait_share`].
+pub fn wait_shares(nodes: &[NodeStats]) -> (f64, f64) {
+    let busy: f64 = nodes
+        .iter()
+        .map(|n| n.render_s * f64::from(n.threads))
+        .sum();
+    let waited: f64 = nodes.iter().map(|n| n.wait_s).sum();
+    let tail_waited: f64 = nodes.iter().map(|n| n.tail_wait_s).sum();
+    let share = |s: f64| if busy > 0.0 { s / busy } else { 0.0 };
+    (share(waited), share(tail_waited))
+}
+
+impl JobStats {
+    /// What `sunray submit` prints at the end: a heading, the per-node table, the line
+    /// accounting and the controller's cost.
+    pub fn summary(&self) -> String {
+        let strategy = self.strategy.map_or("?", Strategy::name);
+        let l = &self.lines;
+        let c = &self.controller;
+        format!(
+            "SunRay III job {} ({strategy} strategy, {} worker(s)): {:.2} s\n{}\
+             lines: {} ({} from the checkpoint, {} rendered; {} given back, {} handed back unstarted, {} duplicated, {} dropped)\n\
+             controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time for work ({:.2}% at the tail for copies of stragglers)\n",
+            self.job,
+            self.hosts,
+            self.elapsed_s,
+            table(&self.nodes),
+            l.total, l.resumed, l.rendered, l.requeued, l.released, l.duplicated, l.dropped,
+            c.cpu_ms_per_line,
+            c.messages_per_line,
+            self.wait_share * 100.0,
+            self.tail_wait_share * 100.0
+        )
+    }
+}
+
 /// `1234567` as `1,234,567`.
 pub fn thousands(n: u64) -> String {
     let digits = n.to_string();

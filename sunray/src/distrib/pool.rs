@@ -227,7 +227,7 @@ mod tests {
         let table = yari::colour::ColourTable::default();
         let loaded = yari::load::load_str(
             "default.yari",
-            super::super::DEFAULT_SCENE,
+            crate::scene::load::DEFAULT_SCENE,
             yari::load::InputKind::Yari,
             &table,
         )

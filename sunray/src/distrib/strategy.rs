@@ -13,7 +13,7 @@
 use std::collections::VecDeque;
 
 /// How scanlines are dealt out.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Strategy {
     /// SunRay III: each worker asks for the next line when it has room.

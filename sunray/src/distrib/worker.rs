@@ -9,10 +9,11 @@
 //! nothing to do it repeats its Request now and then, which tells it (by an Undeliverable
 //! notice) when its controller is gone. It obeys only its job's owner.
 
-use super::messages::{self, proto, Body, Settings};
+use super::messages::{self, proto, Body};
 use super::pool::{LineJob, PoolScene, RenderPool, Rendered};
 use super::window::{Window, MIN_COVER_S};
 use crate::accel::Accel;
+use crate::render::Settings;
 use crate::scene::Scene;
 use crate::stats::process_cpu_seconds;
 use rem::{Incoming, ProcId, Relay, RelayReceiver, RelaySender};

@@ -1,9 +1,11 @@
 //! The render loop. A scanline is rendered by a pure function of (scene, accelerator, line,
 //! options) -> pixels + counters ([`render_line`]); [`render_image`] runs it on all cores by
 //! pulling line numbers from a shared atomic counter, the same request-render-complete loop a
-//! SunRay III worker runs against its controller.
+//! SunRay III worker runs against its controller. [`settings`] holds what decides the
+//! pixels besides the scene.
 
 pub mod parallel;
+pub mod settings;
 
 use crate::accel::{Accel, Scratch};
 use crate::camera::Camera;
@@ -15,6 +17,7 @@ use crate::shading::{TraceOptions, Tracer};
 use crate::stats::Counters;
 
 pub use parallel::{render_image, Progress};
+pub use settings::{Overrides, Settings};
 
 /// Everything besides the scene that decides the pixels.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -1,4 +1,7 @@
-//! A scene ready to render: the compiled model and its primitives.
+//! A scene ready to render: the compiled model and its primitives. [`load`] says where a
+//! scene comes from (a file or the built-in example) and loads it.
+
+pub mod load;
 
 use crate::geometry::primitive::Dropped;
 use crate::geometry::Primitive;

@@ -1,0 +1,546 @@
+//! A SunRay III job from start to end: its plan (a new scene, or a checkpointed job to
+//! resume), the first checkpoint and the job-index entry, the workers REM starts, the
+//! controller actor, and the statistics of the whole image. `sunray submit` turns its flags
+//! into a [`JobRequest`], calls [`run`] and prints the [`JobOutcome`].
+
+use super::checkpoint::{self, CheckpointError, Checkpointer, Restored};
+use super::cluster::{Cluster, ClusterError};
+use super::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
+use super::jobs;
+use super::messages::{self, proto, Body, MessageError};
+use super::nodes::{self, JobStats};
+use super::strategy::Strategy;
+use crate::film::{FilmError, Format};
+use crate::render::{Overrides, Settings};
+use crate::scene::load::{self, LoadedScene, SceneLoadError, SceneSource};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Environment variables whose names start with this are passed on to the workers (the
+/// test and benchmark hooks of `sunray worker`); no other variable is.
+pub const WORKER_ENV_PREFIX: &str = "SUNRAY_WORKER_";
+
+/// The longest job id.
+pub const MAX_JOB_ID: usize = 100;
+
+/// What a user asks of a job, besides its scene.
+#[derive(Clone, Debug)]
+pub struct JobRequest {
+    /// The id of a new job [default: made up]; the key of its checkpoint.
+    pub job: Option<String>,
+    /// Workers to start, one per host [default: 1; on resume, as before].
+    pub hosts: Option<u32>,
+    /// Run the workers at nice 10.
+    pub nice: bool,
+    /// How lines are dealt out [default: dynamic; on resume, as before].
+    pub strategy: Option<Strategy>,
+    /// Allow more than one worker per host (always so on the embedded default).
+    pub same_host: bool,
+    /// Render threads per worker [default: every core; on the embedded default, the cores
+    /// shared among the workers; on resume, as before].
+    pub threads: Option<usize>,
+    /// The image to write [default: the scene's name with .png; on resume, as before].
+    pub output: Option<PathBuf>,
+    /// A colour-name file extending the built-in table.
+    pub colours: Option<PathBuf>,
+    /// What the user asks for on top of the scene's own settings (new jobs only: a resumed
+    /// job keeps the settings it was checkpointed with).
+    pub overrides: Overrides,
+    /// The program REM starts as `PROGRAM worker` on the hosts.
+    pub worker_program: PathBuf,
+    /// A worker holding a line longer than this is silent [default: 10 s or 20 slowest lines].
+    pub worker_timeout: Option<Duration>,
+    /// How often the controller checkpoints.
+    pub checkpoint_every: Duration,
+    /// Rewrite the partial image to this file every `preview_every`.
+    pub preview: Option<PathBuf>,
+    /// How often the preview is rewritten.
+    pub preview_every: Duration,
+    /// Show a progress bar on stderr.
+    pub show_bar: bool,
+    /// Print JSON events on stderr instead of a progress bar.
+    pub events: bool,
+}
+
+/// The scene of a job.
+pub enum JobScene {
+    /// A new job of a scene already loaded (so a bad scene starts nothing).
+    New(LoadedScene),
+    /// Continue job `job` from its checkpoint, with its own scene unless `scene` names one.
+    Resume {
+        /// The job to continue.
+        job: String,
+        /// The scene file, when it has moved since the job was checkpointed.
+        scene: Option<PathBuf>,
+    },
+}
+
+/// A job that could not run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum JobError {
+    /// The job id has characters REM does not take, or is too long.
+    #[error("bad job id {0:?}: use up to 100 of [A-Za-z0-9._-]")]
+    BadJobId(String),
+    /// `--hosts 0`.
+    #[error("--hosts must be at least 1")]
+    NoHosts,
+    /// More workers asked for than there are live hosts, one per host.
+    #[error("asked for {asked} hosts, but the cluster has {} live host(s): {}", live.len(), live.join(", "))]
+    TooFewHosts {
+        /// Workers asked for.
+        asked: u32,
+        /// The live hosts' names.
+        live: Vec<String>,
+    },
+    /// The compiled model does not fit in one REM message.
+    #[error("the compiled model ({bytes} bytes) is larger than REM's message limit ({limit} bytes); raise remd --max-message")]
+    ModelTooLarge {
+        /// The Scene message's size.
+        bytes: usize,
+        /// REM's message limit.
+        limit: usize,
+    },
+    /// The model could not be encoded.
+    #[error("cannot encode the model: {0}")]
+    Model(#[from] yari::modelfile::ModelFileError),
+    /// REM failed.
+    #[error(transparent)]
+    Cluster(#[from] ClusterError),
+    /// REM could not start the workers.
+    #[error("starting the workers: {0}")]
+    Spawn(ClusterError),
+    /// The checkpoint of a job to resume could not be read.
+    #[error("reading the checkpoint of job {job}: {source}")]
+    ReadCheckpoint {
+        /// The job.
+        job: String,
+        /// Why.
+        source: CheckpointError,
+    },
+    /// No checkpoint of a job to resume.
+    #[error("no checkpoint of job {job} on {addr}")]
+    NoCheckpoint {
+        /// The job.
+        job: String,
+        /// The remd asked.
+        addr: String,
+    },
+    /// The checkpoint holds no or bad render settings.
+    #[error("the checkpoint of job {job} has no usable render settings{}", .reason.as_ref().map(|r| format!(": {r}")).unwrap_or_default())]
+    BadSettings {
+        /// The job.
+        job: String,
+        /// What is wrong with them, if they are there.
+        reason: Option<MessageError>,
+    },
+    /// The scene of a job to resume is not the one checkpointed.
+    #[error("the scene has changed since job {0} was checkpointed; it cannot be resumed")]
+    SceneChanged(String),
+    /// The scene of a job to resume could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] SceneLoadError),
+    /// The first checkpoint could not be written.
+    #[error("writing the first checkpoint: {0}")]
+    FirstCheckpoint(CheckpointError),
+    /// The output has an unknown format, or could not be written.
+    #[error(transparent)]
+    Film(#[from] FilmError),
+    /// The controller failed.
+    #[error(transparent)]
+    Controller(#[from] ControllerError),
+}
+
+/// How a job ended.
+#[derive(Debug)]
+pub struct JobOutcome {
+    /// The job's id (`sunray submit --resume ID` continues it).
+    pub job: String,
+    /// The image written (when finished).
+    pub output: PathBuf,
+    /// False when no worker was left to finish the image (its lines are in the checkpoint).
+    pub finished: bool,
+    /// The per-node table and the totals.
+    pub stats: JobStats,
+}
+
+/// Checks a job id given by a user.
+pub fn check_job_id(job: &str) -> Result<(), JobError> {
+    if !rem::ids::is_valid_name(job) || job.len() > MAX_JOB_ID || job == jobs::INDEX_KEY {
+        return Err(JobError::BadJobId(job.to_string()));
+    }
+    Ok(())
+}
+
+/// The environment the workers get: the [`WORKER_ENV_PREFIX`] variables of `vars`.
+pub fn worker_env(
+    vars: impl Iterator<Item = (String, String)>,
+) -> std::collections::BTreeMap<String, String> {
+    vars.filter(|(k, _)| k.starts_with(WORKER_ENV_PREFIX))
+        .collect()
+}
+
+/// Everything decided before the workers start.
+struct Plan {
+    job: String,
+    loaded: LoadedScene,
+    settings: Settings,
+    model: Vec<u8>,
+    output: PathBuf,
+    colours: Option<PathBuf>,
+    strategy: Strategy,
+    hosts: u32,
+    nice: bool,
+    threads: Option<usize>,
+    restored: Option<Restored>,
+}
+
+impl JobRequest {
+    /// Checks what can be checked before anything is loaded or started.
+    pub fn check(&self) -> Result<(), JobError> {
+        if self.hosts == Some(0) {
+            return Err(JobError::NoHosts);
+        }
+        if let Some(job) = &self.job {
+            check_job_id(job)?;
+        }
+        Ok(())
+    }
+}
+
+/// Runs a job on `cluster` to its end: the image written when every line is in.
+pub async fn run(
+    cluster: &Cluster,
+    req: &JobRequest,
+    scene: JobScene,
+) -> Result<JobOutcome, JobError> {
+    req.check()?;
+    let plan = match scene {
+        JobScene::New(loaded) => new_plan(req, loaded)?,
+        JobScene::Resume { job, scene } => resume_plan(req, cluster, job, scene).await?,
+    };
+    run_plan(cluster, req, plan).await
+}
+
+fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, JobError> {
+    let settings = req.overrides.settings(&loaded.scene);
+    let output = req
+        .output
+        .clone()
+        .unwrap_or_else(|| loaded.source.default_output());
+    Format::from_path(&output)?;
+    let job = req.job.clone().unwrap_or_else(|| {
+        format!(
+            "sunray-{}-{}",
+            checkpoint::unix_ms() / 1000,
+            std::process::id()
+        )
+    });
+    Ok(Plan {
+        job,
+        model: loaded.model_bytes()?,
+        settings,
+        output,
+        colours: req.colours.clone(),
+        strategy: req.strategy.unwrap_or(Strategy::Dynamic),
+        hosts: req.hosts.unwrap_or(1),
+        nice: req.nice,
+        threads: req.threads.filter(|&t| t > 0),
+        restored: None,
+        loaded,
+    })
+}
+
+async fn resume_plan(
+    req: &JobRequest,
+    cluster: &Cluster,
+    job: String,
+    scene: Option<PathBuf>,
+) -> Result<Plan, JobError> {
+    check_job_id(&job)?;
+    let restored = checkpoint::load(&cluster.client, &job)
+        .await
+        .map_err(|source| JobError::ReadCheckpoint {
+            job: job.clone(),
+            source,
+        })?
+        .ok_or_else(|| JobError::NoCheckpoint {
+            job: job.clone(),
+            addr: cluster.addr.clone(),
+        })?;
+    let spec = restored.header.spec.clone().unwrap_or_default();
+    let source = match scene {
+        Some(p) => SceneSource::File(p),
+        None => SceneSource::from_remembered(&spec.scene),
+    };
+    let colours = (!spec.colours.is_empty()).then(|| PathBuf::from(&spec.colours));
+    let loaded = load::load(&source, colours.as_deref())?;
+    let model = loaded.model_bytes()?;
+    if messages::fnv1a(&model) != restored.header.model_hash {
+        return Err(JobError::SceneChanged(job));
+    }
+    let settings = match spec.settings.as_ref().map(Settings::from_proto) {
+        Some(Ok(s)) => s,
+        Some(Err(e)) => {
+            return Err(JobError::BadSettings {
+                job,
+                reason: Some(e),
+            })
+        }
+        None => return Err(JobError::BadSettings { job, reason: None }),
+    };
+    let output = req
+        .output
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(&spec.output));
+    Format::from_path(&output)?;
+    Ok(Plan {
+        job,
+        loaded,
+        settings,
+        model,
+        output,
+        colours,
+        strategy: req
+            .strategy
+            .or_else(|| Strategy::from_name(&spec.strategy))
+            .unwrap_or(Strategy::Dynamic),
+        hosts: req.hosts.unwrap_or(spec.hosts.max(1)),
+        nice: req.nice || spec.nice,
+        threads: req
+            .threads
+            .or((spec.threads > 0).then_some(spec.threads as usize)),
+        restored: Some(restored),
+    })
+}
+
+async fn run_plan(cluster: &Cluster, req: &JobRequest, plan: Plan) -> Result<JobOutcome, JobError> {
+    let allow_same_host = cluster.is_embedded() || req.same_host;
+    let live = cluster.live_hosts().await?;
+    if !allow_same_host && plan.hosts as usize > live.len() {
+        return Err(JobError::TooFewHosts {
+            asked: plan.hosts,
+            live: live.iter().map(|h| h.name.clone()).collect(),
+        });
+    }
+    let scene_msg = messages::encode(Body::Scene(proto::Scene {
+        model: plan.model.clone(),
+        settings: Some(plan.settings.to_proto()),
+        job: plan.job.clone(),
+    }));
+    let relay = cluster
+        .client
+        .attach(Some(&plan.job))
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
+    let limit = relay.sender().max_message();
+    if scene_msg.len() > limit {
+        return Err(JobError::ModelTooLarge {
+            bytes: scene_msg.len(),
+            limit,
+        });
+    }
+
+    let mut checkpointer = Checkpointer::new(
+        &plan.job,
+        job_spec(req, &plan),
+        messages::fnv1a(&plan.model),
+        plan.restored.as_ref(),
+    );
+    checkpointer
+        .save(&cluster.client, "running")
+        .await
+        .map_err(JobError::FirstCheckpoint)?;
+    let mut entry = proto::JobEntry {
+        job: plan.job.clone(),
+        scene: plan.loaded.source.display_name(),
+        state: "running".into(),
+        lines_done: checkpointer.lines_done(),
+        height: plan.settings.render.height,
+        hosts: plan.hosts,
+        started_unix_ms: checkpoint::unix_ms(),
+        output: plan.output.display().to_string(),
+        ..Default::default()
+    };
+    index_update(cluster, &entry).await;
+
+    let spawned = start_workers(cluster, req, &plan, allow_same_host, relay.id().clone()).await?;
+    let workers: Vec<WorkerProc> = spawned
+        .processes
+        .iter()
+        .map(|p| WorkerProc {
+            proc_id: p.proc_id.clone(),
+            host: p.host.clone(),
+            pid: p.pid,
+            load_at_start: live
+                .iter()
+                .find(|h| h.name == p.host)
+                .and_then(|h| h.load.as_ref())
+                .map(|l| l.load_per_core),
+        })
+        .collect();
+    let (sender, receiver) = relay.split();
+    let cfg = ControllerConfig {
+        job: plan.job.clone(),
+        strategy: plan.strategy,
+        width: plan.settings.render.width,
+        height: plan.settings.render.height,
+        scene: scene_msg,
+        worker_timeout: req.worker_timeout,
+        checkpoint_every: req.checkpoint_every,
+        preview: req.preview.clone(),
+        preview_every: req.preview_every,
+        show_bar: req.show_bar,
+        events: req.events,
+        finish_grace: Duration::from_secs(3),
+    };
+    let handle = controller::spawn(Start {
+        cfg,
+        client: cluster.client.clone(),
+        sender,
+        receiver,
+        workers,
+        restored: plan.restored,
+        checkpointer,
+    });
+    let result = handle.join().await?;
+
+    entry.lines_done = result.lines.resumed + result.lines.rendered;
+    entry.state = if result.finished {
+        "finished"
+    } else {
+        "failed"
+    }
+    .into();
+    index_update(cluster, &entry).await;
+    if result.finished {
+        result.film.write(&plan.output)?;
+    }
+    let name = plan.loaded.source.display_name();
+    let mut totals = plan.settings.stats_header(&name, &plan.loaded.scene);
+    totals.threads = result.nodes.iter().map(|n| n.threads as usize).sum();
+    totals.time.render_s = result.elapsed_s;
+    totals.time.cpu_s = result.nodes.iter().map(|n| n.cpu_s).sum();
+    totals.set_counters(&result.counters);
+    let (wait_share, tail_wait_share) = nodes::wait_shares(&result.nodes);
+    let stats = JobStats {
+        job: plan.job.clone(),
+        strategy: Some(plan.strategy),
+        hosts: plan.hosts,
+        lines: result.lines,
+        elapsed_s: result.elapsed_s,
+        totals,
+        controller: result.cost,
+        wait_share,
+        tail_wait_share,
+        nodes: result.nodes,
+    };
+    Ok(JobOutcome {
+        job: plan.job,
+        output: plan.output,
+        finished: result.finished,
+        stats,
+    })
+}
+
+/// What the checkpoint remembers of the job, so `--resume` can continue it.
+fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
+    let path_string = |p: &Path| p.display().to_string();
+    proto::JobSpec {
+        scene: plan.loaded.source.remembered(),
+        settings: Some(plan.settings.to_proto()),
+        output: path_string(
+            &std::path::absolute(&plan.output).unwrap_or_else(|_| plan.output.clone()),
+        ),
+        strategy: plan.strategy.name().to_string(),
+        hosts: plan.hosts,
+        nice: plan.nice,
+        colours: plan.colours.as_deref().map(path_string).unwrap_or_default(),
+        spd_corners: req.overrides.spd_corners,
+        threads: plan.threads.unwrap_or(0) as u32,
+    }
+}
+
+/// Asks REM for the workers (none when a resumed job's lines are all in already).
+async fn start_workers(
+    cluster: &Cluster,
+    req: &JobRequest,
+    plan: &Plan,
+    allow_same_host: bool,
+    owner: rem::ProcId,
+) -> Result<rem::Job, JobError> {
+    let rem_job = format!("{}.{}", plan.job, checkpoint::unix_ms() / 1000);
+    let all_in = plan
+        .restored
+        .as_ref()
+        .is_some_and(|r| r.lines.len() as u32 >= plan.settings.render.height);
+    if all_in {
+        return Ok(rem::Job {
+            id: rem_job,
+            processes: Vec::new(),
+        });
+    }
+    let threads = plan.threads.or_else(|| {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        cluster
+            .is_embedded()
+            .then(|| (cores / plan.hosts as usize).max(1))
+    });
+    let mut args = vec!["worker".to_string()];
+    if let Some(t) = threads {
+        args.extend(["--threads".to_string(), t.to_string()]);
+    }
+    cluster
+        .client
+        .spawn(rem::SpawnRequest {
+            program: req.worker_program.display().to_string(),
+            args,
+            env: worker_env(std::env::vars()),
+            nice: plan.nice.then_some(10),
+            count: plan.hosts,
+            allow_same_host,
+            job: Some(rem_job),
+            owner: Some(owner),
+        })
+        .await
+        .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
+}
+
+async fn index_update(cluster: &Cluster, entry: &proto::JobEntry) {
+    if let Err(e) = jobs::update(&cluster.client, entry.clone()).await {
+        eprintln!("sunray: warning: job index: {e}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn job_ids_are_checked() {
+        assert!(check_job_id("render-7.b_c").is_ok());
+        for bad in [
+            "",
+            "a/b",
+            "a b",
+            jobs::INDEX_KEY,
+            &"x".repeat(MAX_JOB_ID + 1),
+        ] {
+            assert!(check_job_id(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn workers_get_only_their_own_variables() {
+        let vars = [
+            ("SUNRAY_WORKER_LINE_DELAY_MS", "5"),
+            ("LD_PRELOAD", "/tmp/x.so"),
+            ("REM_SECRET", "s"),
+        ]
+        .map(|(k, v)| (k.to_string(), v.to_string()));
+        assert_eq!(
+            worker_env(vars.into_iter()),
+            [("SUNRAY_WORKER_LINE_DELAY_MS".to_string(), "5".to_string())].into()
+        );
+    }
+}

@@ -1,0 +1,186 @@
+//! Where a scene comes from ([`SceneSource`]: a file or the built-in example) and loading it:
+//! read or compiled, its primitives built, and every warning (the compiler's, and the objects
+//! dropped as degenerate) collected for the caller to print.
+
+use super::Scene;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use yari::colour::{ColourFileError, ColourTable};
+use yari::load::{InputKind, LoadError};
+
+/// The SCENE argument that names the built-in example scene (the default of `render` and
+/// `submit`).
+pub const BUILTIN: &str = "@example";
+
+/// The built-in example scene: glass, mirror, marble and wood on a checkered floor.
+pub const DEFAULT_SCENE: &str = include_str!("default_scene.yari");
+
+/// Where a scene comes from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SceneSource {
+    /// The built-in example scene ([`DEFAULT_SCENE`]).
+    Builtin,
+    /// A .yari, .nff or .off scene, or a compiled model.
+    File(PathBuf),
+}
+
+impl SceneSource {
+    /// The scene a SCENE argument names: [`BUILTIN`] or an empty argument is the built-in one.
+    pub fn from_arg(arg: &Path) -> SceneSource {
+        if arg.as_os_str().is_empty() || arg.as_os_str() == BUILTIN {
+            SceneSource::Builtin
+        } else {
+            SceneSource::File(arg.to_path_buf())
+        }
+    }
+
+    /// The file, `None` for the built-in scene.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            SceneSource::Builtin => None,
+            SceneSource::File(p) => Some(p),
+        }
+    }
+
+    /// The name in messages and statistics: the path as given, or [`BUILTIN`].
+    pub fn display_name(&self) -> String {
+        match self {
+            SceneSource::Builtin => BUILTIN.to_string(),
+            SceneSource::File(p) => p.display().to_string(),
+        }
+    }
+
+    /// The image written when no output is given: the scene's name with `.png` in the current
+    /// directory, `example.png` for the built-in scene.
+    pub fn default_output(&self) -> PathBuf {
+        let stem = match self {
+            SceneSource::Builtin => "example".as_ref(),
+            SceneSource::File(p) => p.file_stem().unwrap_or_else(|| "image".as_ref()),
+        };
+        PathBuf::from(stem).with_extension("png")
+    }
+
+    /// What a checkpoint remembers: the absolute path, or "" for the built-in scene
+    /// (the inverse of [`SceneSource::from_remembered`]).
+    pub fn remembered(&self) -> String {
+        match self {
+            SceneSource::Builtin => String::new(),
+            SceneSource::File(p) => std::path::absolute(p)
+                .unwrap_or_else(|_| p.clone())
+                .display()
+                .to_string(),
+        }
+    }
+
+    /// The scene a checkpoint remembered with [`SceneSource::remembered`].
+    pub fn from_remembered(s: &str) -> SceneSource {
+        if s.is_empty() {
+            SceneSource::Builtin
+        } else {
+            SceneSource::File(PathBuf::from(s))
+        }
+    }
+}
+
+/// A scene that could not be loaded. Display gives the whole message (for a bad scene, every
+/// diagnostic with its `file:line:col` and caret).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SceneLoadError {
+    /// The colour-name file could not be read.
+    #[error("{0}")]
+    Colours(#[from] ColourFileError),
+    /// The scene could not be read or compiled.
+    #[error("{0}")]
+    Scene(#[from] LoadError),
+}
+
+/// A loaded scene, its warnings, and how long it took.
+pub struct LoadedScene {
+    /// Where it came from.
+    pub source: SceneSource,
+    /// The model and its primitives.
+    pub scene: Scene,
+    /// The compiler's warnings (with carets) and one line per dropped object, ready to print.
+    pub warnings: Vec<String>,
+    /// Seconds spent reading and compiling.
+    pub load_s: f64,
+    /// Seconds spent building the primitives.
+    pub prepare_s: f64,
+}
+
+/// Loads a scene, with the colour names of `colours` (else `$YARI_COLORS`) added to the
+/// built-in table.
+pub fn load(source: &SceneSource, colours: Option<&Path>) -> Result<LoadedScene, SceneLoadError> {
+    let t_load = Instant::now();
+    let table = ColourTable::for_run(colours)?;
+    let loaded = match source {
+        SceneSource::File(p) => yari::load::load_path(p, &table)?,
+        SceneSource::Builtin => {
+            yari::load::load_str("built-in example", DEFAULT_SCENE, InputKind::Yari, &table)?
+        }
+    };
+    let mut warnings = Vec::new();
+    let compiler = loaded.render_warnings();
+    if !compiler.trim().is_empty() {
+        warnings.push(compiler.trim_end().to_string());
+    }
+    let load_s = t_load.elapsed().as_secs_f64();
+    let t_prepare = Instant::now();
+    let scene = Scene::new(loaded.world);
+    let prepare_s = t_prepare.elapsed().as_secs_f64();
+    let name = source.display_name();
+    warnings.extend(scene.dropped.iter().map(|d| {
+        format!(
+            "sunray: warning: {name}: object {} dropped: {}",
+            d.object, d.reason
+        )
+    }));
+    Ok(LoadedScene {
+        source: source.clone(),
+        scene,
+        warnings,
+        load_s,
+        prepare_s,
+    })
+}
+
+impl LoadedScene {
+    /// The compiled model as shipped to SunRay III workers.
+    pub fn model_bytes(&self) -> Result<Vec<u8>, yari::modelfile::ModelFileError> {
+        yari::modelfile::to_bytes(&self.scene.world)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_scene_argument_names_a_file_or_the_builtin_scene() {
+        assert_eq!(
+            SceneSource::from_arg(Path::new(BUILTIN)),
+            SceneSource::Builtin
+        );
+        assert_eq!(SceneSource::from_arg(Path::new("")), SceneSource::Builtin);
+        let f = SceneSource::from_arg(Path::new("dir/king.yari"));
+        assert_eq!(f.path(), Some(Path::new("dir/king.yari")));
+        assert_eq!(f.default_output(), PathBuf::from("king.png"));
+        assert_eq!(
+            SceneSource::Builtin.default_output(),
+            PathBuf::from("example.png")
+        );
+        assert_eq!(
+            SceneSource::from_remembered(&SceneSource::Builtin.remembered()),
+            SceneSource::Builtin
+        );
+        assert!(Path::new(&f.remembered()).is_absolute());
+    }
+
+    #[test]
+    fn the_builtin_scene_loads_without_warnings() {
+        let l = load(&SceneSource::Builtin, None).unwrap();
+        assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+        assert!(!l.scene.prims.is_empty());
+    }
+}
