@@ -1,6 +1,7 @@
 //! The controller's handling of what the relay delivers: worker messages (Ready, Request,
 //! Done, WorkerError), job events (Exited, Lost) and undeliverable notices.
 
+use super::link::WorkerLink;
 use super::Controller;
 use crate::distrib::grants::Completion;
 use crate::distrib::messages::{self, proto, Body};
@@ -9,7 +10,7 @@ use crate::stats::Counters;
 use rem::{EventKind, Incoming};
 use serde_json::json;
 
-impl Controller {
+impl<L: WorkerLink> Controller<L> {
     pub(super) fn on_incoming(&mut self, incoming: Incoming) {
         match incoming {
             Incoming::Message { from, payload } => {

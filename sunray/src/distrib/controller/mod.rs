@@ -6,6 +6,9 @@
 //! the workers to stop.
 
 mod incoming;
+pub mod link;
+#[cfg(test)]
+mod tests;
 
 use crate::distrib::checkpoint::{Checkpointer, Restored};
 use crate::distrib::grants::{GrantTable, NodeState};
@@ -15,11 +18,13 @@ use crate::distrib::progress::ProgressView;
 use crate::distrib::strategy::Strategy;
 use crate::film::Film;
 use crate::stats::Counters;
+use link::{RemLink, WorkerLink};
 use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use serde_json::json;
 use std::collections::HashMap;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use tokio::sync::mpsc;
+use tokio::time::Instant;
 
 /// How the controller runs.
 #[derive(Clone, Debug)]
@@ -110,8 +115,18 @@ pub struct Start {
 
 /// Starts the actor and the task that feeds it from the relay.
 pub fn spawn(start: Start) -> ControllerHandle {
-    let (tx, rx) = mpsc::channel(256);
-    let feed = tx.clone();
+    let link = RemLink {
+        client: start.client,
+        sender: start.sender,
+    };
+    let handle = spawn_with(
+        start.cfg,
+        link,
+        start.workers,
+        start.restored,
+        start.checkpointer,
+    );
+    let feed = handle.tx.clone();
     let mut receiver = start.receiver;
     tokio::spawn(async move {
         loop {
@@ -122,24 +137,28 @@ pub fn spawn(start: Start) -> ControllerHandle {
             }
         }
     });
-    let c = Controller::new(
-        start.cfg,
-        start.client,
-        start.sender,
-        start.workers,
-        start.restored,
-        start.checkpointer,
-    );
+    handle
+}
+
+/// Starts the actor on any [`WorkerLink`]; what it is fed goes to the handle's `tx`.
+pub fn spawn_with<L: WorkerLink>(
+    cfg: ControllerConfig,
+    link: L,
+    workers: Vec<WorkerProc>,
+    restored: Option<Restored>,
+    checkpointer: Checkpointer,
+) -> ControllerHandle {
+    let (tx, rx) = mpsc::channel(256);
+    let c = Controller::new(cfg, link, workers, restored, checkpointer);
     ControllerHandle {
         tx,
         task: tokio::spawn(c.run(rx)),
     }
 }
 
-struct Controller {
+struct Controller<L> {
     cfg: ControllerConfig,
-    client: RemClient,
-    sender: RelaySender,
+    link: L,
     procs: Vec<ProcId>,
     by_proc: HashMap<String, usize>,
     table: GrantTable,
@@ -163,15 +182,14 @@ struct Controller {
     all_silent_since: Option<Instant>,
 }
 
-impl Controller {
+impl<L: WorkerLink> Controller<L> {
     fn new(
         cfg: ControllerConfig,
-        client: RemClient,
-        sender: RelaySender,
+        link: L,
         workers: Vec<WorkerProc>,
         restored: Option<Restored>,
         checkpointer: Checkpointer,
-    ) -> Controller {
+    ) -> Controller<L> {
         let mut film = Film::new(cfg.width, cfg.height);
         let mut finished = vec![false; cfg.height as usize];
         let mut counters = Counters::default();
@@ -222,8 +240,7 @@ impl Controller {
                 ..Default::default()
             },
             cfg,
-            client,
-            sender,
+            link,
             film,
             nodes,
             finishing: false,
@@ -248,11 +265,7 @@ impl Controller {
                 "host": w.host, "pid": w.pid}));
         }
         for i in 0..self.procs.len() {
-            if let Err(e) = self
-                .sender
-                .send(&self.procs[i], self.cfg.scene.clone())
-                .await
-            {
+            if let Err(e) = self.link.send(&self.procs[i], self.cfg.scene.clone()).await {
                 self.on_gone(i, format!("cannot send the scene: {e}"), false);
             }
         }
@@ -349,7 +362,7 @@ impl Controller {
 
     async fn save_checkpoint(&mut self, state: &str) {
         self.last_checkpoint = Instant::now();
-        match self.checkpointer.save(&self.client, state).await {
+        match self.checkpointer.save(&self.link, state).await {
             Ok(()) => self
                 .view
                 .event(json!({"event": "checkpoint", "state": state,
@@ -382,7 +395,7 @@ impl Controller {
                 lines,
                 echo_s: self.stamps_to_echo[node].unwrap_or(0.0),
             }));
-            match self.sender.send(&self.procs[node], msg).await {
+            match self.link.send(&self.procs[node], msg).await {
                 Ok(()) => self.messages_out += 1,
                 Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
                 Err(e) => self.on_gone(node, format!("cannot send: {e}"), false),
@@ -415,11 +428,11 @@ impl Controller {
             .map(|i| !self.exited[i] && self.table.node_state(i) == Some(NodeState::Active))
             .collect();
         for i in 0..self.procs.len() {
-            if !self.exited[i] && self.sender.send(&self.procs[i], stop.clone()).await.is_ok() {
+            if !self.exited[i] && self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
                 self.messages_out += 1;
             }
         }
-        let deadline = tokio::time::Instant::now() + self.cfg.finish_grace;
+        let deadline = Instant::now() + self.cfg.finish_grace;
         while (0..self.procs.len()).any(|i| wait_for[i] && !self.exited[i]) {
             match tokio::time::timeout_at(deadline, inbox.recv()).await {
                 Ok(Some(Input::Relay(Ok(incoming)))) => self.on_incoming(incoming),
@@ -431,7 +444,7 @@ impl Controller {
                 if self.table.node_state(i) != Some(NodeState::Gone) {
                     self.nodes[i].outcome = Outcome::Silent;
                 }
-                let _ = self.client.kill(&self.procs[i]).await;
+                self.link.kill(&self.procs[i]).await;
             }
         }
     }

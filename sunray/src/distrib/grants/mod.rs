@@ -20,7 +20,8 @@
 
 use super::strategy::{LineQueue, Strategy};
 use std::collections::BTreeSet;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+use tokio::time::Instant;
 
 /// A grant number (1, 2, ...; never reused within a job).
 pub type GrantId = u64;
