@@ -2,12 +2,16 @@
 //!
 //! - [`optics`]: reflection, refraction and Fresnel factors.
 //! - [`media`]: the nested transparent volumes a ray travels inside.
-//! - [`hall`]: the recursive ray tracer ([`hall::Tracer`]) that shades a hit with the Hall
-//!   terms, casts shadow rays and spawns reflected and refracted rays.
+//! - [`hall`]: the recursive ray tracer ([`hall::Tracer`]): finds the hit and what shading
+//!   needs of it (textured normal, media on either side), then adds
+//! - [`direct`]: the direct terms (ambient, diffuse and highlights, through shadow rays), and
+//! - [`secondary`]: the reflected and refracted rays.
 
+pub mod direct;
 pub mod hall;
 pub mod media;
 pub mod optics;
+pub mod secondary;
 
 pub use hall::{TraceOptions, Tracer};
 pub use media::Media;
