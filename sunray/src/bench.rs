@@ -4,7 +4,7 @@
 //!
 //! - [`accuracy`]: error against time of the stochastic features (`sunray bench accuracy`).
 //! - [`precision`]: the hot path in f32 and f64, speed and error on hard cases.
-//! - [`hot_path`]: that hot path, written once for both precisions.
+//! - [`hot_path`]: that hot path: the renderer's own kernels ([`crate::geometry::kernels`]) in f32 and f64.
 //! - [`features`]: unused feature paths cost nothing; `--accel auto` against the fastest.
 //! - [`plot`]: the log-log plot of the accuracy benchmark, drawn with `image`.
 

@@ -1,11 +1,10 @@
-//! `sunray bench precision`: the cost of precision. The renderer's hot path (watertight
-//! triangle test, stable sphere test, slab test of boxes) written once by a macro and
-//! instantiated in f32 (glam `Vec3`) and f64 (`DVec3`), then timed on the same rays and
-//! primitives, and run on hard cases: the hit point's distance from the true surface, the
-//! smallest self-intersection offset that stops secondary rays from re-hitting a sphere, and
-//! rays through the shared edges of SPD tetra. (The renderer itself is f64 through
-//! `geometry::Real`; glam has no scalar-generic vector, so the measurement uses this copy of
-//! the hot path rather than an f32 build.)
+//! `sunray bench precision`: the cost of precision. The renderer's own hot-path kernels
+//! (watertight triangle test, stable sphere test, slab test of boxes;
+//! [`crate::geometry::kernels`], written once by a macro and instantiated in f32 (glam `Vec3`)
+//! and f64 (`DVec3`, what the renderer runs)), timed on the same rays and primitives, and run
+//! on hard cases: the hit point's distance from the true surface, the smallest
+//! self-intersection offset that stops secondary rays from re-hitting a sphere, and rays
+//! through the shared edges of SPD tetra.
 
 use std::fmt::Write;
 use std::time::Instant;

@@ -81,15 +81,7 @@ impl Aabb {
     /// `[t_min, t_max]`, or None. `inv_dir` is finite (see `RayPre`).
     #[inline]
     pub fn hit(&self, r: &RayPre, t_min: Real, t_max: Real) -> Option<(Real, Real)> {
-        let a = (self.min - r.ray.origin) * r.inv_dir;
-        let b = (self.max - r.ray.origin) * r.inv_dir;
-        let t0 = a.min(b).max_element().max(t_min);
-        let t1 = a.max(b).min_element().min(t_max);
-        if t0 <= t1 {
-            Some((t0, t1))
-        } else {
-            None
-        }
+        super::kernels::k64::slab(self.min, self.max, r.ray.origin, r.inv_dir, t_min, t_max)
     }
 }
 

@@ -7,9 +7,11 @@
 //! closest hit alone.
 //!
 //! Precision: the hot path uses [`Real`] (`f64`) and glam's `DVec3` ([`Vec3`]); both aliases
-//! live here so a switch is made in one place.
+//! live here so a switch is made in one place. Its kernels (triangle, sphere, slab) are in
+//! [`kernels`], written once for both precisions.
 
 pub mod aabb;
+pub mod kernels;
 pub mod overlap;
 pub mod polygon;
 pub mod primitive;
@@ -64,29 +66,16 @@ pub struct RayPre {
 
 impl RayPre {
     pub fn new(ray: Ray) -> RayPre {
-        let d = ray.dir;
-        let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let ([kx, ky, kz], [sx, sy, sz]) = kernels::k64::shear(ray.dir);
         RayPre {
             ray,
-            inv_dir: safe_inverse(d),
+            inv_dir: kernels::k64::safe_inverse(ray.dir),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx,
+            sy,
+            sz,
         }
     }
 }
@@ -117,18 +106,4 @@ pub fn offset_from(p: Vec3, n: Vec3, from: Vec3) -> Vec3 {
         .max(from.abs().max_element())
         .max(1e-200);
     p + n * (scale * OFFSET_RELATIVE)
-}
-
-/// `1 / d` per component, with an infinite quotient replaced by a huge finite one of the same
-/// sign, so that the slab test never computes `0 * inf`.
-fn safe_inverse(d: Vec3) -> Vec3 {
-    let f = |x: Real| {
-        let i = 1.0 / x;
-        if i.is_finite() {
-            i
-        } else {
-            1e300_f64.copysign(i)
-        }
-    };
-    Vec3::new(f(d.x), f(d.y), f(d.z))
 }

@@ -3,37 +3,9 @@
 use super::{Ray, Real, Vec3};
 use glam::DAffine3;
 
-/// Roots of `a t^2 + 2 b t + c = 0` in increasing order, computed without cancellation
-/// (`q = -(b + sign(b) sqrt(b^2 - ac))`, roots `q / a` and `c / q`). `disc` is `b^2 - ac`,
-/// passed in so callers can compute it in a better-conditioned way.
-#[inline]
-pub fn stable_roots(a: Real, b: Real, c: Real, disc: Real) -> Option<(Real, Real)> {
-    if disc < 0.0 || a == 0.0 {
-        return None;
-    }
-    let q = -(b + disc.sqrt().copysign(b));
-    if q == 0.0 {
-        // b == 0 and disc == 0: a double root at 0.
-        return Some((0.0, 0.0));
-    }
-    let (r0, r1) = (q / a, c / q);
-    Some(if r0 <= r1 { (r0, r1) } else { (r1, r0) })
-}
+pub use super::kernels::k64::{first_root, stable_roots};
 
-/// Smallest root in `(t_min, t_max)`.
-#[inline]
-pub fn first_root(roots: (Real, Real), t_min: Real, t_max: Real) -> Option<Real> {
-    let (r0, r1) = roots;
-    if r0 > t_min && r0 < t_max {
-        Some(r0)
-    } else if r1 > t_min && r1 < t_max {
-        Some(r1)
-    } else {
-        None
-    }
-}
-
-/// Ray / sphere: the nearest `t` in `(t_min, t_max)`.
+/// Ray / sphere: the nearest `t` in `(t_min, t_max)` ([`super::kernels::k64::sphere`]).
 #[inline]
 pub fn intersect_sphere(
     ray: &Ray,
@@ -42,20 +14,7 @@ pub fn intersect_sphere(
     t_min: Real,
     t_max: Real,
 ) -> Option<Real> {
-    let oc = ray.origin - centre;
-    let a = ray.dir.length_squared();
-    let b = oc.dot(ray.dir);
-    let c = oc.length_squared() - radius * radius;
-    if c > 0.0 && b > 0.0 && t_min >= 0.0 {
-        // Outside and moving away: both roots are negative (their product c/a is positive,
-        // their sum -2b/a negative), exactly as the full computation below would find.
-        return None;
-    }
-    // b^2 - ac rewritten as a (r^2 - |oc - (b/a) d|^2) (Hearn and Baker), which keeps its
-    // precision for rays that pass far from the centre.
-    let l = oc - ray.dir * (b / a);
-    let disc = a * (radius * radius - l.length_squared());
-    first_root(stable_roots(a, b, c, disc)?, t_min, t_max)
+    super::kernels::k64::sphere(ray.origin, ray.dir, centre, radius, t_min, t_max)
 }
 
 /// Ray / unit sphere at the origin, after mapping the ray by `to_local` (the inverse of the

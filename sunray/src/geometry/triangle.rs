@@ -6,43 +6,13 @@
 
 use super::{RayPre, Real, Vec3};
 
-/// The nearest `t` in `(t_min, t_max)` where the ray crosses triangle `v`.
+/// The nearest `t` in `(t_min, t_max)` where the ray crosses triangle `v`
+/// ([`super::kernels::k64::triangle`]).
 #[inline]
 pub fn intersect_triangle(r: &RayPre, v: &[Vec3; 3], t_min: Real, t_max: Real) -> Option<Real> {
-    let o = r.ray.origin;
-    // The axes as array indices the compiler can see are in range (no bounds checks).
-    let (kx, ky, kz) = (r.kx.min(2), r.ky.min(2), r.kz.min(2));
-    let a = (v[0] - o).to_array();
-    let b = (v[1] - o).to_array();
-    let c = (v[2] - o).to_array();
-    let ax = a[kx] - r.sx * a[kz];
-    let ay = a[ky] - r.sy * a[kz];
-    let bx = b[kx] - r.sx * b[kz];
-    let by = b[ky] - r.sy * b[kz];
-    let cx = c[kx] - r.sx * c[kz];
-    let cy = c[ky] - r.sy * c[kz];
-    let u = cx * by - cy * bx;
-    let vv = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    // Non-short-circuit operators: six compares, one branch.
-    let negative = (u < 0.0) | (vv < 0.0) | (w < 0.0);
-    let positive = (u > 0.0) | (vv > 0.0) | (w > 0.0);
-    if negative & positive {
-        return None;
-    }
-    let det = u + vv + w;
-    if det == 0.0 {
-        return None;
-    }
-    let az = r.sz * a[kz];
-    let bz = r.sz * b[kz];
-    let cz = r.sz * c[kz];
-    let t = (u * az + vv * bz + w * cz) / det;
-    if t > t_min && t < t_max {
-        Some(t)
-    } else {
-        None
-    }
+    let k = [r.kx, r.ky, r.kz];
+    let s = [r.sx, r.sy, r.sz];
+    super::kernels::k64::triangle(r.ray.origin, k, s, v, t_min, t_max)
 }
 
 #[cfg(test)]
