@@ -3,7 +3,7 @@
 //! controller stopped answering; resumable with `sunray submit --resume JOB`).
 
 use crate::distrib::checkpoint::unix_ms;
-use crate::distrib::cluster::Cluster;
+use crate::distrib::connection::RemConnection;
 use crate::distrib::jobs;
 use clap::Args;
 use std::path::PathBuf;
@@ -33,13 +33,13 @@ pub fn run(args: JobsArgs) -> anyhow::Result<ExitCode> {
 async fn list(args: JobsArgs) -> anyhow::Result<ExitCode> {
     let program = std::env::current_exe()?;
     let cluster =
-        Cluster::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
+        RemConnection::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
     let result = print_jobs(&cluster, args.json).await;
     cluster.close().await;
     result.map(|()| ExitCode::SUCCESS)
 }
 
-async fn print_jobs(cluster: &Cluster, json: bool) -> anyhow::Result<()> {
+async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
     let index = jobs::read_index(&cluster.client)
         .await
         .map_err(|e| cluster.rpc_error(e))?;

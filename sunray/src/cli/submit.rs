@@ -6,7 +6,7 @@
 
 use super::exit;
 use super::render::RenderArgs;
-use crate::distrib::cluster::Cluster;
+use crate::distrib::connection::RemConnection;
 use crate::distrib::job::{self, JobRequest, JobScene};
 use crate::distrib::strategy::Strategy;
 use crate::scene::load::BUILTIN;
@@ -114,7 +114,7 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         .enable_all()
         .build()?;
     let outcome = runtime.block_on(async {
-        let cluster = Cluster::open(
+        let cluster = RemConnection::open(
             args.remd.as_deref(),
             args.secret_file.as_deref(),
             &request.worker_program,

@@ -4,7 +4,7 @@
 //! into a [`JobRequest`], calls [`run`] and prints the [`JobOutcome`].
 
 use super::checkpoint::{self, CheckpointError, Checkpointer, Restored};
-use super::cluster::{Cluster, ClusterError};
+use super::connection::{ConnectionError, RemConnection};
 use super::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
 use super::jobs;
 use super::messages::{self, proto, Body, MessageError};
@@ -106,10 +106,10 @@ pub enum JobError {
     Model(#[from] yari::modelfile::ModelFileError),
     /// REM failed.
     #[error(transparent)]
-    Cluster(#[from] ClusterError),
+    RemConnection(#[from] ConnectionError),
     /// REM could not start the workers.
     #[error("starting the workers: {0}")]
-    Spawn(ClusterError),
+    Spawn(ConnectionError),
     /// The checkpoint of a job to resume could not be read.
     #[error("reading the checkpoint of job {job}: {source}")]
     ReadCheckpoint {
@@ -210,7 +210,7 @@ impl JobRequest {
 
 /// Runs a job on `cluster` to its end: the image written when every line is in.
 pub async fn run(
-    cluster: &Cluster,
+    cluster: &RemConnection,
     req: &JobRequest,
     scene: JobScene,
 ) -> Result<JobOutcome, JobError> {
@@ -253,7 +253,7 @@ fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, JobError> {
 
 async fn resume_plan(
     req: &JobRequest,
-    cluster: &Cluster,
+    cluster: &RemConnection,
     job: String,
     scene: Option<PathBuf>,
 ) -> Result<Plan, JobError> {
@@ -314,7 +314,11 @@ async fn resume_plan(
     })
 }
 
-async fn run_plan(cluster: &Cluster, req: &JobRequest, plan: Plan) -> Result<JobOutcome, JobError> {
+async fn run_plan(
+    cluster: &RemConnection,
+    req: &JobRequest,
+    plan: Plan,
+) -> Result<JobOutcome, JobError> {
     let allow_same_host = cluster.is_embedded() || req.same_host;
     let live = cluster.live_hosts().await?;
     if !allow_same_host && plan.hosts as usize > live.len() {
@@ -463,7 +467,7 @@ fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
 
 /// Asks REM for the workers (none when a resumed job's lines are all in already).
 async fn start_workers(
-    cluster: &Cluster,
+    cluster: &RemConnection,
     req: &JobRequest,
     plan: &Plan,
     allow_same_host: bool,
@@ -506,7 +510,7 @@ async fn start_workers(
         .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
 }
 
-async fn index_update(cluster: &Cluster, entry: &proto::JobEntry) {
+async fn index_update(cluster: &RemConnection, entry: &proto::JobEntry) {
     if let Err(e) = jobs::update(&cluster.client, entry.clone()).await {
         eprintln!("sunray: warning: job index: {e}");
     }

@@ -22,11 +22,11 @@
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
 //! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
 //!   lines it holds.
-//! - [`cluster`]: reaching REM; [`embedded`]: the private remd of the default set-up.
+//! - [`connection`]: reaching REM; [`embedded`]: the private remd of the default set-up.
 //! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals).
 
 pub mod checkpoint;
-pub mod cluster;
+pub mod connection;
 pub mod controller;
 pub mod embedded;
 pub mod grants;

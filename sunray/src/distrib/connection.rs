@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
-pub enum ClusterError {
+pub enum ConnectionError {
     #[error("no cluster secret for remd at {addr}: give --secret-file, or set REM_SECRET_FILE or REM_SECRET")]
     NoSecret { addr: String },
     #[error("cannot read the cluster secret: {0}")]
@@ -24,35 +24,35 @@ pub enum ClusterError {
 }
 
 /// A connection to REM, and the private daemon behind it if there is one.
-pub struct Cluster {
+pub struct RemConnection {
     pub client: RemClient,
     pub addr: String,
     pub embedded: Option<EmbeddedRem>,
 }
 
-impl Cluster {
+impl RemConnection {
     /// Connects to `remd` if given, else starts a private daemon allowed to run `program`.
     pub async fn open(
         remd: Option<&str>,
         secret_file: Option<&Path>,
         program: &Path,
-    ) -> Result<Cluster, ClusterError> {
+    ) -> Result<RemConnection, ConnectionError> {
         match remd.filter(|a| !a.is_empty()) {
             Some(addr) => {
                 let secret = match secret_file {
-                    Some(f) => Secret::from_file(f).map_err(ClusterError::Secret)?,
+                    Some(f) => Secret::from_file(f).map_err(ConnectionError::Secret)?,
                     None => match Secret::from_env() {
                         Ok(Some((s, _))) => s,
                         Ok(None) => {
-                            return Err(ClusterError::NoSecret {
+                            return Err(ConnectionError::NoSecret {
                                 addr: addr.to_string(),
                             })
                         }
-                        Err(e) => return Err(ClusterError::Secret(e)),
+                        Err(e) => return Err(ConnectionError::Secret(e)),
                     },
                 };
                 let client = connect(addr, secret).await?;
-                Ok(Cluster {
+                Ok(RemConnection {
                     client,
                     addr: addr.to_string(),
                     embedded: None,
@@ -62,9 +62,9 @@ impl Cluster {
                 let allow: Vec<PathBuf> = vec![program.to_path_buf()];
                 let rem = EmbeddedRem::start(allow, embedded::state_dir())
                     .await
-                    .map_err(ClusterError::Embedded)?;
+                    .map_err(ConnectionError::Embedded)?;
                 let client = connect(&rem.addr, rem.secret.clone()).await?;
-                Ok(Cluster {
+                Ok(RemConnection {
                     client,
                     addr: rem.addr.clone(),
                     embedded: Some(rem),
@@ -78,7 +78,7 @@ impl Cluster {
     }
 
     /// The live hosts that take work.
-    pub async fn live_hosts(&self) -> Result<Vec<rem::HostInfo>, ClusterError> {
+    pub async fn live_hosts(&self) -> Result<Vec<rem::HostInfo>, ConnectionError> {
         let hosts = self.client.hosts().await.map_err(|e| self.rpc_error(e))?;
         Ok(hosts
             .into_iter()
@@ -86,7 +86,7 @@ impl Cluster {
             .collect())
     }
 
-    pub fn rpc_error(&self, e: rem::Error) -> ClusterError {
+    pub fn rpc_error(&self, e: rem::Error) -> ConnectionError {
         classify(&self.addr, e)
     }
 
@@ -99,30 +99,31 @@ impl Cluster {
 }
 
 /// Connects and checks the secret with one call.
-async fn connect(addr: &str, secret: Secret) -> Result<RemClient, ClusterError> {
-    let client = RemClient::connect(addr, secret)
-        .await
-        .map_err(|e| ClusterError::Unreachable {
-            addr: addr.to_string(),
-            reason: root_cause(&e),
-        })?;
+async fn connect(addr: &str, secret: Secret) -> Result<RemClient, ConnectionError> {
+    let client =
+        RemClient::connect(addr, secret)
+            .await
+            .map_err(|e| ConnectionError::Unreachable {
+                addr: addr.to_string(),
+                reason: root_cause(&e),
+            })?;
     client.hosts().await.map_err(|e| classify(addr, e))?;
     Ok(client)
 }
 
-fn classify(addr: &str, e: rem::Error) -> ClusterError {
+fn classify(addr: &str, e: rem::Error) -> ConnectionError {
     let addr = addr.to_string();
     match e.code() as i32 {
         tonic_code::UNAUTHENTICATED | tonic_code::PERMISSION_DENIED
             if matches!(e, rem::Error::Rpc(_)) =>
         {
-            ClusterError::WrongSecret { addr }
+            ConnectionError::WrongSecret { addr }
         }
-        tonic_code::UNAVAILABLE => ClusterError::Unreachable {
+        tonic_code::UNAVAILABLE => ConnectionError::Unreachable {
             addr,
             reason: root_cause(&e),
         },
-        _ => ClusterError::Rpc { addr, source: e },
+        _ => ConnectionError::Rpc { addr, source: e },
     }
 }
 
