@@ -64,7 +64,7 @@ pub fn spd(name: &str) -> PathBuf {
 }
 
 pub fn default_scene() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../sunray/src/distrib/default_scene.yari")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../sunray/src/scene/default_scene.yari")
 }
 
 /// `sunray render` of `scene` with `flags`: the PNG bytes and the stats JSON.
