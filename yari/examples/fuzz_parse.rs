@@ -102,7 +102,7 @@ fn main() -> ExitCode {
     let inputs: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(100_000);
     let seed: u64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
     let mut rng = Rng(seed);
-    let dir = format!("{}/../../shared/scenes/thesis", env!("CARGO_MANIFEST_DIR"));
+    let dir = format!("{}/../examples/thesis", env!("CARGO_MANIFEST_DIR"));
     let mut seeds: Vec<String> = ["tetra16.yari", "cubes.yari"]
         .iter()
         .filter_map(|n| std::fs::read_to_string(format!("{dir}/{n}")).ok())

@@ -45,3 +45,13 @@ pub mod pov;
 pub mod span;
 pub mod spd;
 pub mod writer;
+
+/// What the unit tests share: the thesis's printed examples, kept in the repository.
+#[cfg(test)]
+pub(crate) mod test_support {
+    /// The text of `examples/thesis/NAME` (`tetra16.yari` or `cubes.yari`).
+    pub fn thesis_example(name: &str) -> String {
+        let path = format!("{}/../examples/thesis/{name}", env!("CARGO_MANIFEST_DIR"));
+        std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
+    }
+}

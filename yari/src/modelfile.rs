@@ -236,11 +236,8 @@ mod tests {
     use crate::span::Source;
 
     fn cubes() -> World {
-        let path = format!(
-            "{}/../../shared/scenes/thesis/cubes.yari",
-            env!("CARGO_MANIFEST_DIR")
-        );
-        let src = Source::new("cubes.yari", std::fs::read_to_string(path).unwrap());
+        let text = crate::test_support::thesis_example("cubes.yari");
+        let src = Source::new("cubes.yari", text);
         crate::compile::compile(&crate::parse::parse(&src).unwrap(), &ColourTable::builtin())
             .unwrap()
             .world

@@ -178,7 +178,7 @@ fn mid_block_transforms_and_attributes_become_parts_that_render_the_same() {
 
 #[test]
 fn the_thesis_scenes_open_as_projects_and_compile_to_the_same_world() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/scenes/thesis");
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/thesis");
     for file in ["tetra16.yari", "cubes.yari"] {
         let path = format!("{dir}/{file}");
         let Ok(text) = std::fs::read_to_string(&path) else {

@@ -3,10 +3,6 @@ use crate::model::{Object, Surface, TextureKind};
 use crate::parse::parse;
 use crate::span::Source;
 
-fn scenes_dir() -> String {
-    format!("{}/../../shared/scenes", env!("CARGO_MANIFEST_DIR"))
-}
-
 const VIEW: &str = "resolution(8,8); camera(position=0,0,10; at=0,0,0; up=0,1,0; angle=20); light(position=0,10,0; color=white);\n";
 
 fn compile_text(text: &str) -> Result<Compiled, Diagnostics> {
@@ -46,7 +42,7 @@ fn close(a: DVec3, b: DVec3) -> bool {
 }
 
 fn thesis(name: &str) -> World {
-    let text = std::fs::read_to_string(format!("{}/thesis/{name}", scenes_dir())).unwrap();
+    let text = crate::test_support::thesis_example(name);
     let src = Source::new(name, text);
     compile(&parse(&src).unwrap(), &ColourTable::builtin())
         .unwrap()

@@ -1,10 +1,6 @@
 use super::*;
 use crate::ast::{AttrField, ColorSpec, Primitive, Transform, ViewStmt};
 
-fn scenes_dir() -> String {
-    format!("{}/../../shared/scenes", env!("CARGO_MANIFEST_DIR"))
-}
-
 fn parse_text(text: &str) -> Result<Scene, Diagnostics> {
     parse(&Source::new("t.yari", text))
 }
@@ -29,7 +25,7 @@ fn count_primitives(b: &Block) -> usize {
 
 #[test]
 fn thesis_tetrahedron_parses_as_printed() {
-    let text = std::fs::read_to_string(format!("{}/thesis/tetra16.yari", scenes_dir())).unwrap();
+    let text = crate::test_support::thesis_example("tetra16.yari");
     let scene = parse(&Source::new("tetra16.yari", text)).unwrap();
     assert_eq!(scene.view.len(), 4);
     assert_eq!(count_primitives(&scene.body), 16);
@@ -57,7 +53,7 @@ fn thesis_tetrahedron_parses_as_printed() {
 
 #[test]
 fn thesis_cubes_parse_as_printed() {
-    let text = std::fs::read_to_string(format!("{}/thesis/cubes.yari", scenes_dir())).unwrap();
+    let text = crate::test_support::thesis_example("cubes.yari");
     let scene = parse(&Source::new("cubes.yari", text)).unwrap();
     assert_eq!(scene.view.len(), 6);
     assert_eq!(count_primitives(&scene.body), 1 + 1 + 6 + 18);

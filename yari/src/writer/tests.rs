@@ -2,10 +2,6 @@ use super::*;
 use crate::parse::parse;
 use crate::span::Source;
 
-fn scenes_dir() -> String {
-    format!("{}/../../shared/scenes", env!("CARGO_MANIFEST_DIR"))
-}
-
 fn reparse(text: &str) -> Scene {
     let mut s = parse(&Source::new("t.yari", text))
         .unwrap_or_else(|d| panic!("{}", d.render(&Source::new("t.yari", text))));
@@ -16,7 +12,7 @@ fn reparse(text: &str) -> Scene {
 #[test]
 fn thesis_scenes_round_trip() {
     for name in ["tetra16.yari", "cubes.yari"] {
-        let text = std::fs::read_to_string(format!("{}/thesis/{name}", scenes_dir())).unwrap();
+        let text = crate::test_support::thesis_example(name);
         let first = reparse(&text);
         let written = write_scene(&first);
         assert_eq!(reparse(&written), first, "{name}:\n{written}");
@@ -75,7 +71,7 @@ fn compiled_worlds_round_trip_exactly_through_write_world() {
         .map(|n| {
             (
                 n.to_string(),
-                std::fs::read_to_string(format!("{}/thesis/{n}", scenes_dir())).unwrap(),
+                crate::test_support::thesis_example(n),
             )
         })
         .collect();
