@@ -1,11 +1,10 @@
 //! End-to-end tests of `sunray check` and `sunray compile` on the real binary.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Output};
 
-fn scenes() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes")
-}
+mod support;
+use support::thesis;
 
 fn sunray(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_sunray"));
@@ -44,7 +43,7 @@ impl Drop for TempDir {
 
 #[test]
 fn check_summarises_the_thesis_scenes() {
-    let tetra = scenes().join("thesis/tetra16.yari");
+    let tetra = thesis("tetra16.yari");
     let out = sunray(&["check", tetra.to_str().unwrap()], &[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(
@@ -52,7 +51,7 @@ fn check_summarises_the_thesis_scenes() {
         "tetra16.yari: 16 polygons, 1 light, 512x512\n"
     );
     assert_eq!(text(&out.stderr), "");
-    let cubes = scenes().join("thesis/cubes.yari");
+    let cubes = thesis("cubes.yari");
     let out = sunray(&["check", cubes.to_str().unwrap()], &[]);
     assert!(out.status.success());
     assert_eq!(
@@ -133,7 +132,7 @@ fn colour_file_from_flag_or_environment() {
 fn compile_writes_a_model_that_check_reads() {
     let dir = TempDir::new("compile");
     let model = dir.0.join("cubes.srw").display().to_string();
-    let cubes = scenes().join("thesis/cubes.yari");
+    let cubes = thesis("cubes.yari");
     let out = sunray(&["compile", cubes.to_str().unwrap(), "-o", &model], &[]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let bytes = std::fs::read(&model).unwrap();

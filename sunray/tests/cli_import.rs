@@ -1,5 +1,5 @@
 //! End-to-end tests of `sunray convert`, `sunray spd` and `sunray check-board`: the real binary
-//! on the shared reference scenes.
+//! on Haines's SPD scenes.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -13,11 +13,8 @@ fn sunray(args: &[&str]) -> Output {
         .expect("run sunray")
 }
 
-fn spd_file(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/scenes/spd")
-        .join(name)
-}
+mod support;
+use support::spd_file;
 
 /// A fresh scratch directory for one test.
 fn scratch(test: &str) -> PathBuf {
@@ -81,6 +78,8 @@ fn convert_reference_scenes_to_yari() {
 }
 
 #[test]
+/// `sunray spd` writes the library's text (which yari's reference tests check byte for byte
+/// against the SHA-256 of Haines's own files).
 fn spd_nff_output_equals_haines_files() {
     let dir = scratch("spd-nff");
     for (db, size, file) in [
@@ -99,7 +98,7 @@ fn spd_nff_output_equals_haines_files() {
         ]));
         let got = std::fs::read_to_string(&out_path).unwrap();
         let want = std::fs::read_to_string(spd_file(file)).unwrap();
-        assert!(got == want, "{file}: generated NFF differs from Haines's");
+        assert!(got == want, "{file}: sunray spd differs from the generator");
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -13,8 +13,10 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
+mod support;
+
 fn tetra() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes/thesis/tetra16.yari")
+    support::thesis("tetra16.yari")
 }
 
 #[test]

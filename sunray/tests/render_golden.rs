@@ -53,24 +53,23 @@ fn check(scene_path: PathBuf, golden: &str, width: u32, height: u32, samples: Op
     );
 }
 
-fn shared(rel: &str) -> PathBuf {
-    dir().join("../../shared/scenes").join(rel)
-}
+mod support;
+use support::{spd_file, thesis};
 
 #[test]
 fn thesis_fig_2_1_tetra16() {
-    check(shared("thesis/tetra16.yari"), "tetra16.png", 96, 96, None);
+    check(thesis("tetra16.yari"), "tetra16.png", 96, 96, None);
 }
 
 #[test]
 fn thesis_appendix_c5_cubes() {
-    check(shared("thesis/cubes.yari"), "cubes.png", 128, 128, None);
+    check(thesis("cubes.yari"), "cubes.png", 128, 128, None);
 }
 
 #[test]
 fn spd_mount_and_balls_small() {
-    check(shared("spd/mount6.nff"), "mount6.png", 96, 96, None);
-    check(shared("spd/balls4.nff"), "balls4.png", 96, 96, None);
+    check(spd_file("mount6.nff"), "mount6.png", 96, 96, None);
+    check(spd_file("balls4.nff"), "balls4.png", 96, 96, None);
 }
 
 #[test]

@@ -6,12 +6,11 @@ use sunray::render::{render_image, Progress, RenderOptions};
 use sunray::scene::Scene;
 use sunray::stats::Counters;
 
+mod support;
+
 fn spd(name: &str) -> Counters {
-    let path = format!(
-        "{}/../../shared/scenes/spd/{name}.nff",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let world = yari::load::load_path(path.as_ref(), &yari::colour::ColourTable::builtin())
+    let path = support::spd_file(&format!("{name}.nff"));
+    let world = yari::load::load_path(&path, &yari::colour::ColourTable::builtin())
         .unwrap()
         .world;
     let scene = Scene::new(world);
