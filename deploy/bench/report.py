@@ -179,7 +179,7 @@ def main():
     os.makedirs(RESULTS, exist_ok=True)
     s = data.get("settings", {})
     out = ["# SunRay III benchmarks on the compose clusters\n",
-           f"Scene: mount6 (`../shared/scenes/spd/mount6.nff`), {s.get('resolution')}, "
+           f"Scene: mount6 (`sunray spd mount`, Haines's mount6.nff), {s.get('resolution')}, "
            f"samples: {s.get('samples')}. Made by `deploy/bench/run.sh` on "
            f"{data.get('machine', 'this machine')}.\n"]
     if "scaling" in data:

@@ -6,8 +6,8 @@
 #   deploy/bench/run.sh scaling          # one of them (the others' results are kept)
 #
 # BENCH_RES (default 512x512) and BENCH_SAMPLES set the render; SKIP_IMAGE=1 uses the
-# image as it is; SUNRAY_SCENES is the folder holding mount6.nff (default: the shared
-# scenes beside the repository, else one generated with `sunray spd mount`).
+# image as it is; SUNRAY_SCENES is the folder holding mount6.nff (default: one generated
+# with `sunray spd mount`, which writes Haines's file byte for byte).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -16,12 +16,8 @@ if [ -z "${SKIP_IMAGE:-}" ]; then deploy/build-image.sh; fi
 mkdir -p "$here/work"
 [ -s "$here/work/secret" ] || (umask 077 && head -c 32 /dev/urandom | base64 > "$here/work/secret")
 if [ -z "${SUNRAY_SCENES:-}" ]; then
-  if [ -f "$root/../shared/scenes/spd/mount6.nff" ]; then
-    SUNRAY_SCENES="$(cd "$root/../shared/scenes/spd" && pwd)"
-  else
-    SUNRAY_SCENES="$here/work/scenes"; mkdir -p "$SUNRAY_SCENES"
-    "${CARGO_TARGET_DIR:-target}/release/sunray" spd mount -o "$SUNRAY_SCENES/mount6.nff"
-  fi
+  SUNRAY_SCENES="$here/work/scenes"; mkdir -p "$SUNRAY_SCENES"
+  "${CARGO_TARGET_DIR:-target}/release/sunray" spd mount -o "$SUNRAY_SCENES/mount6.nff"
 fi
 export SUNRAY_SCENES
 python3 -c 'import matplotlib' 2>/dev/null || pip install -q matplotlib || true

@@ -6,9 +6,10 @@
 //! Without a usable docker these tests print why and pass, except under CI (`CI` set),
 //! where that is a failure.
 
-mod cluster_support;
-
-use cluster_support::*;
+use sunray_e2e::compose::*;
+use sunray_e2e::fixtures::spd;
+use sunray_e2e::reference::{output, read_json, reference};
+use sunray_e2e::submit_run::SubmitRun;
 use std::time::Duration;
 
 /// Quick: the byte-identity check.
@@ -19,16 +20,12 @@ const BIG_SAMPLES: &str = "64";
 const BIG_LINES: u64 = 512;
 
 /// The local `sunray render` of the big image, made once per test binary.
-fn big_reference(bins: &std::path::Path) -> &'static [u8] {
+fn big_reference() -> &'static [u8] {
     static REF: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
     REF.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        reference(
-            bins,
-            dir.path(),
-            "mount6",
-            &["--resolution", BIG, "--samples", BIG_SAMPLES],
-        )
+        let flags = ["--resolution", BIG, "--samples", BIG_SAMPLES];
+        reference(dir.path(), &spd("mount6"), &flags).0
     })
 }
 
@@ -50,7 +47,7 @@ fn node_hosts(stats: &serde_json::Value) -> Vec<String> {
 }
 
 /// The host of the node of `event` (a `fault` or `silent` event).
-fn host_of(run: &Submit, event: &serde_json::Value) -> String {
+fn host_of(run: &SubmitRun, event: &serde_json::Value) -> String {
     let node = event["node"].as_u64().unwrap_or(0);
     run.hosts()
         .into_iter()
@@ -62,7 +59,7 @@ fn host_of(run: &Submit, event: &serde_json::Value) -> String {
 #[test]
 fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
     let _one_at_a_time = serial();
-    let Some(bins) = prepare() else { return };
+    let Some(_) = prepare() else { return };
     let cluster = ComposeCluster::up();
     let hosts = cluster.hosts("ws1");
     let capacity = |name: &str| {
@@ -76,12 +73,7 @@ fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
     assert_eq!(capacity("ws3"), Some(0.5), "{hosts:#?}");
     assert_eq!(capacity("ws6"), Some(0.25), "{hosts:#?}");
 
-    let want = reference(
-        &bins,
-        cluster.dir.path(),
-        "mount6",
-        &["--resolution", SMALL],
-    );
+    let want = reference(cluster.dir.path(), &spd("mount6"), &["--resolution", SMALL]).0;
     let o = output(&mut cluster.exec(
         "ws1",
         &submit_args(&[
@@ -120,9 +112,9 @@ fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
 #[test]
 fn killing_two_hosts_mid_render_gives_the_same_image() {
     let _one_at_a_time = serial();
-    let Some(bins) = prepare() else { return };
+    let Some(_) = prepare() else { return };
     let cluster = ComposeCluster::up();
-    let mut run = Submit::start(cluster.exec(
+    let mut run = SubmitRun::start(cluster.exec(
         "ws1",
         &submit_args(&[
             "--hosts",
@@ -146,7 +138,7 @@ fn killing_two_hosts_mid_render_gives_the_same_image() {
     }
     let st = run.wait(Duration::from_secs(300));
     assert!(st.success(), "submit failed:\n{}", run.text());
-    let want = big_reference(&bins);
+    let want = big_reference();
     assert!(
         std::fs::read(cluster.out("kill.png")).unwrap() == want,
         "the image differs"
@@ -185,9 +177,9 @@ fn killing_two_hosts_mid_render_gives_the_same_image() {
 #[test]
 fn a_hung_host_and_a_partitioned_host_are_detected_and_rejoin() {
     let _one_at_a_time = serial();
-    let Some(bins) = prepare() else { return };
+    let Some(_) = prepare() else { return };
     let cluster = ComposeCluster::up();
-    let mut run = Submit::start(cluster.exec(
+    let mut run = SubmitRun::start(cluster.exec(
         "ws1",
         &submit_args(&[
             "--hosts",
@@ -233,7 +225,7 @@ fn a_hung_host_and_a_partitioned_host_are_detected_and_rejoin() {
     });
     let st = run.wait(Duration::from_secs(300));
     assert!(st.success(), "submit failed:\n{}", run.text());
-    let want = big_reference(&bins);
+    let want = big_reference();
     assert!(
         std::fs::read(cluster.out("hung.png")).unwrap() == want,
         "the image differs"
@@ -265,9 +257,9 @@ fn a_hung_host_and_a_partitioned_host_are_detected_and_rejoin() {
 #[test]
 fn a_restarted_controller_host_resumes_from_the_checkpoint() {
     let _one_at_a_time = serial();
-    let Some(bins) = prepare() else { return };
+    let Some(_) = prepare() else { return };
     let cluster = ComposeCluster::up();
-    let mut run = Submit::start(cluster.exec(
+    let mut run = SubmitRun::start(cluster.exec(
         "ws1",
         &submit_args(&[
             "--hosts",
@@ -313,7 +305,7 @@ fn a_restarted_controller_host_resumes_from_the_checkpoint() {
         ]),
     ));
     assert!(o.status.success(), "resume failed");
-    let want = big_reference(&bins);
+    let want = big_reference();
     assert!(
         std::fs::read(cluster.out("resumed.png")).unwrap() == want,
         "the image differs"
@@ -333,7 +325,7 @@ fn a_restarted_controller_host_resumes_from_the_checkpoint() {
 #[test]
 fn placement_avoids_the_heavily_loaded_host() {
     let _one_at_a_time = serial();
-    let Some(bins) = prepare() else { return };
+    let Some(_) = prepare() else { return };
     let cluster = ComposeCluster::up();
     // The load generator: two spinners in ws3's container (limit 0.5 CPU).
     let o = output(cluster.script("deploy/load.sh").args([
@@ -352,12 +344,7 @@ fn placement_avoids_the_heavily_loaded_host() {
             (loaded && busy(h) >= 0.6) || (!loaded && busy(h) < 0.3)
         })
     });
-    let want = reference(
-        &bins,
-        cluster.dir.path(),
-        "mount6",
-        &["--resolution", SMALL],
-    );
+    let want = reference(cluster.dir.path(), &spd("mount6"), &["--resolution", SMALL]).0;
     let o = output(&mut cluster.exec(
         "ws1",
         &submit_args(&[

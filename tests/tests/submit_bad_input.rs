@@ -1,9 +1,10 @@
 //! Bad input to `sunray submit`: each a clear error and a non-zero exit, and nothing
 //! started. A scene with errors is refused, with its diagnostics, before any worker starts.
 
-mod submit_support;
 
-use submit_support::*;
+use sunray_e2e::bins::sunray;
+use sunray_e2e::fixtures::spd;
+use sunray_e2e::remd::LoopbackCluster;
 
 fn stderr(out: &std::process::Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
@@ -11,7 +12,7 @@ fn stderr(out: &std::process::Output) -> String {
 
 #[test]
 fn a_bad_scene_is_refused_with_diagnostics_before_any_worker_starts() {
-    let cluster = Cluster::start(1);
+    let cluster = LoopbackCluster::start(1);
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("bad.yari");
     std::fs::write(
@@ -35,7 +36,7 @@ fn a_bad_scene_is_refused_with_diagnostics_before_any_worker_starts() {
 
 #[test]
 fn zero_hosts_too_many_hosts_unreachable_and_wrong_secret_are_clear_errors() {
-    let cluster = Cluster::start(2);
+    let cluster = LoopbackCluster::start(2);
     let scene = spd("tetra6");
     let run = |cmd: &mut std::process::Command| {
         let out = cmd

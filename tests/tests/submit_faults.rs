@@ -7,12 +7,15 @@
 //! every line take at least SUNRAY_WORKER_LINE_DELAY_MS (a worker test hook), so the job
 //! is still running when the fault is made.
 
-mod submit_support;
 
 use std::path::PathBuf;
 use std::process::Command;
 use std::time::Duration;
-use submit_support::*;
+use sunray_e2e::bins::{signal, sunray};
+use sunray_e2e::fixtures::spd;
+use sunray_e2e::reference::{output, read_json, reference};
+use sunray_e2e::remd::LoopbackCluster;
+use sunray_e2e::submit_run::SubmitRun;
 
 const FLAGS: [&str; 2] = ["--resolution", "64x128"];
 const LINES: u64 = 128;
@@ -36,7 +39,7 @@ fn job() -> Job {
     }
 }
 
-fn slow_submit(cluster: &Cluster, job: &Job, delay_ms: u32, extra: &[&str]) -> Command {
+fn slow_submit(cluster: &LoopbackCluster, job: &Job, delay_ms: u32, extra: &[&str]) -> Command {
     let mut c = cluster.submit();
     c.env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
         .args(["--hosts", "3"])
@@ -67,11 +70,11 @@ fn check(job: &Job, victim: u64, outcome: &str) -> serde_json::Value {
 
 #[test]
 fn a_worker_killed_mid_job_gives_its_lines_back() {
-    let cluster = Cluster::start(3);
+    let cluster = LoopbackCluster::start(3);
     let job = job();
-    let mut run = Running::start(slow_submit(&cluster, &job, 60, &[]));
+    let mut run = SubmitRun::start(slow_submit(&cluster, &job, 60, &[]));
     run.wait_lines_of(2, 2);
-    signal(worker_pid(&run, 2), libc::SIGKILL);
+    signal(run.worker_pid(2), libc::SIGKILL);
     assert!(run.wait(Duration::from_secs(120)).success());
     let s = check(&job, 2, "fault");
     let victim = &s["nodes"][1];
@@ -92,9 +95,9 @@ fn a_worker_killed_mid_job_gives_its_lines_back() {
 
 #[test]
 fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
-    let cluster = Cluster::start(3);
+    let cluster = LoopbackCluster::start(3);
     let job = job();
-    let mut run = Running::start(slow_submit(&cluster, &job, 80, &[]));
+    let mut run = SubmitRun::start(slow_submit(&cluster, &job, 80, &[]));
     // A worker that is not on the controller's host (a).
     let (victim, host) = run.wait_until(Duration::from_secs(60), |seen| {
         seen.iter()
@@ -120,16 +123,16 @@ fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
 
 #[test]
 fn a_stopped_worker_times_out_and_the_job_finishes_without_it() {
-    let cluster = Cluster::start(3);
+    let cluster = LoopbackCluster::start(3);
     let job = job();
-    let mut run = Running::start(slow_submit(
+    let mut run = SubmitRun::start(slow_submit(
         &cluster,
         &job,
         60,
         &["--worker-timeout-ms", "800"],
     ));
     run.wait_lines_of(3, 2);
-    let pid = worker_pid(&run, 3);
+    let pid = run.worker_pid(3);
     signal(pid, libc::SIGSTOP);
     let status = run.wait(Duration::from_secs(120));
     signal(pid, libc::SIGKILL);
@@ -148,10 +151,10 @@ fn a_stopped_worker_times_out_and_the_job_finishes_without_it() {
 
 #[test]
 fn a_killed_controller_resumes_from_its_checkpoint() {
-    let cluster = Cluster::start(3);
+    let cluster = LoopbackCluster::start(3);
     let job = job();
     let id = "resume-test-1";
-    let mut run = Running::start(slow_submit(
+    let mut run = SubmitRun::start(slow_submit(
         &cluster,
         &job,
         60,
@@ -222,7 +225,7 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
 
 #[test]
 fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
-    let cluster = Cluster::start(1);
+    let cluster = LoopbackCluster::start(1);
     let job = job();
     let id = "no-workers-1";
     let mut c = cluster.submit();
@@ -232,9 +235,9 @@ fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
         .arg(spd("mount6"))
         .arg("-o")
         .arg(&job.out);
-    let mut run = Running::start(c);
+    let mut run = SubmitRun::start(c);
     run.wait_lines_of(1, 4);
-    signal(worker_pid(&run, 1), libc::SIGKILL);
+    signal(run.worker_pid(1), libc::SIGKILL);
     let status = run.wait(Duration::from_secs(60));
     assert_eq!(status.code(), Some(3), "exit code 3: no worker left");
     let failed = run.wait_until(Duration::ZERO, |seen| {
@@ -259,7 +262,7 @@ fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
 /// the job does not wait for them forever; with none left it says so (exit 3).
 #[test]
 fn workers_that_never_say_ready_time_out() {
-    let cluster = Cluster::start(2);
+    let cluster = LoopbackCluster::start(2);
     let job = job();
     let mut c = cluster.submit();
     c.env("SUNRAY_WORKER_READY_DELAY_MS", "120000")
@@ -268,7 +271,7 @@ fn workers_that_never_say_ready_time_out() {
         .arg(spd("mount6"))
         .arg("-o")
         .arg(&job.out);
-    let mut run = Running::start(c);
+    let mut run = SubmitRun::start(c);
     let status = run.wait(Duration::from_secs(60));
     assert_eq!(status.code(), Some(3), "exit code 3: no worker left");
     for node in [1, 2] {

@@ -2,12 +2,14 @@
 //! `sunray render`, with every strategy, and its statistics count every line exactly once.
 //! Also: the embedded default (no remd) and the built-in scene.
 
-mod submit_support;
 
-use submit_support::*;
+use sunray_e2e::bins::sunray;
+use sunray_e2e::fixtures::{default_scene, spd};
+use sunray_e2e::reference::{output, read_json, reference};
+use sunray_e2e::remd::LoopbackCluster;
 
 /// Submits `scene` with `strategy` and checks the image and the statistics.
-fn identical(cluster: &Cluster, scene: &str, strategy: &str) {
+fn identical(cluster: &LoopbackCluster, scene: &str, strategy: &str) {
     let dir = tempfile::tempdir().unwrap();
     let flags = ["--resolution", "64x64"];
     let (want, want_stats) = reference(dir.path(), &spd(scene), &flags);
@@ -67,7 +69,7 @@ fn identical(cluster: &Cluster, scene: &str, strategy: &str) {
 
 #[test]
 fn tetra6_and_mount6_on_three_daemons_with_every_strategy() {
-    let cluster = Cluster::start(3);
+    let cluster = LoopbackCluster::start(3);
     for scene in ["tetra6", "mount6"] {
         for strategy in ["dynamic", "blocks", "interleaved"] {
             identical(&cluster, scene, strategy);

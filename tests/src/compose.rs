@@ -2,12 +2,11 @@
 //! under CI, a printed skip elsewhere), builds the image from this build's release binaries,
 //! starts `deploy/docker-compose.yml` under a unique project name and takes it down again
 //! (containers, network, volumes) when the guard is dropped, even after a failed assertion.
-#![allow(dead_code)]
 
-use std::io::{BufRead, BufReader};
+use super::bins::{ensure_built, workspace};
+use super::fixtures::spd_dir;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::mpsc;
+use std::process::{Command, Stdio};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::{Duration, Instant};
 
@@ -16,23 +15,6 @@ pub const PREFIX: &str = "sunraye2e_";
 /// The image the tests build and use (not `latest`, which is the user's).
 pub const IMAGE: &str = "sunray-rem:e2e";
 pub const HOSTS: [&str; 6] = ["ws1", "ws2", "ws3", "ws4", "ws5", "ws6"];
-
-fn workspace() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-pub fn scenes_dir() -> PathBuf {
-    workspace().join("../shared/scenes/spd")
-}
-
-/// target/<profile>, where cargo put this build's binaries.
-pub fn bin_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    exe.parent()
-        .and_then(Path::parent)
-        .expect("target dir")
-        .to_path_buf()
-}
 
 /// How to run compose here: `docker-compose` (v1) or `docker compose` (v2).
 fn compose_program() -> Option<Vec<String>> {
@@ -91,7 +73,7 @@ pub fn prepare() -> Option<PathBuf> {
             return Err(why);
         }
         remove_leftovers();
-        let dir = build_binaries();
+        let dir = ensure_built().clone();
         build_image(&dir);
         Ok(dir)
     });
@@ -103,26 +85,6 @@ pub fn prepare() -> Option<PathBuf> {
             None
         }
     }
-}
-
-/// `cargo test --workspace` builds every binary; this makes sure of it (a no-op then).
-fn build_binaries() -> PathBuf {
-    let dir = bin_dir();
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| env!("CARGO").to_string());
-    let target = dir.parent().expect("target root").to_path_buf();
-    let mut cmd = Command::new(cargo);
-    cmd.args(["build", "--quiet", "-p", "sunray", "-p", "rem", "--bins"])
-        .arg("--target-dir")
-        .arg(&target)
-        .current_dir(workspace());
-    if dir.file_name().is_some_and(|n| n == "release") {
-        cmd.arg("--release");
-    }
-    assert!(
-        cmd.status().expect("run cargo build").success(),
-        "cargo build failed"
-    );
-    dir
 }
 
 fn build_image(bin_dir: &Path) {
@@ -246,7 +208,7 @@ impl ComposeCluster {
             .arg("-f")
             .arg(workspace().join("deploy/docker-compose.yml"))
             .env("SUNRAY_IMAGE", IMAGE)
-            .env("SUNRAY_SCENES", scenes_dir())
+            .env("SUNRAY_SCENES", spd_dir())
             .env("SUNRAY_OUT", &self.out_dir)
             .env("REM_SECRET_PATH", self.dir.path().join("secret"))
             .env(
@@ -438,160 +400,3 @@ pub fn lost(hosts: &[serde_json::Value], name: &str) -> bool {
         .any(|h| h["name"] == name && h["alive"] == false)
 }
 
-/// A `sunray submit --events` running in a container; its events are read as they come.
-pub struct Submit {
-    child: Child,
-    events: mpsc::Receiver<serde_json::Value>,
-    pub seen: Vec<serde_json::Value>,
-    text: std::sync::Arc<Mutex<String>>,
-    reader: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Submit {
-    pub fn start(mut cmd: Command) -> Submit {
-        let mut child = cmd
-            .arg("--events")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let err = child.stderr.take().unwrap();
-        let (tx, rx) = mpsc::channel();
-        let text = std::sync::Arc::new(Mutex::new(String::new()));
-        let keep = text.clone();
-        let reader = std::thread::spawn(move || {
-            for line in BufReader::new(err).lines() {
-                let Ok(line) = line else { return };
-                match serde_json::from_str::<serde_json::Value>(&line) {
-                    Ok(v) if v.get("event").is_some() => {
-                        let _ = tx.send(v);
-                    }
-                    _ => {
-                        eprintln!("[submit] {line}");
-                        let mut t = keep.lock().unwrap_or_else(|e| e.into_inner());
-                        t.push_str(&line);
-                        t.push('\n');
-                    }
-                }
-            }
-        });
-        Submit {
-            child,
-            events: rx,
-            seen: Vec::new(),
-            text,
-            reader: Some(reader),
-        }
-    }
-
-    /// Waits (bounded) until `cond` holds of the events so far, and returns its value.
-    pub fn wait_until<T>(
-        &mut self,
-        timeout: Duration,
-        cond: impl Fn(&[serde_json::Value]) -> Option<T>,
-    ) -> T {
-        let end = Instant::now() + timeout;
-        loop {
-            if let Some(t) = cond(&self.seen) {
-                return t;
-            }
-            let left = end.saturating_duration_since(Instant::now());
-            match self.events.recv_timeout(left) {
-                Ok(v) => self.seen.push(v),
-                Err(_) => panic!(
-                    "condition not reached in {timeout:?}; events {:#?}\n{}",
-                    self.seen,
-                    self.text()
-                ),
-            }
-        }
-    }
-
-    /// Waits until at least `n` lines are in.
-    pub fn wait_done(&mut self, n: u64, timeout: Duration) {
-        self.wait_until(timeout, |seen| {
-            seen.iter()
-                .any(|v| v["event"] == "line" && v["done"].as_u64() >= Some(n))
-                .then_some(())
-        })
-    }
-
-    /// node -> host from the `spawned` events.
-    pub fn hosts(&self) -> Vec<(u64, String)> {
-        self.seen
-            .iter()
-            .filter(|v| v["event"] == "spawned")
-            .map(|v| {
-                (
-                    v["node"].as_u64().unwrap_or(0),
-                    v["host"].as_str().unwrap_or("").to_string(),
-                )
-            })
-            .collect()
-    }
-
-    /// Waits for the end (bounded), collecting the rest of the events.
-    pub fn wait(&mut self, timeout: Duration) -> std::process::ExitStatus {
-        let end = Instant::now() + timeout;
-        loop {
-            if let Some(st) = self.child.try_wait().unwrap() {
-                if let Some(r) = self.reader.take() {
-                    let _ = r.join(); // the pipe is at its end: every event is in the channel
-                }
-                while let Ok(v) = self.events.try_recv() {
-                    self.seen.push(v);
-                }
-                return st;
-            }
-            if let Ok(v) = self.events.recv_timeout(Duration::from_millis(50)) {
-                self.seen.push(v);
-            }
-            assert!(
-                Instant::now() < end,
-                "submit did not finish in {timeout:?}\n{}",
-                self.text()
-            );
-        }
-    }
-
-    /// The non-event lines of stderr (the per-node table, notes, errors).
-    pub fn text(&self) -> String {
-        self.text.lock().unwrap_or_else(|e| e.into_inner()).clone()
-    }
-}
-
-impl Drop for Submit {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// `sunray render` on this machine: the reference image.
-pub fn reference(bin_dir: &Path, dir: &Path, scene: &str, flags: &[&str]) -> Vec<u8> {
-    let out = dir.join(format!("reference-{scene}.png"));
-    let st = Command::new(bin_dir.join("sunray"))
-        .arg("render")
-        .arg("-q")
-        .arg(scenes_dir().join(format!("{scene}.nff")))
-        .args(flags)
-        .arg("-o")
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(st.success(), "sunray render {scene}");
-    std::fs::read(&out).unwrap()
-}
-
-pub fn read_json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
-}
-
-/// Runs a command to its end, printing its output on failure.
-pub fn output(cmd: &mut Command) -> Output {
-    let out = cmd.output().unwrap();
-    if !out.status.success() {
-        eprintln!("{}", String::from_utf8_lossy(&out.stderr));
-    }
-    out
-}

@@ -1,0 +1,70 @@
+//! The workspace's binaries as the tests run them: this build's `sunray` and `remd` (built
+//! on first use, as this package cannot name another package's binaries).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// The workspace root.
+pub fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// target/<profile>, where cargo puts this build's binaries.
+pub fn bin_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test> -> target/<profile>
+    exe.parent()
+        .and_then(Path::parent)
+        .expect("target dir")
+        .to_path_buf()
+}
+
+/// Builds `sunray` and `remd` once per test binary (a no-op when they are up to date;
+/// `cargo test --workspace` has built them already) and returns their folder.
+pub fn ensure_built() -> &'static PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = bin_dir();
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| env!("CARGO").to_string());
+        let target = dir.parent().expect("target root").to_path_buf();
+        let mut cmd = Command::new(cargo);
+        cmd.args(["build", "--quiet", "-p", "sunray", "-p", "rem", "--bins"])
+            .arg("--target-dir")
+            .arg(&target)
+            .current_dir(workspace());
+        if dir.file_name().is_some_and(|n| n == "release") {
+            cmd.arg("--release");
+        }
+        let st = cmd.status().expect("run cargo build");
+        assert!(st.success(), "building sunray and remd failed");
+        dir
+    })
+}
+
+/// This build's `sunray`.
+pub fn sunray_bin() -> PathBuf {
+    ensure_built().join("sunray")
+}
+
+/// This build's `remd`.
+pub fn remd_bin() -> PathBuf {
+    ensure_built().join("remd")
+}
+
+/// `sunray` with no REM configuration from the environment.
+pub fn sunray() -> Command {
+    let mut c = Command::new(sunray_bin());
+    c.env_remove("REM_ADDR")
+        .env_remove("REM_SECRET")
+        .env_remove("REM_SECRET_FILE");
+    c
+}
+
+/// Sends signal `sig` to process `pid`.
+pub fn signal(pid: i32, sig: i32) {
+    // SAFETY: kill(2) has no memory-safety preconditions; a stale pid is the caller's risk.
+    unsafe {
+        libc::kill(pid, sig);
+    }
+}

@@ -1,0 +1,44 @@
+//! Scenes the tests render, all from the repository: Haines's SPD scenes written by our
+//! generators (yari's reference tests check them against the SHA-256 of Haines's own files),
+//! the thesis's printed examples and the built-in example scene.
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+/// A folder holding `tetra6.nff`, `mount6.nff` and `balls4.nff`, written once per test
+/// process under target/<profile>/e2e-fixtures (each file under a temporary name, then
+/// renamed, so test processes running at once never see half a file).
+pub fn spd_dir() -> PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = super::bins::bin_dir().join("e2e-fixtures/spd");
+        std::fs::create_dir_all(&dir).unwrap();
+        for (db, size, file) in [
+            (yari::spd::Database::Tetra, 6, "tetra6.nff"),
+            (yari::spd::Database::Mount, 6, "mount6.nff"),
+            (yari::spd::Database::Balls, 4, "balls4.nff"),
+        ] {
+            let text = yari::nff::write(&yari::spd::generate(db, size).unwrap());
+            let tmp = dir.join(format!("{file}.{}", std::process::id()));
+            std::fs::write(&tmp, text).unwrap();
+            std::fs::rename(&tmp, dir.join(file)).unwrap();
+        }
+        dir
+    })
+    .clone()
+}
+
+/// Haines's SPD scene `NAME` (`tetra6`, `mount6` or `balls4`) as an NFF file.
+pub fn spd(name: &str) -> PathBuf {
+    spd_dir().join(format!("{name}.nff"))
+}
+
+/// The built-in example scene's source.
+pub fn default_scene() -> PathBuf {
+    super::bins::workspace().join("sunray/src/scene/default_scene.yari")
+}
+
+/// `examples/thesis/NAME` (`tetra16.yari` or `cubes.yari`).
+pub fn thesis(name: &str) -> PathBuf {
+    super::bins::workspace().join("examples/thesis").join(name)
+}

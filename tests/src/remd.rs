@@ -1,0 +1,152 @@
+//! Real `remd` processes on loopback: one daemon ([`Remd`], killed when dropped) and a small
+//! cluster of them sharing a secret ([`LoopbackCluster`]), for `sunray submit` against a real
+//! farm.
+
+use super::bins::{remd_bin, sunray, sunray_bin};
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The secret of a [`LoopbackCluster`].
+pub const SECRET: &str = "submit-test-secret";
+
+/// The address a `remd` prints on its first line ("remd listening on ADDR").
+pub fn listening_addr(line: &str) -> Option<&str> {
+    line.trim().strip_prefix("remd listening on ")
+}
+
+/// One remd process; killed when dropped.
+pub struct Remd {
+    pub name: String,
+    pub addr: String,
+    pub child: Child,
+}
+
+impl Remd {
+    /// Sends the daemon signal `sig`.
+    pub fn signal(&self, sig: i32) {
+        super::bins::signal(self.child.id() as i32, sig);
+    }
+}
+
+impl Drop for Remd {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// `n` remd daemons named a, b, c ... on loopback, sharing a secret, allowed to run sunray.
+pub struct LoopbackCluster {
+    pub dir: tempfile::TempDir,
+    pub secret_file: PathBuf,
+    pub daemons: Vec<Remd>,
+}
+
+impl LoopbackCluster {
+    pub fn start(n: usize) -> LoopbackCluster {
+        let dir = tempfile::tempdir().unwrap();
+        let secret_file = dir.path().join("secret");
+        std::fs::write(&secret_file, format!("{SECRET}\n")).unwrap();
+        let mut c = LoopbackCluster {
+            dir,
+            secret_file,
+            daemons: Vec::new(),
+        };
+        for i in 0..n {
+            let name = ((b'a' + i as u8) as char).to_string();
+            let join = c.daemons.first().map(|d| d.addr.clone());
+            let d = c.start_daemon(&name, join.as_deref());
+            c.daemons.push(d);
+        }
+        c.converge(n);
+        c
+    }
+
+    fn start_daemon(&self, name: &str, join: Option<&str>) -> Remd {
+        let mut cmd = Command::new(remd_bin());
+        cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
+            .args(["--heartbeat-ms", "150", "--lost-after-ms", "900"])
+            .arg("--allow")
+            .arg(sunray_bin())
+            .arg("--secret-file")
+            .arg(&self.secret_file)
+            .arg("--state-dir")
+            .arg(self.dir.path().join(format!("state-{name}")))
+            .env_remove("REM_SECRET")
+            .env_remove("REM_SECRET_FILE")
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null());
+        if let Some(j) = join {
+            cmd.args(["--join", j]);
+        }
+        let mut child = cmd.spawn().expect("start remd");
+        let out = child.stdout.take().unwrap();
+        let mut line = String::new();
+        BufReader::new(out).read_line(&mut line).unwrap();
+        let addr = listening_addr(&line)
+            .unwrap_or_else(|| panic!("bad first line {line:?}"))
+            .to_string();
+        Remd {
+            name: name.to_string(),
+            addr,
+            child,
+        }
+    }
+
+    /// Waits until the first daemon sees all `n` hosts alive (bounded).
+    fn converge(&self, n: usize) {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let secret = rem::Secret::new(SECRET).unwrap();
+            let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
+                .await
+                .unwrap();
+            let end = Instant::now() + Duration::from_secs(20);
+            loop {
+                let hosts = client.hosts().await.unwrap();
+                if hosts.iter().filter(|h| h.alive).count() == n {
+                    return;
+                }
+                assert!(Instant::now() < end, "cluster did not converge: {hosts:#?}");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+        });
+    }
+
+    /// The REM processes of the cluster (to check that nothing was started).
+    pub fn processes(&self) -> Vec<rem::ProcessInfo> {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let secret = rem::Secret::new(SECRET).unwrap();
+            let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
+                .await
+                .unwrap();
+            client.ps().await.unwrap()
+        })
+    }
+
+    /// `sunray submit` against daemon `a`.
+    pub fn submit(&self) -> Command {
+        let mut c = sunray();
+        c.arg("submit")
+            .arg("--remd")
+            .arg(&self.daemons[0].addr)
+            .arg("--secret-file")
+            .arg(&self.secret_file);
+        c
+    }
+
+    pub fn daemon(&self, name: &str) -> &Remd {
+        self.daemons.iter().find(|d| d.name == name).unwrap()
+    }
+}
+
