@@ -103,7 +103,8 @@ pub struct RenderStats {
     pub objects: usize,
     /// Primitives the accelerator indexes (bounded and unbounded).
     pub primitives: usize,
-    /// Of `primitives`, those without a bounding box (unclipped quadrics), tested against every ray.
+    /// Of `primitives`, those without a bounding box (unclipped quadrics), tested against every
+    /// ray.
     pub unbounded: usize,
     /// Cells of the accelerator: octree voxels (every node) or BVH nodes.
     pub accel_nodes: usize,
@@ -126,7 +127,8 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
-    /// Copies the summed counters in and derives `rays.total` and `rays_per_s` (set `time.render_s` first).
+    /// Copies the summed counters in and derives `rays.total` and `rays_per_s` (set `time.render_s`
+    /// first).
     pub fn set_counters(&mut self, c: &Counters) {
         self.rays = Rays {
             eye: c.eye,

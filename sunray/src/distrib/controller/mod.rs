@@ -89,7 +89,8 @@ pub struct JobResult {
     pub cost: ControllerCost,
 }
 
-/// Why the controller could not run the job to its end (a job that ends unfinished is not an error).
+/// Why the controller could not run the job to its end (a job that ends unfinished is not an
+/// error).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ControllerError {
@@ -104,7 +105,8 @@ pub enum ControllerError {
 /// What the actor is fed.
 #[derive(Debug)]
 pub enum Input {
-    /// An item from the REM relay: a worker message, a job event, or the relay's failure (which ends the feed).
+    /// An item from the REM relay: a worker message, a job event, or the relay's failure (which
+    /// ends the feed).
     Relay(rem::Result<Incoming>),
 }
 
@@ -117,7 +119,8 @@ pub struct ControllerHandle {
 }
 
 impl ControllerHandle {
-    /// Drops this handle's sender and waits for the actor's result (a panic becomes [`ControllerError::Task`]).
+    /// Drops this handle's sender and waits for the actor's result (a panic becomes
+    /// [`ControllerError::Task`]).
     pub async fn join(self) -> Result<JobResult, ControllerError> {
         drop(self.tx);
         self.task
@@ -134,7 +137,8 @@ pub struct Start {
     pub client: RemClient,
     /// The relay half that sends messages to workers.
     pub sender: RelaySender,
-    /// The relay half that receives worker messages and job events (fed to the actor by its own task).
+    /// The relay half that receives worker messages and job events (fed to the actor by its own
+    /// task).
     pub receiver: RelayReceiver,
     /// The workers REM spawned for the job, in the order of the per-node table.
     pub workers: Vec<WorkerProc>,
