@@ -95,16 +95,16 @@ pub struct RenderStats {
     pub height: u32,
     /// Samples per pixel.
     pub samples: u32,
-    /// The accelerator's name as given on the command line (`exhaustive`, `octree`, `bvh`, ...).
+    /// The accelerator built, `auto` resolved: `exhaustive`, `octree` or `bvh`.
     pub accel: String,
-    /// Whether the octree's mailbox (skip repeated tests of one ray against one primitive) was on.
+    /// Whether the mailbox (skip repeated tests of one ray against one primitive) was on.
     pub mailbox: bool,
     /// Scene objects before they are split into primitives.
     pub objects: usize,
     /// Primitives the accelerator indexes (bounded and unbounded).
     pub primitives: usize,
-    /// Of `primitives`, those without a bounding box (unclipped quadrics), tested against every
-    /// ray.
+    /// Of `primitives`, those without a bounding box (quadrics their clip does not bound),
+    /// tested against every ray.
     pub unbounded: usize,
     /// Cells of the accelerator: octree voxels (every node) or BVH nodes.
     pub accel_nodes: usize,

@@ -54,7 +54,7 @@ pub struct PoolScene {
     pub accel: Arc<Accel>,
     /// Image size, samples and tracing options: the same for every line.
     pub opts: RenderOptions,
-    /// Each thread keeps a mailbox (`--mailbox`); never changes the pixels.
+    /// Each thread keeps an octree mailbox (`--mailbox on`); it never changes the pixels.
     pub mailbox: bool,
     /// Extra time per line (a test and benchmark hook that makes a worker slow).
     pub delay: Duration,

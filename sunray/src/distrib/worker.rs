@@ -52,7 +52,7 @@ pub enum WorkerError {
     /// The relay or REM itself failed (a closed relay included).
     #[error("REM: {0}")]
     Rem(#[from] rem::Error),
-    /// Started outside a job: REM_OWNER_ID names no controller.
+    /// Started outside a job: REM_OWNER_ID is not set, so there is no controller to talk to.
     #[error("no job owner (REM_OWNER_ID is not set): workers are started by `sunray submit`")]
     NoOwner,
     /// A message to the controller came back undeliverable.

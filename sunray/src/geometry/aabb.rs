@@ -51,8 +51,7 @@ impl Aabb {
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
-    /// True when no corner coordinate is infinite or NaN (unbounded primitives give infinite
-    /// boxes).
+    /// True when no corner coordinate is infinite or NaN ([`Aabb::EMPTY`] is not finite).
     pub fn is_finite(&self) -> bool {
         self.min.is_finite() && self.max.is_finite()
     }

@@ -40,7 +40,7 @@ impl Default for TraceOptions {
     }
 }
 
-/// What a traced ray is, for counting it and for what its hit records.
+/// What a traced ray is: which counter it adds to (an eye ray also counts its hit).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RayKind {
     /// A primary ray from the camera (its hit counts as an eye hit).

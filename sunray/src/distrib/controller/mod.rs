@@ -112,7 +112,8 @@ pub enum Input {
 
 /// A handle to the running controller: feed it, or wait for its result.
 pub struct ControllerHandle {
-    /// Feeds the actor; dropping every sender lets it end once the job is over.
+    /// Feeds the actor. If every sender drops before the image is done, the job ends with
+    /// [`ControllerError::Relay`].
     pub tx: mpsc::Sender<Input>,
     /// The actor's task; its value is the job's result.
     pub task: tokio::task::JoinHandle<Result<JobResult, ControllerError>>,
