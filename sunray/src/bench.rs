@@ -22,10 +22,13 @@ use std::time::Instant;
 use yari::model::World;
 use yari::spd::Database;
 
+/// Why an SPD benchmark scene could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
+    /// The SPD size is out of the generator's range.
     #[error(transparent)]
     Size(#[from] yari::spd::SizeError),
+    /// The generated scene did not compile; the text counts the diagnostics.
     #[error("compiling the generated scene: {0}")]
     Compile(String),
 }
@@ -43,11 +46,15 @@ pub fn spd_world(db: Database, size: u32) -> Result<World, BenchError> {
 /// One measured render.
 #[derive(Clone, Debug)]
 pub struct Run {
+    /// Everything counted during the render.
     pub counters: Counters,
+    /// Seconds to build the accelerator.
     pub preprocess_s: f64,
+    /// Wall-clock seconds to render every pixel.
     pub render_s: f64,
     /// CPU seconds of preprocessing and rendering (all threads).
     pub cpu_s: f64,
+    /// Primitives in the scene.
     pub primitives: usize,
     /// Octree voxels (all nodes) or BVH nodes.
     pub nodes: usize,

@@ -7,8 +7,10 @@
 use crate::geometry::{Ray, Real, Vec3};
 use crate::sampler::{sample_disc, SampleStream};
 
+/// The eye-ray generator for one image: an orthonormal view frame, pixel size and lens.
 #[derive(Clone, Debug)]
 pub struct Camera {
+    /// The eye point (the lens centre), world coordinates.
     pub position: Vec3,
     forward: Vec3,
     right: Vec3,

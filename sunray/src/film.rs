@@ -6,30 +6,43 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// Why an image could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum FilmError {
+    /// The file's extension is not png, ppm or pfm; the text is the (lower-cased) extension.
     #[error("unknown image format {0:?} (use .png, .ppm or .pfm)")]
     UnknownFormat(String),
+    /// Writing or renaming the file failed.
     #[error("writing {path}: {source}")]
     Io {
+        /// The file that was being written.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// The PNG encoder failed.
     #[error("encoding PNG {path}: {source}")]
     Png {
+        /// The file that was being written.
         path: PathBuf,
+        /// The encoder's error.
         source: image::ImageError,
     },
 }
 
+/// An image file format, chosen by the file's extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
+    /// 8-bit RGB PNG (clamped to [0, 1] and rounded).
     Png,
+    /// Binary PPM (P6), 8-bit, clamped and rounded like PNG.
     Ppm,
+    /// Portable float map: 32-bit linear RGB, little-endian, rows stored bottom to top.
     Pfm,
 }
 
 impl Format {
+    /// The format the path's extension names (case-insensitive); other extensions are an error.
     pub fn from_path(path: &Path) -> Result<Format, FilmError> {
         let ext = path
             .extension()
@@ -48,12 +61,16 @@ impl Format {
 /// A linear RGB image, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows (scanlines).
     pub height: u32,
+    /// Linear RGB, row-major from the top-left pixel, `width * height` entries.
     pub pixels: Vec<[f32; 3]>,
 }
 
 impl Film {
+    /// A black image of the given size.
     pub fn new(width: u32, height: u32) -> Film {
         Film {
             width,
@@ -81,6 +98,7 @@ impl Film {
         write_atomically(path, &bytes)
     }
 
+    /// The image's bytes in `format`; `path` only names the file in errors.
     pub fn encode(&self, format: Format, path: &Path) -> Result<Vec<u8>, FilmError> {
         let (w, h) = (self.width, self.height);
         Ok(match format {

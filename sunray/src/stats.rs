@@ -7,13 +7,18 @@ use std::ops::AddAssign;
 /// Event counts of one thread, one scanline or a whole render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub struct Counters {
+    /// Primary rays cast from the camera, one per pixel sample.
     pub eye: u64,
+    /// Of `eye`, those that hit a primitive (the rest see the background).
     pub eye_hits: u64,
+    /// Shadow rays cast towards point lights from shaded points.
     pub shadow: u64,
     /// Of `shadow`, those cast to lights behind a transmitting surface (Hall's diffuse and
     /// specular transmission terms).
     pub shadow_behind: u64,
+    /// Secondary rays cast in the mirror direction (Hall's global reflection term).
     pub reflected: u64,
+    /// Secondary rays cast through transmitting surfaces (Hall's global transmission term).
     pub refracted: u64,
     /// Ray / primitive intersection tests performed.
     pub intersection_tests: u64,
@@ -41,26 +46,39 @@ impl AddAssign for Counters {
 }
 
 impl Counters {
+    /// All rays cast: eye + shadow + reflected + refracted (`shadow_behind` is part of `shadow`).
     pub fn rays(&self) -> u64 {
         self.eye + self.shadow + self.reflected + self.refracted
     }
 }
 
+/// The ray counts of [`RenderStats`], under the JSON key `rays`.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Rays {
+    /// Primary rays cast from the camera.
     pub eye: u64,
+    /// Of `eye`, those that hit a primitive.
     pub eye_hits: u64,
+    /// Shadow rays cast towards point lights.
     pub shadow: u64,
+    /// Of `shadow`, those cast to lights behind a transmitting surface.
     pub shadow_behind: u64,
+    /// Reflected secondary rays.
     pub reflected: u64,
+    /// Refracted (transmitted) secondary rays.
     pub refracted: u64,
+    /// The sum of eye, shadow, reflected and refracted rays ([`Counters::rays`]).
     pub total: u64,
 }
 
+/// Wall-clock phases of a render in seconds, under the JSON key `time`.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Times {
+    /// Reading and compiling the scene file, in seconds.
     pub load_s: f64,
+    /// Building the accelerator (octree or BVH), in seconds.
     pub preprocess_s: f64,
+    /// Tracing every pixel, in seconds (wall clock).
     pub render_s: f64,
     /// User + system CPU time of the process during preprocessing and rendering.
     pub cpu_s: f64,
@@ -69,28 +87,48 @@ pub struct Times {
 /// What `--stats-json` writes.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct RenderStats {
+    /// The scene's file name (or the built-in scene's name).
     pub scene: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Samples per pixel.
     pub samples: u32,
+    /// The accelerator built, `auto` resolved: `exhaustive`, `octree` or `bvh`.
     pub accel: String,
+    /// Whether the mailbox (skip repeated tests of one ray against one primitive) was on.
     pub mailbox: bool,
+    /// Scene objects before they are split into primitives.
     pub objects: usize,
+    /// Primitives the accelerator indexes (bounded and unbounded).
     pub primitives: usize,
+    /// Of `primitives`, those without a bounding box (quadrics their clip does not bound),
+    /// tested against every ray.
     pub unbounded: usize,
     /// Cells of the accelerator: octree voxels (every node) or BVH nodes.
     pub accel_nodes: usize,
+    /// Ray counts by kind.
     pub rays: Rays,
+    /// Ray / primitive intersection tests performed.
     pub intersection_tests: u64,
+    /// Octree voxels (or BVH nodes) visited.
     pub voxels: u64,
+    /// Intersection tests skipped because the mailbox held the answer.
     pub mailbox_hits: u64,
+    /// Mailbox look-ups.
     pub mailbox_uses: u64,
+    /// Wall-clock and CPU times of the phases.
     pub time: Times,
+    /// Worker threads that rendered.
     pub threads: usize,
+    /// Total rays divided by `time.render_s` (0 when the render time is 0).
     pub rays_per_s: f64,
 }
 
 impl RenderStats {
+    /// Copies the summed counters in and derives `rays.total` and `rays_per_s` (set `time.render_s`
+    /// first).
     pub fn set_counters(&mut self, c: &Counters) {
         self.rays = Rays {
             eye: c.eye,

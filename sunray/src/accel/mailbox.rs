@@ -3,6 +3,8 @@
 
 use crate::geometry::Real;
 
+/// One stored result per primitive, stamped with the ray it belongs to; a disabled mailbox stores
+/// nothing.
 #[derive(Clone, Debug)]
 pub struct Mailbox {
     enabled: bool,
@@ -12,6 +14,7 @@ pub struct Mailbox {
 }
 
 impl Mailbox {
+    /// A mailbox for `prims` primitives; when not `enabled`, no memory and every look-up misses.
     pub fn new(prims: usize, enabled: bool) -> Mailbox {
         let slots = if enabled {
             vec![(0, 0.0); prims]
@@ -25,6 +28,7 @@ impl Mailbox {
         }
     }
 
+    /// Whether results are stored at all (`--mailbox`).
     pub fn enabled(&self) -> bool {
         self.enabled
     }
@@ -48,6 +52,7 @@ impl Mailbox {
         (stamp == self.ray && self.enabled).then_some(if t.is_finite() { Some(t) } else { None })
     }
 
+    /// Stores the result for `prim` on this ray (`None` = a miss).
     #[inline]
     pub fn put(&mut self, prim: u32, t: Option<Real>) {
         if let Some(s) = self.slots.get_mut(prim as usize) {

@@ -21,7 +21,9 @@ pub use mailbox::Mailbox;
 /// The closest hit of a ray: parameter and primitive index.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
+    /// Ray parameter of the hit, in units of the ray's `dir`.
     pub t: Real,
+    /// Index of the primitive hit in the scene's primitive list.
     pub prim: u32,
 }
 
@@ -41,14 +43,18 @@ impl Hit {
 pub enum AccelKind {
     /// Exhaustive for tiny scenes, the BVH otherwise (see [`AccelKind::resolve`]).
     Auto,
+    /// Glassner's adaptive octree with a voxel-by-voxel walk (thesis 4.2.1).
     Octree,
+    /// The binned-SAH BVH with 4-wide nodes.
     Bvh,
+    /// Every bounded primitive in index order (the thesis's exhaustive mode).
     Exhaustive,
 }
 
 /// Build parameters.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AccelOptions {
+    /// The structure to build; `Auto` picks by primitive count when building.
     pub kind: AccelKind,
     /// Octree: subdivide a voxel holding more than this many primitives.
     pub max_per_voxel: usize,
@@ -77,6 +83,7 @@ impl AccelKind {
             k => k,
         }
     }
+    /// The lower-case name the command line and the statistics use.
     pub fn name(self) -> &'static str {
         match self {
             AccelKind::Auto => "auto",
@@ -90,6 +97,7 @@ impl AccelKind {
 /// A built accelerator over a scene's primitives.
 #[derive(Clone, Debug)]
 pub struct Accel {
+    /// The structure actually built (`Auto` resolved).
     pub kind: AccelKind,
     structure: Structure,
     /// Primitives with no bounds, tested by every query.
@@ -107,10 +115,12 @@ enum Structure {
 /// depend on it.
 #[derive(Clone, Debug)]
 pub struct Scratch {
+    /// The per-primitive mailbox (a no-op when the mailbox is off).
     pub mailbox: Mailbox,
 }
 
 impl Scratch {
+    /// Scratch for a scene of `prims` primitives; `mailbox` turns the mailbox on.
     pub fn new(prims: usize, mailbox: bool) -> Scratch {
         Scratch {
             mailbox: Mailbox::new(prims, mailbox),
@@ -119,6 +129,8 @@ impl Scratch {
 }
 
 impl Accel {
+    /// Builds the chosen structure over the bounded primitives; the unbounded ones are kept in
+    /// a list every query tests.
     pub fn build(prims: &[Primitive], opts: &AccelOptions) -> Accel {
         let mut bounded = Vec::new();
         let mut unbounded = Vec::new();
@@ -154,6 +166,7 @@ impl Accel {
         }
     }
 
+    /// Primitives without bounds, tested against every ray.
     pub fn unbounded_count(&self) -> usize {
         self.unbounded.len()
     }

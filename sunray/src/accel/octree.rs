@@ -20,6 +20,8 @@ struct Node {
     leaf: bool,
 }
 
+/// Glassner's adaptive octree over the bounded primitives: a voxel with too many primitives is
+/// split into eight.
 #[derive(Clone, Debug)]
 pub struct Octree {
     bounds: Aabb,
@@ -121,6 +123,7 @@ impl Octree {
         };
     }
 
+    /// Voxels in the tree, interior ones included.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }

@@ -6,6 +6,7 @@ use crate::accel::AccelKind;
 use clap::{Args, ValueEnum};
 use std::process::ExitCode;
 
+/// Which benchmark `sunray bench` runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Which {
     /// Table 4.1: exhaustive vs octree on tetra of sizes 2, 3, 4, 6.
@@ -25,9 +26,11 @@ pub enum Which {
     Features,
 }
 
+/// The flags of `sunray bench`.
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
-    pub which: Which,
+    // No doc comment: clap would print it above the possible values.
+    pub(crate) which: Which,
     /// Image size (square).
     #[arg(long, default_value_t = 512)]
     pub resolution: u32,
@@ -54,6 +57,7 @@ pub struct BenchArgs {
     pub out_dir: std::path::PathBuf,
 }
 
+/// Runs the chosen benchmark and prints its table (or writes its files).
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     let threads = args
         .threads

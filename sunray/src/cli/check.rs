@@ -8,14 +8,18 @@ use yari::colour::ColourTable;
 use yari::load::{load_path, LoadError};
 use yari::model::World;
 
+/// The flags of `sunray check`.
 #[derive(Args, Debug)]
 pub struct CheckArgs {
     /// The scene: .yari, .nff, .off, or a compiled .srw model.
     pub scene: PathBuf,
+    /// The colour-name table (`--colors`).
     #[command(flatten)]
     pub colours: super::colours::ColourArgs,
 }
 
+/// Checks the scene: prints its summary and warnings and exits 0, or prints the diagnostics
+/// and exits 1.
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let colours = ColourTable::for_run(args.colours.colors.as_deref())?;
     match load_path(&args.scene, &colours) {

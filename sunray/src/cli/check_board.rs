@@ -41,9 +41,10 @@ pub struct CheckBoardArgs {
     pub output: Option<PathBuf>,
     /// Force the output format regardless of the extension.
     #[arg(long, value_enum)]
-    pub format: Option<OutputFormat>,
+    pub(crate) format: Option<OutputFormat>,
 }
 
+/// Writes the checkerboard scene to the output (or stdout).
 pub fn run(args: CheckBoardArgs) -> anyhow::Result<ExitCode> {
     let squares = match numbers(&args.squares, "--squares")?.as_slice() {
         [n] => [count(*n)?, count(*n)?],

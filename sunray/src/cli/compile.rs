@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use yari::colour::ColourTable;
 use yari::load::{load_path, LoadError};
 
+/// The flags of `sunray compile`.
 #[derive(Args, Debug)]
 pub struct CompileArgs {
     /// The scene: .yari, .nff or .off (a .srw model is copied as it is).
@@ -16,10 +17,13 @@ pub struct CompileArgs {
     /// and renamed.
     #[arg(short = 'o', long = "output", value_name = "MODEL")]
     pub output: PathBuf,
+    /// The colour-name table (`--colors`).
     #[command(flatten)]
     pub colours: super::colours::ColourArgs,
 }
 
+/// Compiles the scene and writes the model file; a scene with errors prints them and writes
+/// nothing.
 pub fn run(args: CompileArgs) -> anyhow::Result<ExitCode> {
     let colours = ColourTable::for_run(args.colours.colors.as_deref())?;
     let loaded = match load_path(&args.scene, &colours) {

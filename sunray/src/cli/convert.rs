@@ -23,23 +23,24 @@ pub struct ConvertArgs {
     pub output: Option<PathBuf>,
     /// The input format, when the extension does not say.
     #[arg(long, value_enum)]
-    pub from: Option<InputFormat>,
+    pub(crate) from: Option<InputFormat>,
 }
 
 /// Formats `convert` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum InputFormat {
+pub(crate) enum InputFormat {
     Nff,
     Off,
 }
 
 /// Formats the generators write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum OutputFormat {
+pub(crate) enum OutputFormat {
     Yari,
     Nff,
 }
 
+/// Converts the scene and writes it (or prints it on stdout).
 pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
     if let Some(out) = &args.output {
         if extension(out).as_deref() == Some("pov") {
@@ -123,7 +124,7 @@ fn extension(path: &Path) -> Option<String> {
 
 /// The format to write: `--format` if given, else the output's extension (`.nff` is NFF,
 /// anything else YARI), else YARI on stdout.
-pub fn output_format(flag: Option<OutputFormat>, output: Option<&Path>) -> OutputFormat {
+pub(crate) fn output_format(flag: Option<OutputFormat>, output: Option<&Path>) -> OutputFormat {
     flag.unwrap_or_else(|| match output.and_then(extension).as_deref() {
         Some("nff") => OutputFormat::Nff,
         _ => OutputFormat::Yari,
@@ -131,7 +132,7 @@ pub fn output_format(flag: Option<OutputFormat>, output: Option<&Path>) -> Outpu
 }
 
 /// A generated NFF scene as text in `format`.
-pub fn render_scene(scene: &yari::nff::NffScene, format: OutputFormat) -> String {
+pub(crate) fn render_scene(scene: &yari::nff::NffScene, format: OutputFormat) -> String {
     match format {
         OutputFormat::Nff => yari::nff::write(scene),
         OutputFormat::Yari => yari::writer::write_scene(&yari::nff::to_yari(scene)),

@@ -9,6 +9,7 @@ use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The flags of `sunray jobs`.
 #[derive(Args, Debug, Clone)]
 pub struct JobsArgs {
     /// The remd to ask [default: the private one, whose state lives in ~/.local/state/sunray].
@@ -22,6 +23,7 @@ pub struct JobsArgs {
     pub json: bool,
 }
 
+/// Lists the jobs of the remd as a table (or JSON).
 pub fn run(args: JobsArgs) -> anyhow::Result<ExitCode> {
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)

@@ -27,11 +27,14 @@ use std::process::ExitCode;
     version,
     about = "SunRay: a Hall-model ray tracer and its SunRay III render farm"
 )]
+/// The `sunray` command line: one subcommand.
 pub struct Cli {
+    /// The subcommand to run.
     #[command(subcommand)]
     pub command: Command,
 }
 
+/// The subcommands, each with its module's flags.
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Parse and compile a scene; print a summary and any warnings, or the errors.

@@ -65,6 +65,7 @@ pub struct RenderArgs {
     /// Write the statistics as JSON.
     #[arg(long)]
     pub stats_json: Option<PathBuf>,
+    /// The colour-name table (`--colors`).
     #[command(flatten)]
     pub colours: ColourArgs,
     /// Do not print the statistics table.

@@ -13,7 +13,7 @@ use yari::spd::{generate, Database};
 pub struct SpdArgs {
     /// Which database.
     #[arg(value_enum)]
-    pub database: DatabaseName,
+    pub(crate) database: DatabaseName,
     /// Haines's size factor (default: tetra 6, mount 6, balls 4; mount allows 0 to 7).
     #[arg(short, long)]
     pub size: Option<u32>,
@@ -22,16 +22,18 @@ pub struct SpdArgs {
     pub output: Option<PathBuf>,
     /// Force the output format regardless of the extension.
     #[arg(long, value_enum)]
-    pub format: Option<OutputFormat>,
+    pub(crate) format: Option<OutputFormat>,
 }
 
+/// The databases `sunray spd` generates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DatabaseName {
+pub(crate) enum DatabaseName {
     Tetra,
     Mount,
     Balls,
 }
 
+/// Generates the database and writes it (or prints it on stdout).
 pub fn run(args: SpdArgs) -> anyhow::Result<ExitCode> {
     let db = match args.database {
         DatabaseName::Tetra => Database::Tetra,

@@ -25,6 +25,7 @@ use std::time::Duration;
     .help("Scene: .yari, .nff, .off or a compiled model [default: the built-in example]")
     .hide_default_value(true)))]
 pub struct SubmitArgs {
+    /// The flags shared with `sunray render`: scene, output, image and tracing options.
     #[command(flatten)]
     pub render: RenderArgs,
     /// Workers to start, one per host, on the least-loaded hosts [default: 1; on resume, as before].
@@ -63,8 +64,10 @@ pub struct SubmitArgs {
     /// A worker holding a line longer than this is silent [default: 10 s or 20 slowest lines].
     #[arg(long, hide = true)]
     pub worker_timeout_ms: Option<u64>,
+    /// Milliseconds between checkpoints (at least 50).
     #[arg(long, hide = true, default_value_t = 2000)]
     pub checkpoint_ms: u64,
+    /// Milliseconds between preview rewrites (at least 100).
     #[arg(long, hide = true, default_value_t = 2000)]
     pub preview_ms: u64,
 }

@@ -20,6 +20,7 @@ fn env_ms(name: &str) -> Duration {
         .map_or(Duration::ZERO, Duration::from_millis)
 }
 
+/// The flags of `sunray worker`.
 #[derive(Args, Debug, Clone)]
 pub struct WorkerArgs {
     /// Render threads (default: every core of this host).
@@ -27,6 +28,8 @@ pub struct WorkerArgs {
     pub threads: Option<usize>,
 }
 
+/// Runs the worker until the controller says NoMoreWork; fails when it cannot reach REM or the
+/// controller.
 pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
     let cfg = WorkerConfig {
         threads: args.threads.filter(|&t| t > 0),

@@ -18,7 +18,9 @@ pub const FORMAT: u32 = 1;
 
 /// Where checkpoints are kept: REM, or a map in tests.
 pub trait Store {
+    /// Stores `data` under `key`, replacing what was there.
     fn put(&self, key: &str, data: Vec<u8>) -> impl Future<Output = Result<(), rem::Error>> + Send;
+    /// The blob under `key`; `None` when there is none.
     fn get(&self, key: &str) -> impl Future<Output = Result<Option<Vec<u8>>, rem::Error>> + Send;
     /// The largest blob `put` accepts.
     fn max_bytes(&self) -> usize;
@@ -36,28 +38,51 @@ impl Store for rem::RemClient {
     }
 }
 
+/// Why a checkpoint could not be written or read back.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum CheckpointError {
+    /// REM's checkpoint store failed.
     #[error("checkpoint store: {0}")]
     Rem(#[from] rem::Error),
+    /// A header or segment did not decode.
     #[error("checkpoint {key} is corrupt: {reason}")]
-    Corrupt { key: String, reason: String },
+    Corrupt {
+        /// The store key of the blob (`JOB` or `JOB.sN`).
+        key: String,
+        /// The decoder's error.
+        reason: String,
+    },
+    /// The header names a segment that the store no longer holds.
     #[error("checkpoint of job {job} names segment {segment}, which no host holds")]
-    MissingSegment { job: String, segment: u32 },
+    MissingSegment {
+        /// The job id.
+        job: String,
+        /// The missing segment's number (key `JOB.s{segment}`).
+        segment: u32,
+    },
+    /// The header was written by a program with another [`FORMAT`].
     #[error("checkpoint format {0} is not supported (this program reads format {FORMAT})")]
     Format(u32),
+    /// One finished line alone is larger than the store accepts.
     #[error("a finished line of {bytes} bytes does not fit the checkpoint limit of {limit}")]
-    TooLarge { bytes: usize, limit: usize },
+    TooLarge {
+        /// The line's encoded size.
+        bytes: usize,
+        /// The store's limit less room for framing.
+        limit: usize,
+    },
 }
 
-pub fn segment_key(job: &str, segment: u32) -> String {
+/// The store key of segment `segment` of `job`: `JOB.sN`.
+pub(crate) fn segment_key(job: &str, segment: u32) -> String {
     format!("{job}.s{segment}")
 }
 
 /// A checkpoint read back.
 #[derive(Clone, Debug)]
 pub struct Restored {
+    /// The job spec, model hash, segment count and state as last saved.
     pub header: CheckpointHeader,
     /// Finished lines by line number.
     pub lines: BTreeMap<u32, FinishedLine>,
@@ -93,6 +118,7 @@ impl Checkpointer {
         self.lines_done += 1;
     }
 
+    /// True when lines were recorded since the last save.
     pub fn has_pending(&self) -> bool {
         !self.pending.is_empty()
     }

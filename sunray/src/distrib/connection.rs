@@ -6,27 +6,54 @@ use super::embedded::{self, EmbeddedRem};
 use rem::{RemClient, Secret};
 use std::path::{Path, PathBuf};
 
+/// Why REM could not be reached or used; every variant names the remd address involved.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConnectionError {
+    /// `--remd` was given but no secret was: neither `--secret-file` nor the environment.
     #[error("no cluster secret for remd at {addr}: give --secret-file, or set REM_SECRET_FILE or REM_SECRET")]
-    NoSecret { addr: String },
+    NoSecret {
+        /// The remd address asked for.
+        addr: String,
+    },
+    /// The secret file (or variable) could not be read or parsed.
     #[error("cannot read the cluster secret: {0}")]
     Secret(rem::Error),
+    /// No connection: nothing listens there, or the transport failed.
     #[error("cannot reach remd at {addr}: {reason}")]
-    Unreachable { addr: String, reason: String },
+    Unreachable {
+        /// The remd address.
+        addr: String,
+        /// The innermost error of the chain, e.g. "Connection refused (os error 111)".
+        reason: String,
+    },
+    /// remd answered with unauthenticated or permission denied.
     #[error("remd at {addr} refused the cluster secret (is it the right one?)")]
-    WrongSecret { addr: String },
+    WrongSecret {
+        /// The remd address.
+        addr: String,
+    },
+    /// Any other failed call to remd.
     #[error("remd at {addr} failed: {source}")]
-    Rpc { addr: String, source: rem::Error },
+    Rpc {
+        /// The remd address.
+        addr: String,
+        /// REM's error.
+        source: rem::Error,
+    },
+    /// The private remd (no `--remd` given) could not be started.
     #[error("cannot start the embedded remd: {0}")]
     Embedded(rem::Error),
 }
 
 /// A connection to REM, and the private daemon behind it if there is one.
 pub struct RemConnection {
+    /// The client, its secret already checked with one call.
     pub client: RemClient,
+    /// The address of the remd connected to (the private one's when embedded).
     pub addr: String,
+    /// The private daemon started because no `--remd` was given; stopped by
+    /// [`RemConnection::close`].
     pub embedded: Option<EmbeddedRem>,
 }
 
@@ -73,6 +100,7 @@ impl RemConnection {
         }
     }
 
+    /// True when REM is the private embedded daemon rather than a cluster's remd.
     pub fn is_embedded(&self) -> bool {
         self.embedded.is_some()
     }
@@ -86,6 +114,7 @@ impl RemConnection {
             .collect())
     }
 
+    /// Classifies a failed call to this remd (wrong secret, unreachable, or other).
     pub fn rpc_error(&self, e: rem::Error) -> ConnectionError {
         classify(&self.addr, e)
     }

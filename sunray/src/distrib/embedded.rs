@@ -17,7 +17,9 @@ pub const HOST: &str = "local";
 
 /// A daemon running in this process.
 pub struct EmbeddedRem {
+    /// Where it listens: `127.0.0.1:PORT`, the port chosen by the OS.
     pub addr: String,
+    /// The fresh random cluster secret it accepts.
     pub secret: Secret,
     stop: Option<oneshot::Sender<()>>,
     task: tokio::task::JoinHandle<rem::Result<()>>,

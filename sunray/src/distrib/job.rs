@@ -63,6 +63,8 @@ pub struct JobRequest {
 }
 
 /// The scene of a job.
+// One per job, moved once: the size of the `New` variant costs nothing worth a Box.
+#[allow(clippy::large_enum_variant)]
 pub enum JobScene {
     /// A new job of a scene already loaded (so a bad scene starts nothing).
     New(LoadedScene),

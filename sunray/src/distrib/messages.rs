@@ -20,12 +20,21 @@ pub use proto::sunray_message::Body;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MessageError {
+    /// The bytes are not a protobuf SunrayMessage.
     #[error("undecodable message: {0}")]
     Decode(#[from] prost::DecodeError),
+    /// The envelope has no body.
     #[error("empty message")]
     Empty,
     #[error("{got} bytes of pixels for a line of {width} pixels")]
-    PixelCount { got: usize, width: u32 },
+    /// A line's pixel bytes are not 12 (three little-endian f32) per pixel of the width.
+    PixelCount {
+        /// Bytes received.
+        got: usize,
+        /// Pixels in a line.
+        width: u32,
+    },
+    /// The render settings name an accelerator this program does not know.
     #[error("unknown accelerator {0:?}")]
     Accel(String),
 }

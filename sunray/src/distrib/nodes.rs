@@ -27,15 +27,22 @@ pub enum Outcome {
 pub struct NodeStats {
     /// 1-based, in spawn order.
     pub node: usize,
+    /// REM's id of the worker process.
     pub proc_id: String,
+    /// The host it ran on, as REM names it.
     pub host: String,
+    /// The worker's process id on its host.
     pub pid: u32,
+    /// Cores the worker could use (`available_parallelism` on its host).
     pub cores: u32,
+    /// Render threads the worker ran.
     pub threads: u32,
     /// Load per core when the job started: REM's figure (cgroup-aware) when `rem_load`, else
     /// the load average the worker reported.
     pub load_at_start: f64,
+    /// True when `load_at_start` is REM's figure rather than the worker's own load average.
     pub rem_load: bool,
+    /// How the node ended (OK, silent, fault, or never started).
     pub outcome: Outcome,
     /// Why a faulty node failed.
     pub fault: Option<String>,
@@ -45,12 +52,19 @@ pub struct NodeStats {
     pub dropped: u64,
     /// Lines it held when it failed or timed out, given back to the queue.
     pub lines_given_back: u64,
+    /// Eye rays over the accepted lines (the table's "eye rays" column).
     pub eye_rays: u64,
+    /// Shadow, reflected and refracted rays over the accepted lines (the "secondary" column).
     pub secondary_rays: u64,
+    /// Every counter summed over the lines accepted from this node.
     pub counters: Counters,
+    /// The worker process's user + system CPU seconds, as it last reported them.
     pub cpu_s: f64,
+    /// The worker's wall-clock seconds from start to its last report.
     pub elapsed_s: f64,
+    /// The worker's seconds to load the scene and build its accelerator.
     pub preprocess_s: f64,
+    /// The worker's render threads' wall-clock seconds spent rendering.
     pub render_s: f64,
     /// Render threads' time waiting for their next fresh line, summed over threads (after
     /// their first line).
@@ -64,6 +78,7 @@ pub struct NodeStats {
 }
 
 impl NodeStats {
+    /// Counts one accepted line and its counters, and refreshes the eye and secondary columns.
     pub fn add_line(&mut self, c: &Counters) {
         self.scanlines += 1;
         self.counters += *c;
@@ -75,6 +90,7 @@ impl NodeStats {
 /// Line accounting of a job.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct LineCounts {
+    /// Lines in the image (its height).
     pub total: u32,
     /// Taken from the checkpoint of an earlier run.
     pub resumed: u32,
@@ -94,26 +110,35 @@ pub struct LineCounts {
 /// default, includes the private remd) and the messages it traded.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ControllerCost {
+    /// User + system CPU seconds of the submit process.
     pub cpu_s: f64,
+    /// Messages received from workers and REM.
     pub messages_in: u64,
+    /// Messages sent to workers.
     pub messages_out: u64,
     /// Per line rendered in this run.
     pub cpu_ms_per_line: f64,
+    /// Messages in and out per line rendered in this run.
     pub messages_per_line: f64,
 }
 
 /// What `sunray submit --stats-json` writes.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct JobStats {
+    /// The job id.
     pub job: String,
+    /// How lines were handed out; `None` when not known.
     pub strategy: Option<Strategy>,
+    /// Workers the job asked for (`--hosts`, or the resumed job's count).
     pub hosts: u32,
+    /// How many lines were resumed, rendered, requeued and duplicated.
     pub lines: LineCounts,
     /// Wall time of the whole job in this run.
     pub elapsed_s: f64,
     /// Scene, image and counted totals over every line of the image, as `sunray render`
     /// reports them (load and preprocessing are the controller's).
     pub totals: RenderStats,
+    /// The controller's own CPU time and message counts.
     pub controller: ControllerCost,
     /// Render threads' time waiting for work over their render time, all nodes (0..1): the
     /// waits that ended with a fresh line. Neither the start-up wait for the first line nor
@@ -121,6 +146,7 @@ pub struct JobStats {
     pub wait_share: f64,
     /// Render threads' time waiting for duplicates at the tail over their render time.
     pub tail_wait_share: f64,
+    /// One entry per worker, in spawn order.
     pub nodes: Vec<NodeStats>,
 }
 

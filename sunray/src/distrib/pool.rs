@@ -14,7 +14,9 @@ use std::time::{Duration, Instant};
 /// A line to render under a grant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LineJob {
+    /// The scanline, 0 at the top.
     pub line: u32,
+    /// The grant number it was handed out under, quoted back in the Done message.
     pub grant: u64,
     /// A copy of a line outstanding elsewhere, handed out at the tail of the job.
     pub duplicate: bool,
@@ -23,8 +25,11 @@ pub struct LineJob {
 /// A rendered line.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rendered {
+    /// The line and grant it answers.
     pub job: LineJob,
+    /// Linear RGB, one entry per pixel of the line, left to right.
     pub pixels: Vec<[f32; 3]>,
+    /// The events counted while rendering it.
     pub counters: Counters,
     /// Wall time the thread spent on the line.
     pub line_s: f64,
@@ -43,9 +48,13 @@ pub struct Rendered {
 
 /// What the threads render.
 pub struct PoolScene {
+    /// The scene, shared by every thread.
     pub scene: Arc<Scene>,
+    /// The accelerator built over the scene's primitives.
     pub accel: Arc<Accel>,
+    /// Image size, samples and tracing options: the same for every line.
     pub opts: RenderOptions,
+    /// Each thread keeps an octree mailbox (`--mailbox on`); it never changes the pixels.
     pub mailbox: bool,
     /// Extra time per line (a test and benchmark hook that makes a worker slow).
     pub delay: Duration,
@@ -168,6 +177,7 @@ impl RenderPool {
         self.queue.target.store(lines, Ordering::Relaxed);
     }
 
+    /// Render threads in the pool.
     pub fn threads(&self) -> usize {
         self.threads
     }

@@ -6,6 +6,7 @@ use crate::film::Film;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+/// The controller's progress output: the bar, the `--events` stream and the preview file.
 pub struct ProgressView {
     bar: Option<indicatif::ProgressBar>,
     events: bool,
@@ -62,12 +63,14 @@ impl ProgressView {
         }
     }
 
+    /// Moves the bar to `done` lines.
     pub fn set_done(&self, done: u32) {
         if let Some(b) = &self.bar {
             b.set_position(u64::from(done));
         }
     }
 
+    /// Shows how many workers are alive beside the bar.
     pub fn set_workers(&self, alive: usize) {
         if let Some(b) = &self.bar {
             b.set_message(format!("{alive} worker(s)"));
@@ -86,6 +89,7 @@ impl ProgressView {
         }
     }
 
+    /// Removes the bar at the end of the job.
     pub fn finish(&self) {
         if let Some(b) = &self.bar {
             b.finish_and_clear();

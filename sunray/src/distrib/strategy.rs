@@ -25,6 +25,7 @@ pub enum Strategy {
 }
 
 impl Strategy {
+    /// The command line's and the checkpoint's spelling: `dynamic`, `blocks` or `interleaved`.
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Dynamic => "dynamic",
@@ -33,6 +34,7 @@ impl Strategy {
         }
     }
 
+    /// The strategy spelled `name` ([`Strategy::name`]); `None` for anything else.
     pub fn from_name(name: &str) -> Option<Strategy> {
         [Strategy::Dynamic, Strategy::Blocks, Strategy::Interleaved]
             .into_iter()
@@ -144,6 +146,7 @@ impl LineQueue {
         self.shared.len() + self.own.iter().map(|q| q.len()).sum::<usize>()
     }
 
+    /// True when no line waits in any set.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -49,6 +49,7 @@ pub struct Window {
 }
 
 impl Window {
+    /// A window for `threads` render threads (at least 1), before any line is timed.
     pub fn new(threads: usize) -> Window {
         Window {
             threads: u32::try_from(threads.max(1)).unwrap_or(u32::MAX),

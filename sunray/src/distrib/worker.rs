@@ -45,17 +45,24 @@ impl Default for WorkerConfig {
     }
 }
 
+/// Why a worker stopped before the controller said NoMoreWork.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum WorkerError {
+    /// The relay or REM itself failed (a closed relay included).
     #[error("REM: {0}")]
     Rem(#[from] rem::Error),
+    /// Started outside a job: REM_OWNER_ID is not set, so there is no controller to talk to.
     #[error("no job owner (REM_OWNER_ID is not set): workers are started by `sunray submit`")]
     NoOwner,
+    /// A message to the controller came back undeliverable.
     #[error("the controller is gone")]
     ControllerGone,
+    /// The Scene message could not be turned into a renderable scene (or the render
+    /// threads stopped on it).
     #[error("bad scene from the controller: {0}")]
     BadScene(String),
+    /// The OS refused a render thread.
     #[error("cannot start render threads: {0}")]
     Threads(std::io::Error),
 }

@@ -2,9 +2,12 @@
 
 use super::{RayPre, Real, Vec3};
 
+/// An axis-aligned box in world coordinates; empty when `min > max` on any axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// The lower corner.
     pub min: Vec3,
+    /// The upper corner.
     pub max: Vec3,
 }
 
@@ -15,42 +18,52 @@ impl Aabb {
         max: Vec3::splat(Real::NEG_INFINITY),
     };
 
+    /// The box with these corners (not checked: `min > max` gives an empty box).
     pub fn new(min: Vec3, max: Vec3) -> Aabb {
         Aabb { min, max }
     }
+    /// The smallest box holding every point ([`Aabb::EMPTY`] for none).
     pub fn from_points(points: &[Vec3]) -> Aabb {
         points.iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
     }
+    /// The box grown to hold `p`.
     pub fn grow(self, p: Vec3) -> Aabb {
         Aabb {
             min: self.min.min(p),
             max: self.max.max(p),
         }
     }
+    /// The smallest box holding both.
     pub fn union(self, o: Aabb) -> Aabb {
         Aabb {
             min: self.min.min(o.min),
             max: self.max.max(o.max),
         }
     }
+    /// The common part; empty (see [`Aabb::is_empty`]) when they do not overlap.
     pub fn intersection(self, o: Aabb) -> Aabb {
         Aabb {
             min: self.min.max(o.min),
             max: self.max.min(o.max),
         }
     }
+    /// True when `min > max` on some axis.
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
+    /// True when no corner coordinate is infinite or NaN ([`Aabb::EMPTY`] is not finite).
     pub fn is_finite(&self) -> bool {
         self.min.is_finite() && self.max.is_finite()
     }
+    /// The midpoint of the corners.
     pub fn centre(&self) -> Vec3 {
         (self.min + self.max) * 0.5
     }
+    /// The side lengths, `max - min`.
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
+    /// The total area of the six faces (0 for an empty box), for the SAH.
     pub fn surface_area(&self) -> Real {
         if self.is_empty() {
             return 0.0;
@@ -58,6 +71,7 @@ impl Aabb {
         let e = self.extent();
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
+    /// True when the closed boxes share a point (touching counts).
     pub fn overlaps(&self, o: &Aabb) -> bool {
         self.min.x <= o.max.x
             && o.min.x <= self.max.x

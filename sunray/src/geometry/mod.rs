@@ -31,12 +31,16 @@ pub type Vec3 = glam::DVec3;
 /// A ray `origin + t * dir`, `t` in `(0, t_max)`, at shutter time `time` in [0, 1].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Where the ray starts (world coordinates).
     pub origin: Vec3,
+    /// Direction; not necessarily unit length, so `t` is in units of `|dir|`.
     pub dir: Vec3,
+    /// Shutter time in [0, 1], for moving primitives (0 when there is no motion blur).
     pub time: Real,
 }
 
 impl Ray {
+    /// A ray at shutter time 0.
     pub fn new(origin: Vec3, dir: Vec3) -> Ray {
         Ray {
             origin,
@@ -44,6 +48,7 @@ impl Ray {
             time: 0.0,
         }
     }
+    /// The point at parameter `t`: `origin + t * dir`.
     pub fn at(&self, t: Real) -> Vec3 {
         self.origin + self.dir * t
     }
@@ -53,18 +58,27 @@ impl Ray {
 /// the inverse direction for box tests), computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub struct RayPre {
+    /// The ray itself.
     pub ray: Ray,
+    /// `1 / dir` per component, infinities replaced by huge finite values (for the slab test).
     pub inv_dir: Vec3,
-    /// Axis along which `dir` is largest, and the two others (Woop et al. 2013).
+    /// First axis of Woop et al.'s (2013) shear: `kx`, `ky` are the two axes other than `kz`,
+    /// swapped when `dir[kz] < 0` to keep the winding.
     pub kx: usize,
+    /// Second axis of the shear: with `kx`, the axes other than `kz`.
     pub ky: usize,
+    /// The axis along which `|dir|` is largest; it goes last in the sheared frame.
     pub kz: usize,
+    /// Shear constant `dir[kx] / dir[kz]`.
     pub sx: Real,
+    /// Shear constant `dir[ky] / dir[kz]`.
     pub sy: Real,
+    /// Scale `1 / dir[kz]`.
     pub sz: Real,
 }
 
 impl RayPre {
+    /// Computes the shear and inverse direction of `ray` once.
     pub fn new(ray: Ray) -> RayPre {
         let ([kx, ky, kz], [sx, sy, sz]) = kernels::k64::shear(ray.dir);
         RayPre {

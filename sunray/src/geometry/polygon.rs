@@ -6,7 +6,9 @@ use super::{Real, Vec3};
 /// Why a polygon was dropped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Degenerate {
+    /// Fewer than three vertices once consecutive repeats are removed.
     TooFewVertices,
+    /// The area is negligible at the vertices' scale (e.g. collinear), or a vertex is not finite.
     ZeroArea,
 }
 
@@ -14,7 +16,9 @@ pub enum Degenerate {
 /// the right-hand rule over the vertex order, Newell's method).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Triangulated {
+    /// The triangles, each a vertex triple in the polygon's winding.
     pub triangles: Vec<[Vec3; 3]>,
+    /// The plane's unit normal (right-hand rule over the vertex order).
     pub normal: Vec3,
 }
 

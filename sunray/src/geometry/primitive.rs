@@ -9,31 +9,44 @@ use super::{Aabb, RayPre, Real, Vec3};
 use glam::DAffine3;
 use yari::model::{Quadric, Shape, World};
 
+/// The shape of a primitive, in world coordinates.
 #[derive(Clone, Debug)]
 pub enum PrimitiveKind {
+    /// A sphere given by centre and radius.
     Sphere {
+        /// Centre in world units.
         centre: Vec3,
+        /// Radius in world units, > 0.
         radius: Real,
     },
+    /// The unit sphere under an affine map: intersected in the unit sphere's space.
     Ellipsoid {
+        /// World to the unit sphere's space (the inverse of the object's transform).
         to_local: DAffine3,
     },
     /// One triangle of a polygon; `normal` is the polygon's unit plane normal. `solid`: the
     /// polygon is a face of a closed transparent mesh ([`super::solid`]), and `normal`
     /// points out of the volume.
     Triangle {
+        /// The corners in world coordinates, in the polygon's winding order.
         v: [Vec3; 3],
+        /// The polygon's unit plane normal.
         normal: Vec3,
+        /// True for a face of a closed transparent mesh (`normal` points out of the volume).
         solid: bool,
     },
+    /// A quadric surface in the model's form: ten coefficients and clipping half-spaces.
     Quadric(Quadric),
 }
 
+/// One intersectable piece of the scene: a shape with its object, surface and motion.
 #[derive(Clone, Debug)]
 pub struct Primitive {
+    /// Its shape.
     pub kind: PrimitiveKind,
     /// Index of the model object it came from.
     pub object: u32,
+    /// Index into the world's surfaces (the Hall attributes it is shaded with).
     pub surface: u32,
     /// Displacement over the shutter interval (zero when static).
     pub motion: Vec3,
@@ -42,7 +55,9 @@ pub struct Primitive {
 /// A primitive that could not be built, for a warning.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Dropped {
+    /// Index of the model object that was dropped.
     pub object: usize,
+    /// Why, in words, e.g. "polygon with zero area".
     pub reason: String,
 }
 

@@ -30,6 +30,7 @@ fn q3_times(q: &[Real; 10], v: Vec3) -> Vec3 {
     )
 }
 
+/// True when `p` is in every clip half-space (`normal . p <= offset`; on the boundary counts).
 pub fn inside_clip(clip: &[HalfSpace], p: Vec3) -> bool {
     clip.iter().all(|h| h.normal.dot(p) <= h.offset)
 }

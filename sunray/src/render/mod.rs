@@ -22,10 +22,13 @@ pub use settings::{Overrides, Settings};
 /// Everything besides the scene that decides the pixels.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RenderOptions {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels (scanlines).
     pub height: u32,
     /// Samples per pixel (1 = one ray through each pixel centre).
     pub samples: u32,
+    /// Ray-tree depth and weight limits.
     pub trace: TraceOptions,
 }
 
@@ -61,8 +64,11 @@ impl RenderOptions {
 /// One rendered scanline.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Line {
+    /// The scanline, 0 at the top.
     pub y: u32,
+    /// Linear RGB, left to right, `width` entries.
     pub pixels: Vec<[f32; 3]>,
+    /// The events counted while rendering it.
     pub counters: Counters,
 }
 

@@ -11,7 +11,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 /// Whether to draw a progress bar (only sensible when stderr is a terminal).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Progress {
+    /// No bar (tests, pipes, `--quiet`).
     Hidden,
+    /// An indicatif bar of lines done on stderr.
     Bar,
 }
 

@@ -7,9 +7,12 @@ use crate::geometry::primitive::Dropped;
 use crate::geometry::Primitive;
 use yari::model::{Surface, World};
 
+/// A scene ready to render: the compiled world and the primitives built from it.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// The compiled model: camera, lights, surfaces, textures and objects.
     pub world: World,
+    /// The primitives the accelerators index, polygons already triangulated.
     pub prims: Vec<Primitive>,
     /// Objects dropped as degenerate (to warn about).
     pub dropped: Vec<Dropped>,
@@ -18,6 +21,7 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Builds the primitives of `world`, dropping (and listing) degenerate objects.
     pub fn new(world: World) -> Scene {
         let (prims, dropped) = Primitive::build_all(&world);
         Scene {

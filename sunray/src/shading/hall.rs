@@ -40,19 +40,28 @@ impl Default for TraceOptions {
     }
 }
 
+/// What a traced ray is: which counter it adds to (an eye ray also counts its hit).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RayKind {
+    /// A primary ray from the camera (its hit counts as an eye hit).
     Eye,
+    /// A secondary ray in the mirror direction.
     Reflected,
+    /// A secondary ray through a transmitting surface.
     Refracted,
 }
 
 /// Traces rays through one scene; holds the per-thread scratch and counters.
 pub struct Tracer<'a> {
+    /// The scene: primitives, surfaces, lights, textures.
     pub scene: &'a Scene,
+    /// The accelerator built over `scene`'s primitives.
     pub accel: &'a Accel,
+    /// Depth and weight limits of the ray tree.
     pub opts: TraceOptions,
+    /// This thread's mailbox; saves work, never changes a result.
     pub scratch: &'a mut Scratch,
+    /// Where this thread counts rays, tests and voxels.
     pub counters: &'a mut Counters,
 }
 

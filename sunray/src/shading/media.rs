@@ -14,8 +14,11 @@ pub const DEPTH: usize = 4;
 /// One volume: its surface, refractive index and transmissivity per unit length.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Medium {
+    /// The surface index of the volume's closed shape (how leaving it is recognised).
     pub surface: u32,
+    /// Refractive index inside the volume (air is 1).
     pub refract: Real,
+    /// Fraction of light kept per unit length inside, in [0, 1]; 1 = no absorption.
     pub transmissivity: Real,
 }
 

@@ -9,8 +9,10 @@ const MAX_LEAF: usize = 4;
 /// Cost of a node traversal relative to one primitive test.
 const TRAVERSAL_COST: Real = 1.0;
 
+/// One node of the binary tree: a leaf or an interior node with two children.
 #[derive(Clone, Debug)]
 pub struct Node {
+    /// The box around everything below the node.
     pub bounds: Aabb,
     /// Leaf: first item; interior: index of the right child (the left one follows the node).
     pub index: u32,
@@ -21,7 +23,9 @@ pub struct Node {
 /// A binary BVH: nodes depth-first, and the primitive indices its leaves point into.
 #[derive(Clone, Debug)]
 pub struct BinaryBvh {
+    /// The nodes, depth-first from the root at index 0.
     pub nodes: Vec<Node>,
+    /// Primitive indices in leaf order: a leaf holds `items[index..index + count]`.
     pub items: Vec<u32>,
 }
 

@@ -8,6 +8,7 @@ use crate::geometry::sphere::intersect_sphere;
 use crate::geometry::triangle::intersect_triangle;
 use crate::geometry::{Primitive, PrimitiveKind, RayPre, Real, Vec3};
 
+/// The BVH's leaf primitives in leaf order, with inline copies of static triangles and spheres.
 #[derive(Clone, Debug)]
 pub struct LeafItems {
     prims: Vec<u32>,

@@ -18,6 +18,7 @@ use binary::BinaryBvh;
 use items::LeafItems;
 use wide::{BoxRay, Child, WIDTH};
 
+/// A built BVH: the 4-wide nodes and the leaf primitives they point into.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<wide::Node>,
@@ -51,6 +52,8 @@ impl Bvh {
         self.nodes.len()
     }
 
+    /// Closest hit of `r` before `t_max`, improving on `best` (from the unbounded list); uses AVX2
+    /// when the CPU has it.
     pub fn closest(
         &self,
         prims: &[Primitive],

@@ -22,6 +22,7 @@ pub struct Child {
 }
 
 impl Child {
+    /// True for a leaf (a non-empty range of items).
     pub fn is_leaf(&self) -> bool {
         self.count > 0
     }
@@ -32,7 +33,9 @@ impl Child {
 #[derive(Clone, Debug)]
 #[repr(C, align(64))]
 pub struct Node {
+    /// `planes[min or max][axis][child]`: the four children's boxes.
     pub planes: [[[Real; WIDTH]; 3]; 2],
+    /// The four child slots, matching the columns of `planes`.
     pub children: [Child; WIDTH],
 }
 
@@ -46,6 +49,7 @@ pub struct BoxRay {
 }
 
 impl BoxRay {
+    /// Prepares `r` for the box tests of every node it visits.
     pub fn new(r: &RayPre) -> BoxRay {
         BoxRay {
             origin: r.ray.origin.to_array(),

@@ -29,19 +29,28 @@ use tokio::time::Instant;
 /// How the controller runs.
 #[derive(Clone, Debug)]
 pub struct ControllerConfig {
+    /// The job id: the key of its checkpoint and the name in events and logs.
     pub job: String,
+    /// How lines are handed out: SunRay I blocks, SunRay II interleaved or SunRay III dynamic.
     pub strategy: Strategy,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels: the number of lines to hand out.
     pub height: u32,
     /// The encoded Scene message every worker gets first.
     pub scene: Vec<u8>,
     /// A worker whose oldest line is older than this is silent; `None` = 10 s or 20 times
     /// the slowest line seen, whichever is longer.
     pub worker_timeout: Option<Duration>,
+    /// How often the grant table and finished lines are checkpointed (`--checkpoint-ms`).
     pub checkpoint_every: Duration,
+    /// Where to rewrite the partial image (`--preview FILE`); `None` writes no preview.
     pub preview: Option<std::path::PathBuf>,
+    /// How often the preview is rewritten (`--preview-ms`).
     pub preview_every: Duration,
+    /// Draw a progress bar on stderr (a terminal, and not `--quiet`).
     pub show_bar: bool,
+    /// Print JSON events, one per line, on stderr instead of the bar (`--events`).
     pub events: bool,
     /// How long finished workers get to exit before they are killed.
     pub finish_grace: Duration,
@@ -50,8 +59,11 @@ pub struct ControllerConfig {
 /// A spawned worker.
 #[derive(Clone, Debug)]
 pub struct WorkerProc {
+    /// REM's id of the worker process: where its messages come from and go to.
     pub proc_id: ProcId,
+    /// The host it runs on, as REM names it (the per-node table's first column).
     pub host: String,
+    /// Its process id on that host.
     pub pid: u32,
     /// The host's load per core as REM reported it when the job started (cgroup-aware);
     /// `None` leaves the column to the worker's own load average.
@@ -61,22 +73,31 @@ pub struct WorkerProc {
 /// The end of a job.
 #[derive(Debug)]
 pub struct JobResult {
+    /// The image assembled from the accepted lines (and those of a resumed run).
     pub film: Film,
+    /// One row per worker for the per-node table (thesis Table 4.3).
     pub nodes: Vec<NodeStats>,
     /// Over every line of the image, those of a resumed run included.
     pub counters: Counters,
+    /// How many lines were resumed, rendered, requeued and duplicated.
     pub lines: LineCounts,
+    /// Wall-clock seconds from the actor's start to its end.
     pub elapsed_s: f64,
     /// False when no worker was left to finish the image.
     pub finished: bool,
+    /// The controller's own CPU time and message counts, in total and per line.
     pub cost: ControllerCost,
 }
 
+/// Why the controller could not run the job to its end (a job that ends unfinished is not an
+/// error).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ControllerError {
+    /// The REM relay failed (remd went away or refused a message).
     #[error("the relay to remd failed: {0}")]
     Relay(#[from] rem::Error),
+    /// The actor's task panicked or was cancelled; the text is the join error.
     #[error("the controller task failed: {0}")]
     Task(String),
 }
@@ -84,16 +105,23 @@ pub enum ControllerError {
 /// What the actor is fed.
 #[derive(Debug)]
 pub enum Input {
+    /// An item from the REM relay: a worker message, a job event, or the relay's failure (which
+    /// ends the feed).
     Relay(rem::Result<Incoming>),
 }
 
 /// A handle to the running controller: feed it, or wait for its result.
 pub struct ControllerHandle {
+    /// Feeds the actor. If every sender drops before the image is done, the job ends with
+    /// [`ControllerError::Relay`].
     pub tx: mpsc::Sender<Input>,
+    /// The actor's task; its value is the job's result.
     pub task: tokio::task::JoinHandle<Result<JobResult, ControllerError>>,
 }
 
 impl ControllerHandle {
+    /// Drops this handle's sender and waits for the actor's result (a panic becomes
+    /// [`ControllerError::Task`]).
     pub async fn join(self) -> Result<JobResult, ControllerError> {
         drop(self.tx);
         self.task
@@ -104,12 +132,20 @@ impl ControllerHandle {
 
 /// Everything the actor starts from.
 pub struct Start {
+    /// How the job runs.
     pub cfg: ControllerConfig,
+    /// The REM client: stores checkpoints and kills workers.
     pub client: RemClient,
+    /// The relay half that sends messages to workers.
     pub sender: RelaySender,
+    /// The relay half that receives worker messages and job events (fed to the actor by its own
+    /// task).
     pub receiver: RelayReceiver,
+    /// The workers REM spawned for the job, in the order of the per-node table.
     pub workers: Vec<WorkerProc>,
+    /// Lines and state from the checkpoint of an earlier run (`--resume`).
     pub restored: Option<Restored>,
+    /// Where checkpoints are written.
     pub checkpointer: Checkpointer,
 }
 

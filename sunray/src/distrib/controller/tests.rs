@@ -246,7 +246,7 @@ async fn a_silent_worker_is_passed_over_and_its_late_line_is_dropped() {
     let held = job.link.take_grants(&job.procs[0]);
     assert_eq!(held.len(), 1);
     // Node 1 says nothing for longer than the 1 s timeout while node 2 works.
-    let late = held[0].clone();
+    let late = held[0];
     for _ in 0..3 {
         for g in job.link.take_grants(&job.procs[1]) {
             job.done(1, g.line, g.grant).await;

@@ -29,8 +29,11 @@ pub type GrantId = u64;
 /// One line handed to one node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Assignment {
+    /// The node's index (0-based, in spawn order).
     pub node: usize,
+    /// The scanline, 0 at the top.
     pub line: u32,
+    /// The fresh grant number the completion must quote.
     pub grant: GrantId,
     /// A second copy of a line still outstanding elsewhere.
     pub duplicate: bool,
@@ -104,6 +107,7 @@ pub struct GrantCounts {
     pub released: u64,
 }
 
+/// The grant table of one job: lines, grants, nodes and the queue of lines to hand out.
 #[derive(Clone, Debug)]
 pub struct GrantTable {
     lines: Vec<LineState>,
@@ -147,26 +151,32 @@ impl GrantTable {
         }
     }
 
+    /// Lines in the image.
     pub fn height(&self) -> u32 {
         self.lines.len() as u32
     }
 
+    /// Lines whose first completion is in (resumed lines included).
     pub fn done(&self) -> u32 {
         self.done
     }
 
+    /// True when every line is in.
     pub fn is_finished(&self) -> bool {
         self.done as usize == self.lines.len()
     }
 
+    /// True when `line` is in (false for a line outside the image).
     pub fn is_line_done(&self, line: u32) -> bool {
         self.lines.get(line as usize) == Some(&LineState::Done)
     }
 
+    /// The table's fault handling counts so far.
     pub fn counts(&self) -> GrantCounts {
         self.counts
     }
 
+    /// The state of `node`; `None` for an index the table does not know.
     pub fn node_state(&self, node: usize) -> Option<NodeState> {
         self.nodes.get(node).map(|n| n.state)
     }
@@ -179,6 +189,7 @@ impl GrantTable {
             .count()
     }
 
+    /// Nodes that are answering and may get work.
     pub fn active_nodes(&self) -> usize {
         self.nodes
             .iter()
