@@ -1,4 +1,5 @@
 //! The `modeler` binary as a user runs it: exit codes, messages, standard input scripts.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::io::Write;
 use std::path::Path;

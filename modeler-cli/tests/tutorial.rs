@@ -1,5 +1,6 @@
 //! The tutorial in docs/modeler.md works as written and builds the same king as the example
 //! script examples/modeler/king.modeler.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::io::Write;
 use std::path::Path;

@@ -1,5 +1,6 @@
 //! REM benchmark: relay throughput and round-trip latency through two daemons, spawn latency,
 //! failure-detection time. Run with `cargo bench -p rem --bench relay`.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
 #[path = "../tests/common/mod.rs"]
 mod common;

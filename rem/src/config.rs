@@ -29,6 +29,8 @@ use crate::transport::ServerTlsFiles;
 
 /// Default address of remd and of the `rem` client.
 pub const DEFAULT_ADDR: &str = "127.0.0.1:7077";
+/// The port of [`DEFAULT_ADDR`].
+pub const DEFAULT_PORT: u16 = 7077;
 /// Default relay message size limit.
 pub const DEFAULT_MAX_MESSAGE: usize = 16 << 20;
 
@@ -135,7 +137,7 @@ impl Settings {
     pub fn new(name: &str, secret: Secret) -> Self {
         Settings {
             name: name.to_string(),
-            listen: DEFAULT_ADDR.parse().expect("constant address"),
+            listen: std::net::SocketAddr::from(([127, 0, 0, 1], DEFAULT_PORT)),
             advertise: None,
             join: Vec::new(),
             secret,
@@ -241,6 +243,13 @@ fn load_file(path: &Path) -> Result<FileConfig> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_default_address_is_loopback_on_the_default_port() {
+        let addr: std::net::SocketAddr = DEFAULT_ADDR.parse().unwrap();
+        assert_eq!(addr, Settings::new("h", Secret::new("s").unwrap()).listen);
+        assert_eq!(addr.port(), DEFAULT_PORT);
+    }
 
     #[test]
     fn file_fills_what_flags_leave_out() {

@@ -66,10 +66,12 @@ pub fn place(
     }
     let mut chosen = Vec::with_capacity(count as usize);
     for _ in 0..count {
-        let best = ranked
+        let Some(best) = ranked
             .iter_mut()
             .min_by(|a, b| key(a).total_cmp(&key(b)).then_with(|| a.name.cmp(&b.name)))
-            .expect("ranked is not empty");
+        else {
+            break; // no candidate at all (refused above)
+        };
         chosen.push(best.name.clone());
         best.load_per_core += 1.0 / best.cpus();
     }

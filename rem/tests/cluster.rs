@@ -1,4 +1,5 @@
 //! Three real remd processes on loopback: membership, load, placement, processes.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod common;
 

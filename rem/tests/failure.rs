@@ -1,4 +1,5 @@
 //! Failures: a killed daemon, a hung (SIGSTOPped) daemon, a restart, SIGTERM.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! The relay: two processes on two daemons exchange 100,000 messages in order; checkpoints
 //! survive the writing host.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod common;
 

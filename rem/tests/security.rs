@@ -1,4 +1,5 @@
 //! Security: secret, allow-list, size limit, malformed requests, health without a secret, TLS.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod common;
 

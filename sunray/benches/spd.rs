@@ -1,4 +1,5 @@
 //! `cargo bench -p sunray`: the same figures as `sunray bench throughput`, and Table 4.2.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
 fn main() {
     // `cargo bench` passes `--bench`; a filter argument, if any, picks one table.

@@ -1,4 +1,5 @@
 //! End-to-end tests of `sunray check` and `sunray compile` on the real binary.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::path::PathBuf;
 use std::process::{Command, Output};

@@ -1,5 +1,6 @@
 //! End-to-end tests of `sunray convert`, `sunray spd` and `sunray check-board`: the real binary
 //! on Haines's SPD scenes.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,4 +1,5 @@
 //! `sunray convert SCENE -o OUT.pov` writes POV-Ray SDL for any scene format (here NFF).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::process::Command;
 

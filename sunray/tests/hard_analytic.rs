@@ -2,6 +2,7 @@
 //! Hall diffuse term; refraction through a glass sphere, a glass slab and a glass ball inside
 //! a water sphere against Snell's law and Fresnel's equations; total internal reflection keeps light inside; bad input gives a diagnostic and
 //! never a NaN pixel.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod hard_common;
 

@@ -1,5 +1,6 @@
 //! Spheres and quadrics at the edge of their precision, and self-intersection of secondary
 //! rays at unit scale, at 1e-4 and 1e+4, and far from the origin.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use glam::DVec3;
 use sunray::geometry::primitive::PrimitiveKind;

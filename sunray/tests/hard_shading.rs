@@ -2,6 +2,7 @@
 //! gives the same picture (self-intersection of shadow, reflected and refracted rays would
 //! show as speckles), index-matched nested spheres are invisible, a mirror shows the reflected
 //! scene, coplanar overlapping polygons resolve the same way everywhere.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod hard_common;
 

@@ -2,6 +2,7 @@
 //! of closed triangle meshes must hit, from inside every ray hits, and no pixel leaks the
 //! background through a closed surface, with every accelerator (so also rays running exactly
 //! along octree voxel boundaries, which the centred cameras below produce).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 mod hard_common;
 

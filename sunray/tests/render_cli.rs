@@ -1,4 +1,5 @@
 //! `sunray render` end to end: files, formats, statistics JSON, thread-count independence.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -1,5 +1,6 @@
 //! Determinism: any split of the image among threads gives the same bytes, every accelerator
 //! gives the same image, and the mailbox changes only the work done.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use glam::DVec3;
 use sunray::accel::{Accel, AccelKind, AccelOptions};

@@ -4,6 +4,7 @@
 //! Tolerance: every channel within 2/255 and at most 0.5% of the pixels different at all (room
 //! for last-bit differences of libm's sin/pow between platforms). To regenerate after a
 //! deliberate change, run with `SUNRAY_UPDATE_GOLDEN=1` and LOOK at the new files.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::path::{Path, PathBuf};
 use sunray::accel::{Accel, AccelOptions};

@@ -1,5 +1,6 @@
 //! Haines's SPD invariants (513x513 eye rays through the pixel corners, depth 5): counts of
 //! rays within 2% of the figures in his README.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use sunray::accel::{Accel, AccelKind, AccelOptions};
 use sunray::render::{render_image, Progress, RenderOptions};

@@ -1,5 +1,6 @@
 //! Stochastic ray tracing: each effect widens the band of partially covered pixels it should
 //! widen (penumbra, motion streak, defocus), compared with the same scene without it.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use glam::DVec3;
 use sunray::accel::{Accel, AccelOptions};

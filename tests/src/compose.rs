@@ -399,4 +399,3 @@ pub fn lost(hosts: &[serde_json::Value], name: &str) -> bool {
         .iter()
         .any(|h| h["name"] == name && h["alive"] == false)
 }
-

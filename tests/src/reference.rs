@@ -7,7 +7,9 @@ use std::process::{Command, Output};
 
 /// `sunray render` of `scene` with `flags` into `dir`: the PNG bytes and the stats JSON.
 pub fn reference(dir: &Path, scene: &Path, flags: &[&str]) -> (Vec<u8>, serde_json::Value) {
-    let stem = scene.file_stem().map_or("scene".into(), |s| s.to_string_lossy());
+    let stem = scene
+        .file_stem()
+        .map_or("scene".into(), |s| s.to_string_lossy());
     let out = dir.join(format!("reference-{stem}.png"));
     let json = dir.join(format!("reference-{stem}.json"));
     let st = sunray()

@@ -149,4 +149,3 @@ impl LoopbackCluster {
         self.daemons.iter().find(|d| d.name == name).unwrap()
     }
 }
-

@@ -158,4 +158,3 @@ impl Drop for SubmitRun {
         let _ = self.child.wait();
     }
 }
-

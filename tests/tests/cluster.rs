@@ -5,12 +5,13 @@
 //!
 //! Without a usable docker these tests print why and pass, except under CI (`CI` set),
 //! where that is a failure.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
+use std::time::Duration;
 use sunray_e2e::compose::*;
 use sunray_e2e::fixtures::spd;
 use sunray_e2e::reference::{output, read_json, reference};
 use sunray_e2e::submit_run::SubmitRun;
-use std::time::Duration;
 
 /// Quick: the byte-identity check.
 const SMALL: &str = "128x128";

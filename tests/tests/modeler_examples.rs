@@ -1,6 +1,7 @@
 //! The modeler's example scenes (thesis Fig. 2.2, the chess king, and Fig. 2.3, the bat),
 //! rebuilt from their scripts in `examples/modeler/`, checked against the committed YARI
 //! files, checked geometrically, and rendered by `sunray render`.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
 use clap::Parser;
 use modeler::mesh::Mesh;

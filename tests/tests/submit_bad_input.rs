@@ -1,6 +1,6 @@
 //! Bad input to `sunray submit`: each a clear error and a non-zero exit, and nothing
 //! started. A scene with errors is refused, with its diagnostics, before any worker starts.
-
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use sunray_e2e::bins::sunray;
 use sunray_e2e::fixtures::spd;

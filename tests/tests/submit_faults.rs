@@ -6,7 +6,7 @@
 //! "Mid-job" is made deterministic by watching the controller's `--events` and by making
 //! every line take at least SUNRAY_WORKER_LINE_DELAY_MS (a worker test hook), so the job
 //! is still running when the fault is made.
-
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::path::PathBuf;
 use std::process::Command;

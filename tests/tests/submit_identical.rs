@@ -1,7 +1,7 @@
 //! `sunray submit` on three real remd daemons on loopback gives a PNG byte-identical to
 //! `sunray render`, with every strategy, and its statistics count every line exactly once.
 //! Also: the embedded default (no remd) and the built-in scene.
-
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use sunray_e2e::bins::sunray;
 use sunray_e2e::fixtures::{default_scene, spd};

@@ -12,6 +12,7 @@
 //! (`write_world`) to the same world and survive the model file; a damaged copy of that model
 //! file (payload bytes changed, hash fixed) must not panic the decoder. Failing inputs are
 //! saved.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
 #[path = "support/scene_gen.rs"]
 mod scene_gen;

@@ -5,6 +5,7 @@
 //! ```text
 //! cargo run --release -p yari --example parse_bench -- [PRIMITIVES]   (default 1000000)
 //! ```
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
 #[path = "support/scene_gen.rs"]
 mod scene_gen;

@@ -8,7 +8,9 @@ use std::sync::OnceLock;
 
 /// `examples/thesis/NAME` (`tetra16.yari` or `cubes.yari`).
 pub fn thesis(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/thesis").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../examples/thesis")
+        .join(name)
 }
 
 /// Haines's SPD file `NAME` (`tetra6.nff`, `mount6.nff` or `balls4.nff`), generated once per

@@ -68,12 +68,7 @@ const RICH: &str = "samples(9); resolution(64, 48); background(color = UNC_Blue)
 fn compiled_worlds_round_trip_exactly_through_write_world() {
     let mut cases: Vec<(String, String)> = ["tetra16.yari", "cubes.yari"]
         .iter()
-        .map(|n| {
-            (
-                n.to_string(),
-                crate::test_support::thesis_example(n),
-            )
-        })
+        .map(|n| (n.to_string(), crate::test_support::thesis_example(n)))
         .collect();
     cases.push(("rich.yari".into(), RICH.into()));
     for (name, text) in cases {
