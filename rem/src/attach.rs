@@ -17,10 +17,8 @@ use crate::ids::{is_valid_name, ProcId};
 use crate::proto::{
     client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome,
 };
-use crate::relay::{Delivery, BATCH};
-
-/// Bytes of envelopes in one batch to a process (one envelope may be larger on its own).
-pub const BATCH_BYTES: usize = 1 << 20;
+use crate::relay::Delivery;
+use crate::wire::{BATCH, BATCH_BYTES};
 
 pub type FrameStream = ReceiverStream<Result<ServerFrame, Status>>;
 

@@ -10,13 +10,10 @@ use tonic::service::Interceptor;
 use tonic::{Request, Status};
 
 use crate::error::{Error, Result};
+use crate::wire::env::{SECRET as ENV_SECRET, SECRET_FILE as ENV_SECRET_FILE};
 
 /// Metadata entry that carries the secret (binary, so any bytes are allowed).
 pub const SECRET_METADATA: &str = "x-rem-secret-bin";
-/// Environment variable naming a file that holds the secret.
-pub const ENV_SECRET_FILE: &str = "REM_SECRET_FILE";
-/// Environment variable holding the secret itself.
-pub const ENV_SECRET: &str = "REM_SECRET";
 
 /// The shared cluster secret. Its `Debug` does not print it.
 #[derive(Clone, PartialEq, Eq)]

@@ -1,27 +1,36 @@
 //! Building one child process: arguments, environment (the `REM_*` variables), nice value,
 //! process group and parent-death signal; and signalling its group.
 
+use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::process::Stdio;
+use std::time::Duration;
 
 use crate::ids::ProcId;
-use crate::process::{ProcessConfig, StartSpec};
+use crate::wire::env;
 
-/// Environment variables every spawned process receives.
-pub mod env {
-    /// Address (`HOST:PORT`) of the local remd.
-    pub const ADDR: &str = "REM_ADDR";
-    /// This host's name.
-    pub const HOST: &str = "REM_HOST";
-    /// The process's own id (`HOST/NUMBER`).
-    pub const PROC_ID: &str = "REM_PROC_ID";
-    /// The job id.
-    pub const JOB_ID: &str = "REM_JOB_ID";
-    /// The process id of the job's owner (empty when the job has none).
-    pub const OWNER_ID: &str = "REM_OWNER_ID";
-    /// Largest relay payload in bytes.
-    pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
-    pub use crate::auth::{ENV_SECRET as SECRET, ENV_SECRET_FILE as SECRET_FILE};
-    pub use crate::transport::{ENV_TLS_CA as TLS_CA, ENV_TLS_DOMAIN as TLS_DOMAIN};
+/// What a process table needs from the daemon's settings.
+#[derive(Clone, Debug)]
+pub struct ProcessConfig {
+    pub host: String,
+    pub addr: String,
+    pub allow: Vec<PathBuf>,
+    /// Environment handed to every child besides the per-process variables (secret, TLS, limits).
+    pub base_env: Vec<(String, String)>,
+    pub log_bytes: usize,
+    pub kill_grace: Duration,
+}
+
+/// One start request, already placed on this host.
+#[derive(Clone, Debug, Default)]
+pub struct StartSpec {
+    pub job: String,
+    pub owner: String,
+    pub program: String,
+    pub args: Vec<String>,
+    pub env: BTreeMap<String, String>,
+    pub nice: Option<i32>,
+    pub count: u32,
 }
 
 /// The command for one process of `spec`, with id `id` (not yet started).

@@ -3,21 +3,15 @@
 
 use std::collections::BTreeMap;
 
-use tonic::service::interceptor::InterceptedService;
-use tonic::transport::Channel;
-
 use crate::auth::{Secret, SendSecret};
-use crate::config::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE};
 use crate::error::{Error, Result};
 use crate::ids::ProcId;
-use crate::process::env;
 use crate::proto::{self, rem_client};
 use crate::relay_client::Relay;
-use crate::server::FRAME_OVERHEAD;
 use crate::transport::{self, ClientTls};
+use crate::wire::{env, DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, FRAME_OVERHEAD};
 
-/// The generated client, with the secret attached to every call (for raw access).
-pub type RemRpc = rem_client::RemClient<InterceptedService<Channel, SendSecret>>;
+pub use crate::rpc::RemRpc;
 
 /// Where and how to connect.
 #[derive(Clone, Debug)]
@@ -154,6 +148,22 @@ impl RemClient {
         RemClient::connect_with(ConnectOptions::from_env()?).await
     }
 
+    /// For a process started by REM: connects to `REM_ADDR` and attaches as `REM_PROC_ID`
+    /// of job `REM_JOB_ID` (secret from `REM_SECRET_FILE` / `REM_SECRET`).
+    pub async fn attach_from_env() -> Result<Relay> {
+        let client = RemClient::from_env().await?;
+        let id = std::env::var(env::PROC_ID)
+            .ok()
+            .and_then(|s| ProcId::parse(&s))
+            .ok_or_else(|| Error::Config(format!("{} is not set to a process id", env::PROC_ID)))?;
+        let job = std::env::var(env::JOB_ID).unwrap_or_default();
+        let owner = std::env::var(env::OWNER_ID)
+            .ok()
+            .and_then(|s| ProcId::parse(&s));
+        let max = client.options().max_message;
+        Relay::open(client.rpc_mut(), max, Some(&id), &job, owner).await
+    }
+
     pub fn options(&self) -> &ConnectOptions {
         &self.opts
     }
@@ -283,12 +293,14 @@ impl RemClient {
 
     /// Attaches to the relay as a new process (a job owner); `job` is informational.
     pub async fn attach(&self, job: Option<&str>) -> Result<Relay> {
-        Relay::open(self, None, job.unwrap_or_default(), None).await
+        let max = self.options().max_message;
+        Relay::open(self.rpc_mut(), max, None, job.unwrap_or_default(), None).await
     }
 
-    /// Attaches as an already spawned process `id` (what [`Relay::attach_from_env`] does).
+    /// Attaches as an already spawned process `id` (what [`RemClient::attach_from_env`] does).
     pub async fn attach_as(&self, id: &ProcId, job: &str) -> Result<Relay> {
-        Relay::open(self, Some(id), job, None).await
+        let max = self.options().max_message;
+        Relay::open(self.rpc_mut(), max, Some(id), job, None).await
     }
 
     pub(crate) fn rpc_mut(&self) -> RemRpc {

@@ -27,12 +27,7 @@ use crate::auth::Secret;
 use crate::error::{Error, Result};
 use crate::transport::ServerTlsFiles;
 
-/// Default address of remd and of the `rem` client.
-pub const DEFAULT_ADDR: &str = "127.0.0.1:7077";
-/// The port of [`DEFAULT_ADDR`].
-pub const DEFAULT_PORT: u16 = 7077;
-/// Default relay message size limit.
-pub const DEFAULT_MAX_MESSAGE: usize = 16 << 20;
+pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
 
 /// remd's command line.
 #[derive(Parser, Debug, Default, Clone)]

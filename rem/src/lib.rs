@@ -38,7 +38,7 @@
 //! # Ok(()) }
 //! ```
 //!
-//! A spawned process attaches with one call, `Relay::attach_from_env()`, which reads
+//! A spawned process attaches with one call, `RemClient::attach_from_env()`, which reads
 //! `REM_ADDR`, `REM_PROC_ID`, `REM_JOB_ID`, `REM_OWNER_ID`, `REM_SECRET_FILE` or `REM_SECRET`,
 //! and (with TLS) `REM_TLS_CA` / `REM_TLS_DOMAIN` (see [`process::env`]).
 //!
@@ -87,9 +87,11 @@ pub mod placement;
 pub mod process;
 pub mod relay;
 pub mod relay_client;
+pub mod rpc;
 pub mod server;
 pub mod service;
 pub mod transport;
+pub mod wire;
 
 /// Generated from `proto/rem.proto`.
 #[allow(clippy::all, missing_docs)]

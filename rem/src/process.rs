@@ -20,31 +20,7 @@ use crate::logbuf::{self, Output};
 use crate::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
 use crate::relay::Router;
 
-pub use crate::child::env;
-
-/// What a process table needs from the daemon's settings.
-#[derive(Clone, Debug)]
-pub struct ProcessConfig {
-    pub host: String,
-    pub addr: String,
-    pub allow: Vec<PathBuf>,
-    /// Environment handed to every child besides the per-process variables (secret, TLS, limits).
-    pub base_env: Vec<(String, String)>,
-    pub log_bytes: usize,
-    pub kill_grace: Duration,
-}
-
-/// One start request, already placed on this host.
-#[derive(Clone, Debug, Default)]
-pub struct StartSpec {
-    pub job: String,
-    pub owner: String,
-    pub program: String,
-    pub args: Vec<String>,
-    pub env: BTreeMap<String, String>,
-    pub nice: Option<i32>,
-    pub count: u32,
-}
+pub use crate::child::{ProcessConfig, StartSpec};
 
 struct Entry {
     info: ProcessInfo,

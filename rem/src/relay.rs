@@ -20,8 +20,7 @@ use crate::membership::{MemberEvent, Membership};
 use crate::peers::PeerPool;
 use crate::proto::{peer_item, Envelope, JobEvent, PeerBatch, PeerItem, Undeliverable};
 
-/// Largest number of items sent in one batch.
-pub const BATCH: usize = 512;
+use crate::wire::{BATCH, BATCH_BYTES};
 
 /// What a mailbox holds.
 #[derive(Clone, Debug)]
@@ -354,7 +353,7 @@ async fn run_link(
         let mut items = vec![first];
         while items.len() < BATCH {
             match rx.try_recv() {
-                Ok(i) if bytes + item_bytes(&i) <= crate::attach::BATCH_BYTES => {
+                Ok(i) if bytes + item_bytes(&i) <= BATCH_BYTES => {
                     bytes += item_bytes(&i);
                     items.push(i);
                 }

@@ -7,15 +7,13 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::Streaming;
 
-use crate::attach::BATCH_BYTES;
-use crate::client::RemClient;
 use crate::error::{Error, Result};
 use crate::ids::ProcId;
-use crate::process::env;
 use crate::proto::{
     client_frame, server_frame, ClientFrame, Envelope, EnvelopeBatch, Hello, JobEvent, ServerFrame,
 };
-use crate::relay::BATCH;
+use crate::rpc::RemRpc;
+use crate::wire::{BATCH, BATCH_BYTES};
 
 /// Envelopes queued on the sending side before `send` waits (back-pressure).
 pub const SEND_QUEUE: usize = 1024;
@@ -111,23 +109,12 @@ pub struct Relay {
 }
 
 impl Relay {
-    /// For a process started by REM: connects to `REM_ADDR` and attaches as `REM_PROC_ID`
-    /// of job `REM_JOB_ID` (secret from `REM_SECRET_FILE` / `REM_SECRET`).
-    pub async fn attach_from_env() -> Result<Relay> {
-        let client = RemClient::from_env().await?;
-        let id = std::env::var(env::PROC_ID)
-            .ok()
-            .and_then(|s| ProcId::parse(&s))
-            .ok_or_else(|| Error::Config(format!("{} is not set to a process id", env::PROC_ID)))?;
-        let job = std::env::var(env::JOB_ID).unwrap_or_default();
-        let owner = std::env::var(env::OWNER_ID)
-            .ok()
-            .and_then(|s| ProcId::parse(&s));
-        Relay::open(&client, Some(&id), &job, owner).await
-    }
-
+    /// Attaches through `rpc` as process `id` (a fresh id when `None`) of `job`, owned by
+    /// `owner`; this side sends at most `max_message` bytes per message (less if the daemon
+    /// says so). [`crate::RemClient::attach`] and [`crate::RemClient::attach_from_env`] call it.
     pub(crate) async fn open(
-        client: &RemClient,
+        rpc: RemRpc,
+        max_message: usize,
         id: Option<&ProcId>,
         job: &str,
         owner: Option<ProcId>,
@@ -143,8 +130,8 @@ impl Relay {
             })
             .await
             .map_err(|_| Error::Closed)?;
-        let mut stream = client
-            .rpc_mut()
+        let mut stream = rpc
+            .clone()
             .attach(ReceiverStream::new(frames_rx))
             .await?
             .into_inner();
@@ -162,7 +149,7 @@ impl Relay {
                 welcome.proc_id
             ))
         })?;
-        let max_message = (welcome.max_message_bytes as usize).min(client.options().max_message);
+        let max_message = (welcome.max_message_bytes as usize).min(max_message);
         let (tx, rx) = mpsc::channel(SEND_QUEUE);
         tokio::spawn(batch_out(rx, frames_tx));
         Ok(Relay {

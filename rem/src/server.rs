@@ -27,13 +27,13 @@ use crate::jobs::Jobs;
 use crate::load::LoadGauge;
 use crate::membership::{Membership, MembershipConfig};
 use crate::peers::PeerPool;
-use crate::process::{env, ProcessConfig, ProcessTable};
+use crate::process::{ProcessConfig, ProcessTable};
 use crate::proto::{peer_server::PeerServer, rem_server::RemServer};
 use crate::relay::Router;
 use crate::service::Service;
+use crate::wire::env;
 
-/// Bytes allowed in one gRPC message besides the relay payload limit (batches, headers).
-pub const FRAME_OVERHEAD: usize = 1 << 20;
+use crate::wire::FRAME_OVERHEAD;
 
 /// Runs a daemon on `listener` until `shutdown` completes, then shuts down cleanly.
 pub async fn run(

@@ -9,11 +9,7 @@ use tonic::transport::{
 };
 
 use crate::error::{Error, Result};
-
-/// Environment variable: PEM file of the CA that signed the daemons' certificates.
-pub const ENV_TLS_CA: &str = "REM_TLS_CA";
-/// Environment variable: the name to verify in a daemon's certificate.
-pub const ENV_TLS_DOMAIN: &str = "REM_TLS_DOMAIN";
+use crate::wire::env::{TLS_CA as ENV_TLS_CA, TLS_DOMAIN as ENV_TLS_DOMAIN};
 
 /// How a client checks a daemon's certificate.
 #[derive(Clone, Debug)]

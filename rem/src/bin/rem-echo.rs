@@ -9,7 +9,7 @@
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use rem::{Incoming, ProcId, Relay};
+use rem::{Incoming, ProcId, RemClient};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -64,7 +64,7 @@ fn echo() -> anyhow::Result<()> {
         .enable_all()
         .build()?;
     rt.block_on(async {
-        let mut relay = Relay::attach_from_env().await?;
+        let mut relay = RemClient::attach_from_env().await?;
         println!("attached as {}", relay.id());
         let sender = relay.sender();
         loop {
@@ -88,7 +88,7 @@ fn sink(n: u64) -> anyhow::Result<()> {
         .enable_all()
         .build()?;
     rt.block_on(async {
-        let mut relay = Relay::attach_from_env().await?;
+        let mut relay = RemClient::attach_from_env().await?;
         let mut seen = 0u64;
         loop {
             if let Incoming::Message { from, .. } = relay.recv().await? {

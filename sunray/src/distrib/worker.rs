@@ -16,7 +16,7 @@ use crate::accel::Accel;
 use crate::render::Settings;
 use crate::scene::Scene;
 use crate::stats::process_cpu_seconds;
-use rem::{Incoming, ProcId, Relay, RelayReceiver, RelaySender};
+use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
@@ -70,7 +70,7 @@ pub enum WorkerError {
 /// Runs a worker until the controller says NoMoreWork (Ok) or goes away (Err).
 pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let started = Instant::now();
-    let relay = Relay::attach_from_env().await?;
+    let relay = RemClient::attach_from_env().await?;
     let owner = relay.owner().cloned().ok_or(WorkerError::NoOwner)?;
     let host = relay.host().to_string();
     let (sender, receiver) = relay.split();

@@ -1,0 +1,40 @@
+//! What the client library and the daemon agree on, in one place that imports nothing else of
+//! the crate: the default address, message and batch limits, and the names of the environment
+//! variables REM gives the processes it starts (and that the client reads).
+
+/// Default address of remd and of the `rem` client.
+pub const DEFAULT_ADDR: &str = "127.0.0.1:7077";
+/// The port of [`DEFAULT_ADDR`].
+pub const DEFAULT_PORT: u16 = 7077;
+/// Default relay message size limit (bytes of one envelope's payload).
+pub const DEFAULT_MAX_MESSAGE: usize = 16 << 20;
+/// Bytes allowed in one gRPC message besides the relay payload limit (batches, headers).
+pub const FRAME_OVERHEAD: usize = 1 << 20;
+/// Largest number of envelopes (or peer items) sent in one batch.
+pub const BATCH: usize = 512;
+/// Bytes of envelopes in one batch (one envelope may be larger on its own).
+pub const BATCH_BYTES: usize = 1 << 20;
+
+/// Environment variables every spawned process receives (and the client reads).
+pub mod env {
+    /// Address (`HOST:PORT`) of the local remd.
+    pub const ADDR: &str = "REM_ADDR";
+    /// This host's name.
+    pub const HOST: &str = "REM_HOST";
+    /// The process's own id (`HOST/NUMBER`).
+    pub const PROC_ID: &str = "REM_PROC_ID";
+    /// The job id.
+    pub const JOB_ID: &str = "REM_JOB_ID";
+    /// The process id of the job's owner (empty when the job has none).
+    pub const OWNER_ID: &str = "REM_OWNER_ID";
+    /// Largest relay payload in bytes.
+    pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
+    /// A file holding the cluster secret.
+    pub const SECRET_FILE: &str = "REM_SECRET_FILE";
+    /// The cluster secret itself (when no file is given).
+    pub const SECRET: &str = "REM_SECRET";
+    /// The CA certificate to trust for TLS to remd.
+    pub const TLS_CA: &str = "REM_TLS_CA";
+    /// The name to expect in remd's certificate.
+    pub const TLS_DOMAIN: &str = "REM_TLS_DOMAIN";
+}
