@@ -40,7 +40,7 @@
 //!
 //! A spawned process attaches with one call, `RemClient::attach_from_env()`, which reads
 //! `REM_ADDR`, `REM_PROC_ID`, `REM_JOB_ID`, `REM_OWNER_ID`, `REM_SECRET_FILE` or `REM_SECRET`,
-//! and (with TLS) `REM_TLS_CA` / `REM_TLS_DOMAIN` (see [`process::env`]).
+//! and (with TLS) `REM_TLS_CA` / `REM_TLS_DOMAIN` (see [`wire::env`]).
 //!
 //! Messages are opaque bytes up to the daemon's limit (default 16 MiB, `--max-message`).
 //! Delivery is in order per sender and receiver, with back-pressure through bounded queues;
@@ -66,6 +66,8 @@
 //! - [`jobs`]: job owners and `Lost` reports.
 //! - [`checkpoint`]: atomic checkpoint files.
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
+//! - [`wire`]: what client and daemon agree on (default address, limits, environment names).
+//! - [`rpc`]: the generated client with the secret attached, under both of:
 //! - [`client`]: [`RemClient`]; [`relay_client`]: [`Relay`] for job owners and processes.
 
 pub mod attach;
