@@ -105,7 +105,7 @@ pub struct FileConfig {
 
 /// Everything a daemon runs with.
 #[derive(Clone, Debug)]
-pub struct Settings {
+pub struct DaemonSettings {
     pub name: String,
     pub listen: SocketAddr,
     pub advertise: Option<String>,
@@ -127,10 +127,10 @@ pub struct Settings {
     pub tls: Option<ServerTlsFiles>,
 }
 
-impl Settings {
-    /// Settings with defaults for `name` and `secret` (used by tests and embedders).
+impl DaemonSettings {
+    /// DaemonSettings with defaults for `name` and `secret` (used by tests and embedders).
     pub fn new(name: &str, secret: Secret) -> Self {
-        Settings {
+        DaemonSettings {
             name: name.to_string(),
             listen: std::net::SocketAddr::from(([127, 0, 0, 1], DEFAULT_PORT)),
             advertise: None,
@@ -169,7 +169,7 @@ impl Settings {
         }
         let secret_path = args.secret_file.or(file.secret_file);
         let (secret, secret_file) = Secret::resolve(secret_path.as_deref())?;
-        let mut s = Settings::new(&name, secret);
+        let mut s = DaemonSettings::new(&name, secret);
         s.secret_file = secret_file;
         s.listen = args.listen.or(file.listen).unwrap_or(s.listen);
         s.advertise = args.advertise.or(file.advertise);
@@ -242,7 +242,10 @@ mod tests {
     #[test]
     fn the_default_address_is_loopback_on_the_default_port() {
         let addr: std::net::SocketAddr = DEFAULT_ADDR.parse().unwrap();
-        assert_eq!(addr, Settings::new("h", Secret::new("s").unwrap()).listen);
+        assert_eq!(
+            addr,
+            DaemonSettings::new("h", Secret::new("s").unwrap()).listen
+        );
         assert_eq!(addr.port(), DEFAULT_PORT);
     }
 
@@ -268,7 +271,7 @@ mod tests {
             "--name",
             "flaghost",
         ]);
-        let s = Settings::from_args(args).unwrap();
+        let s = DaemonSettings::from_args(args).unwrap();
         assert_eq!(s.name, "flaghost");
         assert_eq!(s.listen, "127.0.0.1:9000".parse().unwrap());
         assert_eq!(s.allow, vec![PathBuf::from("/bin/true")]);
@@ -283,7 +286,7 @@ mod tests {
         std::fs::write(&secret, "x").unwrap();
         let sf = secret.to_str().unwrap();
         let bad_name = RemdArgs::parse_from(["remd", "--name", "a/b", "--secret-file", sf]);
-        assert!(Settings::from_args(bad_name).is_err());
+        assert!(DaemonSettings::from_args(bad_name).is_err());
         let relative = RemdArgs::parse_from([
             "remd",
             "--name",
@@ -293,7 +296,7 @@ mod tests {
             "--allow",
             "bin/x",
         ]);
-        assert!(Settings::from_args(relative).is_err());
+        assert!(DaemonSettings::from_args(relative).is_err());
         let cfg = dir.path().join("bad.toml");
         std::fs::write(&cfg, "nmae = 1\n").unwrap();
         let unknown = RemdArgs::parse_from([
@@ -303,6 +306,6 @@ mod tests {
             "--secret-file",
             sf,
         ]);
-        assert!(Settings::from_args(unknown).is_err());
+        assert!(DaemonSettings::from_args(unknown).is_err());
     }
 }

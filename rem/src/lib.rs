@@ -66,6 +66,7 @@
 //! - [`jobs`]: job owners and `Lost` reports.
 //! - [`checkpoint`]: atomic checkpoint files.
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
+//! - [`embedded`]: a remd inside the current process (the embedded default, tests).
 //! - [`wire`]: what client and daemon agree on (default address, limits, environment names).
 //! - [`rpc`]: the generated client with the secret attached, under both of:
 //! - [`client`]: [`RemClient`]; [`relay_client`]: [`Relay`] for job owners and processes.
@@ -78,6 +79,7 @@ pub mod child;
 pub mod client;
 pub mod config;
 pub mod daemon;
+pub mod embedded;
 pub mod error;
 pub mod ids;
 pub mod jobs;

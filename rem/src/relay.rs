@@ -3,7 +3,7 @@
 //!
 //! Order per sender and receiver holds because every hop is a single FIFO: the sender's attach
 //! stream, one link task and one `Forward` stream per daemon pair, the receiver's mailbox.
-//! Queues are bounded (`Settings::queue`): a full mailbox of an attached process holds the
+//! Queues are bounded (`DaemonSettings::queue`): a full mailbox of an attached process holds the
 //! link, which holds the sender (back-pressure). A mailbox whose process has not attached yet
 //! buffers up to the bound and then drops, so a process that never attaches cannot stall
 //! the link. Envelopes to a lost or unknown host come back to the sender as `Undeliverable`.

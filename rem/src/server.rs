@@ -20,7 +20,7 @@ use tonic::transport::Server;
 
 use crate::auth::RequireSecret;
 use crate::checkpoint::CheckpointStore;
-use crate::config::Settings;
+use crate::config::DaemonSettings;
 use crate::daemon::Daemon;
 use crate::error::{Error, Result};
 use crate::jobs::Jobs;
@@ -37,7 +37,7 @@ use crate::wire::FRAME_OVERHEAD;
 
 /// Runs a daemon on `listener` until `shutdown` completes, then shuts down cleanly.
 pub async fn run(
-    settings: Settings,
+    settings: DaemonSettings,
     listener: TcpListener,
     shutdown: impl Future<Output = ()>,
 ) -> Result<()> {
@@ -183,7 +183,7 @@ fn incoming(
 }
 
 /// Variables every child gets besides its own ids: how to authenticate and reach remd.
-fn child_env(s: &Settings) -> Vec<(String, String)> {
+fn child_env(s: &DaemonSettings) -> Vec<(String, String)> {
     let mut out = vec![(env::MAX_MESSAGE.to_string(), s.max_message.to_string())];
     match &s.secret_file {
         Some(path) => out.push((env::SECRET_FILE.into(), path.display().to_string())),

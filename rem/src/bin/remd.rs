@@ -5,7 +5,7 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
-use rem::config::{RemdArgs, Settings};
+use rem::config::{DaemonSettings, RemdArgs};
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
@@ -15,7 +15,7 @@ fn main() -> ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
-    let settings = match Settings::from_args(RemdArgs::parse()) {
+    let settings = match DaemonSettings::from_args(RemdArgs::parse()) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("remd: {e}");
@@ -41,7 +41,7 @@ fn main() -> ExitCode {
     }
 }
 
-async fn serve(settings: Settings) -> anyhow::Result<()> {
+async fn serve(settings: DaemonSettings) -> anyhow::Result<()> {
     let listener = tokio::net::TcpListener::bind(settings.listen)
         .await
         .map_err(|e| anyhow::anyhow!("cannot listen on {}: {e}", settings.listen))?;

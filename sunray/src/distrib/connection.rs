@@ -2,7 +2,8 @@
 //! `--secret-file`, `REM_SECRET_FILE` or `REM_SECRET`), or else a private embedded one. Every
 //! way this can fail gets its own clear error.
 
-use super::embedded::{self, EmbeddedRem};
+use super::embedded;
+use rem::embedded::EmbeddedRemd;
 use rem::{RemClient, Secret};
 use std::path::{Path, PathBuf};
 
@@ -54,7 +55,7 @@ pub struct RemConnection {
     pub addr: String,
     /// The private daemon started because no `--remd` was given; stopped by
     /// [`RemConnection::close`].
-    pub embedded: Option<EmbeddedRem>,
+    pub embedded: Option<EmbeddedRemd>,
 }
 
 impl RemConnection {
@@ -87,13 +88,13 @@ impl RemConnection {
             }
             None => {
                 let allow: Vec<PathBuf> = vec![program.to_path_buf()];
-                let rem = EmbeddedRem::start(allow, embedded::state_dir())
+                let rem = embedded::start(allow, embedded::state_dir())
                     .await
                     .map_err(ConnectionError::Embedded)?;
-                let client = connect(&rem.addr, rem.secret.clone()).await?;
+                let client = connect(rem.addr(), rem.secret().clone()).await?;
                 Ok(RemConnection {
                     client,
-                    addr: rem.addr.clone(),
+                    addr: rem.addr().to_string(),
                     embedded: Some(rem),
                 })
             }
