@@ -25,8 +25,8 @@ fn spin(owner: &rem::Relay, count: u32) -> SpawnRequest {
 
 /// Kills or stops daemon c, checks a and b mark it lost within 2 s and the owner (on a)
 /// gets LOST for c's process; returns the time to the LOST event.
-async fn host_failure_is_detected(sig: i32) -> (Cluster, Duration) {
-    let mut cluster = Cluster::start(3, &[]);
+async fn host_failure_is_detected(sig: i32) -> (RemdProcesses, Duration) {
+    let mut cluster = RemdProcesses::start(3, &[]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(None).await.unwrap();
@@ -95,7 +95,7 @@ async fn stopped_daemon_is_lost_within_2s_and_comes_back_on_sigcont() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
-    let mut cluster = Cluster::start(2, &["--kill-grace-ms", "500"]);
+    let mut cluster = RemdProcesses::start(2, &["--kill-grace-ms", "500"]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(None).await.unwrap();

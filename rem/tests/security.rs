@@ -24,8 +24,8 @@ fn code<T: std::fmt::Debug>(r: Result<T, Error>) -> Code {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn wrong_or_missing_secret_is_unauthenticated_and_health_is_open() {
-    let cluster = Cluster::start(1, &[]);
-    let addr = &cluster.daemons[0].addr;
+    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let addr = &cluster.addrs()[0];
     let wrong = RemClient::connect(addr, Secret::new("not-the-secret").unwrap())
         .await
         .unwrap();
@@ -82,7 +82,7 @@ async fn wrong_or_missing_secret_is_unauthenticated_and_health_is_open() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn only_allow_listed_absolute_programs_are_spawned() {
-    let cluster = Cluster::start(2, &[]);
+    let cluster = InProcessRemds::start(2, |_| {}).await;
     cluster.converge(T).await;
     let c = cluster.client(0).await;
     let req = |program: &str| SpawnRequest {
@@ -155,7 +155,7 @@ async fn only_allow_listed_absolute_programs_are_spawned() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn oversized_messages_are_refused() {
-    let cluster = Cluster::start(1, &["--max-message", "1024"]);
+    let cluster = InProcessRemds::start(1, |s| s.max_message = 1024).await;
     let c = cluster.client(0).await;
     let relay = c.attach(None).await.unwrap();
     // The library refuses before sending (the daemon told it the limit).
@@ -228,15 +228,17 @@ async fn tls_cluster_works_and_plain_clients_are_refused() {
     let key_path = dir.path().join("key.pem");
     std::fs::write(&cert_path, cert.cert.pem()).unwrap();
     std::fs::write(&key_path, cert.signing_key.serialize_pem()).unwrap();
-    let tls_args = [
-        "--tls-cert",
-        cert_path.to_str().unwrap(),
-        "--tls-key",
-        key_path.to_str().unwrap(),
-    ];
-    let cluster = Cluster::start(2, &tls_args);
+    let cluster = InProcessRemds::start(2, |s| {
+        s.tls = Some(rem::transport::ServerTlsFiles {
+            cert: cert_path.clone(),
+            key: key_path.clone(),
+            ca: None,
+            domain: None,
+        })
+    })
+    .await;
     let tls = ClientTls::from_file(&cert_path, Some("localhost".into())).unwrap();
-    let mut opts = ConnectOptions::new(cluster.daemons[0].addr.clone(), cluster.secret());
+    let mut opts = ConnectOptions::new(cluster.addrs()[0].clone(), cluster.secret());
     opts.tls = Some(tls);
     let c = RemClient::connect_with(opts).await.unwrap();
     // Peers talk TLS to each other: membership converges.
@@ -272,7 +274,7 @@ async fn tls_cluster_works_and_plain_clients_are_refused() {
     .unwrap();
     assert_eq!(got, b"over tls");
     // Plain HTTP/2 to a TLS daemon fails.
-    let plain = RemClient::connect(&cluster.daemons[0].addr, cluster.secret()).await;
+    let plain = RemClient::connect(&cluster.addrs()[0], cluster.secret()).await;
     match plain {
         Err(_) => {}
         Ok(p) => assert!(p.hosts().await.is_err()),

@@ -1,4 +1,6 @@
-//! Test harness: real `remd` processes on loopback.
+//! Test harness: daemons on loopback, in this process ([`InProcessRemds`], through
+//! `rem::embedded`) or as real `remd` processes ([`RemdProcesses`], for what is about the
+//! process itself: signals, kill -9, its nice value, its command line and environment).
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
@@ -6,6 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use rem::config::DaemonSettings;
+use rem::embedded::EmbeddedRemd;
 use rem::{HostInfo, Incoming, Relay, RemClient, Secret};
 
 pub const REMD: &str = env!("CARGO_BIN_EXE_remd");
@@ -51,20 +55,90 @@ impl Drop for Remd {
     }
 }
 
+/// What both harnesses offer: daemon addresses, the shared secret, clients, convergence.
+pub trait LocalRemds {
+    /// The daemons' addresses, in order (a, b, c ...).
+    fn addrs(&self) -> Vec<String>;
+
+    /// The cluster secret.
+    fn secret(&self) -> Secret {
+        Secret::new(SECRET).unwrap()
+    }
+
+    /// A client of daemon `i`.
+    async fn client(&self, i: usize) -> RemClient {
+        RemClient::connect(&self.addrs()[i], self.secret())
+            .await
+            .unwrap()
+    }
+
+    /// Waits until every daemon sees every other alive.
+    async fn converge(&self, timeout: Duration) {
+        let n = self.addrs().len();
+        for i in 0..n {
+            let c = self.client(i).await;
+            wait_hosts(&c, timeout, |hosts| {
+                hosts.len() == n && hosts.iter().all(|h| h.alive)
+            })
+            .await;
+        }
+    }
+}
+
+/// `n` daemons in this process, named a, b, c ...; each after the first joins through the
+/// first; allowed to run `rem-echo`; `configure` adjusts each one's settings.
+pub struct InProcessRemds {
+    pub dir: tempfile::TempDir,
+    pub daemons: Vec<EmbeddedRemd>,
+}
+
+impl InProcessRemds {
+    pub async fn start(n: usize, configure: impl Fn(&mut DaemonSettings)) -> InProcessRemds {
+        let dir = tempfile::tempdir().unwrap();
+        let mut daemons: Vec<EmbeddedRemd> = Vec::new();
+        for i in 0..n {
+            let name = ((b'a' + i as u8) as char).to_string();
+            let mut s = DaemonSettings::new(&name, Secret::new(SECRET).unwrap());
+            s.allow = vec![PathBuf::from(ECHO)];
+            s.state_dir = Some(dir.path().join(format!("state-{name}")));
+            s.join = daemons
+                .first()
+                .map(|d| d.addr().to_string())
+                .into_iter()
+                .collect();
+            configure(&mut s);
+            daemons.push(EmbeddedRemd::start(s).await.unwrap());
+        }
+        InProcessRemds { dir, daemons }
+    }
+}
+
+impl LocalRemds for InProcessRemds {
+    fn addrs(&self) -> Vec<String> {
+        self.daemons.iter().map(|d| d.addr().to_string()).collect()
+    }
+}
+
 /// A cluster of remd processes sharing a secret file and a temp dir.
-pub struct Cluster {
+pub struct RemdProcesses {
     pub dir: tempfile::TempDir,
     pub secret_file: PathBuf,
     pub daemons: Vec<Remd>,
 }
 
-impl Cluster {
+impl LocalRemds for RemdProcesses {
+    fn addrs(&self) -> Vec<String> {
+        self.daemons.iter().map(|d| d.addr.clone()).collect()
+    }
+}
+
+impl RemdProcesses {
     /// `n` daemons named a, b, c ...; each after the first joins through the first.
-    pub fn start(n: usize, extra: &[&str]) -> Cluster {
+    pub fn start(n: usize, extra: &[&str]) -> RemdProcesses {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
         std::fs::write(&secret_file, format!("{SECRET}\n")).unwrap();
-        let mut c = Cluster {
+        let mut c = RemdProcesses {
             dir,
             secret_file,
             daemons: Vec::new(),
@@ -102,28 +176,6 @@ impl Cluster {
             name: name.to_string(),
             addr,
             child,
-        }
-    }
-
-    pub fn secret(&self) -> Secret {
-        Secret::new(SECRET).unwrap()
-    }
-
-    pub async fn client(&self, i: usize) -> RemClient {
-        RemClient::connect(&self.daemons[i].addr, self.secret())
-            .await
-            .unwrap()
-    }
-
-    /// Waits until every daemon sees every other alive.
-    pub async fn converge(&self, timeout: Duration) {
-        let n = self.daemons.len();
-        for i in 0..n {
-            let c = self.client(i).await;
-            wait_hosts(&c, timeout, |hosts| {
-                hosts.len() == n && hosts.iter().all(|h| h.alive)
-            })
-            .await;
         }
     }
 }
