@@ -68,13 +68,21 @@ fn draw_err<E: std::fmt::Debug>(e: E) -> PlotError {
     PlotError::Draw(format!("{e:?}"))
 }
 
-/// A tick value as a plain decimal with the digits it needs (0.001, 0.02, 1, 50).
+/// A tick value as a plain decimal with the digits it needs (0.001, 0.02, 1, 50); only
+/// 1, 2 and 5 times a power of ten are labelled, so that a range of one decade, where
+/// plotters puts a tick at every step, does not crowd its labels into each other.
 fn tick(v: &f64) -> String {
     if !(v.is_finite() && *v > 0.0) {
         return String::new();
     }
-    let e = v.log10().floor();
-    let m = (v / 10f64.powf(e)).round();
+    let mut e = v.log10().floor();
+    let mut m = (v / 10f64.powf(e)).round();
+    if m >= 10.0 {
+        (e, m) = (e + 1.0, 1.0);
+    }
+    if ![1.0, 2.0, 5.0].contains(&m) {
+        return String::new();
+    }
     let decimals = (-e).max(0.0) as usize;
     format!("{:.*}", decimals, m * 10f64.powf(e))
 }
@@ -226,6 +234,8 @@ mod tests {
         assert_eq!(tick(&0.0020000000000000005), "0.002");
         assert_eq!(tick(&1.0), "1");
         assert_eq!(tick(&50.0), "50");
+        assert_eq!(tick(&0.0003), "");
+        assert_eq!(tick(&0.09999999999), "0.1");
     }
 
     #[test]
