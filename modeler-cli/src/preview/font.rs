@@ -57,7 +57,10 @@ mod tests {
             });
             // Capitals about 10 pixels high and 8 wide each: some ink, within the box.
             assert!(ink > 20.0 * label.len() as f32, "{label}: {ink}");
-            assert!(bottom <= 4 + 14 && right <= 4 + 11 * label.len() as i64, "{label}");
+            assert!(
+                bottom <= 4 + 14 && right <= 4 + 11 * label.len() as i64,
+                "{label}"
+            );
         }
     }
 }

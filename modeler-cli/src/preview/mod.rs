@@ -249,7 +249,9 @@ fn draw_view(
         }
     }
     let px = (v.width as f32 / 18.0).clamp(11.0, 20.0);
-    font::draw_text(v.label, 5.0, 4.0, px, &mut |x, y, a| c.blend(x, y, LABEL, a));
+    font::draw_text(v.label, 5.0, 4.0, px, &mut |x, y, a| {
+        c.blend(x, y, LABEL, a)
+    });
     Some(c)
 }
 

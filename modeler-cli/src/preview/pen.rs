@@ -126,7 +126,8 @@ impl Pen {
 
 fn opaque(c: [u8; 3]) -> PremultipliedColorU8 {
     // An opaque colour is its own premultiplied form, so this always succeeds.
-    PremultipliedColorU8::from_rgba(c[0], c[1], c[2], 255).unwrap_or(PremultipliedColorU8::TRANSPARENT)
+    PremultipliedColorU8::from_rgba(c[0], c[1], c[2], 255)
+        .unwrap_or(PremultipliedColorU8::TRANSPARENT)
 }
 
 /// Liang-Barsky clipping of a segment to the pixel centres [-margin, w-1+margin] x
@@ -210,7 +211,17 @@ mod tests {
         let mut p = Pen::new(9, 9, [0.0; 3]).unwrap();
         p.cross([4.2, 3.8, 0.0], 2, RED);
         let lit = reds(&p);
-        let expect: Vec<usize> = vec![2 * 9 + 4, 3 * 9 + 4, 4 * 9 + 2, 4 * 9 + 3, 4 * 9 + 4, 4 * 9 + 5, 4 * 9 + 6, 5 * 9 + 4, 6 * 9 + 4];
+        let expect: Vec<usize> = vec![
+            2 * 9 + 4,
+            3 * 9 + 4,
+            4 * 9 + 2,
+            4 * 9 + 3,
+            4 * 9 + 4,
+            4 * 9 + 5,
+            4 * 9 + 6,
+            5 * 9 + 4,
+            6 * 9 + 4,
+        ];
         assert_eq!(lit, expect);
         assert!(p.rgb().filter(|c| c[0] > 0).all(|c| c == [255, 0, 0]));
     }

@@ -194,11 +194,7 @@ fn draw(
                     + Circle::new((12, 0), 4, c.filled())
             });
         chart
-            .draw_series(
-                s.points
-                    .iter()
-                    .map(|&p| Circle::new(p, 4, c.filled())),
-            )
+            .draw_series(s.points.iter().map(|&p| Circle::new(p, 4, c.filled())))
             .map_err(draw_err)?;
     }
     // A legend entry for the guides (drawn above, one per series, in its tint).
