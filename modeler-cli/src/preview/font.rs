@@ -1,39 +1,40 @@
-//! A 5x7 bitmap font holding just the letters of the view labels.
+//! The view labels, set in DejaVu Sans (embedded from assets/fonts/, so no system font is
+//! needed) and rasterized with antialiasing by `ab_glyph`.
 
-/// Rows top to bottom; bit 4 is the leftmost column.
-fn glyph(c: char) -> Option<[u8; 7]> {
-    Some(match c {
-        'C' => [0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E],
-        'D' => [0x1E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1E],
-        'E' => [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F],
-        'F' => [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10],
-        'I' => [0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        'N' => [0x11, 0x19, 0x15, 0x13, 0x11, 0x11, 0x11],
-        'O' => [0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E],
-        'P' => [0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10],
-        'R' => [0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11],
-        'S' => [0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E],
-        'T' => [0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04],
-        'V' => [0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04],
-        _ => return None,
-    })
+use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
+use std::sync::OnceLock;
+
+static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+
+/// The embedded font, parsed once; None only if the embedded file were not a font.
+fn font() -> Option<&'static FontRef<'static>> {
+    static FONT: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
+    FONT.get_or_init(|| FontRef::try_from_slice(FONT_BYTES).ok())
+        .as_ref()
 }
 
-/// Calls `plot(x, y)` for each lit pixel of `text` drawn at (x, y), `scale` pixels per dot.
-pub fn draw_text(text: &str, x: i64, y: i64, scale: i64, plot: &mut dyn FnMut(i64, i64)) {
-    for (i, c) in text.chars().enumerate() {
-        let Some(rows) = glyph(c) else { continue };
-        let gx = x + i as i64 * 6 * scale;
-        for (r, bits) in rows.iter().enumerate() {
-            for col in 0..5 {
-                if bits & (0x10 >> col) != 0 {
-                    for dy in 0..scale {
-                        for dx in 0..scale {
-                            plot(gx + col * scale + dx, y + r as i64 * scale + dy);
-                        }
-                    }
-                }
-            }
+/// Calls `plot(x, y, coverage)` for each pixel `text` touches, its top-left corner at
+/// (x, y), `px` pixels from ascent to descent; coverage is in 0..=1.
+pub fn draw_text(text: &str, x: f32, y: f32, px: f32, plot: &mut dyn FnMut(i64, i64, f32)) {
+    let Some(font) = font() else { return };
+    let scale = PxScale::from(px);
+    let scaled = font.as_scaled(scale);
+    let baseline = y + scaled.ascent();
+    let mut caret = x;
+    let mut prev = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = prev {
+            caret += scaled.kern(p, id);
+        }
+        prev = Some(id);
+        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
+        caret += scaled.h_advance(id);
+        if let Some(outline) = font.outline_glyph(glyph) {
+            let b = outline.px_bounds();
+            outline.draw(|gx, gy, cov| {
+                plot(b.min.x as i64 + gx as i64, b.min.y as i64 + gy as i64, cov);
+            });
         }
     }
 }
@@ -43,12 +44,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_label_letter_has_a_glyph() {
-        for c in "FRONTTOPSIDEPERSPECTIVE".chars() {
-            assert!(glyph(c).is_some(), "{c}");
+    fn the_embedded_font_draws_every_label_inside_its_box() {
+        assert!(font().is_some());
+        for label in ["FRONT", "TOP", "SIDE", "PERSPECTIVE"] {
+            let (mut ink, mut right, mut bottom) = (0.0f32, 0i64, 0i64);
+            draw_text(label, 4.0, 4.0, 14.0, &mut |x, y, c| {
+                // Antialiasing may bleed one pixel past the box's corner.
+                assert!(x >= 3 && y >= 3, "{label}: ({x}, {y})");
+                ink += c;
+                right = right.max(x);
+                bottom = bottom.max(y);
+            });
+            // Capitals about 10 pixels high and 8 wide each: some ink, within the box.
+            assert!(ink > 20.0 * label.len() as f32, "{label}: {ink}");
+            assert!(
+                bottom <= 4 + 14 && right <= 4 + 11 * label.len() as i64,
+                "{label}"
+            );
         }
-        let mut lit = 0;
-        draw_text("T", 0, 0, 2, &mut |_, _| lit += 1);
-        assert_eq!(lit, (5 + 6) * 4);
     }
 }

@@ -15,10 +15,12 @@
 //! - this file: options, composing the views, PNG output.
 //! - `views`: the projections.
 //! - `shapes`: the world as polygons and quadrics.
-//! - `raster`: the z-buffer rasterizer.
-//! - `font`: the view labels.
+//! - `raster`: the z-buffer rasterizer (faces).
+//! - `pen`: antialiased lines and marks (tiny-skia) drawn over the faces.
+//! - `font`: the view labels in the embedded DejaVu Sans.
 
 mod font;
+pub mod pen;
 pub mod raster;
 pub mod shapes;
 pub mod views;
@@ -26,6 +28,7 @@ pub mod views;
 use crate::error::ModelError;
 use crate::project::Project;
 use glam::DVec3;
+use pen::Pen;
 use raster::Canvas;
 use shapes::{bounds_of, Drawables};
 use views::View;
@@ -37,6 +40,9 @@ const LIGHT: [f32; 3] = [1.0, 1.0, 1.0];
 const CAMERA: [f32; 3] = [0.2, 0.9, 0.9];
 const LABEL: [f32; 3] = [0.8, 0.8, 0.8];
 const GAP: usize = 2;
+/// Stroke widths in pixels: model edges and axes, skeletons and the camera's line of sight.
+const THIN: f32 = 1.0;
+const BOLD: f32 = 1.6;
 
 /// How surfaces are drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -170,17 +176,15 @@ pub fn render_world(
         (Some(side), 1, 1),
     ];
     for (v, cx, cy) in cells {
-        let canvas = match &v {
+        let pen = match &v {
             Some(v) => draw_view(v, &drawables, overlay, (lo, hi), opts.style, view.is_none()),
-            None => Canvas::new(size, size, BACKGROUND),
+            None => Pen::new(size, size, BACKGROUND),
         };
+        let Some(pen) = pen else { continue };
         let (ox, oy) = (GAP + cx * (size + GAP), GAP + cy * (size + GAP));
-        for y in 0..size {
-            for x in 0..size {
-                let c =
-                    canvas.color[y * size + x].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8);
-                out.put_pixel((ox + x) as u32, (oy + y) as u32, image::Rgb(c));
-            }
+        for (i, c) in pen.rgb().enumerate() {
+            let (x, y) = (i % size, i / size);
+            out.put_pixel((ox + x) as u32, (oy + y) as u32, image::Rgb(c));
         }
     }
     out
@@ -193,8 +197,8 @@ fn draw_view(
     bounds: (DVec3, DVec3),
     style: Style,
     camera_view: bool,
-) -> Canvas {
-    let mut c = Canvas::new(v.width, v.height, BACKGROUND);
+) -> Option<Pen> {
+    let mut c = Pen::new(v.width, v.height, BACKGROUND)?;
     if matches!(v.projection, views::Projection::Ortho { .. }) {
         for (k, col) in [[0.45, 0.2, 0.2], [0.2, 0.45, 0.2], [0.2, 0.25, 0.5]]
             .into_iter()
@@ -202,30 +206,30 @@ fn draw_view(
         {
             let mut a = DVec3::ZERO;
             a[k] = 1e6;
-            c.line(v.project(-a), v.project(a), col, false);
+            c.line(v.project(-a), v.project(a), col, THIN);
         }
     }
     match style {
         Style::Flat => draw_flat(v, d, &mut c),
         Style::Wire => draw_wire(v, d, bounds, &mut c),
     }
-    let segment = |c: &mut Canvas, a: DVec3, b: DVec3, col: [f32; 3]| {
+    let segment = |c: &mut Pen, a: DVec3, b: DVec3, col: [f32; 3], width: f32| {
         let pts = v.clip_near(&[a, b], false);
         if pts.len() == 2 {
-            c.line(v.project(pts[0]), v.project(pts[1]), col, false);
+            c.line(v.project(pts[0]), v.project(pts[1]), col, width);
         }
     };
     for ctrl in &overlay.controls {
         for w in ctrl.windows(2) {
-            segment(&mut c, w[0], w[1], CONTROL);
+            segment(&mut c, w[0], w[1], CONTROL, THIN);
         }
     }
     for (curve, closed) in &overlay.curves {
         for w in curve.windows(2) {
-            segment(&mut c, w[0], w[1], SKELETON);
+            segment(&mut c, w[0], w[1], SKELETON, BOLD);
         }
         if *closed && curve.len() > 2 {
-            segment(&mut c, curve[curve.len() - 1], curve[0], SKELETON);
+            segment(&mut c, curve[curve.len() - 1], curve[0], SKELETON, BOLD);
         }
     }
     let visible = |p: DVec3| v.depth(p) > 0.0;
@@ -239,14 +243,16 @@ fn draw_view(
         overlay.camera,
         camera_view && matches!(v.projection, views::Projection::Perspective { .. }),
     ) {
-        segment(&mut c, pos, at, CAMERA);
+        segment(&mut c, pos, at, CAMERA, THIN);
         if visible(pos) {
             c.cross(v.project(pos), 4, CAMERA);
         }
     }
-    let scale = if v.width >= 400 { 2 } else { 1 };
-    font::draw_text(v.label, 4, 4, scale, &mut |x, y| c.plot(x, y, None, LABEL));
-    c
+    let px = (v.width as f32 / 18.0).clamp(11.0, 20.0);
+    font::draw_text(v.label, 5.0, 4.0, px, &mut |x, y, a| {
+        c.blend(x, y, LABEL, a)
+    });
+    Some(c)
 }
 
 /// Flat shading: a light at the viewer, so a face's brightness is how squarely it faces us.
@@ -255,7 +261,14 @@ fn shade(color: [f32; 3], normal: DVec3, toward: DVec3) -> [f32; 3] {
     color.map(|c| c * k)
 }
 
-fn draw_flat(v: &View, d: &Drawables, c: &mut Canvas) {
+/// Faces into a z-buffer, then onto the view (over the axes, under the overlay).
+fn draw_flat(v: &View, d: &Drawables, pen: &mut Pen) {
+    let mut c = Canvas::new(v.width, v.height, BACKGROUND);
+    faces(v, d, &mut c);
+    pen.faces(&c);
+}
+
+fn faces(v: &View, d: &Drawables, c: &mut Canvas) {
     for (poly, color) in &d.polygons {
         let clipped = v.clip_near(poly, true);
         if clipped.len() < 3 {
@@ -289,11 +302,11 @@ fn draw_flat(v: &View, d: &Drawables, c: &mut Canvas) {
     }
 }
 
-fn draw_wire(v: &View, d: &Drawables, bounds: (DVec3, DVec3), c: &mut Canvas) {
-    let edge = |c: &mut Canvas, a: DVec3, b: DVec3, col: [f32; 3]| {
+fn draw_wire(v: &View, d: &Drawables, bounds: (DVec3, DVec3), c: &mut Pen) {
+    let edge = |c: &mut Pen, a: DVec3, b: DVec3, col: [f32; 3]| {
         let pts = v.clip_near(&[a, b], false);
         if pts.len() == 2 {
-            c.line(v.project(pts[0]), v.project(pts[1]), col, false);
+            c.line(v.project(pts[0]), v.project(pts[1]), col, THIN);
         }
     };
     for (poly, color) in &d.polygons {

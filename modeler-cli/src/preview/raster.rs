@@ -1,5 +1,5 @@
-//! A small z-buffer rasterizer: filled polygons (any outline, even-odd rule) with a depth
-//! per pixel, lines, and a few marks. Pixel centres are at integer coordinates; `key` is a
+//! A small z-buffer rasterizer for the faces: filled polygons (any outline, even-odd rule)
+//! with a depth per pixel (lines and marks are drawn over them by [`super::pen`]). Pixel centres are at integer coordinates; `key` is a
 //! depth value that is affine in screen space and larger when nearer (the view-space depth
 //! negated for orthographic views, 1/depth for perspective).
 
@@ -103,71 +103,6 @@ impl Canvas {
             }
         }
     }
-
-    /// Draws a line, clipped to the canvas; with `depth`, each pixel is depth-tested.
-    pub fn line(&mut self, a: ScreenPoint, b: ScreenPoint, c: [f32; 3], depth: bool) {
-        let Some((a, b)) = clip_to_rect(a, b, self.width as f64, self.height as f64) else {
-            return;
-        };
-        let steps = (b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil().max(1.0) as i64;
-        for s in 0..=steps {
-            let t = s as f64 / steps as f64;
-            let x = (a[0] + (b[0] - a[0]) * t).round() as i64;
-            let y = (a[1] + (b[1] - a[1]) * t).round() as i64;
-            let key = depth.then(|| (a[2] + (b[2] - a[2]) * t) as f32 + 1e-4);
-            self.plot(x, y, key, c);
-        }
-    }
-
-    /// A small cross centred on a point, drawn on top.
-    pub fn cross(&mut self, p: ScreenPoint, r: i64, c: [f32; 3]) {
-        if !(p[0].is_finite() && p[1].is_finite()) {
-            return;
-        }
-        let (x, y) = (p[0].round() as i64, p[1].round() as i64);
-        for d in -r..=r {
-            self.plot(x + d, y, None, c);
-            self.plot(x, y + d, None, c);
-        }
-    }
-}
-
-/// Liang-Barsky clipping of a segment to the pixel centres [0, w-1] x [0, h-1].
-fn clip_to_rect(
-    a: ScreenPoint,
-    b: ScreenPoint,
-    w: f64,
-    h: f64,
-) -> Option<(ScreenPoint, ScreenPoint)> {
-    if !a.iter().chain(b.iter()).all(|v| v.is_finite()) {
-        return None;
-    }
-    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [
-        (-d[0], a[0]),
-        (d[0], w - 1.0 - a[0]),
-        (-d[1], a[1]),
-        (d[1], h - 1.0 - a[1]),
-    ] {
-        if p == 0.0 {
-            if q < 0.0 {
-                return None;
-            }
-        } else {
-            let r = q / p;
-            if p < 0.0 {
-                t0 = t0.max(r);
-            } else {
-                t1 = t1.min(r);
-            }
-        }
-    }
-    if t0 > t1 {
-        return None;
-    }
-    let at = |t: f64| [a[0] + d[0] * t, a[1] + d[1] * t, a[2] + d[2] * t];
-    Some((at(t0), at(t1)))
 }
 
 #[cfg(test)]
@@ -267,14 +202,5 @@ mod tests {
         );
         assert_eq!(c.color[..5], [BLUE; 5]);
         assert_eq!(c.color[5..], [RED; 5]);
-    }
-
-    #[test]
-    fn lines_far_outside_are_clipped_cheaply() {
-        let mut c = Canvas::new(10, 10, [0.0; 3]);
-        c.line([-1e12, 5.0, 0.0], [1e12, 5.0, 0.0], RED, false);
-        assert_eq!(count(&c, RED), 10);
-        c.line([f64::NAN, 0.0, 0.0], [1.0, 1.0, 0.0], BLUE, false);
-        assert_eq!(count(&c, BLUE), 0);
     }
 }

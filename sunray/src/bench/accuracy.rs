@@ -9,7 +9,7 @@
 //! jittered in a cell chosen by a per-pixel random permutation of the sample indices. See
 //! docs/accuracy.md for the measured slopes.
 
-use super::plot::{loglog, Series};
+use super::plot::{loglog, Labels, PlotError, Series};
 use crate::accel::{Accel, AccelOptions, Scratch};
 use crate::camera::Camera;
 use crate::geometry::{Real, Vec3};
@@ -75,12 +75,15 @@ begin
   begin attribute(color = 0.3,0.4,1); sphere(center = 1.8,0.7,-4 ; radius = 0.7); end
 end";
 
+/// Why the accuracy benchmark stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum AccuracyError {
+    /// A built-in scene did not compile (its name and the compiler's message).
     #[error("benchmark scene {0} does not compile: {1}")]
     Scene(&'static str, String),
-    #[error("writing the plot: {0}")]
-    Plot(#[from] image::ImageError),
+    /// The plot could not be drawn or written.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
 }
 
 /// One measured point.
@@ -277,13 +280,22 @@ pub fn run(
         );
         text += &format!("| {name} (reference) | {reference_samples} | {ref_s:.3} | 0 | 0 |\n");
         series.push(Series {
+            name: name.replace('_', " "),
             colour,
             points: by_time,
         });
     }
     text += &slopes;
     if let Some(path) = plot {
-        loglog(&series, path)?;
+        let title = format!(
+            "RMS error against render time, {size}×{size} pixels, 1 to {max_samples} samples/pixel"
+        );
+        let labels = Labels {
+            title: &title,
+            x: "render time (s, wall clock)",
+            y: "RMS error (linear radiance)",
+        };
+        loglog(&series, &labels, path)?;
     }
     Ok((rows, text))
 }
