@@ -18,7 +18,7 @@ pub const DEFAULT_SMOOTHNESS: u32 = 8;
 pub const MAX_SMOOTHNESS: u32 = 256;
 
 /// A principal plane.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Plane {
     /// x,y (the front view); depth is z.
@@ -57,7 +57,7 @@ impl Plane {
 }
 
 /// What a skeleton's points mean.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SkeletonKind {
     /// Separate points (a sphere's centre and surface point, for instance).

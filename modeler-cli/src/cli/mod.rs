@@ -9,6 +9,7 @@
 //! - `edit`: the editing operations on a project.
 //! - `script`: script mode.
 //! - `show`: the listing of a project.
+//! - `values`: how the library's planes, skeleton kinds and preview styles are spelled.
 
 pub mod args;
 pub mod commands;
@@ -16,6 +17,7 @@ pub mod edit;
 pub mod script;
 pub mod shape_args;
 pub mod show;
+pub mod values;
 
 use crate::error::ModelError;
 use crate::preview::{self, Options};

@@ -45,7 +45,7 @@ const THIN: f32 = 1.0;
 const BOLD: f32 = 1.6;
 
 /// How surfaces are drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Style {
     /// Polygon edges (and contour slices of quadrics), everything visible.
     Wire,
