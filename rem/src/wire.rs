@@ -15,6 +15,15 @@ pub const BATCH: usize = 512;
 /// Bytes of envelopes in one batch (one envelope may be larger on its own).
 pub const BATCH_BYTES: usize = 1 << 20;
 
+/// What remd prints first on stdout, followed by the address it listens on, so whoever
+/// started it with port 0 learns the port.
+pub const LISTENING: &str = "remd listening on ";
+
+/// The address in remd's first line of output ([`LISTENING`] ADDR), if it is that line.
+pub fn listening_addr(line: &str) -> Option<&str> {
+    line.trim().strip_prefix(LISTENING)
+}
+
 /// Environment variables every spawned process receives (and the client reads).
 pub mod env {
     /// Address (`HOST:PORT`) of the local remd.

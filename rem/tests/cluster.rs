@@ -266,11 +266,7 @@ async fn remd_takes_settings_from_environment_and_config_file() {
     std::io::BufReader::new(env_child.stdout.take().unwrap())
         .read_line(&mut line)
         .unwrap();
-    let env_addr = line
-        .trim()
-        .strip_prefix("remd listening on ")
-        .unwrap()
-        .to_string();
+    let env_addr = rem::wire::listening_addr(&line).unwrap().to_string();
     // A TOML file joining the first.
     let cfg = dir.path().join("remd.toml");
     std::fs::write(

@@ -6,23 +6,12 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 /// A folder holding `tetra6.nff`, `mount6.nff` and `balls4.nff`, written once per test
-/// process under target/<profile>/e2e-fixtures (each file under a temporary name, then
-/// renamed, so test processes running at once never see half a file).
+/// process under target/<profile>/e2e-fixtures.
 pub fn spd_dir() -> PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let dir = super::bins::bin_dir().join("e2e-fixtures/spd");
-        std::fs::create_dir_all(&dir).unwrap();
-        for (db, size, file) in [
-            (yari::spd::Database::Tetra, 6, "tetra6.nff"),
-            (yari::spd::Database::Mount, 6, "mount6.nff"),
-            (yari::spd::Database::Balls, 4, "balls4.nff"),
-        ] {
-            let text = yari::nff::write(&yari::spd::generate(db, size).unwrap());
-            let tmp = dir.join(format!("{file}.{}", std::process::id()));
-            std::fs::write(&tmp, text).unwrap();
-            std::fs::rename(&tmp, dir.join(file)).unwrap();
-        }
+        yari::spd::write_reference_files(&dir).unwrap();
         dir
     })
     .clone()

@@ -3,6 +3,7 @@
 //! farm.
 
 use super::bins::{remd_bin, sunray, sunray_bin};
+use rem::wire::listening_addr;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -10,11 +11,6 @@ use std::time::{Duration, Instant};
 
 /// The secret of a [`LoopbackCluster`].
 pub const SECRET: &str = "submit-test-secret";
-
-/// The address a `remd` prints on its first line ("remd listening on ADDR").
-pub fn listening_addr(line: &str) -> Option<&str> {
-    line.trim().strip_prefix("remd listening on ")
-}
 
 /// One remd process; killed when dropped.
 pub struct Remd {
@@ -96,8 +92,11 @@ impl LoopbackCluster {
         }
     }
 
-    /// Waits until the first daemon sees all `n` hosts alive (bounded).
-    fn converge(&self, n: usize) {
+    /// Runs `f` with a client of daemon `a`, on a runtime of its own.
+    fn with_client<T, F: std::future::Future<Output = T>>(
+        &self,
+        f: impl FnOnce(rem::RemClient) -> F,
+    ) -> T {
         let rt = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()
@@ -107,6 +106,13 @@ impl LoopbackCluster {
             let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
                 .await
                 .unwrap();
+            f(client).await
+        })
+    }
+
+    /// Waits until the first daemon sees all `n` hosts alive (bounded).
+    fn converge(&self, n: usize) {
+        self.with_client(|client| async move {
             let end = Instant::now() + Duration::from_secs(20);
             loop {
                 let hosts = client.hosts().await.unwrap();
@@ -116,22 +122,12 @@ impl LoopbackCluster {
                 assert!(Instant::now() < end, "cluster did not converge: {hosts:#?}");
                 tokio::time::sleep(Duration::from_millis(50)).await;
             }
-        });
+        })
     }
 
     /// The REM processes of the cluster (to check that nothing was started).
     pub fn processes(&self) -> Vec<rem::ProcessInfo> {
-        let rt = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .unwrap();
-        rt.block_on(async {
-            let secret = rem::Secret::new(SECRET).unwrap();
-            let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
-                .await
-                .unwrap();
-            client.ps().await.unwrap()
-        })
+        self.with_client(|client| async move { client.ps().await.unwrap() })
     }
 
     /// `sunray submit` against daemon `a`.

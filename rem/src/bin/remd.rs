@@ -46,7 +46,7 @@ async fn serve(settings: DaemonSettings) -> anyhow::Result<()> {
         .await
         .map_err(|e| anyhow::anyhow!("cannot listen on {}: {e}", settings.listen))?;
     let addr = listener.local_addr()?;
-    println!("remd listening on {addr}");
+    println!("{}{addr}", rem::wire::LISTENING);
     std::io::stdout().flush()?;
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     let shutdown = async move {

@@ -184,8 +184,7 @@ fn read_addr(child: &mut Child) -> String {
     let out = child.stdout.take().unwrap();
     let mut line = String::new();
     BufReader::new(out).read_line(&mut line).unwrap();
-    line.trim()
-        .strip_prefix("remd listening on ")
+    rem::wire::listening_addr(&line)
         .unwrap_or_else(|| panic!("bad first line {line:?}"))
         .to_string()
 }

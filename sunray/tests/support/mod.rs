@@ -14,23 +14,12 @@ pub fn thesis(name: &str) -> PathBuf {
 }
 
 /// Haines's SPD file `NAME` (`tetra6.nff`, `mount6.nff` or `balls4.nff`), generated once per
-/// test process under cargo's target/tmp (written under a temporary name and renamed, so test
-/// processes running at once never see half a file).
+/// test process under cargo's target/tmp.
 pub fn spd_file(name: &str) -> PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     let dir = DIR.get_or_init(|| {
         let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("spd");
-        std::fs::create_dir_all(&dir).unwrap();
-        for (db, size, file) in [
-            (yari::spd::Database::Tetra, 6, "tetra6.nff"),
-            (yari::spd::Database::Mount, 6, "mount6.nff"),
-            (yari::spd::Database::Balls, 4, "balls4.nff"),
-        ] {
-            let text = yari::nff::write(&yari::spd::generate(db, size).unwrap());
-            let tmp = dir.join(format!("{file}.{}", std::process::id()));
-            std::fs::write(&tmp, text).unwrap();
-            std::fs::rename(&tmp, dir.join(file)).unwrap();
-        }
+        yari::spd::write_reference_files(&dir).unwrap();
         dir
     });
     dir.join(name)

@@ -90,5 +90,28 @@ pub fn generate(db: Database, size: u32) -> Result<NffScene, SizeError> {
     })
 }
 
+/// Haines's reference files: every database at its default size.
+pub const REFERENCE_SET: [Database; 3] = [Database::Tetra, Database::Mount, Database::Balls];
+
+/// The name of `db`'s reference file: `tetra6.nff`, `mount6.nff`, `balls4.nff`.
+pub fn reference_file_name(db: Database) -> String {
+    format!("{}{}.nff", db.name(), db.default_size())
+}
+
+/// Writes Haines's reference files (the [`REFERENCE_SET`] as NFF, byte for byte what his
+/// generators write) into `dir`, each under a temporary name and then renamed, so processes
+/// doing the same at once never see half a file.
+pub fn write_reference_files(dir: &std::path::Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    for db in REFERENCE_SET {
+        let scene = generate(db, db.default_size()).map_err(std::io::Error::other)?;
+        let name = reference_file_name(db);
+        let tmp = dir.join(format!("{name}.{}", std::process::id()));
+        std::fs::write(&tmp, crate::nff::write(&scene))?;
+        std::fs::rename(&tmp, dir.join(name))?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod reference_tests;

@@ -197,3 +197,16 @@ fn cones_compile_to_clipped_quadrics() {
         s => panic!("not a quadric: {s:?}"),
     }
 }
+
+/// The files the tests render are Haines's files, under his names.
+#[test]
+fn reference_files_are_written_under_haines_names() {
+    let dir = std::env::temp_dir().join(format!("yari-spd-ref-{}", std::process::id()));
+    super::write_reference_files(&dir).unwrap();
+    for (name, _, _, len, sha) in HAINES {
+        let bytes = std::fs::read(dir.join(name)).unwrap();
+        assert_eq!(bytes.len(), len, "{name}");
+        assert_eq!(hex(&Sha256::digest(&bytes)), sha, "{name}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
