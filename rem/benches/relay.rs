@@ -51,7 +51,7 @@ fn percentile(sorted: &[Duration], p: f64) -> Duration {
 }
 
 async fn run() {
-    let cluster = Cluster::start(3, &[]);
+    let cluster = RemdProcesses::start(3, &[]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(Some("bench")).await.unwrap();

@@ -71,6 +71,7 @@ impl Secret {
         })
     }
 
+    /// The secret's bytes (to compare or send; never to print).
     pub fn as_bytes(&self) -> &[u8] {
         &self.0
     }
@@ -111,6 +112,7 @@ impl Interceptor for RequireSecret {
 pub struct SendSecret(BinaryMetadataValue);
 
 impl SendSecret {
+    /// An interceptor that sends `secret` with every call.
     pub fn new(secret: &Secret) -> Self {
         SendSecret(BinaryMetadataValue::from_bytes(secret.as_bytes()))
     }

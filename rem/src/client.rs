@@ -18,6 +18,7 @@ pub use crate::rpc::RemRpc;
 pub struct ConnectOptions {
     /// `HOST:PORT` (or an `http(s)://` URL).
     pub addr: String,
+    /// The cluster secret, sent with every call.
     pub secret: Secret,
     /// Verify the daemon's TLS certificate with this; `None` = plain HTTP/2.
     pub tls: Option<ClientTls>,
@@ -26,6 +27,7 @@ pub struct ConnectOptions {
 }
 
 impl ConnectOptions {
+    /// Plain HTTP/2 to `addr` with `secret` and the default message limit.
     pub fn new(addr: impl Into<String>, secret: Secret) -> Self {
         ConnectOptions {
             addr: addr.into(),
@@ -60,10 +62,13 @@ impl ConnectOptions {
 pub struct SpawnRequest {
     /// Absolute path; must be on the allow-list of every chosen host.
     pub program: String,
+    /// Its arguments.
     pub args: Vec<String>,
+    /// Environment variables added to what REM gives every process (`REM_*`).
     pub env: BTreeMap<String, String>,
     /// Nice value applied with setpriority (-20..19); `None` = inherit remd's.
     pub nice: Option<i32>,
+    /// How many processes, on the least-loaded hosts.
     pub count: u32,
     /// Allow more than one process per host.
     pub allow_same_host: bool,
@@ -91,7 +96,9 @@ impl Default for SpawnRequest {
 /// One started process.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Spawned {
+    /// Its REM id (`HOST/NUMBER`).
     pub proc_id: ProcId,
+    /// The host it runs on.
     pub host: String,
     /// OS process id on its host.
     pub pid: u32,
@@ -100,13 +107,16 @@ pub struct Spawned {
 /// The result of a spawn.
 #[derive(Clone, Debug)]
 pub struct Job {
+    /// The job id (given, or made up by the daemon).
     pub id: String,
+    /// Its processes, one per placement.
     pub processes: Vec<Spawned>,
 }
 
 /// A kept checkpoint.
 #[derive(Clone, Debug)]
 pub struct StoredCheckpoint {
+    /// Increases with every store of the same key.
     pub version: u64,
     /// Hosts that hold it.
     pub stored_on: Vec<String>,
@@ -115,8 +125,11 @@ pub struct StoredCheckpoint {
 /// A process's kept output.
 #[derive(Clone, Debug)]
 pub struct Logs {
+    /// The last bytes of its standard output.
     pub stdout: Vec<u8>,
+    /// The last bytes of its standard error.
     pub stderr: Vec<u8>,
+    /// Whether older output was dropped to keep within the daemon's limit.
     pub truncated: bool,
 }
 
@@ -164,6 +177,7 @@ impl RemClient {
         Relay::open(client.rpc_mut(), max, Some(&id), &job, owner).await
     }
 
+    /// How this client connected.
     pub fn options(&self) -> &ConnectOptions {
         &self.opts
     }

@@ -61,21 +61,28 @@ pub struct RemdArgs {
     /// Directory for checkpoints.
     #[arg(long, env = "REMD_STATE_DIR")]
     pub state_dir: Option<PathBuf>,
+    /// Milliseconds between heartbeats to each member [default: 250].
     #[arg(long, env = "REMD_HEARTBEAT_MS")]
     pub heartbeat_ms: Option<u64>,
+    /// A member not heard from for this many milliseconds is lost [default: 1500].
     #[arg(long, env = "REMD_LOST_AFTER_MS")]
     pub lost_after_ms: Option<u64>,
     /// Largest relay message payload in bytes.
     #[arg(long, env = "REMD_MAX_MESSAGE")]
     pub max_message: Option<usize>,
+    /// Milliseconds between SIGTERM and SIGKILL when a process is killed [default: 2000].
     #[arg(long, env = "REMD_KILL_GRACE_MS")]
     pub kill_grace_ms: Option<u64>,
+    /// PEM certificate to serve TLS with (with --tls-key; plain HTTP/2 without).
     #[arg(long, env = "REMD_TLS_CERT")]
     pub tls_cert: Option<PathBuf>,
+    /// PEM private key of --tls-cert.
     #[arg(long, env = "REMD_TLS_KEY")]
     pub tls_key: Option<PathBuf>,
+    /// CA to verify other daemons with [default: the daemon's own certificate].
     #[arg(long, env = "REMD_TLS_CA")]
     pub tls_ca: Option<PathBuf>,
+    /// Name to expect in other daemons' certificates.
     #[arg(long, env = "REMD_TLS_DOMAIN")]
     pub tls_domain: Option<String>,
 }
@@ -83,47 +90,60 @@ pub struct RemdArgs {
 /// The TOML file: the same keys as the flags (with `_`), all optional.
 #[derive(Deserialize, Debug, Default)]
 #[serde(deny_unknown_fields)]
-pub struct FileConfig {
-    pub name: Option<String>,
-    pub listen: Option<SocketAddr>,
-    pub advertise: Option<String>,
+pub(crate) struct FileConfig {
+    pub(crate) name: Option<String>,
+    pub(crate) listen: Option<SocketAddr>,
+    pub(crate) advertise: Option<String>,
     #[serde(default)]
-    pub join: Vec<String>,
-    pub secret_file: Option<PathBuf>,
+    pub(crate) join: Vec<String>,
+    pub(crate) secret_file: Option<PathBuf>,
     #[serde(default)]
-    pub allow: Vec<PathBuf>,
-    pub state_dir: Option<PathBuf>,
-    pub heartbeat_ms: Option<u64>,
-    pub lost_after_ms: Option<u64>,
-    pub max_message: Option<usize>,
-    pub kill_grace_ms: Option<u64>,
-    pub tls_cert: Option<PathBuf>,
-    pub tls_key: Option<PathBuf>,
-    pub tls_ca: Option<PathBuf>,
-    pub tls_domain: Option<String>,
+    pub(crate) allow: Vec<PathBuf>,
+    pub(crate) state_dir: Option<PathBuf>,
+    pub(crate) heartbeat_ms: Option<u64>,
+    pub(crate) lost_after_ms: Option<u64>,
+    pub(crate) max_message: Option<usize>,
+    pub(crate) kill_grace_ms: Option<u64>,
+    pub(crate) tls_cert: Option<PathBuf>,
+    pub(crate) tls_key: Option<PathBuf>,
+    pub(crate) tls_ca: Option<PathBuf>,
+    pub(crate) tls_domain: Option<String>,
 }
 
 /// Everything a daemon runs with.
 #[derive(Clone, Debug)]
 pub struct DaemonSettings {
+    /// This host's name in the cluster ([A-Za-z0-9._-]).
     pub name: String,
+    /// Address to listen on (port 0 lets the OS choose).
     pub listen: SocketAddr,
+    /// Address others use to reach this daemon [default: the bound address].
     pub advertise: Option<String>,
+    /// Members to join through.
     pub join: Vec<String>,
+    /// The cluster secret.
     pub secret: Secret,
     /// Where the secret came from (handed to children as `REM_SECRET_FILE`).
     pub secret_file: Option<PathBuf>,
+    /// Absolute paths of the programs that may be spawned.
     pub allow: Vec<PathBuf>,
+    /// Directory for checkpoints [default: a temporary one].
     pub state_dir: Option<PathBuf>,
+    /// Time between heartbeats to each member.
     pub heartbeat: Duration,
+    /// A member not heard from for this long is lost.
     pub lost_after: Duration,
+    /// Time between samples of this host's load.
     pub load_interval: Duration,
+    /// Largest relay message payload in bytes.
     pub max_message: usize,
     /// Capacity of every relay queue (envelopes).
     pub queue: usize,
+    /// Time between SIGTERM and SIGKILL when a process is killed.
     pub kill_grace: Duration,
     /// Bytes of stdout and of stderr kept per process.
     pub log_bytes: usize,
+    /// TLS certificate and key to serve with (`None`: plain HTTP/2).
     pub tls: Option<ServerTlsFiles>,
 }
 

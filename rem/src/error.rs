@@ -18,37 +18,58 @@ pub enum Error {
     /// Fewer eligible hosts than processes asked for.
     #[error("cannot place {wanted} process(es): only {eligible} eligible host(s) ({detail})")]
     NotEnoughHosts {
+        /// Processes asked for.
         wanted: u32,
+        /// Hosts that could take one.
         eligible: u32,
+        /// Why the others cannot.
         detail: String,
     },
     /// A message is larger than the relay's limit.
     #[error("message of {size} bytes exceeds the limit of {limit} bytes")]
-    TooLarge { size: usize, limit: usize },
+    TooLarge {
+        /// The message's size in bytes.
+        size: usize,
+        /// The limit in bytes.
+        limit: usize,
+    },
     /// A host did not answer.
     #[error("host {host} is unreachable: {reason}")]
-    Unreachable { host: String, reason: String },
+    Unreachable {
+        /// The host's name or address.
+        host: String,
+        /// What the transport said.
+        reason: String,
+    },
     /// The daemon is shutting down and takes no new work.
     #[error("the daemon is shutting down")]
     ShuttingDown,
     /// Starting the OS process failed.
     #[error("cannot start {program}: {reason}")]
-    Spawn { program: String, reason: String },
+    Spawn {
+        /// The program.
+        program: String,
+        /// What the OS said.
+        reason: String,
+    },
     /// Configuration is missing or wrong.
     #[error("configuration: {0}")]
     Config(String),
     /// The relay stream ended.
     #[error("the relay connection is closed")]
     Closed,
+    /// A file or socket operation failed.
     #[error("i/o: {0}")]
     Io(#[from] std::io::Error),
     /// A daemon answered with an error status.
     #[error("{:?}: {}", .0.code(), .0.message())]
     Rpc(#[from] Status),
+    /// A connection could not be made or broke.
     #[error("transport: {0}")]
     Transport(#[from] tonic::transport::Error),
 }
 
+/// REM's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {

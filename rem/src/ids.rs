@@ -39,6 +39,7 @@ impl ProcId {
         self.0.split_once('/').map(|(h, _)| h).unwrap_or(&self.0)
     }
 
+    /// `HOST/NUMBER`.
     pub fn as_str(&self) -> &str {
         &self.0
     }

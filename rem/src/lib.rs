@@ -71,29 +71,29 @@
 //! - [`rpc`]: the generated client with the secret attached, under both of:
 //! - [`client`]: [`RemClient`]; [`relay_client`]: [`Relay`] for job owners and processes.
 
-pub mod attach;
+mod attach;
 pub mod auth;
-pub mod cgroup;
-pub mod checkpoint;
-pub mod child;
+mod cgroup;
+mod checkpoint;
+mod child;
 pub mod client;
 pub mod config;
-pub mod daemon;
+mod daemon;
 pub mod embedded;
 pub mod error;
 pub mod ids;
-pub mod jobs;
-pub mod load;
-pub mod logbuf;
-pub mod membership;
-pub mod peers;
-pub mod placement;
-pub mod process;
-pub mod relay;
+mod jobs;
+mod load;
+mod logbuf;
+mod membership;
+mod peers;
+mod placement;
+mod process;
+mod relay;
 pub mod relay_client;
-pub mod rpc;
+mod rpc;
 pub mod server;
-pub mod service;
+mod service;
 pub mod transport;
 pub mod wire;
 

@@ -104,10 +104,6 @@ impl Membership {
         &self.me.name
     }
 
-    pub fn addr(&self) -> &str {
-        &self.me.addr
-    }
-
     /// This daemon's own entry, with current load.
     pub fn me(&self) -> HostInfo {
         HostInfo {
@@ -141,11 +137,6 @@ impl Membership {
     /// The current table (cheap: a shared snapshot).
     pub fn view(&self) -> Arc<View> {
         self.view.borrow().clone()
-    }
-
-    /// A receiver that sees every new table.
-    pub fn watch(&self) -> watch::Receiver<Arc<View>> {
-        self.view.clone()
     }
 
     pub fn subscribe(&self) -> broadcast::Receiver<MemberEvent> {
@@ -189,23 +180,6 @@ impl Membership {
             addr: e.addr.clone(),
         }));
         out
-    }
-
-    /// Waits until `pred` holds for the table (or `timeout` passes).
-    pub async fn wait_for(&self, timeout: Duration, pred: impl Fn(&View) -> bool) -> bool {
-        let mut rx = self.view.clone();
-        tokio::time::timeout(timeout, async {
-            loop {
-                if pred(&rx.borrow_and_update()) {
-                    return;
-                }
-                if rx.changed().await.is_err() {
-                    return;
-                }
-            }
-        })
-        .await
-        .is_ok()
     }
 }
 

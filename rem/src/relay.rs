@@ -97,10 +97,6 @@ impl Router {
         router
     }
 
-    pub fn host(&self) -> &str {
-        &self.inner.host
-    }
-
     /// Creates the mailbox of a local process (before it starts, so nothing sent early is lost).
     pub fn register(&self, id: &ProcId) {
         let (tx, rx) = mpsc::channel(self.inner.queue);

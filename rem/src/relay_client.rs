@@ -22,11 +22,21 @@ pub const SEND_QUEUE: usize = 1024;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Incoming {
     /// A message from another process.
-    Message { from: String, payload: Vec<u8> },
+    Message {
+        /// The sender's process id (`HOST/NUMBER`), as the daemons saw it.
+        from: String,
+        /// The message, as sent.
+        payload: Vec<u8>,
+    },
     /// A job event (for a job owner): Started, Exited (code / signal), Lost.
     Event(JobEvent),
     /// A message this process sent could not be delivered.
-    Undeliverable { to: String, reason: String },
+    Undeliverable {
+        /// The process it was for.
+        to: String,
+        /// Why it could not be delivered.
+        reason: String,
+    },
 }
 
 /// The sending half; cheap to clone.
@@ -170,6 +180,7 @@ impl Relay {
         &self.id
     }
 
+    /// The job this process belongs to ("" for none).
     pub fn job(&self) -> &str {
         &self.job
     }
@@ -189,10 +200,12 @@ impl Relay {
         self.sender.clone()
     }
 
+    /// Sends `payload` to process `to` (see [`RelaySender::send`]).
     pub async fn send(&self, to: &ProcId, payload: impl Into<Vec<u8>>) -> Result<()> {
         self.sender.send(to, payload).await
     }
 
+    /// The next delivery (see [`RelayReceiver::recv`]).
     pub async fn recv(&mut self) -> Result<Incoming> {
         self.receiver.recv().await
     }

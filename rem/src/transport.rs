@@ -43,20 +43,25 @@ impl ClientTls {
 /// A daemon's certificate and key (PEM files), and the CA its clients should trust.
 #[derive(Clone, Debug)]
 pub struct ServerTlsFiles {
+    /// The daemon's certificate (PEM).
     pub cert: PathBuf,
+    /// Its private key (PEM).
     pub key: PathBuf,
     /// CA for talking to peers; default: the daemon's own certificate (a shared self-signed one).
     pub ca: Option<PathBuf>,
+    /// The name to expect in peers' certificates.
     pub domain: Option<String>,
 }
 
 impl ServerTlsFiles {
+    /// The server side: this daemon's identity.
     pub fn server_config(&self) -> Result<ServerTlsConfig> {
         let cert = read(&self.cert)?;
         let key = read(&self.key)?;
         Ok(ServerTlsConfig::new().identity(Identity::from_pem(cert, key)))
     }
 
+    /// The client side, for calls to peers: trust the CA (or the daemon's own certificate).
     pub fn client_tls(&self) -> Result<ClientTls> {
         let ca = self.ca.as_ref().unwrap_or(&self.cert);
         ClientTls::from_file(ca, self.domain.clone())
