@@ -15,12 +15,12 @@
 //! - [`preview`]: the four views as one PNG, wireframe or flat shaded (z-buffer).
 
 pub mod cli;
-pub mod error;
+mod error;
 pub mod export;
-pub mod import;
+mod import;
 pub mod mesh;
 pub mod preview;
 pub mod project;
-pub mod skeleton;
-pub mod sweep;
-pub mod tree;
+mod skeleton;
+mod sweep;
+mod tree;
