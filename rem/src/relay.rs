@@ -30,7 +30,7 @@ pub enum Delivery {
     Undeliverable(Undeliverable),
 }
 
-struct Mailbox {
+struct ProcessMailbox {
     tx: mpsc::Sender<Delivery>,
     rx: Option<mpsc::Receiver<Delivery>>,
     attached: bool,
@@ -51,7 +51,7 @@ pub struct Router {
 struct Inner {
     host: String,
     queue: usize,
-    mailboxes: RwLock<HashMap<String, Mailbox>>,
+    mailboxes: RwLock<HashMap<String, ProcessMailbox>>,
     links: Mutex<HashMap<String, Link>>,
     membership: Membership,
     peers: PeerPool,
@@ -102,7 +102,7 @@ impl Router {
         let (tx, rx) = mpsc::channel(self.inner.queue);
         self.mailboxes_mut().insert(
             id.to_string(),
-            Mailbox {
+            ProcessMailbox {
                 tx,
                 rx: Some(rx),
                 attached: false,
@@ -145,7 +145,7 @@ impl Router {
         self.mailboxes_mut().remove(id.as_str());
     }
 
-    fn mailboxes_mut(&self) -> std::sync::RwLockWriteGuard<'_, HashMap<String, Mailbox>> {
+    fn mailboxes_mut(&self) -> std::sync::RwLockWriteGuard<'_, HashMap<String, ProcessMailbox>> {
         self.inner
             .mailboxes
             .write()
