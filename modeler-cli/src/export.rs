@@ -115,7 +115,7 @@ fn block(o: &Object) -> Block {
     }
 }
 
-pub fn color(c: &Color) -> ColorSpec {
+fn color(c: &Color) -> ColorSpec {
     match c {
         Color::Named(n) => ColorSpec::Named(n.clone()),
         Color::Rgb(v) => ColorSpec::Rgb(*v),
