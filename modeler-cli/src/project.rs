@@ -5,7 +5,7 @@
 //! named objects. Each object is one YARI `begin ... end` block: an optional surface (its
 //! `attribute`), transformations, primitives and child objects. Transformations are kept
 //! only on objects without children, so that an operation on a composite (translate,
-//! rotate, scale) can be applied to every part in world space; see [`crate::tree`].
+//! rotate, scale) can be applied to every part in world space; see the `tree` module.
 
 use crate::error::ModelError;
 use crate::skeleton::Skeleton;

@@ -1,8 +1,9 @@
 //! The NFF scene as written: Haines's entities in file order, before any mapping to YARI.
 //!
-//! The reader ([`super::read`]) fills it from text, the SPD generators ([`crate::spd`]) build
-//! it in code, the writer ([`super::write`]) prints it back in Haines's own number format, and
-//! [`super::to_yari`] maps it onto the YARI syntax tree.
+//! The reader ([`super::read`](mod@super::read)) fills it from text, the SPD generators
+//! ([`crate::spd`]) build it in code, the writer ([`super::write`](mod@super::write)) prints it
+//! back in Haines's own number format, and [`super::to_yari`](mod@super::to_yari) maps it onto
+//! the YARI syntax tree.
 
 use crate::ast::{Spanned, Vec3};
 use crate::span::Span;

@@ -11,7 +11,7 @@
 //! - [`tetra`]: the recursive tetrahedron.
 //! - [`mount`]: the fractal mountain and its four glass spheres.
 //! - [`balls`]: the sphereflake on a floor polygon.
-//! - [`checkerboard`]: checkerboards of polygons (`check`).
+//! - [`checkerboard`](mod@checkerboard): checkerboards of polygons (`check`).
 
 pub mod balls;
 pub mod checkerboard;
