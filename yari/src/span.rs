@@ -12,7 +12,7 @@ pub struct Span {
 }
 
 impl Span {
-    /// The span `[start, end)` from byte offsets (stored as `u32`: texts are under 4 GiB).
+    /// The span `[start, end)` from byte offsets, stored as `u32` (offsets past 4 GiB do not fit).
     pub fn new(start: usize, end: usize) -> Span {
         Span {
             start: start as u32,
