@@ -2,7 +2,7 @@
 //! block) and prints it with [`yari::writer::write_scene`], then writes each object's name
 //! as a `/* name */` comment on the line before its `begin` and each light's name as a
 //! comment in front of its `light(...)`. Comments are plain YARI, so every reader accepts
-//! the file; [`crate::import`] reads the names back.
+//! the file; `import` reads the names back.
 
 use crate::project::{Clip, Color, Object, Primitive, Project, Surface, Transform};
 use yari::ast::{self, AttrField, Block, BodyItem, ColorSpec, Spanned, ViewStmt};
@@ -115,7 +115,7 @@ fn block(o: &Object) -> Block {
     }
 }
 
-pub fn color(c: &Color) -> ColorSpec {
+fn color(c: &Color) -> ColorSpec {
     match c {
         Color::Named(n) => ColorSpec::Named(n.clone()),
         Color::Rgb(v) => ColorSpec::Rgb(*v),

@@ -4,13 +4,13 @@
 //!
 //! # Layout
 //! - [`project`]: the project (settings, skeletons, object tree), saved atomically as JSON.
-//! - [`error`]: typed errors and name rules.
-//! - [`skeleton`]: points, line segments and Bézier curves in a principal plane.
+//! - `error`: typed errors and name rules.
+//! - `skeleton`: points, line segments and Bézier curves in a principal plane.
 //! - [`mesh`]: polygon meshes and the closed/oriented checks.
-//! - [`sweep`]: revolve (surfaces of revolution) and extrude.
-//! - [`tree`]: the object tree; combine, explode, copy, world-space transformations.
+//! - `sweep`: revolve (surfaces of revolution) and extrude.
+//! - `tree`: the object tree; combine, explode, copy, world-space transformations.
 //! - [`export`]: project to YARI (names as comments).
-//! - [`import`]: YARI to project (names from comments).
+//! - `import`: YARI to project (names from comments).
 //! - [`cli`]: the `modeler` command: subcommands, script mode, listing.
 //! - [`preview`]: the four views as one PNG, wireframe or flat shaded (z-buffer).
 

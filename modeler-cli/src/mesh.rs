@@ -9,7 +9,10 @@ use std::collections::HashMap;
 /// Faces index into one vertex table, so a shared edge has bit-identical end points.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
+    /// The vertex table, each vertex stored once.
     pub vertices: Vec<DVec3>,
+    /// Each face as indices into `vertices`, 3 or more, counter-clockwise seen from outside
+    /// when the mesh is outward.
     pub faces: Vec<Vec<usize>>,
 }
 

@@ -5,7 +5,7 @@
 //! named objects. Each object is one YARI `begin ... end` block: an optional surface (its
 //! `attribute`), transformations, primitives and child objects. Transformations are kept
 //! only on objects without children, so that an operation on a composite (translate,
-//! rotate, scale) can be applied to every part in world space; see [`crate::tree`].
+//! rotate, scale) can be applied to every part in world space; see the `tree` module.
 
 use crate::error::ModelError;
 use crate::skeleton::Skeleton;
@@ -16,12 +16,15 @@ use std::path::Path;
 /// The project file format version written by this program.
 pub const FORMAT_VERSION: u32 = 1;
 
+/// A point, vector or `r,g,b` triple (x, y, z), as in YARI.
 pub type V3 = [f64; 3];
 
 /// A scene being edited.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Project {
+    /// The file format version ([`FORMAT_VERSION`]); a file of a newer version is refused.
     pub version: u32,
+    /// The preamble: resolution, samples, colours, camera, lights, preview viewpoint.
     pub settings: Settings,
     /// Skeletons (outlines, profiles, point sets); the modeler's own, not exported.
     #[serde(default)]
@@ -34,16 +37,22 @@ pub struct Project {
 /// The YARI preamble plus the preview's viewpoint.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Settings {
+    /// `resolution(w, h)` in pixels, 1..65536 each; `None` writes none (YARI's default).
     #[serde(default)]
     pub resolution: Option<[u32; 2]>,
+    /// `samples(n)`, samples per pixel (a YARI extension); `None` writes none (1).
     #[serde(default)]
     pub samples: Option<u32>,
+    /// `background(color = ...)`; `None` writes none (black).
     #[serde(default)]
     pub background: Option<Color>,
+    /// `ambient(color = ...)`; `None` writes none (black).
     #[serde(default)]
     pub ambient: Option<Color>,
+    /// `camera(...)`; `None` writes none (the compiler's default camera, with a warning).
     #[serde(default)]
     pub camera: Option<Camera>,
+    /// The lights, each with a name unique among lights, in the order written.
     #[serde(default)]
     pub lights: Vec<Light>,
     /// Where the preview's perspective view looks from (the editor's "view location");
@@ -56,19 +65,27 @@ pub struct Settings {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Color {
+    /// A colour name (checked against the colour table when set; case is ignored).
     Named(String),
+    /// `r,g,b`, linear, normally 0..1.
     Rgb(V3),
 }
 
+/// The YARI camera, in world space.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
+    /// The eye point.
     pub position: V3,
+    /// The point looked at.
     pub at: V3,
+    /// Which way is up in the image.
     pub up: V3,
     /// Half angle of view in degrees (YARI's `angle`).
     pub angle: f64,
+    /// Lens radius for depth of field (a YARI extension); `None` is a pinhole.
     #[serde(default)]
     pub aperture: Option<f64>,
+    /// Distance to the plane in focus; `None` is the distance from `position` to `at`.
     #[serde(default)]
     pub focus: Option<f64>,
 }
@@ -86,11 +103,16 @@ impl Default for Camera {
     }
 }
 
+/// A named light (the name is written as a comment before its `light(...)`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Light {
+    /// Unique among the project's lights.
     pub name: String,
+    /// Its centre in world space.
     pub position: V3,
+    /// Its colour and intensity.
     pub color: Color,
+    /// Radius of a spherical area light (a YARI extension); `None` is a point light.
     #[serde(default)]
     pub radius: Option<f64>,
 }
@@ -98,8 +120,11 @@ pub struct Light {
 /// The preview's perspective viewpoint.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct View {
+    /// The eye point, in world space.
     pub from: V3,
+    /// The point looked at.
     pub at: V3,
+    /// Which way is up in the view.
     pub up: V3,
     /// Half angle of view in degrees.
     pub angle: f64,
@@ -108,6 +133,7 @@ pub struct View {
 /// One composite object: a YARI block.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Object {
+    /// Unique among all objects of the project (written as a comment before the block).
     pub name: String,
     /// The block's `attribute(...)`; `None` inherits the enclosing block's surface.
     #[serde(default)]
@@ -115,8 +141,11 @@ pub struct Object {
     /// Applied in the order written (YARI: the first one moves a point first).
     #[serde(default)]
     pub transforms: Vec<Transform>,
+    /// The primitives drawn in this block, after its transformations.
     #[serde(default)]
     pub primitives: Vec<Primitive>,
+    /// Nested objects (parts), drawn after the primitives; an object with children has no
+    /// transformations of its own.
     #[serde(default)]
     pub children: Vec<Object>,
 }
@@ -125,26 +154,37 @@ pub struct Object {
 /// renderer's defaults (an attribute replaces the whole surface).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Surface {
+    /// `color`: the surface colour (white when not written).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub color: Option<Color>,
+    /// `kdr`: diffuse reflection, 0..1 (0 = mirror, 1 = matte).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kdr: Option<f64>,
+    /// `kdt`: diffuse transmission, 0..1 (0 = clear, 1 = opaque).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kdt: Option<f64>,
+    /// `ka`: ambient coefficient, >= 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ka: Option<f64>,
+    /// `phong`: Phong exponent of highlights, >= 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phong: Option<f64>,
+    /// `refract`: index of refraction; > 0 when kdt < 1.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refract: Option<f64>,
+    /// `texture`: a solid texture.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<Texture>,
+    /// `gloss` (extension): blurry reflection, half-angle spread in degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gloss: Option<f64>,
+    /// `translucency` (extension): blurry transmission, half-angle spread in degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub translucency: Option<f64>,
+    /// `transmissivity` (extension): per unit length inside the object, 0..1.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transmissivity: Option<f64>,
+    /// `texture_space` (extension): explicit world-to-texture map, 3x4 row by row.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture_space: Option<[f64; 12]>,
 }
@@ -152,44 +192,73 @@ pub struct Surface {
 /// `texture = id r,g,b sx,sy,sz`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Texture {
+    /// 1 wood, 2 marble, 3 bumps, 4 turbulence, 5 checker (`docs/yari.md` section 5).
     pub id: f64,
+    /// The second colour (veins, mix colour or odd cells), linear RGB.
     pub color: V3,
+    /// Feature size along x, y, z of texture space; no component 0.
     pub scale: V3,
 }
 
+/// A YARI transformation of an object's primitives, in the object's block.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Transform {
+    /// `translate(x,y,z)`: move by (x, y, z).
     Translate(V3),
+    /// `scale(x,y,z)`: scale each axis; no factor 0.
     Scale(V3),
     /// Degrees about x, then y, then z.
     Rotate(V3),
+    /// `motion(x,y,z)` (extension): world-space displacement while the shutter is open.
     Motion(V3),
+    /// `transform(m00 ... m23)` (extension): a general affine map, 3x4 row by row.
     Matrix([f64; 12]),
 }
 
+/// A YARI primitive in its object's space (before the object's transformations).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Primitive {
+    /// `sphere(center = ... ; radius = ...)`.
     Sphere {
+        /// The centre.
         center: V3,
+        /// The radius, > 0.
         radius: f64,
     },
+    /// `polygon(...)`: a planar polygon.
     Polygon {
+        /// The vertices in order, at least 3.
         vertices: Vec<V3>,
     },
     /// Coefficients in YARI's order (see `yari::model::Quadric`) and clipping.
     Quadric {
+        /// The ten coefficients `a b c d e f g h i j`.
         coeffs: [f64; 10],
+        /// The `clip` and `plane` fields, in order; empty is unclipped.
         clip: Vec<Clip>,
     },
 }
 
+/// How a quadric is clipped (YARI extension), in the quadric's own space.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Clip {
-    Box { min: V3, max: V3 },
-    Plane { normal: V3, offset: f64 },
+    /// `clip = min max`: keep the part inside the axis-aligned box.
+    Box {
+        /// The minimum corner.
+        min: V3,
+        /// The maximum corner.
+        max: V3,
+    },
+    /// `plane = a,b,c d`: keep the part where a*x + b*y + c*z <= d.
+    Plane {
+        /// (a, b, c), not zero.
+        normal: V3,
+        /// d.
+        offset: f64,
+    },
 }
 
 impl Project {

@@ -12,6 +12,7 @@ use crate::error::{check_name, ModelError};
 use crate::project::{Object, Project, Surface, Transform, V3};
 
 impl Object {
+    /// Whether it has parts (children); a group's transformations live on its parts.
     pub fn is_group(&self) -> bool {
         !self.children.is_empty()
     }
@@ -77,6 +78,7 @@ impl Project {
         names
     }
 
+    /// The object called `name`, at any depth; the error lists the names there are.
     pub fn object(&self, name: &str) -> Result<&Object, ModelError> {
         fn find<'a>(list: &'a [Object], name: &str) -> Option<&'a Object> {
             for o in list {
@@ -92,6 +94,7 @@ impl Project {
         find(&self.objects, name).ok_or_else(|| self.object_not_found(name))
     }
 
+    /// The object called `name`, at any depth, to change it.
     pub fn object_mut(&mut self, name: &str) -> Result<&mut Object, ModelError> {
         if self.object(name).is_err() {
             return Err(self.object_not_found(name));

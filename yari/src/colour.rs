@@ -51,15 +51,22 @@ const BUILTIN: &[(&str, [f64; 3])] = &[
 /// A failed read of a colour file.
 #[derive(Debug, thiserror::Error)]
 pub enum ColourFileError {
+    /// The file could not be read.
     #[error("cannot read colour file {}: {source}", path.display())]
     Io {
+        /// The colour file.
         path: PathBuf,
+        /// Why it could not be read.
         source: std::io::Error,
     },
+    /// A line is not `name r g b` with finite numbers >= 0.
     #[error("{file}:{line}: error: {message}")]
     Syntax {
+        /// The colour file, as given.
         file: String,
+        /// The line number, from 1.
         line: usize,
+        /// What is wrong with the line.
         message: String,
     },
 }

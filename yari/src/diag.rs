@@ -7,19 +7,25 @@ use std::fmt::Write;
 /// How bad a diagnostic is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Severity {
+    /// The input is rejected: no syntax tree or world is produced.
     Error,
+    /// Reported, but the input is still used (as written or with a default).
     Warning,
 }
 
 /// One message about one place in a source text.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostic {
+    /// Error or warning.
     pub severity: Severity,
+    /// The bytes it is about; the caret goes under them.
     pub span: Span,
+    /// What is wrong, one line (printed after `error: ` or `warning: `).
     pub message: String,
 }
 
 impl Diagnostic {
+    /// An error about `span`.
     pub fn error(span: Span, message: impl Into<String>) -> Diagnostic {
         Diagnostic {
             severity: Severity::Error,
@@ -27,6 +33,7 @@ impl Diagnostic {
             message: message.into(),
         }
     }
+    /// A warning about `span`.
     pub fn warning(span: Span, message: impl Into<String>) -> Diagnostic {
         Diagnostic {
             severity: Severity::Warning,
@@ -69,19 +76,24 @@ impl Diagnostic {
 /// Diagnostics collected while reading one source: the error type of the parser and compiler.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Diagnostics {
+    /// Errors and warnings in the order they were found.
     pub items: Vec<Diagnostic>,
 }
 
 impl Diagnostics {
+    /// Adds one at the end.
     pub fn push(&mut self, d: Diagnostic) {
         self.items.push(d);
     }
+    /// Whether any of them is an error (the input is rejected).
     pub fn has_errors(&self) -> bool {
         self.items.iter().any(|d| d.severity == Severity::Error)
     }
+    /// The errors, in order.
     pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
         self.items.iter().filter(|d| d.severity == Severity::Error)
     }
+    /// The warnings, in order.
     pub fn warnings(&self) -> impl Iterator<Item = &Diagnostic> {
         self.items
             .iter()
@@ -97,7 +109,9 @@ impl Diagnostics {
 #[derive(Debug, thiserror::Error)]
 #[error("{}", .diagnostics.render(.source_text))]
 pub struct SceneError {
+    /// The text the diagnostics point into, with its file name.
     pub source_text: Source,
+    /// Everything found, at least one error among them.
     pub diagnostics: Diagnostics,
 }
 

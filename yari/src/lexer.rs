@@ -14,12 +14,19 @@ use crate::span::Span;
 /// What a token is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TokenKind {
+    /// A name: a letter or `_`, then letters, digits and `_` (commands, fields, colours).
     Ident,
+    /// A number; its value is in [`Token::value`].
     Number,
+    /// `(`
     LParen,
+    /// `)`
     RParen,
+    /// `;`
     Semi,
+    /// `,`
     Comma,
+    /// `=`
     Equals,
     /// End of input.
     Eof,
@@ -47,7 +54,9 @@ impl TokenKind {
 /// One token: its kind, where it is, and for numbers its value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Token {
+    /// What it is.
     pub kind: TokenKind,
+    /// Its bytes in the source (empty at end of input).
     pub span: Span,
     /// The value of a [`TokenKind::Number`]; 0 otherwise.
     pub value: f64,
@@ -62,6 +71,7 @@ pub struct Lexer<'a> {
 }
 
 impl<'a> Lexer<'a> {
+    /// A lexer at the start of `text` (after a byte-order mark, if any).
     pub fn new(text: &'a str) -> Lexer<'a> {
         // A leading byte-order mark (from some Windows editors) is skipped.
         let pos = if text.starts_with('\u{feff}') { 3 } else { 0 };

@@ -15,8 +15,11 @@ use std::path::{Path, PathBuf};
 /// What kind of file a scene comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum InputKind {
+    /// YARI text (`.yari`), parsed and compiled.
     Yari,
+    /// Haines's Neutral File Format (`.nff`), converted to YARI and compiled.
     Nff,
+    /// Object File Format (`.off`), a polygon mesh converted to YARI and compiled.
     Off,
     /// A compiled model file.
     Model,
@@ -39,7 +42,9 @@ impl InputKind {
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Loaded {
+    /// The compiled world.
     pub world: World,
+    /// What the file was.
     pub kind: InputKind,
     /// Warnings from the compiler (empty for a model file).
     pub warnings: Diagnostics,
@@ -62,20 +67,35 @@ impl Loaded {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LoadError {
+    /// The file could not be read.
     #[error("cannot read {}: {source}", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// Why it could not be read.
         source: std::io::Error,
     },
+    /// A scene file (not a model file) that is not UTF-8.
     #[error("{}: not a text file (not UTF-8)", path.display())]
-    NotText { path: PathBuf },
+    NotText {
+        /// The file.
+        path: PathBuf,
+    },
+    /// Neither the model file magic nor a known extension.
     #[error("{}: unknown scene format; expected a .yari, .nff or .off scene or a .srw model", path.display())]
-    UnknownFormat { path: PathBuf },
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The scene does not parse or compile; the error holds every diagnostic.
     #[error("{}", .0.to_string().trim_end())]
     Scene(#[from] SceneError),
+    /// A model file that is damaged, of another version, or breaks the compiler's guarantees.
     #[error("{}: {source}", path.display())]
     Model {
+        /// The file.
         path: PathBuf,
+        /// What is wrong with it.
         source: ModelFileError,
     },
 }

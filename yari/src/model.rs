@@ -13,22 +13,32 @@ use serde::{Deserialize, Serialize};
 pub struct World {
     /// Width and height in pixels.
     pub resolution: [u32; 2],
+    /// Colour of rays that hit nothing, linear RGB.
     pub background: DVec3,
+    /// Ambient light, linear RGB, scaled by each surface's `ka`.
     pub ambient: DVec3,
+    /// The view; always valid after compiling (the default camera when the scene has none).
     pub camera: Camera,
+    /// Point and spherical area lights, in the order written.
     pub lights: Vec<Light>,
     /// Samples per pixel requested by the scene (`samples(n)`); 1 = one ray per pixel centre.
     pub samples: u32,
     /// Distinct surfaces; objects refer to them by index.
     pub surfaces: Vec<Surface>,
+    /// The primitives in world space, in the order written.
     pub objects: Vec<Object>,
+    /// What the scene uses; computed by [`crate::compile::features`].
     pub features: Features,
 }
 
+/// The camera in world space (thesis Fig. 2.1), checked by the compiler.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
+    /// The eye point (the lens centre when `aperture > 0`).
     pub position: DVec3,
+    /// The point looked at; differs from `position`.
     pub at: DVec3,
+    /// Which way is up in the image; not parallel to `at - position`.
     pub up: DVec3,
     /// Half angle of view in degrees, from the centre of the top pixel row to the centre of
     /// the bottom row, square pixels (the NFF convention with YARI's half angle).
@@ -39,9 +49,12 @@ pub struct Camera {
     pub focus_distance: f64,
 }
 
+/// A light in world space.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Light {
+    /// Its centre.
     pub position: DVec3,
+    /// Its colour and intensity, linear RGB (components may exceed 1).
     pub color: DVec3,
     /// Radius of a spherical area light; 0 = point light.
     pub radius: f64,
@@ -50,12 +63,19 @@ pub struct Light {
 /// Hall model surface (thesis Tables 3.1 and 3.2): ksr = 1 - kdr, kst = 1 - kdt.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Surface {
+    /// Base colour, linear RGB.
     pub color: DVec3,
+    /// Diffuse reflection kdr, 0..1; specular reflection is [`Surface::ksr`].
     pub kdr: f64,
+    /// Diffuse transmission kdt, 0..1; specular transmission is [`Surface::kst`] (none at 1).
     pub kdt: f64,
+    /// Ambient coefficient ka, >= 0.
     pub ka: f64,
+    /// Specular highlight (Phong) exponent, >= 0.
     pub phong: f64,
+    /// Index of refraction; > 0 whenever kdt < 1.
     pub refract: f64,
+    /// A solid texture, or none.
     pub texture: Option<Texture>,
     /// Blur of reflections, half-angle spread in degrees (0 = mirror).
     pub gloss: f64,
@@ -94,8 +114,10 @@ impl Surface {
     }
 }
 
+/// A solid texture (YARI `texture = id r,g,b sx,sy,sz`, `docs/yari.md` section 5).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Texture {
+    /// The pattern.
     pub kind: TextureKind,
     /// The second colour (wood's dark veins, marble's veins, ...).
     pub color: DVec3,
@@ -108,14 +130,20 @@ pub struct Texture {
 /// YARI texture ids. Id 1 is wood (thesis Appendix C.5); the others are ours, documented.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TextureKind {
+    /// Rings about the texture z axis, wobbled by noise; the second colour is the dark veins.
     Wood = 1,
+    /// Veins along x distorted by turbulence; the second colour is the veins.
     Marble = 2,
+    /// The normal tilted by noise (the seascape of Fig. A.6); the second colour is unused.
     Bumps = 3,
+    /// Clouds: the base colour mixed towards the second colour by turbulence.
     Turbulence = 4,
+    /// Unit cells of texture space alternate; the second colour is the odd cells.
     Checker = 5,
 }
 
 impl TextureKind {
+    /// The kind for a YARI texture id 1..5; `None` for any other id (0 means no texture).
     pub fn from_id(id: u32) -> Option<TextureKind> {
         Some(match id {
             1 => TextureKind::Wood,
@@ -128,8 +156,10 @@ impl TextureKind {
     }
 }
 
+/// One primitive with its surface and motion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Object {
+    /// Its geometry in world space.
     pub shape: Shape,
     /// Index into [`World::surfaces`].
     pub surface: u32,
@@ -137,20 +167,27 @@ pub struct Object {
     pub motion: DVec3,
 }
 
+/// A primitive's geometry in world space.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Shape {
+    /// A sphere (also a sphere under a similarity transform).
     Sphere {
+        /// The centre.
         center: DVec3,
+        /// The radius, > 0.
         radius: f64,
     },
     /// The unit sphere at the origin mapped by `to_world` (a sphere under a non-similarity).
     Ellipsoid {
+        /// Object-to-world map of the unit sphere; invertible.
         to_world: DAffine3,
     },
     /// A planar polygon, 3 or more vertices, convex or concave, in order.
     Polygon {
+        /// The vertices in order, not repeating the first at the end.
         vertices: Vec<DVec3>,
     },
+    /// A general quadric, possibly clipped.
     Quadric(Quadric),
 }
 
@@ -169,33 +206,48 @@ pub enum Shape {
 /// M^-T Q M^-1 exactly. `clip` keeps only the points inside every half-space.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Quadric {
+    /// The upper triangle of Q, row by row (`a b c d e f g h i j`).
     pub q: [f64; 10],
+    /// Half-spaces in world space; a point is on the surface only inside all of them
+    /// (empty: unclipped).
     pub clip: Vec<HalfSpace>,
 }
 
 /// The points p with `normal . p <= offset`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HalfSpace {
+    /// The outward normal of the bounding plane (need not be unit length).
     pub normal: DVec3,
+    /// The plane's offset along `normal`, in units of `normal`'s length.
     pub offset: f64,
 }
 
 /// What a scene uses, so the renderer builds and pays for only those paths.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Features {
+    /// Number of [`Shape::Sphere`] objects.
     pub spheres: usize,
+    /// Number of [`Shape::Ellipsoid`] objects.
     pub ellipsoids: usize,
+    /// Number of [`Shape::Polygon`] objects.
     pub polygons: usize,
+    /// Number of [`Shape::Quadric`] objects.
     pub quadrics: usize,
+    /// Some surface has a texture.
     pub textures: bool,
     /// Some surface has kdt < 1 (transmits specularly).
     pub transparency: bool,
     /// Some surface has kdr < 1 (reflects specularly).
     pub reflection: bool,
+    /// Some light has a radius > 0 (soft shadows).
     pub area_lights: bool,
+    /// Some reflecting surface (kdr < 1) has gloss > 0.
     pub gloss: bool,
+    /// Some transmitting surface (kdt < 1) has translucency > 0.
     pub translucency: bool,
+    /// The camera's aperture is > 0.
     pub depth_of_field: bool,
+    /// Some object has a non-zero motion vector.
     pub motion_blur: bool,
     /// More than one sample per pixel.
     pub antialiasing: bool,

@@ -32,20 +32,35 @@ const HEADER_LEN: usize = 28;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ModelFileError {
+    /// Reading or writing the file failed.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),
+    /// The file does not start with [`MAGIC`].
     #[error("not a SunRay model file (bad magic number)")]
     BadMagic,
+    /// The header's format version is not [`VERSION`].
     #[error(
         "model file format version {found} is not supported (this program reads version {VERSION})"
     )]
-    UnsupportedVersion { found: u32 },
+    UnsupportedVersion {
+        /// The version in the header.
+        found: u32,
+    },
+    /// Shorter than its header says (or than a header).
     #[error("model file is truncated: expected {expected} bytes of model, found {found}")]
-    Truncated { expected: u64, found: u64 },
+    Truncated {
+        /// Payload bytes the header announces.
+        expected: u64,
+        /// Payload bytes present.
+        found: u64,
+    },
+    /// The payload's FNV-1a hash differs from the header's.
     #[error("model file is corrupt: checksum mismatch")]
     Checksum,
+    /// The payload does not (de)serialize as exactly one [`World`]; the text says why.
     #[error("model file is corrupt: {0}")]
     Corrupt(String),
+    /// The world breaks what the compiler guarantees (see [`validate`]); the text says what.
     #[error("model file holds an invalid world: {0}")]
     Invalid(String),
 }

@@ -6,10 +6,10 @@
 //!
 //! # Layout
 //! - [`scene`]: the NFF entities as written ([`NffScene`], [`Entity`], [`Fill`], [`View`]).
-//! - [`read`]: text to entities, with spanned diagnostics.
-//! - [`to_yari`]: entities to the YARI syntax tree (the Hall-model mapping).
+//! - [`read`](mod@read): text to entities, with spanned diagnostics.
+//! - [`to_yari`](mod@to_yari): entities to the YARI syntax tree (the Hall-model mapping).
 //! - [`cone`]: NFF cones and cylinders as clipped world-space quadrics.
-//! - [`write`]: entities back to NFF text with C's `%g` number format.
+//! - [`write`](mod@write): entities back to NFF text with C's `%g` number format.
 
 pub mod cone;
 pub mod read;

@@ -5,11 +5,14 @@ use serde::{Deserialize, Serialize};
 /// A half-open byte range `[start, end)` into one source text.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Span {
+    /// Offset of the first byte.
     pub start: u32,
+    /// Offset one past the last byte (equal to `start` for an empty span).
     pub end: u32,
 }
 
 impl Span {
+    /// The span `[start, end)` from byte offsets, stored as `u32` (offsets past 4 GiB do not fit).
     pub fn new(start: usize, end: usize) -> Span {
         Span {
             start: start as u32,
@@ -28,12 +31,15 @@ impl Span {
 /// A source text with its name (a path, or `<stdin>`), able to map byte offsets to lines.
 #[derive(Clone, Debug)]
 pub struct Source {
+    /// The name printed at the start of each diagnostic.
     pub name: String,
+    /// The whole text; spans index its bytes.
     pub text: String,
     line_starts: Vec<usize>,
 }
 
 impl Source {
+    /// Wraps `text` under `name`, indexing where its lines start.
     pub fn new(name: impl Into<String>, text: impl Into<String>) -> Source {
         let text = text.into();
         let mut line_starts = vec![0];

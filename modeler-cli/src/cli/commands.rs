@@ -1,4 +1,4 @@
-//! The command line, as clap derive types. The same [`Command`] parser reads the command
+//! The command line, as clap derive types. The same `Command` parser reads the command
 //! line and each line of a script.
 
 use super::args;
@@ -7,11 +7,13 @@ use crate::project::{Color, V3};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
-pub use super::shape_args::*;
+pub(crate) use super::shape_args::*;
 
 /// The default project file.
 pub const DEFAULT_PROJECT: &str = "scene.modeler.json";
 
+/// The whole `modeler` command line: the project file and one command (parse it with clap's
+/// [`Parser`], run it with [`super::run`]).
 #[derive(Parser, Debug)]
 #[command(
     name = "modeler",
@@ -23,21 +25,21 @@ pub const DEFAULT_PROJECT: &str = "scene.modeler.json";
 pub struct Cli {
     /// The project file (JSON).
     #[arg(short, long, global = true, env = "MODELER_PROJECT", default_value = DEFAULT_PROJECT)]
-    pub project: PathBuf,
+    pub(crate) project: PathBuf,
     #[command(subcommand)]
-    pub command: Command,
+    pub(crate) command: Command,
 }
 
 /// One line of a script: a command without the program name or `--project`.
 #[derive(Parser, Debug)]
 #[command(name = "modeler", no_binary_name = true, disable_version_flag = true)]
-pub struct ScriptLine {
+pub(crate) struct ScriptLine {
     #[command(subcommand)]
     pub command: Command,
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {
+pub(crate) enum Command {
     /// Start a new project: 512x512, camera at 0,0,10 looking at the origin, one white light.
     New(NewArgs),
     /// Open a YARI file as a new project (object and light names from its comments).
@@ -96,7 +98,7 @@ pub enum Command {
 }
 
 #[derive(Args, Debug)]
-pub struct NewArgs {
+pub(crate) struct NewArgs {
     /// Replace an existing project file.
     #[arg(long)]
     pub force: bool,
@@ -106,7 +108,7 @@ pub struct NewArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct ImportArgs {
+pub(crate) struct ImportArgs {
     /// The YARI file to open.
     pub file: PathBuf,
     /// Replace an existing project file.
@@ -115,14 +117,14 @@ pub struct ImportArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct ExportArgs {
+pub(crate) struct ExportArgs {
     /// Output file; - or nothing writes to standard output.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
-pub struct PreviewArgs {
+pub(crate) struct PreviewArgs {
     /// Output PNG.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -134,25 +136,25 @@ pub struct PreviewArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct ShowArgs {
+pub(crate) struct ShowArgs {
     /// An object or skeleton to describe in full.
     pub name: Option<String>,
 }
 
 #[derive(Args, Debug)]
-pub struct NameArg {
+pub(crate) struct NameArg {
     pub name: String,
 }
 
 #[derive(Args, Debug)]
-pub struct TranslateArgs {
+pub(crate) struct TranslateArgs {
     pub name: String,
     #[arg(value_parser = args::vec3, allow_hyphen_values = true)]
     pub by: V3,
 }
 
 #[derive(Args, Debug)]
-pub struct RotateArgs {
+pub(crate) struct RotateArgs {
     pub name: String,
     /// Degrees about x, y and z.
     #[arg(value_parser = args::vec3, allow_hyphen_values = true)]
@@ -163,7 +165,7 @@ pub struct RotateArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct ScaleArgs {
+pub(crate) struct ScaleArgs {
     pub name: String,
     /// One factor, or sx,sy,sz.
     #[arg(value_parser = args::scale3, allow_hyphen_values = true)]
@@ -174,7 +176,7 @@ pub struct ScaleArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct SurfaceArgs {
+pub(crate) struct SurfaceArgs {
     pub name: String,
     /// A colour name or r,g,b.
     #[arg(long, value_parser = args::color, allow_hyphen_values = true)]
@@ -204,13 +206,13 @@ pub struct SurfaceArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct RenameArgs {
+pub(crate) struct RenameArgs {
     pub old: String,
     pub new: String,
 }
 
 #[derive(Args, Debug)]
-pub struct CameraArgs {
+pub(crate) struct CameraArgs {
     #[arg(long, value_parser = args::vec3, allow_hyphen_values = true)]
     pub position: Option<V3>,
     #[arg(long, value_parser = args::vec3, allow_hyphen_values = true)]
@@ -223,7 +225,7 @@ pub struct CameraArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct ViewArgs {
+pub(crate) struct ViewArgs {
     #[arg(long, value_parser = args::vec3, allow_hyphen_values = true)]
     pub from: Option<V3>,
     #[arg(long, value_parser = args::vec3, allow_hyphen_values = true)]
@@ -239,7 +241,7 @@ pub struct ViewArgs {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum LightCmd {
+pub(crate) enum LightCmd {
     /// Create a light.
     Add(LightAddArgs),
     /// Move a light.
@@ -251,7 +253,7 @@ pub enum LightCmd {
 }
 
 #[derive(Args, Debug)]
-pub struct LightAddArgs {
+pub(crate) struct LightAddArgs {
     pub name: String,
     #[arg(long, value_parser = args::vec3, allow_hyphen_values = true)]
     pub position: V3,
@@ -263,28 +265,28 @@ pub struct LightAddArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct LightMoveArgs {
+pub(crate) struct LightMoveArgs {
     pub name: String,
     #[arg(value_parser = args::vec3, allow_hyphen_values = true)]
     pub position: V3,
 }
 
 #[derive(Args, Debug)]
-pub struct LightColorArgs {
+pub(crate) struct LightColorArgs {
     pub name: String,
     #[arg(value_parser = args::color)]
     pub color: Color,
 }
 
 #[derive(Args, Debug)]
-pub struct ColorArg {
+pub(crate) struct ColorArg {
     /// A colour name or r,g,b.
     #[arg(value_parser = args::color)]
     pub color: Color,
 }
 
 #[derive(Args, Debug)]
-pub struct ResolutionArgs {
+pub(crate) struct ResolutionArgs {
     #[arg(value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub width: u32,
     #[arg(value_parser = clap::value_parser!(u32).range(1..=65536))]
@@ -292,13 +294,13 @@ pub struct ResolutionArgs {
 }
 
 #[derive(Args, Debug)]
-pub struct SamplesArgs {
+pub(crate) struct SamplesArgs {
     #[arg(value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub samples: u32,
 }
 
 #[derive(Args, Debug)]
-pub struct ScriptArgs {
+pub(crate) struct ScriptArgs {
     /// The script file, or - for standard input.
     pub file: PathBuf,
 }

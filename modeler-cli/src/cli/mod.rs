@@ -11,13 +11,13 @@
 //! - `show`: the listing of a project.
 //! - `values`: how the library's planes, skeleton kinds and preview styles are spelled.
 
-pub mod args;
+mod args;
 pub mod commands;
-pub mod edit;
-pub mod script;
-pub mod shape_args;
-pub mod show;
-pub mod values;
+mod edit;
+mod script;
+mod shape_args;
+mod show;
+mod values;
 
 use crate::error::ModelError;
 use crate::preview::{self, Options};
@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use yari::colour::ColourTable;
 
 /// A project being worked on by one command or one script.
-pub struct Session<'a> {
+pub(crate) struct Session<'a> {
     pub path: PathBuf,
     project: Option<Project>,
     dirty: bool,

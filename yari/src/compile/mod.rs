@@ -42,7 +42,9 @@ pub const MAX_WARNINGS: usize = 100;
 /// A compiled scene and the warnings about it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Compiled {
+    /// The world, ready to render or write as a model file.
     pub world: World,
+    /// Only warnings (at most [`MAX_WARNINGS`] and one that counts the rest).
     pub warnings: Diagnostics,
 }
 

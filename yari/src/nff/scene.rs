@@ -1,8 +1,9 @@
 //! The NFF scene as written: Haines's entities in file order, before any mapping to YARI.
 //!
-//! The reader ([`super::read`]) fills it from text, the SPD generators ([`crate::spd`]) build
-//! it in code, the writer ([`super::write`]) prints it back in Haines's own number format, and
-//! [`super::to_yari`] maps it onto the YARI syntax tree.
+//! The reader ([`super::read`](mod@super::read)) fills it from text, the SPD generators
+//! ([`crate::spd`]) build it in code, the writer ([`super::write`](mod@super::write)) prints it
+//! back in Haines's own number format, and [`super::to_yari`](mod@super::to_yari) maps it onto
+//! the YARI syntax tree.
 
 use crate::ast::{Spanned, Vec3};
 use crate::span::Span;
@@ -10,6 +11,7 @@ use crate::span::Span;
 /// A whole NFF file: its entities in the order they were written.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct NffScene {
+    /// The entities, each with where it was written (an empty span when generated).
     pub entities: Vec<Spanned<Entity>>,
 }
 
@@ -21,21 +23,37 @@ pub enum Entity {
     /// `v` with `from`, `at`, `up`, `angle`, `hither`, `resolution`.
     View(View),
     /// `l x y z [r g b]`: a point light, colour optional.
-    Light { position: Vec3, color: Option<Vec3> },
+    Light {
+        /// The light's position in world space.
+        position: Vec3,
+        /// Its colour, linear RGB; `None` when the line gives only the position.
+        color: Option<Vec3>,
+    },
     /// `f r g b Kd Ks Shine T ior`: the material of the objects that follow.
     Fill(Fill),
     /// `s x y z r`.
-    Sphere { center: Vec3, radius: f64 },
+    Sphere {
+        /// The centre.
+        center: Vec3,
+        /// The radius, as written (the mapping to YARI checks it).
+        radius: f64,
+    },
     /// `p n` (normals `None`) or `pp n` (a normal per vertex).
     Polygon {
+        /// The vertices in order.
         vertices: Vec<Vec3>,
+        /// For `pp`, one normal per vertex (YARI has no use for them and drops them).
         normals: Option<Vec<Vec3>>,
     },
     /// `c`: a cone or cylinder without end caps, from the base disc to the apex disc.
     Cone {
+        /// The centre of the base disc.
         base: Vec3,
+        /// The radius at the base.
         base_radius: f64,
+        /// The centre of the apex disc.
         apex: Vec3,
+        /// The radius at the apex (equal to `base_radius` for a cylinder).
         apex_radius: f64,
     },
 }
@@ -43,11 +61,17 @@ pub enum Entity {
 /// The `v` block. `angle` is NFF's FULL angle of view in degrees.
 #[derive(Clone, Debug, PartialEq)]
 pub struct View {
+    /// The eye point.
     pub from: Vec3,
+    /// The point looked at.
     pub at: Vec3,
+    /// Which way is up in the image.
     pub up: Vec3,
+    /// The full angle of view in degrees (twice YARI's camera `angle`).
     pub angle: f64,
+    /// Distance to the near clipping plane (YARI has none; it is dropped).
     pub hither: f64,
+    /// `resolution x y`: the image width and height in pixels, if given.
     pub resolution: Option<[u32; 2]>,
 }
 
@@ -55,11 +79,17 @@ pub struct View {
 /// of refraction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fill {
+    /// The colour, linear RGB.
     pub color: Vec3,
+    /// Diffuse weight Kd, 0..1.
     pub kd: f64,
+    /// Specular weight Ks, 0..1.
     pub ks: f64,
+    /// Phong exponent of the highlight.
     pub shine: f64,
+    /// Transmittance T, 0..1 (0 is opaque).
     pub t: f64,
+    /// Index of refraction.
     pub ior: f64,
 }
 

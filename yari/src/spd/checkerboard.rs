@@ -17,6 +17,7 @@ pub struct CheckerboardOptions {
     pub square_size: f64,
     /// The colour of the square at the corner (0, 0), and the other.
     pub colors: [Vec3; 2],
+    /// Where the board's centre ends up, after the rotation.
     pub center: Vec3,
     /// Degrees about x, then y, then z.
     pub rotate: Vec3,
@@ -41,10 +42,16 @@ impl Default for CheckerboardOptions {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CheckerboardError {
+    /// No squares one way, or more than [`MAX_SQUARES`] in all.
     #[error("the board needs at least one square each way, and at most {max} in all")]
-    Squares { max: u64 },
+    Squares {
+        /// [`MAX_SQUARES`].
+        max: u64,
+    },
+    /// The square size is not a finite number > 0.
     #[error("the square size must be a positive number")]
     SquareSize,
+    /// The centre, rotation or a colour has a NaN or infinite component.
     #[error("centre, rotation and colours must be finite numbers")]
     NotFinite,
 }

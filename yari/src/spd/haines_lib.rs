@@ -19,7 +19,9 @@ pub fn identity() -> Matrix {
 /// Axes for [`rotate_matrix`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Axis {
+    /// Rotation about y, from z towards x.
     Y,
+    /// Rotation about z, from x towards y.
     Z,
 }
 

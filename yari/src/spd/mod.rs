@@ -11,7 +11,7 @@
 //! - [`tetra`]: the recursive tetrahedron.
 //! - [`mount`]: the fractal mountain and its four glass spheres.
 //! - [`balls`]: the sphereflake on a floor polygon.
-//! - [`checkerboard`]: checkerboards of polygons (`check`).
+//! - [`checkerboard`](mod@checkerboard): checkerboards of polygons (`check`).
 
 pub mod balls;
 pub mod checkerboard;
@@ -30,8 +30,11 @@ pub const UNC_SKY_BLUE: Vec3 = [0.078, 0.361, 0.753];
 /// One of the SPD scenes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Database {
+    /// The recursive tetrahedron of triangles (thesis Fig. 2.1 is its YARI form).
     Tetra,
+    /// The fractal mountain with four glass spheres.
     Mount,
+    /// The sphereflake on a floor polygon.
     Balls,
 }
 
@@ -53,6 +56,7 @@ impl Database {
         }
     }
 
+    /// The command-line and file name: `tetra`, `mount` or `balls`.
     pub fn name(self) -> &'static str {
         match self {
             Database::Tetra => "tetra",
@@ -66,9 +70,13 @@ impl Database {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("size {size} is out of range for `{name}` (allowed {min} to {max})")]
 pub struct SizeError {
+    /// The database, as [`Database::name`].
     pub name: &'static str,
+    /// The size asked for.
     pub size: u32,
+    /// The smallest size allowed.
     pub min: u32,
+    /// The largest size allowed.
     pub max: u32,
 }
 
