@@ -53,10 +53,12 @@ pub enum Style {
     Flat,
 }
 
+/// How a preview is drawn.
 #[derive(Clone, Debug)]
 pub struct Options {
     /// Width and height of each of the four views, in pixels.
     pub size: usize,
+    /// Wireframe or flat-shaded faces.
     pub style: Style,
 }
 
@@ -65,13 +67,18 @@ pub struct Options {
 pub struct Overlay {
     /// Polylines (closed or not) in the skeleton colour, and control polygons.
     pub curves: Vec<(Vec<DVec3>, bool)>,
+    /// Bézier control polygons, drawn dimmer than the curves.
     pub controls: Vec<Vec<DVec3>>,
+    /// Skeleton points of `points` skeletons, drawn as crosses.
     pub points: Vec<DVec3>,
+    /// Light positions, drawn as white crosses.
     pub lights: Vec<DVec3>,
+    /// The camera's location and the point it looks at, joined by its line of sight.
     pub camera: Option<(DVec3, DVec3)>,
 }
 
 impl Overlay {
+    /// The skeletons, lights and camera of project `p`.
     pub fn of_project(p: &Project) -> Overlay {
         let mut o = Overlay::default();
         for s in &p.skeletons {

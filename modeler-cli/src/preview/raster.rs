@@ -5,9 +5,13 @@
 
 /// An RGB image with a depth buffer.
 pub struct Canvas {
+    /// Width in pixels.
     pub width: usize,
+    /// Height in pixels.
     pub height: usize,
+    /// Linear RGB per pixel, row by row from the top.
     pub color: Vec<[f32; 3]>,
+    /// Depth key per pixel (larger = nearer; the background is the lowest).
     pub key: Vec<f32>,
 }
 
@@ -15,6 +19,7 @@ pub struct Canvas {
 pub type ScreenPoint = [f64; 3];
 
 impl Canvas {
+    /// A canvas filled with `background`, with nothing in the depth buffer.
     pub fn new(width: usize, height: usize, background: [f32; 3]) -> Canvas {
         Canvas {
             width,

@@ -9,21 +9,29 @@ use yari::model::{HalfSpace, Shape, World};
 const SPHERE_RINGS: usize = 8;
 const SPHERE_SEGMENTS: usize = 16;
 
+/// A clipped quadric as the preview draws it.
 pub struct Quadric {
+    /// The quadric's matrix in world space: points p with p^T Q p = 0 (p homogeneous).
     pub q: DMat4,
+    /// The half-spaces that clip it.
     pub clip: Vec<HalfSpace>,
     /// The axis-aligned box among the clipping planes, if they close one.
     pub bounds: Option<(DVec3, DVec3)>,
+    /// Its surface colour.
     pub color: [f32; 3],
 }
 
+/// Everything a world's objects give the preview to draw.
 #[derive(Default)]
 pub struct Drawables {
+    /// Polygons (world-space outlines) with their colours; spheres and ellipsoids as meshes.
     pub polygons: Vec<(Vec<DVec3>, [f32; 3])>,
+    /// Clipped quadrics, ray cast when shaded.
     pub quadrics: Vec<Quadric>,
 }
 
 impl Drawables {
+    /// The drawables of a compiled world.
     pub fn from_world(world: &World) -> Drawables {
         let mut d = Drawables::default();
         for obj in &world.objects {

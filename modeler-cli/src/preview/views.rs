@@ -11,19 +11,30 @@ pub enum Projection {
     /// Right, up and toward-the-viewer axes; the world point at the image centre; pixels per
     /// world unit.
     Ortho {
+        /// The image's x axis in the world.
         right: DVec3,
+        /// The image's y axis (up on screen).
         up: DVec3,
+        /// Towards the viewer (depth grows the other way).
         toward: DVec3,
+        /// The world point at the image centre.
         centre: DVec3,
+        /// Pixels per world unit.
         scale: f64,
     },
     /// Eye, forward/right/up unit axes, pixels per unit of tangent; near-plane depth.
     Perspective {
+        /// Where the eye is.
         eye: DVec3,
+        /// The direction of view (unit).
         forward: DVec3,
+        /// The image's x axis (unit).
         right: DVec3,
+        /// The image's y axis (unit).
         up: DVec3,
+        /// Pixels per unit of tangent of the angle off the axis.
         scale: f64,
+        /// Nearest depth drawn.
         near: f64,
     },
 }
@@ -31,9 +42,13 @@ pub enum Projection {
 /// A view: its projection and its size in pixels.
 #[derive(Clone, Debug)]
 pub struct View {
+    /// Its name in the corner (FRONT, TOP, SIDE, PERSPECTIVE).
     pub label: &'static str,
+    /// How world points map to pixels.
     pub projection: Projection,
+    /// Width in pixels.
     pub width: usize,
+    /// Height in pixels.
     pub height: usize,
 }
 
