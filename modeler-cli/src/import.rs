@@ -16,8 +16,8 @@
 
 use crate::error::{check_name, ModelError};
 use crate::project::{
-    Camera, Clip, Color, Light, Object, Primitive, Project, Settings, Surface, Texture, Transform,
-    FORMAT_VERSION,
+    Camera, Clip, Color, Light, Object, Primitive, Project, SceneSettings, Surface, Texture,
+    Transform, FORMAT_VERSION,
 };
 use std::collections::HashSet;
 use yari::ast::{self, AttrField, Block, BodyItem, ColorSpec, ViewStmt};
@@ -31,7 +31,7 @@ pub fn from_yari(src: &Source) -> Result<Project, ModelError> {
 
 /// A parsed scene as a project, with names read from `text` (the text it was parsed from).
 pub fn from_scene(scene: &ast::Scene, text: &str) -> Project {
-    let mut settings = Settings::default();
+    let mut settings = SceneSettings::default();
     let mut light_names = Names::default();
     for stmt in &scene.view {
         if let ViewStmt::Light(_) = stmt.node {

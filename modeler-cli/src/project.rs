@@ -25,7 +25,7 @@ pub struct Project {
     /// The file format version ([`FORMAT_VERSION`]); a file of a newer version is refused.
     pub version: u32,
     /// The preamble: resolution, samples, colours, camera, lights, preview viewpoint.
-    pub settings: Settings,
+    pub settings: SceneSettings,
     /// Skeletons (outlines, profiles, point sets); the modeler's own, not exported.
     #[serde(default)]
     pub skeletons: Vec<Skeleton>,
@@ -36,7 +36,7 @@ pub struct Project {
 
 /// The YARI preamble plus the preview's viewpoint.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Settings {
+pub struct SceneSettings {
     /// `resolution(w, h)` in pixels, 1..65536 each; `None` writes none (YARI's default).
     #[serde(default)]
     pub resolution: Option<[u32; 2]>,
@@ -267,7 +267,7 @@ impl Project {
     pub fn new_default() -> Project {
         Project {
             version: FORMAT_VERSION,
-            settings: Settings {
+            settings: SceneSettings {
                 resolution: Some([512, 512]),
                 samples: None,
                 background: Some(Color::Rgb([0.0, 0.0, 0.0])),

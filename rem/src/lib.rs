@@ -53,7 +53,7 @@
 //! - [`ids`]: host names, job ids, [`ProcId`].
 //! - [`auth`]: the cluster [`Secret`] and the interceptors that send and check it.
 //! - [`transport`]: channels, plain or TLS (rustls).
-//! - [`config`]: remd settings from flags, environment and TOML.
+//! - [`cli`]: remd's flags (clap); [`config`]: remd settings from flags, environment and TOML.
 //! - [`load`]: this host's load (sysinfo) and REM process count.
 //! - [`cgroup`]: the CPU limit and use of remd's control group (containers).
 //! - [`placement`]: ranking hosts by load per core.
@@ -76,6 +76,7 @@ pub mod auth;
 mod cgroup;
 mod checkpoint;
 mod child;
+pub mod cli;
 pub mod client;
 pub mod config;
 mod daemon;

@@ -5,7 +5,8 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
-use rem::config::{DaemonSettings, RemdArgs};
+use rem::cli::RemdArgs;
+use rem::config::DaemonSettings;
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()

@@ -1,0 +1,66 @@
+//! remd's command line: the clap flags ([`RemdArgs`]), which `config` turns into
+//! [`crate::config::DaemonSettings`] together with the environment and a TOML file. The only
+//! module of the library that knows clap.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use clap::Parser;
+
+/// remd's command line.
+#[derive(Parser, Debug, Default, Clone)]
+#[command(
+    name = "remd",
+    version,
+    about = "REM daemon: runs processes for the cluster and relays their messages"
+)]
+pub struct RemdArgs {
+    /// TOML file with the same settings (flags and environment win).
+    #[arg(long, env = "REMD_CONFIG")]
+    pub config: Option<PathBuf>,
+    /// This host's name in the cluster ([A-Za-z0-9._-]).
+    #[arg(long, env = "REMD_NAME")]
+    pub name: Option<String>,
+    /// Address to listen on (port 0 picks one; the bound address is printed).
+    #[arg(long, env = "REMD_LISTEN")]
+    pub listen: Option<SocketAddr>,
+    /// Address other daemons and processes use to reach this one.
+    #[arg(long, env = "REMD_ADVERTISE")]
+    pub advertise: Option<String>,
+    /// Members to join through (any one live member is enough).
+    #[arg(long, env = "REMD_JOIN", value_delimiter = ',')]
+    pub join: Vec<String>,
+    /// File holding the cluster secret.
+    #[arg(long, env = "REM_SECRET_FILE")]
+    pub secret_file: Option<PathBuf>,
+    /// Absolute path of a program that may be spawned (repeatable).
+    #[arg(long = "allow", env = "REMD_ALLOW", value_delimiter = ',')]
+    pub allow: Vec<PathBuf>,
+    /// Directory for checkpoints.
+    #[arg(long, env = "REMD_STATE_DIR")]
+    pub state_dir: Option<PathBuf>,
+    /// Milliseconds between heartbeats to each member [default: 250].
+    #[arg(long, env = "REMD_HEARTBEAT_MS")]
+    pub heartbeat_ms: Option<u64>,
+    /// A member not heard from for this many milliseconds is lost [default: 1500].
+    #[arg(long, env = "REMD_LOST_AFTER_MS")]
+    pub lost_after_ms: Option<u64>,
+    /// Largest relay message payload in bytes.
+    #[arg(long, env = "REMD_MAX_MESSAGE")]
+    pub max_message: Option<usize>,
+    /// Milliseconds between SIGTERM and SIGKILL when a process is killed [default: 2000].
+    #[arg(long, env = "REMD_KILL_GRACE_MS")]
+    pub kill_grace_ms: Option<u64>,
+    /// PEM certificate to serve TLS with (with --tls-key; plain HTTP/2 without).
+    #[arg(long, env = "REMD_TLS_CERT")]
+    pub tls_cert: Option<PathBuf>,
+    /// PEM private key of --tls-cert.
+    #[arg(long, env = "REMD_TLS_KEY")]
+    pub tls_key: Option<PathBuf>,
+    /// CA to verify other daemons with [default: the daemon's own certificate].
+    #[arg(long, env = "REMD_TLS_CA")]
+    pub tls_ca: Option<PathBuf>,
+    /// Name to expect in other daemons' certificates.
+    #[arg(long, env = "REMD_TLS_DOMAIN")]
+    pub tls_domain: Option<String>,
+}
