@@ -7,6 +7,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     tonic_prost_build::configure()
         .build_server(true)
         .build_client(true)
+        // Maps in field order, so that a message encodes to the same bytes on both sides
+        // (peer calls sign a digest of their body).
+        .btree_map(".")
         .compile_fds(files)?;
     Ok(())
 }

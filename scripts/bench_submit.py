@@ -30,12 +30,12 @@ MOUNT6 = None
 
 def remds(bin_dir, tmp, names):
     secret = os.path.join(tmp, "secret")
-    with open(secret, "w") as f:
+    with open(os.open(secret, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600), "w") as f:
         f.write("bench-secret\n")
     procs, addrs = [], []
     for n in names:
         cmd = [os.path.join(bin_dir, "remd"), "--name", n, "--listen", "127.0.0.1:0",
-               "--allow", os.path.join(bin_dir, "sunray"), "--secret-file", secret,
+               "--allow", os.path.join(bin_dir, "sunray") + ":worker|controller", "--secret-file", secret,
                "--state-dir", os.path.join(tmp, "state-" + n)]
         if addrs:
             cmd += ["--join", addrs[0]]

@@ -1,8 +1,9 @@
 //! One relay attachment: a process's bidirectional stream to its local remd.
 //!
-//! The first client frame must be `Hello`. A spawned process names itself (`REM_PROC_ID`) and
-//! gets the mailbox made for it at spawn; an empty id attaches a new relay-only process (a
-//! job owner), whose mailbox lives as long as the stream. Envelopes from the process get
+//! The first client frame must be `Hello`. A spawned process names itself (`REM_PROC_ID`),
+//! proves it with the token it was given (`REM_PROC_TOKEN`, in the call's metadata) and gets
+//! the mailbox made for it at spawn; a client (client key) with an empty id attaches a new
+//! relay-only process (a job owner), whose mailbox lives as long as the stream. Envelopes from the process get
 //! their `from` set here (a process cannot forge it); one over the size limit ends the
 //! stream with `RESOURCE_EXHAUSTED`.
 
@@ -17,7 +18,9 @@ use crate::ids::{is_valid_name, ProcId};
 use crate::proto::{
     client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome,
 };
-use crate::relay::Delivery;
+use crate::auth::Caller;
+use crate::budget::Reservation;
+use crate::relay::{Delivery, MailboxReceiver, MailboxSender};
 use crate::wire::{BATCH, BATCH_BYTES};
 
 pub type FrameStream = ReceiverStream<Result<ServerFrame, Status>>;
@@ -25,6 +28,7 @@ pub type FrameStream = ReceiverStream<Result<ServerFrame, Status>>;
 /// Runs the handshake and starts the two pumps; returns the stream to the process.
 pub async fn attach(
     daemon: Arc<Daemon>,
+    caller: Caller,
     mut inbound: Streaming<ClientFrame>,
 ) -> Result<FrameStream, Status> {
     let hello = match inbound.message().await? {
@@ -39,22 +43,37 @@ pub async fn attach(
             hello.job
         )));
     }
-    let (id, external) = if hello.proc_id.is_empty() {
-        let id = daemon.new_proc_id();
-        daemon.router.register(&id);
-        (id, true)
-    } else {
-        let id = ProcId::parse(&hello.proc_id).ok_or_else(|| {
-            Status::invalid_argument(format!("bad process id {:?}", hello.proc_id))
-        })?;
-        (id, false)
+    let (id, external, token) = match (hello.proc_id.is_empty(), caller) {
+        (true, Caller::Client) => {
+            let id = daemon.new_proc_id();
+            daemon.router.register(&id, None);
+            (id, true, None)
+        }
+        (true, Caller::Process(_)) => {
+            return Err(Status::permission_denied(
+                "a process token only lets a process attach as itself",
+            ))
+        }
+        (false, caller) => {
+            let id = ProcId::parse(&hello.proc_id).ok_or_else(|| {
+                Status::invalid_argument(format!("bad process id {:?}", hello.proc_id))
+            })?;
+            let Caller::Process(token) = caller else {
+                return Err(Status::permission_denied(format!(
+                    "attaching as {id} needs that process's token (REM_PROC_TOKEN)"
+                )));
+            };
+            (id, false, Some(token))
+        }
     };
-    let (mailbox_tx, mailbox_rx) = daemon.router.take_mailbox(&id).ok_or_else(|| {
+    let taken = daemon.router.take_mailbox(&id, token.as_deref());
+    let (mailbox_tx, mailbox_rx) = taken.ok_or_else(|| {
         Status::failed_precondition(format!(
-            "{id} is not a process of this host waiting to attach"
+            "{id} is not a process of this host waiting to attach with this token"
         ))
     })?;
-    let (out_tx, out_rx) = mpsc::channel(16);
+    // Few frames wait here: the bytes they hold are no longer counted by the mailbox.
+    let (out_tx, out_rx) = mpsc::channel(4);
     let welcome = Welcome {
         proc_id: id.to_string(),
         job: hello.job,
@@ -89,16 +108,16 @@ fn frame(f: server_frame::Frame) -> ServerFrame {
 
 /// Mailbox -> process, batching queued envelopes; returns the mailbox when the process is gone.
 async fn pump_out(
-    mut mailbox: mpsc::Receiver<Delivery>,
+    mut mailbox: MailboxReceiver,
     out: mpsc::Sender<Result<ServerFrame, Status>>,
     stop: tokio_util::sync::CancellationToken,
-) -> mpsc::Receiver<Delivery> {
+) -> MailboxReceiver {
     let mut pending: Option<Delivery> = None;
     loop {
         let first = match pending.take() {
             Some(d) => d,
             None => tokio::select! {
-                d = mailbox.recv() => match d { Some(d) => d, None => break },
+                d = mailbox.recv() => match d { Some((d, _held)) => d, None => break },
                 _ = out.closed() => break,
                 _ = stop.cancelled() => {
                     let _ = out.send(Err(Status::unavailable("remd is shutting down"))).await;
@@ -113,7 +132,7 @@ async fn pump_out(
                 let mut bytes = env.payload.len();
                 let mut envelopes = vec![env];
                 while envelopes.len() < BATCH {
-                    match mailbox.try_recv() {
+                    match mailbox.try_recv().map(|(d, _held)| d) {
                         Ok(Delivery::Envelope(e)) if bytes + e.payload.len() <= BATCH_BYTES => {
                             bytes += e.payload.len();
                             envelopes.push(e);
@@ -140,7 +159,7 @@ async fn pump_in(
     daemon: &Daemon,
     id: &ProcId,
     mut inbound: Streaming<ClientFrame>,
-    mailbox: mpsc::Sender<Delivery>,
+    mailbox: MailboxSender,
     out: mpsc::Sender<Result<ServerFrame, Status>>,
 ) {
     loop {
@@ -184,7 +203,8 @@ async fn pump_in(
                     reason,
                     sender: id.to_string(),
                 };
-                let _ = mailbox.try_send(Delivery::Undeliverable(notice));
+                // A notice to the sender itself: small, and bounded by the queue's length.
+                let _ = mailbox.try_send((Delivery::Undeliverable(notice), Reservation::default()));
             }
         }
     }

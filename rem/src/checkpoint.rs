@@ -1,6 +1,12 @@
 //! Checkpoints: opaque blobs keyed by job id, kept in files written atomically (temporary
 //! file, fsync, rename). The newest version wins. Replication to other hosts is done by the
 //! service (`PutCheckpoint` stores here and on one more live host).
+//!
+//! Every checkpoint is sealed by the daemon that wrote it (an HMAC under the daemon key), and
+//! one is believed, from a peer or from this host's disk, only with a good seal and a version
+//! not ahead of this host's clock by more than [`MAX_SKEW`]: a version "from the future" would
+//! shadow the owner's later checkpoints for ever. Sizes are bounded per job
+//! (`checkpoint_bytes`) and in all (`checkpoint_quota`).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -10,6 +16,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use prost::Message;
 
 use crate::error::{Error, Result};
+use crate::limits::Limits;
+use crate::peer_auth::{DaemonKey, MAX_SKEW};
 use crate::proto::Checkpoint;
 
 /// The checkpoints kept on this host.
@@ -18,23 +26,92 @@ pub struct CheckpointStore {
     dir: PathBuf,
     lock: Arc<tokio::sync::Mutex<()>>,
     clock: Arc<AtomicU64>,
+    key: DaemonKey,
+    max_bytes: usize,
+    quota: u64,
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
 }
 
 impl CheckpointStore {
-    pub fn open(dir: &Path) -> Result<Self> {
+    pub fn open(dir: &Path, key: DaemonKey, limits: &Limits) -> Result<Self> {
         std::fs::create_dir_all(dir)?;
         Ok(CheckpointStore {
             dir: dir.to_path_buf(),
             lock: Arc::default(),
             clock: Arc::default(),
+            key,
+            max_bytes: limits.checkpoint_bytes,
+            quota: limits.checkpoint_quota,
         })
+    }
+
+    fn seal_of(&self, cp: &Checkpoint) -> [u8; 32] {
+        let data = crate::peer_auth::digest_bytes(&cp.data);
+        self.key.seal(&[
+            "checkpoint",
+            &cp.job,
+            &cp.version.to_string(),
+            &cp.written_by,
+            &data,
+        ])
+    }
+
+    /// Seals a checkpoint this daemon writes.
+    pub fn seal(&self, cp: &mut Checkpoint) {
+        cp.mac = self.seal_of(cp).to_vec();
+    }
+
+    /// True when `cp` is a checkpoint of `job` sealed by a daemon of this cluster, and its
+    /// version is not from the future.
+    pub fn believe(&self, cp: &Checkpoint, job: &str) -> bool {
+        use subtle::ConstantTimeEq;
+        cp.job == job
+            && cp.version <= now_ns().saturating_add(MAX_SKEW.as_nanos() as u64)
+            && bool::from(self.seal_of(cp).as_slice().ct_eq(&cp.mac))
+    }
+
+    /// Refuses what no daemon should store: too large, unsealed, or from the future.
+    fn admit(&self, cp: &Checkpoint) -> Result<()> {
+        if cp.data.len() > self.max_bytes {
+            return Err(Error::TooLarge {
+                size: cp.data.len(),
+                limit: self.max_bytes,
+            });
+        }
+        if cp.version > now_ns().saturating_add(MAX_SKEW.as_nanos() as u64) {
+            return Err(Error::Invalid(format!(
+                "checkpoint version {} is from the future",
+                cp.version
+            )));
+        }
+        if !self.believe(cp, &cp.job) {
+            return Err(Error::Refused(
+                "the checkpoint is not sealed by a daemon of this cluster".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Bytes of checkpoints on disk now, besides `except`'s file.
+    fn used(&self, except: &Path) -> u64 {
+        let Ok(dir) = std::fs::read_dir(&self.dir) else {
+            return 0;
+        };
+        dir.filter_map(|e| e.ok())
+            .filter(|e| e.path() != except)
+            .filter_map(|e| e.metadata().ok())
+            .map(|m| m.len())
+            .sum()
     }
 
     /// A version newer than any this store has handed out (nanoseconds since the epoch).
     pub fn next_version(&self) -> u64 {
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos() as u64);
+        let now = now_ns();
         let prev = self.clock.fetch_max(now, Ordering::SeqCst);
         if prev >= now {
             self.clock.fetch_add(1, Ordering::SeqCst) + 1
@@ -50,14 +127,24 @@ impl CheckpointStore {
         Ok(self.dir.join(format!("{job}.ckpt")))
     }
 
-    /// Stores `cp` unless a newer version is already here.
+    /// Stores `cp` unless a newer version is already here; refuses one that is too large,
+    /// unsealed, from the future, or over the quota.
     pub async fn put(&self, cp: &Checkpoint) -> Result<()> {
         let path = self.path(&cp.job)?;
+        self.admit(cp)?;
         let _guard = self.lock.lock().await;
         if let Some(old) = self.read(&path).await? {
             if old.version >= cp.version {
                 return Ok(());
             }
+        }
+        let size = cp.encoded_len() as u64;
+        let used = self.used(&path);
+        if used.saturating_add(size) > self.quota {
+            return Err(Error::Limit(format!(
+                "checkpoint quota: {used} bytes are kept, {size} more would pass {}",
+                self.quota
+            )));
         }
         let tmp = self.dir.join(format!(".{}.tmp", cp.job));
         let bytes = cp.encode_to_vec();
@@ -75,9 +162,16 @@ impl CheckpointStore {
         Ok(())
     }
 
+    /// The checkpoint of `job` kept here, if it is one to believe.
     pub async fn get(&self, job: &str) -> Result<Option<Checkpoint>> {
         let path = self.path(job)?;
-        self.read(&path).await
+        Ok(self.read(&path).await?.filter(|cp| {
+            let good = self.believe(cp, job);
+            if !good {
+                tracing::warn!(%job, "ignoring a checkpoint file whose seal is wrong");
+            }
+            good
+        }))
     }
 
     async fn read(&self, path: &Path) -> Result<Option<Checkpoint>> {
@@ -95,22 +189,70 @@ impl CheckpointStore {
 mod tests {
     use super::*;
 
-    #[tokio::test]
-    async fn newest_version_wins_and_survives_reopen() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = CheckpointStore::open(dir.path()).unwrap();
-        let v1 = store.next_version();
-        let v2 = store.next_version();
-        assert!(v2 > v1);
-        let cp = |data: &[u8], version| Checkpoint {
+    fn store(dir: &Path, limits: &Limits) -> CheckpointStore {
+        let key = DaemonKey::new(&crate::Secret::new("s").unwrap(), "a").unwrap();
+        CheckpointStore::open(dir, key, limits).unwrap()
+    }
+
+    fn sealed(store: &CheckpointStore, data: &[u8], version: u64) -> Checkpoint {
+        let mut cp = Checkpoint {
             job: "j1".into(),
             data: data.to_vec(),
             version,
             written_by: "a".into(),
+            mac: Vec::new(),
         };
+        store.seal(&mut cp);
+        cp
+    }
+
+    #[tokio::test]
+    async fn forged_future_oversized_and_over_quota_checkpoints_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let limits = Limits {
+            checkpoint_bytes: 100,
+            checkpoint_quota: 350,
+            ..Limits::default()
+        };
+        let store = store(dir.path(), &limits);
+        let v = store.next_version();
+        let mut forged = sealed(&store, b"x", v);
+        forged.data = b"y".to_vec();
+        assert_eq!(store.put(&forged).await.unwrap_err().code(), tonic::Code::PermissionDenied);
+        let future = sealed(&store, b"x", u64::MAX);
+        assert_eq!(store.put(&future).await.unwrap_err().code(), tonic::Code::InvalidArgument);
+        assert!(!store.believe(&future, "j1"));
+        let big = sealed(&store, &[0; 101], v);
+        assert_eq!(store.put(&big).await.unwrap_err().code(), tonic::Code::ResourceExhausted);
+        for (i, job) in ["a", "b"].iter().enumerate() {
+            let mut cp = sealed(&store, &[i as u8; 100], v);
+            cp.job = job.to_string();
+            store.seal(&mut cp);
+            store.put(&cp).await.unwrap();
+        }
+        let mut third = sealed(&store, &[0; 100], v);
+        third.job = "c".into();
+        store.seal(&mut third);
+        assert_eq!(store.put(&third).await.unwrap_err().code(), tonic::Code::ResourceExhausted);
+        // Replacing a job's own checkpoint does not count its old file.
+        let mut again = sealed(&store, &[9; 100], store.next_version());
+        again.job = "a".into();
+        store.seal(&mut again);
+        store.put(&again).await.unwrap();
+        assert!(store.get("c").await.unwrap().is_none());
+    }
+
+    #[tokio::test]
+    async fn newest_version_wins_and_survives_reopen() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store(dir.path(), &Limits::default());
+        let v1 = store.next_version();
+        let v2 = store.next_version();
+        assert!(v2 > v1);
+        let cp = |data: &[u8], version| sealed(&store, data, version);
         store.put(&cp(b"two", v2)).await.unwrap();
         store.put(&cp(b"one", v1)).await.unwrap();
-        let again = CheckpointStore::open(dir.path()).unwrap();
+        let again = self::store(dir.path(), &Limits::default());
         assert_eq!(again.get("j1").await.unwrap().unwrap().data, b"two");
         assert!(again.get("nothing").await.unwrap().is_none());
         assert!(store.get("../etc").await.is_err());

@@ -1,24 +1,63 @@
-//! Building one child process: arguments, environment (the `REM_*` variables), nice value,
+//! Building one child process: arguments, a clean environment (only `PATH`, the variables
+//! the spawn was allowed to set, and the `REM_*` variables remd sets; nothing of remd's own
+//! environment, so no `LD_PRELOAD` or secret reaches it), nice value, the user it runs as,
 //! process group and parent-death signal; and signalling its group.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::Duration;
 
 use crate::ids::ProcId;
+use crate::limits::Limits;
+use crate::policy::SpawnPolicy;
+use crate::token::Token;
 use crate::wire::env;
+
+/// The `PATH` every child gets.
+pub const CHILD_PATH: &str = "/usr/local/bin:/usr/bin:/bin";
+
+/// The user and group children run as (when remd runs as root).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RunAs {
+    /// User id.
+    pub uid: u32,
+    /// Group id.
+    pub gid: u32,
+}
+
+impl RunAs {
+    /// Looks a user up by name (or takes a number) in the system's user database.
+    pub fn lookup(user: &str) -> crate::Result<Self> {
+        if let Ok(uid) = user.parse::<u32>() {
+            return Ok(RunAs { uid, gid: uid });
+        }
+        let name = std::ffi::CString::new(user)
+            .map_err(|_| crate::Error::Config(format!("bad user name {user:?}")))?;
+        // SAFETY: getpwnam returns a pointer into static storage or null; it is read at once,
+        // before any other call could reuse it (remd reads settings before starting threads
+        // that look users up).
+        let pw = unsafe { libc::getpwnam(name.as_ptr()) };
+        if pw.is_null() {
+            return Err(crate::Error::Config(format!("no user {user:?} on this host")));
+        }
+        // SAFETY: non-null, points to a valid passwd record.
+        let (uid, gid) = unsafe { ((*pw).pw_uid, (*pw).pw_gid) };
+        Ok(RunAs { uid, gid })
+    }
+}
 
 /// What a process table needs from the daemon's settings.
 #[derive(Clone, Debug)]
 pub struct ProcessConfig {
     pub host: String,
     pub addr: String,
-    pub allow: Vec<PathBuf>,
-    /// Environment handed to every child besides the per-process variables (secret, TLS, limits).
+    pub policy: SpawnPolicy,
+    pub limits: Limits,
+    /// Environment handed to every child besides the per-process variables (TLS, limits).
     pub base_env: Vec<(String, String)>,
-    pub log_bytes: usize,
     pub kill_grace: Duration,
+    /// The user children run as (`None`: remd's own).
+    pub run_as: Option<RunAs>,
 }
 
 /// One start request, already placed on this host.
@@ -33,12 +72,21 @@ pub struct StartSpec {
     pub count: u32,
 }
 
-/// The command for one process of `spec`, with id `id` (not yet started).
-pub fn command(cfg: &ProcessConfig, spec: &StartSpec, id: &ProcId) -> tokio::process::Command {
+/// The command for one process of `spec`, with id `id` and attach token `token` (not yet
+/// started). `spec.env` must have passed the daemon's [`SpawnPolicy`].
+pub fn command(
+    cfg: &ProcessConfig,
+    spec: &StartSpec,
+    id: &ProcId,
+    token: &Token,
+) -> tokio::process::Command {
     let mut cmd = tokio::process::Command::new(&spec.program);
     cmd.args(&spec.args)
+        .env_clear()
+        .env("PATH", CHILD_PATH)
         .envs(&spec.env)
         .envs(cfg.base_env.iter().map(|(k, v)| (k, v)))
+        .env(env::PROC_TOKEN, token.as_str())
         .env(env::ADDR, &cfg.addr)
         .env(env::HOST, &cfg.host)
         .env(env::PROC_ID, id.as_str())
@@ -48,6 +96,10 @@ pub fn command(cfg: &ProcessConfig, spec: &StartSpec, id: &ProcId) -> tokio::pro
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .process_group(0);
+    if let Some(user) = cfg.run_as {
+        // std drops the supplementary groups when it changes the user as root.
+        cmd.uid(user.uid).gid(user.gid);
+    }
     let nice = spec.nice;
     // SAFETY: only async-signal-safe calls (setpriority, prctl) between fork and exec; they
     // act on the child alone, so remd keeps its own priority.

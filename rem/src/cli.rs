@@ -33,9 +33,26 @@ pub struct RemdArgs {
     /// File holding the cluster secret.
     #[arg(long, env = "REM_SECRET_FILE")]
     pub secret_file: Option<PathBuf>,
-    /// Absolute path of a program that may be spawned (repeatable).
+    /// A program that may be spawned: its absolute path, optionally `:FIRST|FIRST` to allow
+    /// only these first arguments, e.g. `/usr/local/bin/sunray:worker|controller` (repeatable).
     #[arg(long = "allow", env = "REMD_ALLOW", value_delimiter = ',')]
-    pub allow: Vec<PathBuf>,
+    pub allow: Vec<String>,
+    /// Environment variables a spawn may set: names, or prefixes ending in `*` (repeatable)
+    /// [default: SUNRAY_WORKER_*, RUST_LOG].
+    #[arg(long = "env-allow", env = "REMD_ENV_ALLOW", value_delimiter = ',')]
+    pub env_allow: Vec<String>,
+    /// A limit, `NAME=VALUE` (repeatable; sizes take K, M, G): spawn_count, host_processes,
+    /// mailbox_bytes, link_bytes, relay_bytes, checkpoint_bytes, checkpoint_quota, log_bytes,
+    /// log_quota. See docs/rem.md.
+    #[arg(long = "limit", env = "REMD_LIMITS", value_delimiter = ',')]
+    pub limits: Vec<String>,
+    /// The user spawned processes run as (a name or uid) when remd runs as root.
+    #[arg(long, env = "REMD_RUN_AS")]
+    pub run_as: Option<String>,
+    /// Allow plain HTTP/2 off this host: listening on a non-loopback address, or calling
+    /// other daemons there, without TLS.
+    #[arg(long, env = "REMD_INSECURE")]
+    pub insecure: bool,
     /// Directory for checkpoints.
     #[arg(long, env = "REMD_STATE_DIR")]
     pub state_dir: Option<PathBuf>,

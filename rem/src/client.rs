@@ -18,12 +18,22 @@ pub use crate::rpc::RemRpc;
 pub struct ConnectOptions {
     /// `HOST:PORT` (or an `http(s)://` URL).
     pub addr: String,
-    /// The cluster secret, sent with every call.
-    pub secret: Secret,
+    /// What the client proves itself with.
+    pub credential: Credential,
     /// Verify the daemon's TLS certificate with this; `None` = plain HTTP/2.
     pub tls: Option<ClientTls>,
     /// Largest relay payload this side sends (the daemon has its own limit).
     pub max_message: usize,
+}
+
+/// A client's credential.
+#[derive(Clone, Debug)]
+pub enum Credential {
+    /// The cluster secret or a client key (`rem client-key`): the client key made from it is
+    /// sent, never the secret.
+    Secret(Secret),
+    /// The token of a process REM started (`REM_PROC_TOKEN`): good only to attach as itself.
+    ProcessToken(String),
 }
 
 impl ConnectOptions {
@@ -31,21 +41,27 @@ impl ConnectOptions {
     pub fn new(addr: impl Into<String>, secret: Secret) -> Self {
         ConnectOptions {
             addr: addr.into(),
-            secret,
+            credential: Credential::Secret(secret),
             tls: None,
             max_message: DEFAULT_MAX_MESSAGE,
         }
     }
 
-    /// From the environment a spawned process gets: `REM_ADDR` (default `127.0.0.1:7077`),
-    /// `REM_SECRET_FILE` or `REM_SECRET`, `REM_TLS_CA` / `REM_TLS_DOMAIN`, `REM_MAX_MESSAGE`.
+    /// From the environment: `REM_ADDR` (default `127.0.0.1:7077`), the credential
+    /// (`REM_PROC_TOKEN` in a process REM started, else `REM_SECRET_FILE` or `REM_SECRET`),
+    /// `REM_TLS_CA` / `REM_TLS_DOMAIN`, `REM_MAX_MESSAGE`.
     pub fn from_env() -> Result<Self> {
         let addr = std::env::var(env::ADDR)
             .ok()
             .filter(|a| !a.is_empty())
             .unwrap_or_else(|| DEFAULT_ADDR.into());
-        let (secret, _) = Secret::resolve(None)?;
-        let mut opts = ConnectOptions::new(addr, secret);
+        let mut opts = match std::env::var(env::PROC_TOKEN).ok().filter(|t| !t.is_empty()) {
+            Some(token) => ConnectOptions {
+                credential: Credential::ProcessToken(token),
+                ..ConnectOptions::new(addr, Secret::new("unused")?)
+            },
+            None => ConnectOptions::new(addr, Secret::resolve(None)?.0),
+        };
         opts.tls = ClientTls::from_env()?;
         if let Some(m) = std::env::var(env::MAX_MESSAGE)
             .ok()
@@ -150,7 +166,11 @@ impl RemClient {
     pub async fn connect_with(opts: ConnectOptions) -> Result<Self> {
         let channel = transport::connect(&opts.addr, opts.tls.as_ref()).await?;
         let frame = opts.max_message + FRAME_OVERHEAD;
-        let rpc = rem_client::RemClient::with_interceptor(channel, SendSecret::new(&opts.secret))
+        let credential = match &opts.credential {
+            Credential::Secret(s) => SendSecret::new(s),
+            Credential::ProcessToken(t) => SendSecret::process(t)?,
+        };
+        let rpc = rem_client::RemClient::with_interceptor(channel, credential)
             .max_decoding_message_size(frame)
             .max_encoding_message_size(frame);
         Ok(RemClient { rpc, opts })
@@ -162,7 +182,7 @@ impl RemClient {
     }
 
     /// For a process started by REM: connects to `REM_ADDR` and attaches as `REM_PROC_ID`
-    /// of job `REM_JOB_ID` (secret from `REM_SECRET_FILE` / `REM_SECRET`).
+    /// of job `REM_JOB_ID`, proving it with `REM_PROC_TOKEN`.
     pub async fn attach_from_env() -> Result<Relay> {
         let client = RemClient::from_env().await?;
         let id = std::env::var(env::PROC_ID)

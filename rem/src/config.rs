@@ -9,6 +9,10 @@
 //! | `--join` (comma list) | `REMD_JOIN` | `join` (array) | none |
 //! | `--secret-file` | `REM_SECRET_FILE` (or the secret in `REM_SECRET`) | `secret_file` | required |
 //! | `--allow` (repeatable) | `REMD_ALLOW` (comma list) | `allow` (array) | nothing may be spawned |
+//! | `--env-allow` (repeatable) | `REMD_ENV_ALLOW` | `env_allow` (array) | `SUNRAY_WORKER_*`, `RUST_LOG` |
+//! | `--limit NAME=VALUE` (repeatable) | `REMD_LIMITS` | `[limits]` table | see [`Limits`] |
+//! | `--run-as` | `REMD_RUN_AS` | `run_as` | remd's own user |
+//! | `--insecure` | `REMD_INSECURE` | `insecure` | false: plain HTTP/2 only on loopback |
 //! | `--state-dir` | `REMD_STATE_DIR` | `state_dir` | a fresh temporary directory |
 //! | `--heartbeat-ms` | `REMD_HEARTBEAT_MS` | `heartbeat_ms` | 250 |
 //! | `--lost-after-ms` | `REMD_LOST_AFTER_MS` | `lost_after_ms` | 1500 |
@@ -23,8 +27,11 @@ use std::time::Duration;
 use serde::Deserialize;
 
 use crate::auth::Secret;
+use crate::child::RunAs;
 use crate::cli::RemdArgs;
 use crate::error::{Error, Result};
+use crate::limits::Limits;
+use crate::policy::{ProgramRule, SpawnPolicy, DEFAULT_ENV_ALLOW};
 use crate::transport::ServerTlsFiles;
 
 pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
@@ -40,7 +47,13 @@ pub(crate) struct FileConfig {
     pub(crate) join: Vec<String>,
     pub(crate) secret_file: Option<PathBuf>,
     #[serde(default)]
-    pub(crate) allow: Vec<PathBuf>,
+    pub(crate) allow: Vec<String>,
+    #[serde(default)]
+    pub(crate) env_allow: Vec<String>,
+    #[serde(default)]
+    pub(crate) limits: std::collections::BTreeMap<String, toml::Value>,
+    pub(crate) run_as: Option<String>,
+    pub(crate) insecure: Option<bool>,
     pub(crate) state_dir: Option<PathBuf>,
     pub(crate) heartbeat_ms: Option<u64>,
     pub(crate) lost_after_ms: Option<u64>,
@@ -67,8 +80,14 @@ pub struct DaemonSettings {
     pub secret: Secret,
     /// Where the secret came from (handed to children as `REM_SECRET_FILE`).
     pub secret_file: Option<PathBuf>,
-    /// Absolute paths of the programs that may be spawned.
-    pub allow: Vec<PathBuf>,
+    /// The programs that may be spawned, and the environment names a spawn may set.
+    pub policy: SpawnPolicy,
+    /// Hard limits (processes, queued bytes, checkpoints, logs).
+    pub limits: Limits,
+    /// The user children run as (`None`: remd's own).
+    pub run_as: Option<RunAs>,
+    /// Plain HTTP/2 is allowed off loopback.
+    pub insecure: bool,
     /// Directory for checkpoints [default: a temporary one].
     pub state_dir: Option<PathBuf>,
     /// Time between heartbeats to each member.
@@ -83,13 +102,19 @@ pub struct DaemonSettings {
     pub queue: usize,
     /// Time between SIGTERM and SIGKILL when a process is killed.
     pub kill_grace: Duration,
-    /// Bytes of stdout and of stderr kept per process.
-    pub log_bytes: usize,
     /// TLS certificate and key to serve with (`None`: plain HTTP/2).
     pub tls: Option<ServerTlsFiles>,
 }
 
 impl DaemonSettings {
+    /// Allows `program` (any arguments) to be spawned.
+    pub fn allow_program(&mut self, program: impl Into<PathBuf>) {
+        self.policy.programs.push(ProgramRule {
+            path: program.into(),
+            first_args: None,
+        });
+    }
+
     /// DaemonSettings with defaults for `name` and `secret` (used by tests and embedders).
     pub fn new(name: &str, secret: Secret) -> Self {
         DaemonSettings {
@@ -99,7 +124,13 @@ impl DaemonSettings {
             join: Vec::new(),
             secret,
             secret_file: None,
-            allow: Vec::new(),
+            policy: SpawnPolicy {
+                programs: Vec::new(),
+                env_allow: DEFAULT_ENV_ALLOW.map(String::from).to_vec(),
+            },
+            limits: Limits::default(),
+            run_as: None,
+            insecure: false,
             state_dir: None,
             heartbeat: Duration::from_millis(250),
             lost_after: Duration::from_millis(1500),
@@ -107,7 +138,6 @@ impl DaemonSettings {
             max_message: DEFAULT_MAX_MESSAGE,
             queue: 4096,
             kill_grace: Duration::from_secs(2),
-            log_bytes: 1 << 20,
             tls: None,
         }
     }
@@ -130,21 +160,46 @@ impl DaemonSettings {
             )));
         }
         let secret_path = args.secret_file.or(file.secret_file);
+        if let Some(path) = &secret_path {
+            check_secret_file(path)?;
+        }
         let (secret, secret_file) = Secret::resolve(secret_path.as_deref())?;
+        if secret.is_client_key() {
+            return Err(Error::Config(
+                "the secret holds a client key (from `rem client-key`); remd needs the cluster \
+                 secret itself"
+                    .into(),
+            ));
+        }
         let mut s = DaemonSettings::new(&name, secret);
         s.secret_file = secret_file;
         s.listen = args.listen.or(file.listen).unwrap_or(s.listen);
         s.advertise = args.advertise.or(file.advertise);
         s.join = pick(args.join, file.join);
-        s.allow = pick(args.allow, file.allow);
-        for p in &s.allow {
-            if !p.is_absolute() {
-                return Err(Error::Config(format!(
-                    "--allow {} is not an absolute path",
-                    p.display()
-                )));
-            }
+        s.policy.programs = pick(args.allow, file.allow)
+            .iter()
+            .map(|rule| ProgramRule::parse(rule))
+            .collect::<Result<_>>()?;
+        let env_allow = pick(args.env_allow, file.env_allow);
+        if !env_allow.is_empty() {
+            s.policy.env_allow = env_allow;
         }
+        for (name, value) in &file.limits {
+            let value = match value {
+                toml::Value::String(v) => v.clone(),
+                other => other.to_string(),
+            };
+            s.limits.set(name, &value).map_err(Error::Config)?;
+        }
+        for pair in &args.limits {
+            s.limits.set_pair(pair).map_err(Error::Config)?;
+        }
+        s.run_as = args
+            .run_as
+            .or(file.run_as)
+            .map(|u| RunAs::lookup(&u))
+            .transpose()?;
+        s.insecure = args.insecure || file.insecure.unwrap_or(false);
         s.state_dir = args.state_dir.or(file.state_dir);
         if let Some(ms) = args.heartbeat_ms.or(file.heartbeat_ms) {
             s.heartbeat = Duration::from_millis(ms.max(10));
@@ -183,6 +238,28 @@ impl DaemonSettings {
     }
 }
 
+/// Refuses a secret file that other users may read (or that cannot be examined).
+fn check_secret_file(path: &Path) -> Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    let meta = std::fs::metadata(path)
+        .map_err(|e| Error::Config(format!("cannot read secret file {}: {e}", path.display())))?;
+    let mode = meta.permissions().mode();
+    if mode & 0o004 != 0 {
+        return Err(Error::Config(format!(
+            "secret file {} is readable by every user (mode {:o}): chmod 600 it",
+            path.display(),
+            mode & 0o777
+        )));
+    }
+    if mode & 0o040 != 0 {
+        tracing::warn!(
+            file = %path.display(),
+            "the secret file is readable by its group: every member can act as a daemon"
+        );
+    }
+    Ok(())
+}
+
 fn pick<T>(flags: Vec<T>, file: Vec<T>) -> Vec<T> {
     if flags.is_empty() {
         file
@@ -217,12 +294,15 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let secret = dir.path().join("secret");
         std::fs::write(&secret, "s3cret\n").unwrap();
+        private(&secret);
         let cfg = dir.path().join("remd.toml");
         std::fs::write(
             &cfg,
             format!(
                 "name = \"filehost\"\nlisten = \"127.0.0.1:9000\"\nsecret_file = {:?}\n\
-                 allow = [\"/bin/true\"]\nheartbeat_ms = 100\nlost_after_ms = 600\n",
+                 allow = [\"/bin/true\", \"/usr/bin/sunray:worker|controller\"]\n\
+                 heartbeat_ms = 100\nlost_after_ms = 600\n[limits]\nspawn_count = 8\n\
+                 mailbox_bytes = \"2M\"\n",
                 secret
             ),
         )
@@ -237,7 +317,13 @@ mod tests {
         let s = DaemonSettings::from_args(args).unwrap();
         assert_eq!(s.name, "flaghost");
         assert_eq!(s.listen, "127.0.0.1:9000".parse().unwrap());
-        assert_eq!(s.allow, vec![PathBuf::from("/bin/true")]);
+        assert_eq!(s.policy.programs.len(), 2);
+        assert_eq!(s.policy.programs[0].path, PathBuf::from("/bin/true"));
+        assert_eq!(
+            s.policy.programs[1].first_args,
+            Some(vec!["worker".to_string(), "controller".to_string()])
+        );
+        assert_eq!((s.limits.spawn_count, s.limits.mailbox_bytes), (8, 2 << 20));
         assert_eq!(s.heartbeat, Duration::from_millis(100));
         assert!(s.secret.matches(b"s3cret"));
     }
@@ -247,6 +333,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let secret = dir.path().join("secret");
         std::fs::write(&secret, "x").unwrap();
+        private(&secret);
         let sf = secret.to_str().unwrap();
         let bad_name = RemdArgs::parse_from(["remd", "--name", "a/b", "--secret-file", sf]);
         assert!(DaemonSettings::from_args(bad_name).is_err());
@@ -270,5 +357,26 @@ mod tests {
             sf,
         ]);
         assert!(DaemonSettings::from_args(unknown).is_err());
+        let bad_limit =
+            RemdArgs::parse_from(["remd", "--secret-file", sf, "--limit", "spawn_count=0"]);
+        assert!(DaemonSettings::from_args(bad_limit).is_err());
+        // A secret every user can read, or a client key, is refused.
+        let open = dir.path().join("open");
+        std::fs::write(&open, "x").unwrap();
+        std::fs::set_permissions(&open, std::os::unix::fs::PermissionsExt::from_mode(0o644))
+            .unwrap();
+        let args = RemdArgs::parse_from(["remd", "--secret-file", open.to_str().unwrap()]);
+        let err = DaemonSettings::from_args(args).unwrap_err().to_string();
+        assert!(err.contains("readable by every user"), "{err}");
+        let key = dir.path().join("client-key");
+        std::fs::write(&key, Secret::new("x").unwrap().client_key_line()).unwrap();
+        private(&key);
+        let args = RemdArgs::parse_from(["remd", "--secret-file", key.to_str().unwrap()]);
+        assert!(DaemonSettings::from_args(args).is_err());
+    }
+
+    fn private(path: &Path) {
+        std::fs::set_permissions(path, std::os::unix::fs::PermissionsExt::from_mode(0o600))
+            .unwrap();
     }
 }

@@ -3,7 +3,6 @@
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
@@ -13,8 +12,11 @@ use crate::error::{Error, Result};
 use crate::ids::{is_valid_name, ProcId};
 use crate::jobs::Jobs;
 use crate::membership::Membership;
+use crate::limits::Limits;
+use crate::peer_auth::method;
 use crate::peers::PeerPool;
 use crate::placement::{self, Candidate};
+use crate::policy::SpawnPolicy;
 use crate::process::{ProcessTable, StartSpec};
 use crate::proto::{
     job_event, Checkpoint, JobEvent, KillRequest, LogsReply, LogsRequest, Placement, ProcessInfo,
@@ -22,14 +24,12 @@ use crate::proto::{
 };
 use crate::relay::Router;
 
-/// Time allowed for a call to another daemon that does real work (start, kill, replica).
-pub const PEER_CALL: Duration = Duration::from_secs(5);
-
 /// Shared state of one running daemon.
 pub struct Daemon {
     pub name: String,
     pub max_message: usize,
-    pub allow: Vec<std::path::PathBuf>,
+    pub policy: SpawnPolicy,
+    pub limits: Limits,
     pub membership: Membership,
     pub router: Router,
     pub processes: ProcessTable,
@@ -59,19 +59,9 @@ impl Daemon {
 
     pub async fn spawn(&self, req: SpawnRequest) -> Result<SpawnReply> {
         self.check_accepting()?;
-        if !req.program.starts_with('/') {
-            return Err(Error::Invalid(format!(
-                "program {:?} is not an absolute path",
-                req.program
-            )));
-        }
-        if !self
-            .allow
-            .iter()
-            .any(|a| a.as_os_str() == req.program.as_str())
-        {
-            return Err(Error::NotAllowed(req.program, self.name.clone()));
-        }
+        self.check_count(req.count)?;
+        self.policy
+            .check(&self.name, &req.program, &req.args, &req.env)?;
         if let Some(n) = req.nice {
             if !(-20..=19).contains(&n) {
                 return Err(Error::Invalid(format!("nice {n} is outside -20..19")));
@@ -170,15 +160,30 @@ impl Daemon {
         })
     }
 
+    /// A spawn's count: at least 1, at most the `spawn_count` limit.
+    fn check_count(&self, count: u32) -> Result<()> {
+        let max = self.limits.spawn_count;
+        if count == 0 || count > max {
+            return Err(Error::Invalid(format!(
+                "count {count} is outside 1..={max} (the spawn_count limit of host {})",
+                self.name
+            )));
+        }
+        Ok(())
+    }
+
     pub async fn start_local(&self, req: StartLocalRequest) -> Result<Vec<Placement>> {
         self.check_accepting()?;
+        self.check_count(req.count)?;
+        self.policy
+            .check(&self.name, &req.program, &req.args, &req.env)?;
         self.processes
             .start_local(StartSpec {
                 job: req.job,
                 owner: req.owner,
                 program: req.program,
                 args: req.args,
-                env: req.env.into_iter().collect(),
+                env: req.env,
                 nice: req.nice,
                 count: req.count,
             })
@@ -202,11 +207,15 @@ impl Daemon {
         match self.peer_for(&id)? {
             None => self.processes.kill(id).await,
             Some(addr) => {
-                let mut c = self.peers.client(&addr)?;
                 let req = KillRequest {
                     proc_id: id.to_string(),
                 };
-                timed(id.host(), c.kill_local(req)).await.map(|_| ())
+                self.peers
+                    .call(id.host(), &addr, method::KILL, req, |mut c, r| async move {
+                        c.kill_local(r).await
+                    })
+                    .await
+                    .map(|_| ())
             }
         }
     }
@@ -215,11 +224,14 @@ impl Daemon {
         match self.peer_for(&id)? {
             None => self.processes.logs(id).await,
             Some(addr) => {
-                let mut c = self.peers.client(&addr)?;
                 let req = LogsRequest {
                     proc_id: id.to_string(),
                 };
-                timed(id.host(), c.logs_local(req)).await
+                self.peers
+                    .call(id.host(), &addr, method::LOGS, req, |mut c, r| async move {
+                        c.logs_local(r).await
+                    })
+                    .await
             }
         }
     }
@@ -235,10 +247,14 @@ impl Daemon {
             .skip(1)
             .filter(|h| h.alive)
         {
-            let Ok(mut c) = self.peers.client(&h.addr) else {
-                continue;
-            };
-            tasks.spawn(async move { timed(&h.name, c.ps_local(PsRequest {})).await });
+            let peers = self.peers.clone();
+            tasks.spawn(async move {
+                peers
+                    .call(&h.name, &h.addr, method::PS, PsRequest {}, |mut c, r| async move {
+                        c.ps_local(r).await
+                    })
+                    .await
+            });
         }
         while let Some(r) = tasks.join_next().await {
             if let Ok(Ok(reply)) = r {
@@ -251,21 +267,24 @@ impl Daemon {
 
     /// Stores a checkpoint here and on one more live host; returns (version, hosts).
     pub async fn put_checkpoint(&self, job: String, data: Vec<u8>) -> Result<(u64, Vec<String>)> {
-        if data.len() > self.max_message {
+        let limit = self.max_message.min(self.limits.checkpoint_bytes);
+        if data.len() > limit {
             return Err(Error::TooLarge {
                 size: data.len(),
-                limit: self.max_message,
+                limit,
             });
         }
         if !is_valid_name(&job) {
             return Err(Error::Invalid(format!("bad job id {job:?}")));
         }
-        let cp = Checkpoint {
+        let mut cp = Checkpoint {
             job,
             data,
             version: self.checkpoints.next_version(),
             written_by: self.name.clone(),
+            mac: Vec::new(),
         };
+        self.checkpoints.seal(&mut cp);
         self.checkpoints.put(&cp).await?;
         let mut stored = vec![self.name.clone()];
         let mut others: Vec<_> = self
@@ -282,10 +301,13 @@ impl Daemon {
         });
         let had_peers = !others.is_empty();
         for h in others {
-            let Ok(mut c) = self.peers.client(&h.addr) else {
-                continue;
-            };
-            if timed(&h.name, c.store_replica(cp.clone())).await.is_ok() {
+            let stored_there = self
+                .peers
+                .call(&h.name, &h.addr, method::STORE, cp.clone(), |mut c, r| async move {
+                    c.store_replica(r).await
+                })
+                .await;
+            if stored_there.is_ok() {
                 stored.push(h.name);
                 break;
             }
@@ -311,15 +333,19 @@ impl Daemon {
             .skip(1)
             .filter(|h| h.alive)
         {
-            let Ok(mut c) = self.peers.client(&h.addr) else {
-                continue;
-            };
             let req = crate::proto::GetCheckpointRequest { job: job.clone() };
-            tasks.spawn(async move { timed(&h.name, c.fetch_replica(req)).await });
+            let peers = self.peers.clone();
+            tasks.spawn(async move {
+                peers
+                    .call(&h.name, &h.addr, method::FETCH, req, |mut c, r| async move {
+                        c.fetch_replica(r).await
+                    })
+                    .await
+            });
         }
         while let Some(r) = tasks.join_next().await {
             if let Ok(Ok(reply)) = r {
-                if let Some(cp) = reply.checkpoint {
+                if let Some(cp) = reply.checkpoint.filter(|cp| self.checkpoints.believe(cp, &job)) {
                     if best.as_ref().is_none_or(|b| cp.version > b.version) {
                         best = Some(cp);
                     }
@@ -336,34 +362,19 @@ async fn start_remote(
     addr: &str,
     spec: StartSpec,
 ) -> Result<Vec<Placement>> {
-    let mut c = peers.client(addr)?;
     let req = StartLocalRequest {
         job: spec.job,
         owner: spec.owner,
         program: spec.program,
         args: spec.args,
-        env: spec.env.into_iter().collect(),
+        env: spec.env,
         nice: spec.nice,
         count: spec.count,
     };
-    Ok(timed(host, c.start_local(req)).await?.processes)
-}
-
-/// Awaits a peer call with the `PEER_CALL` bound.
-async fn timed<T>(
-    host: &str,
-    call: impl std::future::Future<Output = std::result::Result<tonic::Response<T>, tonic::Status>>,
-) -> Result<T> {
-    match tokio::time::timeout(PEER_CALL, call).await {
-        Ok(Ok(r)) => Ok(r.into_inner()),
-        Ok(Err(status)) if status.code() == tonic::Code::Unavailable => Err(Error::Unreachable {
-            host: host.to_string(),
-            reason: status.message().to_string(),
-        }),
-        Ok(Err(status)) => Err(Error::Rpc(status)),
-        Err(_) => Err(Error::Unreachable {
-            host: host.to_string(),
-            reason: "timed out".into(),
-        }),
-    }
+    let reply = peers
+        .call(host, addr, method::START, req, |mut c, r| async move {
+            c.start_local(r).await
+        })
+        .await?;
+    Ok(reply.processes)
 }

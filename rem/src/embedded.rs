@@ -84,6 +84,23 @@ impl Drop for EmbeddedRemd {
     }
 }
 
+/// The secret a private daemon keeps in `dir` (`dir/secret`, mode 600), made fresh the first
+/// time: its checkpoints are sealed with it, so a later private daemon of the same state
+/// directory believes them.
+pub fn kept_secret(dir: &std::path::Path) -> Result<Secret> {
+    let path = dir.join("secret");
+    match std::fs::read(&path) {
+        Ok(bytes) => Secret::new(bytes),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            std::fs::create_dir_all(dir)?;
+            let secret = fresh_secret()?;
+            crate::auth::write_private(&path, secret.as_bytes())?;
+            Ok(secret)
+        }
+        Err(e) => Err(crate::Error::Config(format!("cannot read {}: {e}", path.display()))),
+    }
+}
+
 /// A fresh cluster secret for a private daemon: 32 random bytes from the kernel as hex
 /// (falling back to the time and process id where there is no `/dev/urandom`).
 pub fn fresh_secret() -> Result<Secret> {

@@ -12,6 +12,12 @@ pub enum Error {
     /// The program is not on the daemon's allow-list.
     #[error("program {0:?} is not on the allow-list of host {1}")]
     NotAllowed(String, String),
+    /// The caller may not do this (an argument or environment rule, another owner's job).
+    #[error("{0}")]
+    Refused(String),
+    /// A limit of the daemon is reached (processes, queued bytes, checkpoint quota ...).
+    #[error("limit reached: {0}")]
+    Limit(String),
     /// No such process, job or host.
     #[error("not found: {0}")]
     NotFound(String),
@@ -77,7 +83,8 @@ impl Error {
     pub fn to_status(&self) -> Status {
         let code = match self {
             Error::Invalid(_) => Code::InvalidArgument,
-            Error::NotAllowed(..) => Code::PermissionDenied,
+            Error::NotAllowed(..) | Error::Refused(_) => Code::PermissionDenied,
+            Error::Limit(_) => Code::ResourceExhausted,
             Error::NotFound(_) => Code::NotFound,
             Error::NotEnoughHosts { .. } => Code::FailedPrecondition,
             Error::TooLarge { .. } => Code::ResourceExhausted,

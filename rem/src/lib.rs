@@ -39,7 +39,8 @@
 //! ```
 //!
 //! A spawned process attaches with one call, `RemClient::attach_from_env()`, which reads
-//! `REM_ADDR`, `REM_PROC_ID`, `REM_JOB_ID`, `REM_OWNER_ID`, `REM_SECRET_FILE` or `REM_SECRET`,
+//! `REM_ADDR`, `REM_PROC_ID`, `REM_PROC_TOKEN` (the process's own credential: processes never
+//! see the cluster secret), `REM_JOB_ID`, `REM_OWNER_ID`,
 //! and (with TLS) `REM_TLS_CA` / `REM_TLS_DOMAIN` (see [`wire::env`]).
 //!
 //! Messages are opaque bytes up to the daemon's limit (default 16 MiB, `--max-message`).
@@ -51,7 +52,12 @@
 //! - [`proto`]: generated gRPC types (`proto/rem.proto`).
 //! - [`error`]: [`Error`], and its mapping to gRPC status codes.
 //! - [`ids`]: host names, job ids, [`ProcId`].
-//! - [`auth`]: the cluster [`Secret`] and the interceptors that send and check it.
+//! - [`auth`]: the cluster [`Secret`], the client key made from it, and the interceptors
+//!   that send and check a client's key or a process's token.
+//! - `peer_auth`: how daemons prove the secret to each other (HMAC) without sending it.
+//! - `token`: random tokens (a spawned process attaches with its own).
+//! - [`limits`]: the daemon's hard limits; `budget`: byte budgets of the relay's queues.
+//! - [`policy`]: which programs (and first arguments) and environment names may be spawned.
 //! - [`transport`]: channels, plain or TLS (rustls).
 //! - [`cli`]: remd's flags (clap); [`config`]: remd settings from flags, environment and TOML.
 //! - [`load`]: this host's load (sysinfo) and REM process count.
@@ -73,6 +79,7 @@
 
 mod attach;
 pub mod auth;
+mod budget;
 mod cgroup;
 mod checkpoint;
 mod child;
@@ -84,17 +91,21 @@ pub mod embedded;
 pub mod error;
 pub mod ids;
 mod jobs;
+pub mod limits;
 mod load;
 mod logbuf;
 mod membership;
+mod peer_auth;
 mod peers;
 mod placement;
+pub mod policy;
 mod process;
 mod relay;
 pub mod relay_client;
 mod rpc;
 pub mod server;
 mod service;
+mod token;
 pub mod transport;
 pub mod wire;
 
@@ -105,7 +116,7 @@ pub mod proto {
 }
 
 pub use auth::Secret;
-pub use client::{ConnectOptions, Job, RemClient, SpawnRequest};
+pub use client::{ConnectOptions, Credential, Job, RemClient, SpawnRequest};
 pub use error::{Error, Result};
 pub use ids::ProcId;
 pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, ProcessInfo};

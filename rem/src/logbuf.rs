@@ -56,6 +56,13 @@ impl Output {
         }
     }
 
+    /// Bytes kept now, of both streams.
+    pub fn len(&self) -> usize {
+        let o = self.stdout.lock().unwrap_or_else(|e| e.into_inner()).data.len();
+        let e = self.stderr.lock().unwrap_or_else(|e| e.into_inner()).data.len();
+        o + e
+    }
+
     /// (stdout, stderr, truncated)
     pub fn snapshot(&self) -> (Vec<u8>, Vec<u8>, bool) {
         let o = self.stdout.lock().unwrap_or_else(|e| e.into_inner());

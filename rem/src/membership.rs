@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::load::LoadGauge;
+use crate::peer_auth::{method, ANY};
 use crate::peers::PeerPool;
 use crate::proto::{HeartbeatRequest, HostInfo, Member};
 
@@ -298,31 +299,33 @@ impl Actor {
             members: self.handle.members(),
         };
         let timeout = (self.handle.me.lost_after / 2).min(Duration::from_secs(1));
-        let mut targets: Vec<(String, Option<String>)> = self
+        // (address, the join address it is, the name expected there)
+        let mut targets: Vec<(String, Option<String>, String)> = self
             .view
             .hosts
-            .values()
-            .map(|e| (e.addr.clone(), None))
+            .iter()
+            .map(|(name, e)| (e.addr.clone(), None, name.clone()))
             .collect();
         for (seed, name) in &self.seeds {
             let known = name
                 .as_ref()
                 .is_some_and(|n| self.view.hosts.contains_key(n) || n == &self.handle.me.name);
-            if !known && !targets.iter().any(|(a, _)| a == seed) {
-                targets.push((seed.clone(), Some(seed.clone())));
+            if !known && !targets.iter().any(|(a, _, _)| a == seed) {
+                targets.push((seed.clone(), Some(seed.clone()), ANY.to_string()));
             }
         }
-        for (addr, seed) in targets {
-            let Ok(mut client) = self.peers.client(&addr) else {
-                continue;
-            };
+        for (addr, seed, name) in targets {
             let req = req.clone();
             let tx = self.handle.tx.clone();
+            let peers = self.peers.clone();
             tokio::spawn(async move {
-                let reply = tokio::time::timeout(timeout, client.heartbeat(req)).await;
-                if let Ok(Ok(reply)) = reply {
-                    let reply = reply.into_inner();
-                    if let Some(info) = reply.sender {
+                let beat = |mut c: crate::peers::PeerRpc, r| async move { c.heartbeat(r).await };
+                let reply = peers
+                    .call_proven(&name, &addr, method::HEARTBEAT, timeout, req, beat)
+                    .await;
+                if let Ok((proven, reply)) = reply {
+                    // Only a daemon's own entry is believed from it.
+                    if let Some(info) = reply.sender.filter(|s| s.name == proven) {
                         let _ = tx
                             .send(Cmd::Heard {
                                 info,

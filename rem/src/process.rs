@@ -6,7 +6,6 @@
 //! its normal priority), and `PR_SET_PDEATHSIG` so it dies if remd dies.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -19,8 +18,12 @@ use crate::ids::ProcId;
 use crate::logbuf::{self, Output};
 use crate::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
 use crate::relay::Router;
+use crate::token::Token;
 
 pub use crate::child::{ProcessConfig, StartSpec};
+
+/// Records of exited processes kept at most (for `ps` and `logs`).
+pub const KEEP_EXITED: usize = 1000;
 
 struct Entry {
     info: ProcessInfo,
@@ -169,12 +172,17 @@ impl Actor {
         if !self.accepting {
             return Err(Error::ShuttingDown);
         }
-        let program = PathBuf::from(&spec.program);
-        if !self.cfg.allow.iter().any(|a| a == &program) {
-            return Err(Error::NotAllowed(
-                spec.program.clone(),
-                self.cfg.host.clone(),
-            ));
+        self.cfg
+            .policy
+            .check(&self.cfg.host, &spec.program, &spec.args, &spec.env)?;
+        let running = self.running().count();
+        let max = self.cfg.limits.host_processes;
+        if running.saturating_add(spec.count as usize) > max {
+            return Err(Error::Limit(format!(
+                "host {} runs {running} processes; {} more would pass its host_processes \
+                 limit of {max}",
+                self.cfg.host, spec.count
+            )));
         }
         let mut placed = Vec::new();
         for _ in 0..spec.count.max(1) {
@@ -195,8 +203,9 @@ impl Actor {
 
     fn start_one(&mut self, spec: &StartSpec) -> Result<Placement> {
         let id = ProcId::new(&self.cfg.host, self.seq.fetch_add(1, Ordering::Relaxed));
-        let mut cmd = child::command(&self.cfg, spec, &id);
-        self.router.register(&id);
+        let token = Token::random()?;
+        let mut cmd = child::command(&self.cfg, spec, &id, &token);
+        self.router.register(&id, Some(token));
         let mut child = match cmd.spawn() {
             Ok(c) => c,
             Err(e) => {
@@ -208,7 +217,7 @@ impl Actor {
             }
         };
         let pid = child.id().unwrap_or(0);
-        let output = Output::new(self.cfg.log_bytes);
+        let output = Output::new(self.cfg.limits.log_bytes);
         let mut collectors = Vec::new();
         if let Some(out) = child.stdout.take() {
             collectors.push(tokio::spawn(logbuf::collect(out, output.stdout.clone())));
@@ -333,19 +342,31 @@ impl Actor {
                 }
             });
         }
-        // Keep the record of exited processes bounded.
-        let exited: Vec<ProcId> = self
+        self.forget_old_exits();
+        self.notify_drained();
+    }
+
+    /// Keeps the records of exited processes bounded: at most [`KEEP_EXITED`] of them, and
+    /// their output within the `log_quota` limit (the oldest go first).
+    fn forget_old_exits(&mut self) {
+        let mut exited: Vec<(u64, ProcId)> = self
             .entries
             .iter()
             .filter(|(_, e)| e.info.state != "running")
-            .map(|(k, _)| k.clone())
+            .map(|(k, e)| (e.info.started_unix_ms, k.clone()))
             .collect();
-        if exited.len() > 1000 {
-            for k in exited.iter().take(exited.len() - 1000) {
-                self.entries.remove(k);
+        exited.sort();
+        let mut kept: usize = self.entries.values().map(|e| e.output.len()).sum();
+        let mut left = exited.len();
+        for (_, id) in exited {
+            if left <= KEEP_EXITED && kept <= self.cfg.limits.log_quota {
+                break;
             }
+            if let Some(e) = self.entries.remove(&id) {
+                kept = kept.saturating_sub(e.output.len());
+            }
+            left -= 1;
         }
-        self.notify_drained();
     }
 
     fn notify_drained(&mut self) {

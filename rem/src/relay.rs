@@ -3,10 +3,12 @@
 //!
 //! Order per sender and receiver holds because every hop is a single FIFO: the sender's attach
 //! stream, one link task and one `Forward` stream per daemon pair, the receiver's mailbox.
-//! Queues are bounded (`DaemonSettings::queue`): a full mailbox of an attached process holds the
-//! link, which holds the sender (back-pressure). A mailbox whose process has not attached yet
-//! buffers up to the bound and then drops, so a process that never attaches cannot stall
-//! the link. Envelopes to a lost or unknown host come back to the sender as `Undeliverable`.
+//! Queues are bounded in items (`DaemonSettings::queue`) and in bytes ([`Limits`]: per
+//! mailbox, per link, and for the whole daemon): a full mailbox of an attached process holds
+//! the link, which holds the sender (back-pressure). A mailbox whose process has not attached
+//! yet buffers up to its bounds and then drops, so a process that never attaches can neither
+//! stall the link nor fill the daemon's memory. Envelopes to a lost or unknown host come back
+//! to the sender as `Undeliverable`.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, RwLock};
@@ -15,8 +17,12 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tokio_util::sync::CancellationToken;
 
+use crate::budget::{ByteBudget, Reservation};
 use crate::ids::ProcId;
+use crate::token::Token;
+use crate::limits::{Limits, ITEM_OVERHEAD};
 use crate::membership::{MemberEvent, Membership};
+use crate::peer_auth::method;
 use crate::peers::PeerPool;
 use crate::proto::{peer_item, Envelope, JobEvent, PeerBatch, PeerItem, Undeliverable};
 
@@ -30,14 +36,39 @@ pub enum Delivery {
     Undeliverable(Undeliverable),
 }
 
+impl Delivery {
+    /// The bytes this item is charged in the queues.
+    fn bytes(&self) -> usize {
+        ITEM_OVERHEAD
+            + match self {
+                Delivery::Envelope(e) => e.payload.len(),
+                Delivery::Event(e) => e.message.len(),
+                Delivery::Undeliverable(u) => u.reason.len(),
+            }
+    }
+}
+
+/// An item in a queue, with the bytes it holds in the queue's budgets.
+pub type Queued<T> = (T, Reservation);
+
+/// The sending side of a mailbox.
+pub type MailboxSender = mpsc::Sender<Queued<Delivery>>;
+/// The receiving side of a mailbox.
+pub type MailboxReceiver = mpsc::Receiver<Queued<Delivery>>;
+
 struct ProcessMailbox {
-    tx: mpsc::Sender<Delivery>,
-    rx: Option<mpsc::Receiver<Delivery>>,
+    tx: MailboxSender,
+    rx: Option<MailboxReceiver>,
     attached: bool,
+    budget: ByteBudget,
+    /// What a spawned process must present to attach (`None`: an owner's mailbox, made by
+    /// its own attach stream).
+    token: Option<Token>,
 }
 
 struct Link {
-    tx: mpsc::Sender<PeerItem>,
+    tx: mpsc::Sender<Queued<PeerItem>>,
+    budget: ByteBudget,
     cancel: CancellationToken,
     task: tokio::task::JoinHandle<()>,
 }
@@ -51,6 +82,9 @@ pub struct Router {
 struct Inner {
     host: String,
     queue: usize,
+    limits: Limits,
+    /// Bytes queued by the whole relay (every mailbox and link).
+    total: ByteBudget,
     mailboxes: RwLock<HashMap<String, ProcessMailbox>>,
     links: Mutex<HashMap<String, Link>>,
     membership: Membership,
@@ -62,6 +96,7 @@ struct Inner {
 impl Router {
     pub fn new(
         queue: usize,
+        limits: Limits,
         membership: Membership,
         peers: PeerPool,
         observer: mpsc::UnboundedSender<JobEvent>,
@@ -70,6 +105,8 @@ impl Router {
             inner: Arc::new(Inner {
                 host: membership.name().to_string(),
                 queue: queue.max(1),
+                total: ByteBudget::new(limits.relay_bytes),
+                limits,
                 mailboxes: RwLock::default(),
                 links: Mutex::default(),
                 membership: membership.clone(),
@@ -97,8 +134,9 @@ impl Router {
         router
     }
 
-    /// Creates the mailbox of a local process (before it starts, so nothing sent early is lost).
-    pub fn register(&self, id: &ProcId) {
+    /// Creates the mailbox of a local process (before it starts, so nothing sent early is
+    /// lost); a spawned process attaches to it with `token`.
+    pub fn register(&self, id: &ProcId, token: Option<Token>) {
         let (tx, rx) = mpsc::channel(self.inner.queue);
         self.mailboxes_mut().insert(
             id.to_string(),
@@ -106,24 +144,36 @@ impl Router {
                 tx,
                 rx: Some(rx),
                 attached: false,
+                budget: ByteBudget::new(self.inner.limits.mailbox_bytes),
+                token,
             },
         );
     }
 
-    /// Hands the mailbox to the process attaching as `id`; `None` if unknown or taken.
+    /// Hands the mailbox to the process attaching as `id` with `token` (none for an owner's
+    /// own new mailbox); `None` if unknown, taken, or the token is not the process's.
     pub fn take_mailbox(
         &self,
         id: &ProcId,
-    ) -> Option<(mpsc::Sender<Delivery>, mpsc::Receiver<Delivery>)> {
+        token: Option<&str>,
+    ) -> Option<(MailboxSender, MailboxReceiver)> {
         let mut map = self.mailboxes_mut();
         let mb = map.get_mut(id.as_str())?;
+        let proven = match (&mb.token, token) {
+            (Some(want), Some(given)) => want.matches(given),
+            (None, None) => true,
+            _ => false,
+        };
+        if !proven {
+            return None;
+        }
         let rx = mb.rx.take()?;
         mb.attached = true;
         Some((mb.tx.clone(), rx))
     }
 
     /// Gives a detached process's queue back, so it can attach again (if it still exists).
-    pub fn give_back(&self, id: &ProcId, rx: mpsc::Receiver<Delivery>) {
+    pub fn give_back(&self, id: &ProcId, rx: MailboxReceiver) {
         if let Some(mb) = self.mailboxes_mut().get_mut(id.as_str()) {
             mb.rx = Some(rx);
             mb.attached = false;
@@ -208,12 +258,21 @@ impl Router {
         }
     }
 
-    /// Delivers an item that came in from another daemon. An envelope that cannot be
-    /// delivered is answered with an `Undeliverable` notice to its sender (dropped if the
-    /// link back is full, so a flood cannot pile up notices).
-    pub async fn deliver_from_peer(&self, item: PeerItem) {
+    /// Delivers an item that came in from daemon `peer` (authenticated). An envelope that
+    /// cannot be delivered is answered with an `Undeliverable` notice to its sender (dropped
+    /// if the link back is full, so a flood cannot pile up notices). A daemon may forward only
+    /// envelopes of its own processes, and notices about them: anything else ends the link
+    /// with `PERMISSION_DENIED`.
+    pub async fn deliver_from_peer(&self, peer: &str, item: PeerItem) -> Result<(), tonic::Status> {
+        let from_peer = |id: &str| ProcId::parse(id).is_some_and(|p| p.host() == peer);
         let result = match item.item {
             Some(peer_item::Item::Envelope(env)) => {
+                if !from_peer(&env.from) {
+                    return Err(tonic::Status::permission_denied(format!(
+                        "daemon {peer} forwarded an envelope from {:?}, not one of its processes",
+                        env.from
+                    )));
+                }
                 let (to, sender) = (env.to.clone(), env.from.clone());
                 let r = self.deliver_local(&to, Delivery::Envelope(env)).await;
                 if let Err(reason) = &r {
@@ -226,6 +285,12 @@ impl Router {
                 r
             }
             Some(peer_item::Item::Undeliverable(u)) => {
+                if !from_peer(&u.to) {
+                    return Err(tonic::Status::permission_denied(format!(
+                        "daemon {peer} sent a notice about {:?}, not one of its processes",
+                        u.to
+                    )));
+                }
                 let sender = u.sender.clone();
                 self.deliver_local(&sender, Delivery::Undeliverable(u))
                     .await
@@ -240,6 +305,7 @@ impl Router {
         if let Err(reason) = result {
             tracing::debug!(%reason, "dropped an item from a peer");
         }
+        Ok(())
     }
 
     fn bounce(&self, notice: Undeliverable) {
@@ -249,13 +315,15 @@ impl Router {
         let item = PeerItem {
             item: Some(peer_item::Item::Undeliverable(notice)),
         };
-        if let Ok((tx, _)) = self.link(sender.host()) {
-            let _ = tx.try_send(item);
+        if let Ok((tx, budget, _)) = self.link(sender.host()) {
+            if let Some(r) = ByteBudget::try_reserve(&[&budget, &self.inner.total], item_cost(&item)) {
+                let _ = tx.try_send((item, r));
+            }
         }
     }
 
     async fn deliver_local(&self, to: &str, d: Delivery) -> Result<(), String> {
-        let (tx, attached) = {
+        let (tx, attached, budget) = {
             let map = self
                 .inner
                 .mailboxes
@@ -264,31 +332,44 @@ impl Router {
             let mb = map
                 .get(to)
                 .ok_or_else(|| format!("no process {to} on {}", self.inner.host))?;
-            (mb.tx.clone(), mb.attached)
+            (mb.tx.clone(), mb.attached, mb.budget.clone())
         };
+        let budgets = [&budget, &self.inner.total];
         if attached {
-            tx.send(d)
+            let held = ByteBudget::reserve(&budgets, d.bytes()).await;
+            tx.send((d, held))
                 .await
                 .map_err(|_| format!("process {to} has detached"))
         } else {
-            tx.try_send(d)
-                .map_err(|_| format!("process {to} has not attached and its queue is full"))
+            let full = || format!("process {to} has not attached and its queue is full");
+            let held = ByteBudget::try_reserve(&budgets, d.bytes()).ok_or_else(full)?;
+            tx.try_send((d, held)).map_err(|_| full())
         }
     }
 
     async fn send_remote(&self, host: &str, item: PeerItem) -> Result<(), String> {
-        let (tx, cancel) = self.link(host)?;
+        let (tx, budget, cancel) = self.link(host)?;
+        let lost = || format!("host {host} is lost");
+        let budgets = [&budget, &self.inner.total];
+        let held = tokio::select! {
+            r = ByteBudget::reserve(&budgets, item_cost(&item)) => r,
+            _ = cancel.cancelled() => return Err(lost()),
+        };
         tokio::select! {
-            r = tx.send(item) => r.map_err(|_| format!("link to {host} closed")),
-            _ = cancel.cancelled() => Err(format!("host {host} is lost")),
+            r = tx.send((item, held)) => r.map_err(|_| format!("link to {host} closed")),
+            _ = cancel.cancelled() => Err(lost()),
         }
     }
 
-    fn link(&self, host: &str) -> Result<(mpsc::Sender<PeerItem>, CancellationToken), String> {
+    #[allow(clippy::type_complexity)]
+    fn link(
+        &self,
+        host: &str,
+    ) -> Result<(mpsc::Sender<Queued<PeerItem>>, ByteBudget, CancellationToken), String> {
         let mut links = self.inner.links.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(l) = links.get(host) {
             if !l.cancel.is_cancelled() {
-                return Ok((l.tx.clone(), l.cancel.clone()));
+                return Ok((l.tx.clone(), l.budget.clone(), l.cancel.clone()));
             }
         }
         let view = self.inner.membership.view();
@@ -298,6 +379,7 @@ impl Router {
             Some(_) => {}
         }
         let (tx, rx) = mpsc::channel(self.inner.queue);
+        let budget = ByteBudget::new(self.inner.limits.link_bytes);
         let cancel = CancellationToken::new();
         let task = tokio::spawn(run_link(
             host.to_string(),
@@ -309,18 +391,19 @@ impl Router {
             host.to_string(),
             Link {
                 tx: tx.clone(),
+                budget: budget.clone(),
                 cancel: cancel.clone(),
                 task,
             },
         );
-        Ok((tx, cancel))
+        Ok((tx, budget, cancel))
     }
 }
 
 /// Drains one link's queue into `Forward` streams to the host, batching what is queued.
 async fn run_link(
     host: String,
-    mut rx: mpsc::Receiver<PeerItem>,
+    mut rx: mpsc::Receiver<Queued<PeerItem>>,
     cancel: CancellationToken,
     inner: Arc<Inner>,
 ) {
@@ -333,7 +416,7 @@ async fn run_link(
             tokio::select! {
                 _ = cancel.cancelled() => return,
                 item = rx.recv() => match item {
-                    Some(i) => i,
+                    Some((i, _held)) => i,
                     None => {
                         // Closed: let the open stream finish sending, then end.
                         if let Some((tx, call)) = stream.take() {
@@ -348,7 +431,7 @@ async fn run_link(
         let mut bytes = item_bytes(&first);
         let mut items = vec![first];
         while items.len() < BATCH {
-            match rx.try_recv() {
+            match rx.try_recv().map(|(i, _held)| i) {
                 Ok(i) if bytes + item_bytes(&i) <= BATCH_BYTES => {
                     bytes += item_bytes(&i);
                     items.push(i);
@@ -381,6 +464,11 @@ async fn run_link(
     }
 }
 
+/// What a peer item is charged in a link's budget.
+fn item_cost(item: &PeerItem) -> usize {
+    ITEM_OVERHEAD + item_bytes(item)
+}
+
 fn item_bytes(item: &PeerItem) -> usize {
     match &item.item {
         Some(peer_item::Item::Envelope(e)) => e.payload.len(),
@@ -394,10 +482,14 @@ fn open_stream(
 ) -> Option<(mpsc::Sender<PeerBatch>, tokio::task::JoinHandle<()>)> {
     let addr = inner.membership.live_addr(host)?;
     let mut client = inner.peers.client(&addr).ok()?;
-    let (tx, rx) = mpsc::channel(16);
+    let (tx, rx) = mpsc::channel(4);
+    let (req, _) = inner
+        .peers
+        .key()
+        .sign(host, method::FORWARD, "-", ReceiverStream::new(rx));
     let host = host.to_string();
     let call = tokio::spawn(async move {
-        if let Err(status) = client.forward(ReceiverStream::new(rx)).await {
+        if let Err(status) = client.forward(req).await {
             tracing::warn!(%host, %status, "relay link ended");
         }
     });

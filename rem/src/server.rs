@@ -26,6 +26,7 @@ use crate::error::{Error, Result};
 use crate::jobs::Jobs;
 use crate::load::LoadGauge;
 use crate::membership::{Membership, MembershipConfig};
+use crate::peer_auth::DaemonKey;
 use crate::peers::PeerPool;
 use crate::process::{ProcessConfig, ProcessTable};
 use crate::proto::{peer_server::PeerServer, rem_server::RemServer};
@@ -42,6 +43,22 @@ pub async fn run(
     shutdown: impl Future<Output = ()>,
 ) -> Result<()> {
     let bound = listener.local_addr()?;
+    if settings.tls.is_none() && !bound.ip().is_loopback() {
+        if !settings.insecure {
+            return Err(Error::Config(format!(
+                "refusing to listen on {bound} without TLS: anyone on the network could read \
+                 the relay; configure --tls-cert/--tls-key, or pass --insecure"
+            )));
+        }
+        tracing::warn!(%bound, "INSECURE: listening off loopback without TLS (--insecure)");
+    }
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } == 0 && settings.run_as.is_none() {
+        tracing::warn!(
+            "remd runs as root and no --run-as is set: spawned processes run as root too"
+        );
+    }
+    let key = DaemonKey::new(&settings.secret, &settings.name)?;
     let advertise = settings
         .advertise
         .clone()
@@ -58,7 +75,7 @@ pub async fn run(
     };
     let client_tls = settings.tls.as_ref().map(|t| t.client_tls()).transpose()?;
     let max_frame = settings.max_message + FRAME_OVERHEAD;
-    let peers = PeerPool::new(&settings.secret, client_tls, max_frame);
+    let peers = PeerPool::new(key.clone(), client_tls, settings.insecure, max_frame);
     let gauge = LoadGauge::start(settings.load_interval);
     let accepting = Arc::new(AtomicBool::new(true));
     let stop = CancellationToken::new();
@@ -76,7 +93,13 @@ pub async fn run(
         stop.clone(),
     );
     let (observer, observed) = mpsc::unbounded_channel();
-    let router = Router::new(settings.queue, membership.clone(), peers.clone(), observer);
+    let router = Router::new(
+        settings.queue,
+        settings.limits.clone(),
+        membership.clone(),
+        peers.clone(),
+        observer,
+    );
     let start_ms = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(1, |d| d.as_millis() as u64);
@@ -85,21 +108,23 @@ pub async fn run(
         ProcessConfig {
             host: settings.name.clone(),
             addr: advertise.clone(),
-            allow: settings.allow.clone(),
+            policy: settings.policy.clone(),
+            limits: settings.limits.clone(),
             base_env: child_env(&settings),
-            log_bytes: settings.log_bytes,
             kill_grace: settings.kill_grace,
+            run_as: settings.run_as,
         },
         router.clone(),
         gauge.rem_processes().clone(),
         seq.clone(),
     );
     let jobs = Jobs::start(router.clone(), observed, membership.subscribe());
-    let checkpoints = CheckpointStore::open(&state_dir.join("checkpoints"))?;
+    let checkpoints = CheckpointStore::open(&state_dir.join("checkpoints"), key, &settings.limits)?;
     let daemon = Arc::new(Daemon {
         name: settings.name.clone(),
         max_message: settings.max_message,
-        allow: settings.allow.clone(),
+        policy: settings.policy.clone(),
+        limits: settings.limits.clone(),
         membership,
         router: router.clone(),
         processes: processes.clone(),
@@ -112,7 +137,7 @@ pub async fn run(
     });
 
     let service = Service(daemon);
-    let auth = RequireSecret(settings.secret.clone());
+    let auth = RequireSecret::new(&settings.secret);
     let rem = RemServer::new(service.clone())
         .max_decoding_message_size(max_frame)
         .max_encoding_message_size(max_frame);
@@ -132,8 +157,9 @@ pub async fn run(
     let server_stop = CancellationToken::new();
     let server = builder
         .add_service(health_service)
-        .add_service(InterceptedService::new(rem, auth.clone()))
-        .add_service(InterceptedService::new(peer, auth))
+        .add_service(InterceptedService::new(rem, auth))
+        // Peer calls are checked by the service itself (each proves the daemon key).
+        .add_service(peer)
         .serve_with_incoming_shutdown(incoming(listener), server_stop.clone().cancelled_owned());
     let mut server = tokio::spawn(server);
     tracing::info!(name = %settings.name, %bound, %advertise, "remd running");
@@ -182,16 +208,10 @@ fn incoming(
     })
 }
 
-/// Variables every child gets besides its own ids: how to authenticate and reach remd.
+/// Variables every child gets besides its own ids and token: how to reach remd. Never the
+/// cluster secret: a process proves itself with its own token.
 fn child_env(s: &DaemonSettings) -> Vec<(String, String)> {
     let mut out = vec![(env::MAX_MESSAGE.to_string(), s.max_message.to_string())];
-    match &s.secret_file {
-        Some(path) => out.push((env::SECRET_FILE.into(), path.display().to_string())),
-        None => out.push((
-            env::SECRET.into(),
-            String::from_utf8_lossy(s.secret.as_bytes()).into_owned(),
-        )),
-    }
     if let Some(tls) = &s.tls {
         let ca = tls.ca.as_ref().unwrap_or(&tls.cert);
         out.push((env::TLS_CA.into(), ca.display().to_string()));

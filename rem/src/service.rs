@@ -1,11 +1,16 @@
 //! The gRPC services (`Rem` for clients and processes, `Peer` for daemons): thin adapters
-//! from protobuf requests to `Daemon` operations, and from `Error` to `tonic::Status`.
+//! from protobuf requests to `Daemon` operations, and from `Error` to `tonic::Status`. Who
+//! may call what is decided here: a `Rem` call's [`Caller`] (client or process token) comes
+//! from the interceptor; a `Peer` call is verified here (`peer_auth`) and answered with this
+//! daemon's proof.
 
 use std::sync::Arc;
 
 use tonic::{Request, Response, Status, Streaming};
 
+use crate::auth::{caller, require_client};
 use crate::daemon::Daemon;
+use crate::peer_auth::{digest, method};
 use crate::ids::ProcId;
 use crate::proto::{self, peer_server::Peer, rem_server::Rem};
 
@@ -32,10 +37,12 @@ impl Rem for Service {
         &self,
         req: Request<proto::SpawnRequest>,
     ) -> Result<Response<proto::SpawnReply>, Status> {
+        require_client(&req)?;
         Ok(Response::new(self.0.spawn(req.into_inner()).await?))
     }
 
-    async fn ps(&self, _: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
+    async fn ps(&self, req: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
+        require_client(&req)?;
         Ok(Response::new(proto::PsReply {
             processes: self.0.ps().await?,
         }))
@@ -45,6 +52,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::KillRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
+        require_client(&req)?;
         self.0.kill(proc_id(&req.into_inner().proc_id)?).await?;
         Ok(Response::new(proto::KillReply {}))
     }
@@ -53,6 +61,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::LogsRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
+        require_client(&req)?;
         Ok(Response::new(
             self.0.logs(proc_id(&req.into_inner().proc_id)?).await?,
         ))
@@ -64,8 +73,9 @@ impl Rem for Service {
         &self,
         req: Request<Streaming<proto::ClientFrame>>,
     ) -> Result<Response<Self::AttachStream>, Status> {
+        let caller = caller(&req)?;
         Ok(Response::new(
-            crate::attach::attach(self.0.clone(), req.into_inner()).await?,
+            crate::attach::attach(self.0.clone(), caller, req.into_inner()).await?,
         ))
     }
 
@@ -73,6 +83,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::PutCheckpointRequest>,
     ) -> Result<Response<proto::PutCheckpointReply>, Status> {
+        require_client(&req)?;
         let req = req.into_inner();
         let (version, stored_on) = self.0.put_checkpoint(req.job, req.data).await?;
         Ok(Response::new(proto::PutCheckpointReply {
@@ -85,8 +96,24 @@ impl Rem for Service {
         &self,
         req: Request<proto::GetCheckpointRequest>,
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
+        require_client(&req)?;
         let checkpoint = self.0.get_checkpoint(req.into_inner().job).await?;
         Ok(Response::new(proto::GetCheckpointReply { checkpoint }))
+    }
+}
+
+impl Service {
+    /// The calling daemon's name, if `req` proves the daemon key for `method`.
+    fn peer<T: prost::Message>(&self, req: &Request<T>, method: &str) -> Result<String, Status> {
+        self.0
+            .peers
+            .key()
+            .verify(req, method, &digest(req.get_ref()))
+    }
+
+    /// A reply carrying this daemon's proof.
+    fn answer<T: prost::Message, R>(&self, req: &Request<R>, method: &str, msg: T) -> Response<T> {
+        self.0.peers.key().reply(req, method, msg)
     }
 }
 
@@ -96,57 +123,62 @@ impl Peer for Service {
         &self,
         req: Request<proto::HeartbeatRequest>,
     ) -> Result<Response<proto::HeartbeatReply>, Status> {
-        let (sender, members) = self.0.membership.heard(req.into_inner()).await;
-        Ok(Response::new(proto::HeartbeatReply {
+        let from = self.peer(&req, method::HEARTBEAT)?;
+        let beat = req.get_ref().clone();
+        if beat.sender.as_ref().is_some_and(|s| s.name != from) {
+            return Err(Status::permission_denied(format!(
+                "daemon {from} sent a heartbeat in another daemon's name"
+            )));
+        }
+        let (sender, members) = self.0.membership.heard(beat).await;
+        let reply = proto::HeartbeatReply {
             sender: Some(sender),
             members,
-        }))
+        };
+        Ok(self.answer(&req, method::HEARTBEAT, reply))
     }
 
     async fn start_local(
         &self,
         req: Request<proto::StartLocalRequest>,
     ) -> Result<Response<proto::StartLocalReply>, Status> {
-        let processes = self.0.start_local(req.into_inner()).await?;
-        Ok(Response::new(proto::StartLocalReply { processes }))
+        self.peer(&req, method::START)?;
+        let processes = self.0.start_local(req.get_ref().clone()).await?;
+        Ok(self.answer(&req, method::START, proto::StartLocalReply { processes }))
     }
 
     async fn kill_local(
         &self,
         req: Request<proto::KillRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
-        self.0
-            .processes
-            .kill(proc_id(&req.into_inner().proc_id)?)
-            .await?;
-        Ok(Response::new(proto::KillReply {}))
+        self.peer(&req, method::KILL)?;
+        self.0.processes.kill(proc_id(&req.get_ref().proc_id)?).await?;
+        Ok(self.answer(&req, method::KILL, proto::KillReply {}))
     }
 
     async fn logs_local(
         &self,
         req: Request<proto::LogsRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
-        Ok(Response::new(
-            self.0
-                .processes
-                .logs(proc_id(&req.into_inner().proc_id)?)
-                .await?,
-        ))
+        self.peer(&req, method::LOGS)?;
+        let logs = self.0.processes.logs(proc_id(&req.get_ref().proc_id)?).await?;
+        Ok(self.answer(&req, method::LOGS, logs))
     }
 
     async fn ps_local(
         &self,
-        _: Request<proto::PsRequest>,
+        req: Request<proto::PsRequest>,
     ) -> Result<Response<proto::PsReply>, Status> {
-        Ok(Response::new(proto::PsReply {
-            processes: self.0.processes.list().await?,
-        }))
+        self.peer(&req, method::PS)?;
+        let processes = self.0.processes.list().await?;
+        Ok(self.answer(&req, method::PS, proto::PsReply { processes }))
     }
 
     async fn forward(
         &self,
         req: Request<Streaming<proto::PeerBatch>>,
     ) -> Result<Response<proto::ForwardReply>, Status> {
+        let from = self.0.peers.key().verify(&req, method::FORWARD, "-")?;
         let mut inbound = req.into_inner();
         loop {
             let batch = tokio::select! {
@@ -155,7 +187,7 @@ impl Peer for Service {
             };
             let Some(batch) = batch else { break };
             for item in batch.items {
-                self.0.router.deliver_from_peer(item).await;
+                self.0.router.deliver_from_peer(&from, item).await?;
             }
         }
         Ok(Response::new(proto::ForwardReply {}))
@@ -165,19 +197,17 @@ impl Peer for Service {
         &self,
         req: Request<proto::Checkpoint>,
     ) -> Result<Response<proto::StoreReplicaReply>, Status> {
-        let cp = req.into_inner();
-        if cp.data.len() > self.0.max_message {
-            return Err(Status::resource_exhausted("checkpoint over the size limit"));
-        }
-        self.0.checkpoints.put(&cp).await?;
-        Ok(Response::new(proto::StoreReplicaReply {}))
+        self.peer(&req, method::STORE)?;
+        self.0.checkpoints.put(req.get_ref()).await?;
+        Ok(self.answer(&req, method::STORE, proto::StoreReplicaReply {}))
     }
 
     async fn fetch_replica(
         &self,
         req: Request<proto::GetCheckpointRequest>,
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
-        let checkpoint = self.0.checkpoints.get(&req.into_inner().job).await?;
-        Ok(Response::new(proto::GetCheckpointReply { checkpoint }))
+        self.peer(&req, method::FETCH)?;
+        let checkpoint = self.0.checkpoints.get(&req.get_ref().job).await?;
+        Ok(self.answer(&req, method::FETCH, proto::GetCheckpointReply { checkpoint }))
     }
 }

@@ -97,6 +97,20 @@ pub fn endpoint(addr: &str, tls: Option<&ClientTls>) -> Result<Endpoint> {
     Ok(ep)
 }
 
+/// True when `addr` (`HOST:PORT` or a URL) names this host: a loopback IP or `localhost`.
+pub fn is_loopback(addr: &str) -> bool {
+    let rest = addr.split_once("://").map_or(addr, |(_, r)| r);
+    let authority = rest.split('/').next().unwrap_or_default();
+    let host = match authority.strip_prefix('[') {
+        Some(v6) => v6.split(']').next().unwrap_or_default(),
+        None => authority.rsplit_once(':').map_or(authority, |(h, _)| h),
+    };
+    host.eq_ignore_ascii_case("localhost")
+        || host
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
 /// Connects now (fails if the daemon is not there).
 pub async fn connect(addr: &str, tls: Option<&ClientTls>) -> Result<Channel> {
     Ok(endpoint(addr, tls)?.connect().await?)
@@ -105,4 +119,19 @@ pub async fn connect(addr: &str, tls: Option<&ClientTls>) -> Result<Channel> {
 /// A channel that connects on first use (and reconnects after failures).
 pub fn connect_lazy(addr: &str, tls: Option<&ClientTls>) -> Result<Channel> {
     Ok(endpoint(addr, tls)?.connect_lazy())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loopback_addresses_are_recognised() {
+        for a in ["127.0.0.1:7077", "127.3.4.5:1", "localhost:80", "[::1]:7077", "http://127.0.0.1:9/"] {
+            assert!(is_loopback(a), "{a}");
+        }
+        for a in ["10.0.0.1:7077", "ws1.example.org:7070", "http://[2001:db8::1]:1", "0.0.0.0:1"] {
+            assert!(!is_loopback(a), "{a}");
+        }
+    }
 }

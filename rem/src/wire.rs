@@ -26,6 +26,11 @@ pub fn listening_addr(line: &str) -> Option<&str> {
 
 /// Environment variables every spawned process receives (and the client reads).
 pub mod env {
+    /// What every REM variable starts with (a spawn may not set these).
+    pub const PREFIX: &str = "REM_";
+    /// The token a spawned process attaches with (instead of the cluster secret, which
+    /// processes never see).
+    pub const PROC_TOKEN: &str = "REM_PROC_TOKEN";
     /// Address (`HOST:PORT`) of the local remd.
     pub const ADDR: &str = "REM_ADDR";
     /// This host's name.

@@ -159,22 +159,14 @@ async fn checkpoint_is_kept_on_two_hosts_and_survives_the_writer() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_process_can_attach_again_and_gets_what_was_sent_meanwhile() {
     let cluster = InProcessRemds::start(1, |_| {}).await;
-    let client = cluster.client(0).await;
-    // A process that never attaches by itself; the test attaches in its name.
-    let job = client
-        .spawn(SpawnRequest {
-            program: ECHO.into(),
-            args: vec!["spin".into(), "30".into()],
-            job: Some("re".into()),
-            ..SpawnRequest::default()
-        })
-        .await
-        .unwrap();
-    let id = job.processes[0].proc_id.clone();
-    let sender = client.attach(None).await.unwrap();
+    let admin = cluster.client(0).await;
+    // A process that never attaches by itself; the test attaches in its name, with its token.
+    let (id, env) = spawn_env_printer(&admin, "re", 30).await;
+    let client = process_client(&cluster.addrs()[0], &env["REM_PROC_TOKEN"]).await;
+    let sender = admin.attach(None).await.unwrap();
     let first = client.attach_as(&id, "re").await.unwrap();
     assert_eq!(first.id(), &id);
-    let ps = client.ps().await.unwrap();
+    let ps = admin.ps().await.unwrap();
     assert!(
         ps.iter()
             .find(|p| p.proc_id == id.as_str())
@@ -189,7 +181,7 @@ async fn a_process_can_attach_again_and_gets_what_was_sent_meanwhile() {
     drop(first);
     // Once remd has seen it go (what was in flight on the broken connection may be lost) ...
     let end = Instant::now() + T;
-    while client
+    while admin
         .ps()
         .await
         .unwrap()

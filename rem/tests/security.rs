@@ -138,10 +138,10 @@ async fn only_allow_listed_absolute_programs_are_spawned() {
         .await
         .unwrap_err();
     assert_eq!(status.code(), Code::NotFound);
-    // Attaching as someone else's process, or without Hello, is refused.
+    // Attaching as someone else's process (without its token), or without Hello, is refused.
     assert_eq!(
         code(c.attach_as(&"a/99".parse().unwrap(), "").await),
-        Code::FailedPrecondition
+        Code::PermissionDenied
     );
     let (tx, rx) = tokio::sync::mpsc::channel(1);
     tx.send(ClientFrame {

@@ -168,8 +168,8 @@ impl ComposeCluster {
         let dir = tempfile::tempdir().unwrap();
         let out_dir = dir.path().join("out");
         std::fs::create_dir(&out_dir).unwrap();
-        std::fs::write(
-            dir.path().join("secret"),
+        rem::auth::write_private(
+            &dir.path().join("secret"),
             "cluster-test-secret-0123456789\n",
         )
         .unwrap();

@@ -44,7 +44,7 @@ impl LoopbackCluster {
     pub fn start(n: usize) -> LoopbackCluster {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
-        std::fs::write(&secret_file, format!("{SECRET}\n")).unwrap();
+        rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
         let mut c = LoopbackCluster {
             dir,
             secret_file,
@@ -65,7 +65,7 @@ impl LoopbackCluster {
         cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
             .args(["--heartbeat-ms", "150", "--lost-after-ms", "900"])
             .arg("--allow")
-            .arg(sunray_bin())
+            .arg(format!("{}:worker|controller", sunray_bin().display()))
             .arg("--secret-file")
             .arg(&self.secret_file)
             .arg("--state-dir")

@@ -5,6 +5,8 @@
 //! - `rem-echo sink N`: receives N messages, then answers the sender of the last with "done".
 //! - `rem-echo spin SECONDS`: keeps one core busy for that long.
 //! - `rem-echo exit CODE`: writes a line to stdout and one to stderr, exits with CODE.
+//! - `rem-echo env SECONDS`: prints its environment (`NAME=VALUE` lines, sorted) and its user
+//!   id (`uid=N`), then sleeps that long.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -30,6 +32,18 @@ fn main() -> ExitCode {
                     ExitCode::FAILURE
                 }
             }
+        }
+        Some("env") => {
+            let mut vars: Vec<String> = std::env::vars_os()
+                .map(|(k, v)| format!("{}={}", k.to_string_lossy(), v.to_string_lossy()))
+                .collect();
+            vars.sort();
+            // SAFETY: getuid has no preconditions.
+            vars.push(format!("uid={}", unsafe { libc::getuid() }));
+            println!("{}", vars.join("\n"));
+            let secs: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0);
+            std::thread::sleep(Duration::from_secs_f64(secs));
+            ExitCode::SUCCESS
         }
         Some("spin") => {
             let secs: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0);

@@ -73,6 +73,9 @@ enum Command {
     Kill { proc_id: String },
     /// Print a process's kept stdout (to stdout) and stderr (to stderr).
     Logs { proc_id: String },
+    /// Print the client key of the cluster secret: a file holding it lets a user run jobs
+    /// (rem, sunray submit) without being able to act as a daemon. Reads no network.
+    ClientKey,
 }
 
 fn main() -> ExitCode {
@@ -108,6 +111,11 @@ async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
 }
 
 async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    if let Command::ClientKey = cli.command {
+        let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
+        println!("{}", secret.client_key_line());
+        return Ok(ExitCode::SUCCESS);
+    }
     let client = connect(&cli).await?;
     let out = &mut std::io::stdout().lock();
     match cli.command {
@@ -217,6 +225,7 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 eprintln!("rem: (older output was dropped)");
             }
         }
+        Command::ClientKey => {}
     }
     Ok(ExitCode::SUCCESS)
 }

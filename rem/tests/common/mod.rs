@@ -99,7 +99,7 @@ impl InProcessRemds {
         for i in 0..n {
             let name = ((b'a' + i as u8) as char).to_string();
             let mut s = DaemonSettings::new(&name, Secret::new(SECRET).unwrap());
-            s.allow = vec![PathBuf::from(ECHO)];
+            s.allow_program(ECHO);
             s.state_dir = Some(dir.path().join(format!("state-{name}")));
             s.join = daemons
                 .first()
@@ -137,7 +137,7 @@ impl RemdProcesses {
     pub fn start(n: usize, extra: &[&str]) -> RemdProcesses {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
-        std::fs::write(&secret_file, format!("{SECRET}\n")).unwrap();
+        rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
         let mut c = RemdProcesses {
             dir,
             secret_file,
@@ -187,6 +187,47 @@ fn read_addr(child: &mut Child) -> String {
     rem::wire::listening_addr(&line)
         .unwrap_or_else(|| panic!("bad first line {line:?}"))
         .to_string()
+}
+
+/// Spawns `rem-echo env SECONDS` on daemon `c`'s host (job `job`) and returns its id and the
+/// environment it printed (as `NAME=VALUE` lines, and `uid=N`).
+pub async fn spawn_env_printer(
+    c: &RemClient,
+    job: &str,
+    seconds: u32,
+) -> (rem::ProcId, std::collections::BTreeMap<String, String>) {
+    let spawned = c
+        .spawn(rem::SpawnRequest {
+            program: ECHO.into(),
+            args: vec!["env".into(), seconds.to_string()],
+            job: Some(job.into()),
+            ..rem::SpawnRequest::default()
+        })
+        .await
+        .unwrap();
+    let id = spawned.processes[0].proc_id.clone();
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        let logs = c.logs(&id).await.unwrap();
+        let text = String::from_utf8_lossy(&logs.stdout).to_string();
+        if text.contains("uid=") {
+            let vars = text
+                .lines()
+                .filter_map(|l| l.split_once('='))
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect();
+            return (id, vars);
+        }
+        assert!(Instant::now() < end, "rem-echo env printed nothing");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+/// A client of `addr` that proves itself with a spawned process's token.
+pub async fn process_client(addr: &str, token: &str) -> RemClient {
+    let mut opts = rem::ConnectOptions::new(addr, Secret::new("unused").unwrap());
+    opts.credential = rem::Credential::ProcessToken(token.to_string());
+    RemClient::connect_with(opts).await.unwrap()
 }
 
 /// Polls `rem hosts` until `pred` holds; panics after `timeout`. Returns the hosts.

@@ -5,7 +5,7 @@
 use super::embedded;
 use rem::embedded::EmbeddedRemd;
 use rem::{RemClient, Secret};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Why REM could not be reached or used; every variant names the remd address involved.
 #[derive(Debug, thiserror::Error)]
@@ -87,8 +87,7 @@ impl RemConnection {
                 })
             }
             None => {
-                let allow: Vec<PathBuf> = vec![program.to_path_buf()];
-                let rem = embedded::start(allow, embedded::state_dir())
+                let rem = embedded::start(program.to_path_buf(), embedded::state_dir())
                     .await
                     .map_err(ConnectionError::Embedded)?;
                 let client = connect(rem.addr(), rem.secret().clone()).await?;

@@ -7,18 +7,26 @@
 //! `~/.local/state/sunray`.
 
 use rem::config::DaemonSettings;
-use rem::embedded::{fresh_secret, EmbeddedRemd};
+use rem::embedded::{fresh_secret, kept_secret, EmbeddedRemd};
+use rem::policy::ProgramRule;
 use std::path::PathBuf;
 
 /// The host name the private daemon goes by.
 pub const HOST: &str = "local";
 
-/// Starts the private daemon on loopback, with a fresh secret, allowed to start only the
-/// programs in `allow`, keeping checkpoints in `state_dir` (a temporary directory when
-/// `None`).
-pub async fn start(allow: Vec<PathBuf>, state_dir: Option<PathBuf>) -> rem::Result<EmbeddedRemd> {
-    let mut settings = DaemonSettings::new(HOST, fresh_secret()?);
-    settings.allow = allow;
+/// Starts the private daemon on loopback, allowed to start only `program` as a worker or
+/// controller, keeping checkpoints in `state_dir` (a temporary directory when `None`) with
+/// the secret kept there (a fresh one when `None`).
+pub async fn start(program: PathBuf, state_dir: Option<PathBuf>) -> rem::Result<EmbeddedRemd> {
+    let secret = match &state_dir {
+        Some(dir) => kept_secret(dir)?,
+        None => fresh_secret()?,
+    };
+    let mut settings = DaemonSettings::new(HOST, secret);
+    settings.policy.programs = vec![ProgramRule {
+        path: program,
+        first_args: Some(vec!["worker".into(), "controller".into()]),
+    }];
     settings.state_dir = state_dir;
     EmbeddedRemd::start(settings).await
 }
@@ -48,7 +56,7 @@ mod tests {
         let rt = tokio::runtime::Runtime::new().unwrap();
         rt.block_on(async {
             let dir = std::env::temp_dir().join(format!("sunray-emb-{}", std::process::id()));
-            let rem = start(vec![], Some(dir.clone())).await.unwrap();
+            let rem = start(PathBuf::from("/bin/true"), Some(dir.clone())).await.unwrap();
             let client = rem.client().await.unwrap();
             let hosts = client.hosts().await.unwrap();
             assert_eq!(hosts[0].name, HOST);
