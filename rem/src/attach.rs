@@ -13,13 +13,13 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Status, Streaming};
 
+use crate::auth::Caller;
+use crate::budget::Reservation;
 use crate::daemon::Daemon;
 use crate::ids::{is_valid_name, ProcId};
 use crate::proto::{
     client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome,
 };
-use crate::auth::Caller;
-use crate::budget::Reservation;
 use crate::relay::{Delivery, MailboxReceiver, MailboxSender};
 use crate::wire::{BATCH, BATCH_BYTES};
 

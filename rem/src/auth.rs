@@ -245,7 +245,9 @@ impl Interceptor for SendSecret {
                     .insert_bin(CLIENT_KEY_METADATA, v.clone());
             }
             SendSecret::Process(v) => {
-                request.metadata_mut().insert(PROC_TOKEN_METADATA, v.clone());
+                request
+                    .metadata_mut()
+                    .insert(PROC_TOKEN_METADATA, v.clone());
             }
         }
         Ok(request)
@@ -282,7 +284,10 @@ mod tests {
         assert_eq!(err.code(), tonic::Code::Unauthenticated);
         let err = RequireSecret::new(&s).call(Request::new(())).unwrap_err();
         assert_eq!(err.code(), tonic::Code::Unauthenticated);
-        let proc = SendSecret::process("abc").unwrap().call(Request::new(())).unwrap();
+        let proc = SendSecret::process("abc")
+            .unwrap()
+            .call(Request::new(()))
+            .unwrap();
         let proc = RequireSecret::new(&s).call(proc).unwrap();
         assert!(matches!(caller(&proc), Ok(Caller::Process(t)) if t == "abc"));
         assert!(require_client(&proc).is_err());

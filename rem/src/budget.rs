@@ -58,7 +58,12 @@ impl ByteBudget {
     pub fn try_reserve(budgets: &[&ByteBudget], bytes: usize) -> Option<Reservation> {
         let mut permits = Vec::with_capacity(budgets.len());
         for b in budgets {
-            permits.push(b.sem.clone().try_acquire_many_owned(b.permits(bytes)).ok()?);
+            permits.push(
+                b.sem
+                    .clone()
+                    .try_acquire_many_owned(b.permits(bytes))
+                    .ok()?,
+            );
         }
         Some(Reservation { _permits: permits })
     }

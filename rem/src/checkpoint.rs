@@ -218,12 +218,21 @@ mod tests {
         let v = store.next_version();
         let mut forged = sealed(&store, b"x", v);
         forged.data = b"y".to_vec();
-        assert_eq!(store.put(&forged).await.unwrap_err().code(), tonic::Code::PermissionDenied);
+        assert_eq!(
+            store.put(&forged).await.unwrap_err().code(),
+            tonic::Code::PermissionDenied
+        );
         let future = sealed(&store, b"x", u64::MAX);
-        assert_eq!(store.put(&future).await.unwrap_err().code(), tonic::Code::InvalidArgument);
+        assert_eq!(
+            store.put(&future).await.unwrap_err().code(),
+            tonic::Code::InvalidArgument
+        );
         assert!(!store.believe(&future, "j1"));
         let big = sealed(&store, &[0; 101], v);
-        assert_eq!(store.put(&big).await.unwrap_err().code(), tonic::Code::ResourceExhausted);
+        assert_eq!(
+            store.put(&big).await.unwrap_err().code(),
+            tonic::Code::ResourceExhausted
+        );
         for (i, job) in ["a", "b"].iter().enumerate() {
             let mut cp = sealed(&store, &[i as u8; 100], v);
             cp.job = job.to_string();
@@ -233,7 +242,10 @@ mod tests {
         let mut third = sealed(&store, &[0; 100], v);
         third.job = "c".into();
         store.seal(&mut third);
-        assert_eq!(store.put(&third).await.unwrap_err().code(), tonic::Code::ResourceExhausted);
+        assert_eq!(
+            store.put(&third).await.unwrap_err().code(),
+            tonic::Code::ResourceExhausted
+        );
         // Replacing a job's own checkpoint does not count its old file.
         let mut again = sealed(&store, &[9; 100], store.next_version());
         again.job = "a".into();

@@ -38,7 +38,9 @@ impl RunAs {
         // that look users up).
         let pw = unsafe { libc::getpwnam(name.as_ptr()) };
         if pw.is_null() {
-            return Err(crate::Error::Config(format!("no user {user:?} on this host")));
+            return Err(crate::Error::Config(format!(
+                "no user {user:?} on this host"
+            )));
         }
         // SAFETY: non-null, points to a valid passwd record.
         let (uid, gid) = unsafe { ((*pw).pw_uid, (*pw).pw_gid) };

@@ -55,7 +55,10 @@ impl ConnectOptions {
             .ok()
             .filter(|a| !a.is_empty())
             .unwrap_or_else(|| DEFAULT_ADDR.into());
-        let mut opts = match std::env::var(env::PROC_TOKEN).ok().filter(|t| !t.is_empty()) {
+        let mut opts = match std::env::var(env::PROC_TOKEN)
+            .ok()
+            .filter(|t| !t.is_empty())
+        {
             Some(token) => ConnectOptions {
                 credential: Credential::ProcessToken(token),
                 ..ConnectOptions::new(addr, Secret::new("unused")?)

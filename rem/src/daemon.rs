@@ -11,8 +11,8 @@ use crate::checkpoint::CheckpointStore;
 use crate::error::{Error, Result};
 use crate::ids::{is_valid_name, ProcId};
 use crate::jobs::Jobs;
-use crate::membership::Membership;
 use crate::limits::Limits;
+use crate::membership::Membership;
 use crate::peer_auth::method;
 use crate::peers::PeerPool;
 use crate::placement::{self, Candidate};
@@ -250,9 +250,13 @@ impl Daemon {
             let peers = self.peers.clone();
             tasks.spawn(async move {
                 peers
-                    .call(&h.name, &h.addr, method::PS, PsRequest {}, |mut c, r| async move {
-                        c.ps_local(r).await
-                    })
+                    .call(
+                        &h.name,
+                        &h.addr,
+                        method::PS,
+                        PsRequest {},
+                        |mut c, r| async move { c.ps_local(r).await },
+                    )
                     .await
             });
         }
@@ -303,9 +307,13 @@ impl Daemon {
         for h in others {
             let stored_there = self
                 .peers
-                .call(&h.name, &h.addr, method::STORE, cp.clone(), |mut c, r| async move {
-                    c.store_replica(r).await
-                })
+                .call(
+                    &h.name,
+                    &h.addr,
+                    method::STORE,
+                    cp.clone(),
+                    |mut c, r| async move { c.store_replica(r).await },
+                )
                 .await;
             if stored_there.is_ok() {
                 stored.push(h.name);
@@ -337,15 +345,22 @@ impl Daemon {
             let peers = self.peers.clone();
             tasks.spawn(async move {
                 peers
-                    .call(&h.name, &h.addr, method::FETCH, req, |mut c, r| async move {
-                        c.fetch_replica(r).await
-                    })
+                    .call(
+                        &h.name,
+                        &h.addr,
+                        method::FETCH,
+                        req,
+                        |mut c, r| async move { c.fetch_replica(r).await },
+                    )
                     .await
             });
         }
         while let Some(r) = tasks.join_next().await {
             if let Ok(Ok(reply)) = r {
-                if let Some(cp) = reply.checkpoint.filter(|cp| self.checkpoints.believe(cp, &job)) {
+                if let Some(cp) = reply
+                    .checkpoint
+                    .filter(|cp| self.checkpoints.believe(cp, &job))
+                {
                     if best.as_ref().is_none_or(|b| cp.version > b.version) {
                         best = Some(cp);
                     }

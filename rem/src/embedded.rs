@@ -97,7 +97,10 @@ pub fn kept_secret(dir: &std::path::Path) -> Result<Secret> {
             crate::auth::write_private(&path, secret.as_bytes())?;
             Ok(secret)
         }
-        Err(e) => Err(crate::Error::Config(format!("cannot read {}: {e}", path.display()))),
+        Err(e) => Err(crate::Error::Config(format!(
+            "cannot read {}: {e}",
+            path.display()
+        ))),
     }
 }
 

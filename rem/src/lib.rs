@@ -72,6 +72,8 @@
 //! - [`jobs`]: job owners and `Lost` reports.
 //! - [`checkpoint`]: atomic checkpoint files.
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
+//! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
+//!   [`raise_fd_limit`].
 //! - [`embedded`]: a remd inside the current process (the embedded default, tests).
 //! - [`wire`]: what client and daemon agree on (default address, limits, environment names).
 //! - [`rpc`]: the generated client with the secret attached, under both of:
@@ -92,6 +94,7 @@ pub mod error;
 pub mod ids;
 mod jobs;
 pub mod limits;
+mod listener;
 mod load;
 mod logbuf;
 mod membership;
@@ -119,5 +122,6 @@ pub use auth::Secret;
 pub use client::{ConnectOptions, Credential, Job, RemClient, SpawnRequest};
 pub use error::{Error, Result};
 pub use ids::ProcId;
+pub use listener::{bind_listener, raise_fd_limit, ConnectionLimits};
 pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, ProcessInfo};
 pub use relay_client::{Incoming, Relay, RelayReceiver, RelaySender};

@@ -27,6 +27,10 @@ pub struct Limits {
     /// Bytes of output kept for all processes of this host together (the oldest exited
     /// processes' records go first).
     pub log_quota: usize,
+    /// Connections open at once (more are closed as soon as they are accepted).
+    pub connections: usize,
+    /// Connections open at once from one address (one IPv6 /64).
+    pub connections_per_ip: usize,
 }
 
 impl Default for Limits {
@@ -41,6 +45,8 @@ impl Default for Limits {
             checkpoint_quota: 1 << 30,
             log_bytes: 1 << 20,
             log_quota: 256 << 20,
+            connections: 4096,
+            connections_per_ip: 512,
         }
     }
 }
@@ -51,7 +57,7 @@ pub const ITEM_OVERHEAD: usize = 256;
 
 impl Limits {
     /// The names of the limits, as `--limit NAME=VALUE` and the `[limits]` table take them.
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 11] = [
         "spawn_count",
         "host_processes",
         "mailbox_bytes",
@@ -61,6 +67,8 @@ impl Limits {
         "checkpoint_quota",
         "log_bytes",
         "log_quota",
+        "connections",
+        "connections_per_ip",
     ];
 
     /// Sets the limit `name` from `value`: a whole number, for bytes optionally followed by
@@ -83,6 +91,8 @@ impl Limits {
             "checkpoint_quota" => self.checkpoint_quota = n,
             "log_bytes" => self.log_bytes = small(n)?,
             "log_quota" => self.log_quota = small(n)?,
+            "connections" => self.connections = small(n)?,
+            "connections_per_ip" => self.connections_per_ip = small(n)?,
             _ => {
                 return Err(format!(
                     "unknown limit {name:?} (known: {})",
@@ -91,6 +101,15 @@ impl Limits {
             }
         }
         Ok(())
+    }
+
+    /// The connection gate's settings.
+    pub fn connection_limits(&self) -> crate::listener::ConnectionLimits {
+        crate::listener::ConnectionLimits {
+            max_connections: self.connections,
+            max_per_ip: self.connections_per_ip,
+            ..crate::listener::ConnectionLimits::default()
+        }
     }
 
     /// Sets one `NAME=VALUE` pair.

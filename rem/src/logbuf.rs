@@ -58,8 +58,18 @@ impl Output {
 
     /// Bytes kept now, of both streams.
     pub fn len(&self) -> usize {
-        let o = self.stdout.lock().unwrap_or_else(|e| e.into_inner()).data.len();
-        let e = self.stderr.lock().unwrap_or_else(|e| e.into_inner()).data.len();
+        let o = self
+            .stdout
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .data
+            .len();
+        let e = self
+            .stderr
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .data
+            .len();
         o + e
     }
 

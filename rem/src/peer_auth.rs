@@ -133,12 +133,22 @@ impl DaemonKey {
 
     /// Attaches a proof to a call of `method` to daemon `to` ([`ANY`] when unknown) whose
     /// body digests to `body` ([`digest`], or `-` for a stream).
-    pub fn sign<T>(&self, to: &str, method: &'static str, body: &str, msg: T) -> (Request<T>, Pending) {
+    pub fn sign<T>(
+        &self,
+        to: &str,
+        method: &'static str,
+        body: &str,
+        msg: T,
+    ) -> (Request<T>, Pending) {
         static COUNT: AtomicU64 = AtomicU64::new(0);
         let mut nonce = [0u8; 16];
         // Without the OS's randomness the count still makes each nonce distinct.
         let _ = getrandom::getrandom(&mut nonce);
-        let nonce = format!("{}{:x}", hex::encode(nonce), COUNT.fetch_add(1, Ordering::Relaxed));
+        let nonce = format!(
+            "{}{:x}",
+            hex::encode(nonce),
+            COUNT.fetch_add(1, Ordering::Relaxed)
+        );
         let ts = unix_ms().to_string();
         let mac = hex::encode(self.mac(&["call", method, &self.me, to, &ts, &nonce, body]));
         let mut req = Request::new(msg);
@@ -234,7 +244,9 @@ impl DaemonKey {
             .to_str()
             .map_err(|_| deny("malformed proof"))?
             .to_string();
-        let (from, mac) = line.split_once(' ').ok_or_else(|| deny("malformed proof"))?;
+        let (from, mac) = line
+            .split_once(' ')
+            .ok_or_else(|| deny("malformed proof"))?;
         if pending.to != ANY && from != pending.to {
             return Err(deny("another daemon answered"));
         }
@@ -263,7 +275,7 @@ mod tests {
         let body = KillRequest {
             proc_id: "b/1".into(),
         };
-        let (req, pending) = a.sign("b", method::KILL, &digest(&body), body.clone());
+        let (req, _) = a.sign("b", method::KILL, &digest(&body), body.clone());
         assert_eq!(b.verify(&req, method::KILL, &digest(&body)).unwrap(), "a");
         // Replayed: refused. Sent on to another daemon: refused.
         assert!(b.verify(&req, method::KILL, &digest(&body)).is_err());
@@ -292,7 +304,9 @@ mod tests {
         let reply = key("not-s", "b").reply(&req, method::PS, HostInfo::default());
         assert!(a.check_reply(&pending, reply).is_err());
         // No proof at all, or one for "anyone" outside a heartbeat.
-        assert!(key("s", "b").verify(&Request::new(()), method::PS, "-").is_err());
+        assert!(key("s", "b")
+            .verify(&Request::new(()), method::PS, "-")
+            .is_err());
         let (req, _) = a.sign(ANY, method::PS, "-", ());
         assert!(key("s", "b").verify(&req, method::PS, "-").is_err());
         let (req, _) = a.sign(ANY, method::HEARTBEAT, "-", ());

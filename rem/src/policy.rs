@@ -114,7 +114,10 @@ impl SpawnPolicy {
         }
         let bytes = program.len()
             + args.iter().map(|a| a.len() + 1).sum::<usize>()
-            + env.iter().map(|(k, v)| k.len() + v.len() + 2).sum::<usize>();
+            + env
+                .iter()
+                .map(|(k, v)| k.len() + v.len() + 2)
+                .sum::<usize>();
         if bytes > MAX_COMMAND_BYTES {
             return Err(Error::Invalid(format!(
                 "the command line and environment take {bytes} bytes; the limit is \
@@ -155,19 +158,20 @@ impl SpawnPolicy {
     fn check_env_name(&self, host: &str, name: &str) -> Result<()> {
         let well_formed = !name.is_empty()
             && name.len() <= 128
-            && name
-                .bytes()
-                .all(|b| b.is_ascii_alphanumeric() || b == b'_');
+            && name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_');
         if !well_formed {
             return Err(Error::Invalid(format!(
                 "bad environment variable name {name:?}"
             )));
         }
         let allowed = !name.starts_with(REM_PREFIX)
-            && self.env_allow.iter().any(|rule| match rule.strip_suffix('*') {
-                Some(prefix) => name.starts_with(prefix),
-                None => rule == name,
-            });
+            && self
+                .env_allow
+                .iter()
+                .any(|rule| match rule.strip_suffix('*') {
+                    Some(prefix) => name.starts_with(prefix),
+                    None => rule == name,
+                });
         if allowed {
             Ok(())
         } else {
@@ -208,14 +212,23 @@ mod tests {
     fn first_arguments_restrict_a_multi_tool() {
         let p = policy();
         let none = BTreeMap::new();
-        assert!(p.check("h", "/usr/bin/sunray", &args(&["worker"]), &none).is_ok());
+        assert!(p
+            .check("h", "/usr/bin/sunray", &args(&["worker"]), &none)
+            .is_ok());
         assert!(p
             .check("h", "/usr/bin/sunray", &args(&["controller", "-x"]), &none)
             .is_ok());
-        let spd = p.check("h", "/usr/bin/sunray", &args(&["spd", "-o", "/etc/x"]), &none);
+        let spd = p.check(
+            "h",
+            "/usr/bin/sunray",
+            &args(&["spd", "-o", "/etc/x"]),
+            &none,
+        );
         assert_eq!(spd.unwrap_err().code(), tonic::Code::PermissionDenied);
         assert!(p.check("h", "/usr/bin/sunray", &[], &none).is_err());
-        assert!(p.check("h", "/bin/echo", &args(&["anything"]), &none).is_ok());
+        assert!(p
+            .check("h", "/bin/echo", &args(&["anything"]), &none)
+            .is_ok());
         let other = p.check("h", "/bin/sh", &[], &none).unwrap_err();
         assert_eq!(other.code(), tonic::Code::PermissionDenied);
         assert_eq!(
@@ -229,9 +242,19 @@ mod tests {
         let p = policy();
         let ok = env(&[("SUNRAY_WORKER_LINE_DELAY_MS", "5"), ("RUST_LOG", "debug")]);
         assert!(p.check("h", "/bin/echo", &[], &ok).is_ok());
-        for bad in ["LD_PRELOAD", "LD_LIBRARY_PATH", "PATH", "REM_PROC_ID", "REM_SECRET"] {
+        for bad in [
+            "LD_PRELOAD",
+            "LD_LIBRARY_PATH",
+            "PATH",
+            "REM_PROC_ID",
+            "REM_SECRET",
+        ] {
             let e = p.check("h", "/bin/echo", &[], &env(&[(bad, "x")]));
-            assert_eq!(e.unwrap_err().code(), tonic::Code::PermissionDenied, "{bad}");
+            assert_eq!(
+                e.unwrap_err().code(),
+                tonic::Code::PermissionDenied,
+                "{bad}"
+            );
         }
         let malformed = p.check("h", "/bin/echo", &[], &env(&[("A=B", "x")]));
         assert_eq!(malformed.unwrap_err().code(), tonic::Code::InvalidArgument);

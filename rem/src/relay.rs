@@ -19,12 +19,12 @@ use tokio_util::sync::CancellationToken;
 
 use crate::budget::{ByteBudget, Reservation};
 use crate::ids::ProcId;
-use crate::token::Token;
 use crate::limits::{Limits, ITEM_OVERHEAD};
 use crate::membership::{MemberEvent, Membership};
 use crate::peer_auth::method;
 use crate::peers::PeerPool;
 use crate::proto::{peer_item, Envelope, JobEvent, PeerBatch, PeerItem, Undeliverable};
+use crate::token::Token;
 
 use crate::wire::{BATCH, BATCH_BYTES};
 
@@ -316,7 +316,9 @@ impl Router {
             item: Some(peer_item::Item::Undeliverable(notice)),
         };
         if let Ok((tx, budget, _)) = self.link(sender.host()) {
-            if let Some(r) = ByteBudget::try_reserve(&[&budget, &self.inner.total], item_cost(&item)) {
+            if let Some(r) =
+                ByteBudget::try_reserve(&[&budget, &self.inner.total], item_cost(&item))
+            {
                 let _ = tx.try_send((item, r));
             }
         }
@@ -365,7 +367,14 @@ impl Router {
     fn link(
         &self,
         host: &str,
-    ) -> Result<(mpsc::Sender<Queued<PeerItem>>, ByteBudget, CancellationToken), String> {
+    ) -> Result<
+        (
+            mpsc::Sender<Queued<PeerItem>>,
+            ByteBudget,
+            CancellationToken,
+        ),
+        String,
+    > {
         let mut links = self.inner.links.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(l) = links.get(host) {
             if !l.cancel.is_cancelled() {

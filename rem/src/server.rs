@@ -13,7 +13,6 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use tokio::net::TcpListener;
 use tokio::sync::mpsc;
-use tokio_stream::wrappers::TcpListenerStream;
 use tokio_util::sync::CancellationToken;
 use tonic::service::interceptor::InterceptedService;
 use tonic::transport::Server;
@@ -24,6 +23,7 @@ use crate::config::DaemonSettings;
 use crate::daemon::Daemon;
 use crate::error::{Error, Result};
 use crate::jobs::Jobs;
+use crate::listener::Gate;
 use crate::load::LoadGauge;
 use crate::membership::{Membership, MembershipConfig};
 use crate::peer_auth::DaemonKey;
@@ -150,7 +150,11 @@ pub async fn run(
     let mut builder = Server::builder()
         .tcp_nodelay(true)
         .http2_keepalive_interval(Some(Duration::from_secs(5)))
-        .http2_keepalive_timeout(Some(Duration::from_secs(5)));
+        .http2_keepalive_timeout(Some(Duration::from_secs(5)))
+        // Bounds per connection: open streams, and streams reset before being served
+        // (HTTP/2 rapid reset).
+        .max_concurrent_streams(Some(256))
+        .http2_max_pending_accept_reset_streams(Some(64));
     if let Some(tls) = &settings.tls {
         builder = builder.tls_config(tls.server_config()?)?;
     }
@@ -160,7 +164,10 @@ pub async fn run(
         .add_service(InterceptedService::new(rem, auth))
         // Peer calls are checked by the service itself (each proves the daemon key).
         .add_service(peer)
-        .serve_with_incoming_shutdown(incoming(listener), server_stop.clone().cancelled_owned());
+        .serve_with_incoming_shutdown(
+            Gate::new(listener, settings.limits.connection_limits()),
+            server_stop.clone().cancelled_owned(),
+        );
     let mut server = tokio::spawn(server);
     tracing::info!(name = %settings.name, %bound, %advertise, "remd running");
 
@@ -194,18 +201,6 @@ pub async fn run(
             Ok(())
         }
     }
-}
-
-/// Accepted connections, with Nagle's algorithm off (small relay frames must not wait).
-fn incoming(
-    listener: TcpListener,
-) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
-    use tokio_stream::StreamExt;
-    TcpListenerStream::new(listener).map(|conn| {
-        let conn = conn?;
-        conn.set_nodelay(true)?;
-        Ok(conn)
-    })
 }
 
 /// Variables every child gets besides its own ids and token: how to reach remd. Never the

@@ -10,8 +10,8 @@ use tonic::{Request, Response, Status, Streaming};
 
 use crate::auth::{caller, require_client};
 use crate::daemon::Daemon;
-use crate::peer_auth::{digest, method};
 use crate::ids::ProcId;
+use crate::peer_auth::{digest, method};
 use crate::proto::{self, peer_server::Peer, rem_server::Rem};
 
 /// Both services over one daemon.
@@ -152,7 +152,10 @@ impl Peer for Service {
         req: Request<proto::KillRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
         self.peer(&req, method::KILL)?;
-        self.0.processes.kill(proc_id(&req.get_ref().proc_id)?).await?;
+        self.0
+            .processes
+            .kill(proc_id(&req.get_ref().proc_id)?)
+            .await?;
         Ok(self.answer(&req, method::KILL, proto::KillReply {}))
     }
 
@@ -161,7 +164,11 @@ impl Peer for Service {
         req: Request<proto::LogsRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
         self.peer(&req, method::LOGS)?;
-        let logs = self.0.processes.logs(proc_id(&req.get_ref().proc_id)?).await?;
+        let logs = self
+            .0
+            .processes
+            .logs(proc_id(&req.get_ref().proc_id)?)
+            .await?;
         Ok(self.answer(&req, method::LOGS, logs))
     }
 
@@ -208,6 +215,10 @@ impl Peer for Service {
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
         self.peer(&req, method::FETCH)?;
         let checkpoint = self.0.checkpoints.get(&req.get_ref().job).await?;
-        Ok(self.answer(&req, method::FETCH, proto::GetCheckpointReply { checkpoint }))
+        Ok(self.answer(
+            &req,
+            method::FETCH,
+            proto::GetCheckpointReply { checkpoint },
+        ))
     }
 }

@@ -127,10 +127,21 @@ mod tests {
 
     #[test]
     fn loopback_addresses_are_recognised() {
-        for a in ["127.0.0.1:7077", "127.3.4.5:1", "localhost:80", "[::1]:7077", "http://127.0.0.1:9/"] {
+        for a in [
+            "127.0.0.1:7077",
+            "127.3.4.5:1",
+            "localhost:80",
+            "[::1]:7077",
+            "http://127.0.0.1:9/",
+        ] {
             assert!(is_loopback(a), "{a}");
         }
-        for a in ["10.0.0.1:7077", "ws1.example.org:7070", "http://[2001:db8::1]:1", "0.0.0.0:1"] {
+        for a in [
+            "10.0.0.1:7077",
+            "ws1.example.org:7070",
+            "http://[2001:db8::1]:1",
+            "0.0.0.0:1",
+        ] {
             assert!(!is_loopback(a), "{a}");
         }
     }

@@ -16,6 +16,10 @@ fn main() -> ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
+    // Connection caps, not the descriptor limit, should decide what remd refuses.
+    if let Err(e) = rem::raise_fd_limit() {
+        tracing::warn!(error = %e, "cannot raise the open-file limit");
+    }
     let settings = match DaemonSettings::from_args(RemdArgs::parse()) {
         Ok(s) => s,
         Err(e) => {
@@ -43,8 +47,7 @@ fn main() -> ExitCode {
 }
 
 async fn serve(settings: DaemonSettings) -> anyhow::Result<()> {
-    let listener = tokio::net::TcpListener::bind(settings.listen)
-        .await
+    let listener = rem::bind_listener(settings.listen)
         .map_err(|e| anyhow::anyhow!("cannot listen on {}: {e}", settings.listen))?;
     let addr = listener.local_addr()?;
     println!("{}{addr}", rem::wire::LISTENING);

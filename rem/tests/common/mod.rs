@@ -135,6 +135,20 @@ impl LocalRemds for RemdProcesses {
 impl RemdProcesses {
     /// `n` daemons named a, b, c ...; each after the first joins through the first.
     pub fn start(n: usize, extra: &[&str]) -> RemdProcesses {
+        RemdProcesses::start_allowing(n, &[ECHO], extra)
+    }
+
+    /// Like [`RemdProcesses::start`], with these `--allow` rules instead of rem-echo alone.
+    pub fn start_allowing(n: usize, allow: &[&str], extra: &[&str]) -> RemdProcesses {
+        let allow: Vec<String> = allow
+            .iter()
+            .flat_map(|r| ["--allow".to_string(), r.to_string()])
+            .collect();
+        let extra: Vec<&str> = allow
+            .iter()
+            .map(String::as_str)
+            .chain(extra.iter().copied())
+            .collect();
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
         rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
@@ -146,17 +160,23 @@ impl RemdProcesses {
         for i in 0..n {
             let name = ((b'a' + i as u8) as char).to_string();
             let join = c.daemons.first().map(|d| d.addr.clone());
-            let d = c.start_daemon(&name, join.as_deref(), extra);
+            let d = c.start_daemon_with(&name, join.as_deref(), &extra);
             c.daemons.push(d);
         }
         c
     }
 
-    /// Starts one more remd (not added to `daemons`).
+    /// Starts one more remd (not added to `daemons`), allowed to run rem-echo.
     pub fn start_daemon(&self, name: &str, join: Option<&str>, extra: &[&str]) -> Remd {
+        let mut args = vec!["--allow", ECHO];
+        args.extend_from_slice(extra);
+        self.start_daemon_with(name, join, &args)
+    }
+
+    fn start_daemon_with(&self, name: &str, join: Option<&str>, extra: &[&str]) -> Remd {
         let state = self.dir.path().join(format!("state-{name}"));
         let mut cmd = Command::new(REMD);
-        cmd.args(["--name", name, "--listen", "127.0.0.1:0", "--allow", ECHO])
+        cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
             .arg("--secret-file")
             .arg(&self.secret_file)
             .arg("--state-dir")

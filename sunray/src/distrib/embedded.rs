@@ -56,7 +56,9 @@ mod tests {
         let rt = tokio::runtime::Runtime::new().unwrap();
         rt.block_on(async {
             let dir = std::env::temp_dir().join(format!("sunray-emb-{}", std::process::id()));
-            let rem = start(PathBuf::from("/bin/true"), Some(dir.clone())).await.unwrap();
+            let rem = start(PathBuf::from("/bin/true"), Some(dir.clone()))
+                .await
+                .unwrap();
             let client = rem.client().await.unwrap();
             let hosts = client.hosts().await.unwrap();
             assert_eq!(hosts[0].name, HOST);

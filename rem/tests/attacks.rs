@@ -1,0 +1,402 @@
+//! The attack battery (issue "Security"): each test is written as the attacker would try it,
+//! and checks that it does no harm. docs/rem.md's security section lists them with their
+//! results before and after.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
+
+mod common;
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use common::*;
+use rem::proto::{
+    self, peer_client::PeerClient, peer_item, peer_server, HeartbeatReply, HostInfo, Member,
+    PeerBatch, PeerItem,
+};
+use rem::{Error, RemClient, Secret, SpawnRequest};
+use tonic::metadata::MetadataMap;
+use tonic::{Code, Request, Response, Status, Streaming};
+
+const T: Duration = Duration::from_secs(10);
+
+fn code<T: std::fmt::Debug>(r: Result<T, Error>) -> Code {
+    r.unwrap_err().code()
+}
+
+fn spin(seconds: u32) -> SpawnRequest {
+    SpawnRequest {
+        program: ECHO.into(),
+        args: vec!["spin".into(), seconds.to_string()],
+        ..SpawnRequest::default()
+    }
+}
+
+async fn running(c: &RemClient, id: &rem::ProcId) -> bool {
+    c.ps()
+        .await
+        .unwrap()
+        .iter()
+        .any(|p| p.proc_id == id.as_str() && p.state == "running")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_spawn_of_u32_max_processes_is_refused_and_harms_nobody() {
+    let cluster = RemdProcesses::start(1, &[]);
+    let c = cluster.client(0).await;
+    let victim = c.spawn(spin(30)).await.unwrap().processes[0]
+        .proc_id
+        .clone();
+    let huge = SpawnRequest {
+        count: u32::MAX,
+        allow_same_host: true,
+        ..spin(1)
+    };
+    assert_eq!(code(c.spawn(huge).await), Code::InvalidArgument);
+    // Just over the per-request limit is refused too, and so is passing the host's limit.
+    let over = SpawnRequest {
+        count: rem::limits::Limits::default().spawn_count + 1,
+        allow_same_host: true,
+        ..spin(1)
+    };
+    assert_eq!(code(c.spawn(over).await), Code::InvalidArgument);
+    assert!(c.hosts().await.is_ok(), "remd answers");
+    assert!(running(&c, &victim).await, "the other job's process lives");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_host_process_limit_is_a_status() {
+    let cluster = InProcessRemds::start(1, |s| s.limits.host_processes = 2).await;
+    let c = cluster.client(0).await;
+    let two = SpawnRequest {
+        count: 2,
+        allow_same_host: true,
+        ..spin(30)
+    };
+    c.spawn(two.clone()).await.unwrap();
+    assert_eq!(code(c.spawn(spin(30)).await), Code::ResourceExhausted);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn clients_cannot_choose_a_childs_environment_and_children_never_see_the_secret() {
+    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let c = cluster.client(0).await;
+    for name in [
+        "LD_PRELOAD",
+        "LD_LIBRARY_PATH",
+        "PATH",
+        "REM_SECRET",
+        "REM_PROC_ID",
+        "HOME",
+    ] {
+        let req = SpawnRequest {
+            env: [(name.to_string(), "/tmp/evil.so".to_string())].into(),
+            ..spin(1)
+        };
+        assert_eq!(code(c.spawn(req).await), Code::PermissionDenied, "{name}");
+    }
+    assert!(c.ps().await.unwrap().is_empty(), "nothing was started");
+    // What a child does get: PATH, REM_* of remd's making, and allowed names only.
+    let allowed = SpawnRequest {
+        env: [("SUNRAY_WORKER_LINE_DELAY_MS".to_string(), "1".to_string())].into(),
+        ..spin(1)
+    };
+    c.spawn(allowed).await.unwrap();
+    let (_, env) = spawn_env_printer(&c, "env-job", 5).await;
+    let secret = cluster.secret();
+    let secret_text = String::from_utf8_lossy(secret.as_bytes()).to_string();
+    for (k, v) in &env {
+        assert!(
+            k == "PATH" || k == "uid" || k.starts_with("REM_"),
+            "unexpected variable {k} in a child's environment"
+        );
+        assert!(!v.contains(&secret_text), "{k} holds the secret");
+    }
+    assert!(!env.contains_key("REM_SECRET") && !env.contains_key("REM_SECRET_FILE"));
+    assert_eq!(env["REM_PROC_TOKEN"].len(), 64);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
+    // As `sunray:worker|controller` keeps `sunray spd -o ANYPATH` out, this rule lets
+    // rem-echo run only as `echo`, `env` or `spin`.
+    let rule = format!("{ECHO}:echo|env|spin");
+    let cluster = RemdProcesses::start_allowing(1, &[&rule], &[]);
+    let c = cluster.client(0).await;
+    let exit = SpawnRequest {
+        program: ECHO.into(),
+        args: vec!["exit".into(), "3".into()],
+        ..SpawnRequest::default()
+    };
+    assert_eq!(code(c.spawn(exit).await), Code::PermissionDenied);
+    let bare = SpawnRequest {
+        args: Vec::new(),
+        ..spin(1)
+    };
+    assert_eq!(code(c.spawn(bare).await), Code::PermissionDenied);
+    assert!(c.spawn(spin(1)).await.is_ok());
+}
+
+/// A fake daemon: records the metadata of every call, and answers heartbeats with a reply
+/// it makes up (no proof: it does not hold the cluster secret).
+#[derive(Clone, Default)]
+struct FakePeer {
+    seen: Arc<Mutex<Vec<MetadataMap>>>,
+}
+
+impl FakePeer {
+    fn record<T>(&self, req: &Request<T>) {
+        self.seen.lock().unwrap().push(req.metadata().clone());
+    }
+}
+
+#[tonic::async_trait]
+impl peer_server::Peer for FakePeer {
+    async fn heartbeat(
+        &self,
+        req: Request<proto::HeartbeatRequest>,
+    ) -> Result<Response<HeartbeatReply>, Status> {
+        self.record(&req);
+        Ok(Response::new(HeartbeatReply {
+            sender: Some(HostInfo {
+                name: "b".into(),
+                addr: "127.0.0.1:9".into(),
+                alive: true,
+                accepting: true,
+                ..HostInfo::default()
+            }),
+            members: vec![Member {
+                name: "evil".into(),
+                addr: "127.0.0.1:9".into(),
+            }],
+        }))
+    }
+    async fn start_local(
+        &self,
+        req: Request<proto::StartLocalRequest>,
+    ) -> Result<Response<proto::StartLocalReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn kill_local(
+        &self,
+        req: Request<proto::KillRequest>,
+    ) -> Result<Response<proto::KillReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn logs_local(
+        &self,
+        req: Request<proto::LogsRequest>,
+    ) -> Result<Response<proto::LogsReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn ps_local(
+        &self,
+        req: Request<proto::PsRequest>,
+    ) -> Result<Response<proto::PsReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn forward(
+        &self,
+        req: Request<Streaming<PeerBatch>>,
+    ) -> Result<Response<proto::ForwardReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn store_replica(
+        &self,
+        req: Request<proto::Checkpoint>,
+    ) -> Result<Response<proto::StoreReplicaReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn fetch_replica(
+        &self,
+        req: Request<proto::GetCheckpointRequest>,
+    ) -> Result<Response<proto::GetCheckpointReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_fake_peer_on_a_dead_members_port_learns_nothing_and_is_not_believed() {
+    let mut cluster = InProcessRemds::start(2, |_| {}).await;
+    cluster.converge(T).await;
+    let b = cluster.daemons.remove(1);
+    let b_addr = b.addr().to_string();
+    b.stop().await;
+    // The attacker takes b's port.
+    let listener = tokio::net::TcpListener::bind(&b_addr).await.unwrap();
+    let fake = FakePeer::default();
+    let server = tokio::spawn(
+        tonic::transport::Server::builder()
+            .add_service(peer_server::PeerServer::new(fake.clone()))
+            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener)),
+    );
+    let c = cluster.client(0).await;
+    // Heartbeats arrive (a keeps calling its lost member) ...
+    let end = Instant::now() + T;
+    while fake.seen.lock().unwrap().len() < 5 {
+        assert!(Instant::now() < end, "no call reached the fake peer");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    // ... and carry no secret and no key: only a proof bound to this call.
+    let secret = cluster.secret();
+    let client_key = secret.client_key();
+    for md in fake.seen.lock().unwrap().iter() {
+        for kv in md.iter() {
+            let bytes: Vec<u8> = match kv {
+                tonic::metadata::KeyAndValueRef::Ascii(_, v) => v.as_bytes().to_vec(),
+                tonic::metadata::KeyAndValueRef::Binary(_, v) => v.to_bytes().unwrap().to_vec(),
+            };
+            let text = String::from_utf8_lossy(&bytes);
+            assert!(!text.contains(SECRET), "the secret was sent");
+            assert!(
+                !bytes.windows(32).any(|w| w == client_key),
+                "the client key was sent"
+            );
+            assert!(!text.contains(&hex::encode(client_key)));
+        }
+    }
+    // Its made-up replies changed nothing: b stays lost, "evil" is unknown.
+    tokio::time::sleep(Duration::from_millis(800)).await;
+    let hosts = c.hosts().await.unwrap();
+    assert!(hosts.iter().all(|h| h.name != "evil"), "{hosts:?}");
+    assert!(hosts.iter().any(|h| h.name == "b" && !h.alive), "{hosts:?}");
+    server.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn identities_cannot_be_forged() {
+    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let admin = cluster.client(0).await;
+    let addr = cluster.addrs()[0].clone();
+    // A user holding only the client key (`rem client-key`).
+    let user_key = Secret::new(cluster.secret().client_key_line()).unwrap();
+    let user = RemClient::connect(&addr, user_key.clone()).await.unwrap();
+    assert!(user.hosts().await.is_ok());
+    let mut victim = admin.attach(Some("victim")).await.unwrap();
+    // Forward with a forged `from` (and a forged job event): the Peer service wants a daemon's
+    // proof, which a client key cannot make.
+    let channel = tonic::transport::Endpoint::from_shared(format!("http://{addr}"))
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
+    let mut peer = PeerClient::with_interceptor(channel, rem::auth::SendSecret::new(&user_key));
+    let forged = PeerBatch {
+        from_host: "a".into(),
+        items: vec![
+            PeerItem {
+                item: Some(peer_item::Item::Envelope(proto::Envelope {
+                    from: "a/1".into(),
+                    to: victim.id().to_string(),
+                    payload: b"forged pixels".to_vec(),
+                })),
+            },
+            PeerItem {
+                item: Some(peer_item::Item::Event(proto::JobEvent {
+                    job: "victim".into(),
+                    proc_id: "a/1".into(),
+                    kind: proto::job_event::Kind::Lost as i32,
+                    owner: victim.id().to_string(),
+                    ..proto::JobEvent::default()
+                })),
+            },
+        ],
+    };
+    let status = peer
+        .forward(tokio_stream::iter(vec![forged]))
+        .await
+        .unwrap_err();
+    assert_eq!(status.code(), Code::Unauthenticated);
+    let status = peer
+        .store_replica(proto::Checkpoint {
+            job: "victim".into(),
+            data: b"poison".to_vec(),
+            version: u64::MAX,
+            written_by: "a".into(),
+            mac: vec![0; 32],
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(status.code(), Code::Unauthenticated);
+    assert!(admin.get_checkpoint("victim").await.unwrap().is_none());
+    // Nothing reached the victim.
+    let got = tokio::time::timeout(Duration::from_millis(300), victim.recv()).await;
+    assert!(got.is_err(), "the victim received {got:?}");
+    // A stolen process id, without its token or with another's, does not attach.
+    let (id, env) = spawn_env_printer(&admin, "job", 10).await;
+    assert_eq!(
+        code(user.attach_as(&id, "job").await),
+        Code::PermissionDenied
+    );
+    let (_, other) = spawn_env_printer(&admin, "job2", 10).await;
+    let thief = process_client(&addr, &other["REM_PROC_TOKEN"]).await;
+    assert_eq!(
+        code(thief.attach_as(&id, "job").await),
+        Code::FailedPrecondition
+    );
+    // A process token does nothing but attach as its own process.
+    let owner = process_client(&addr, &env["REM_PROC_TOKEN"]).await;
+    assert_eq!(code(owner.spawn(spin(1)).await), Code::PermissionDenied);
+    assert_eq!(code(owner.kill(&id).await), Code::PermissionDenied);
+    assert_eq!(
+        code(owner.get_checkpoint("job").await),
+        Code::PermissionDenied
+    );
+    assert_eq!(code(owner.attach(None).await), Code::PermissionDenied);
+    assert!(owner.attach_as(&id, "job").await.is_ok());
+}
+
+/// Resident set size of a process, in bytes.
+fn rss(pid: i32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
+    let kb: u64 = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        .unwrap();
+    kb * 1024
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_flood_into_an_unattached_mailbox_is_bounded_in_bytes() {
+    let cluster = RemdProcesses::start(1, &[]);
+    let c = cluster.client(0).await;
+    // A process that never attaches: its mailbox only fills.
+    let target = c.spawn(spin(60)).await.unwrap().processes[0]
+        .proc_id
+        .clone();
+    let attacker = c.attach(None).await.unwrap();
+    let before = rss(cluster.daemons[0].pid());
+    let (sender, mut receiver) = attacker.split();
+    let drain = tokio::spawn(async move {
+        let mut refused = 0u32;
+        while let Ok(Ok(item)) = tokio::time::timeout(Duration::from_secs(5), receiver.recv()).await
+        {
+            if matches!(item, rem::Incoming::Undeliverable { .. }) {
+                refused += 1;
+            }
+        }
+        refused
+    });
+    let mut peak = before;
+    let payload = vec![0xA5u8; 1 << 20];
+    for i in 0..4096 {
+        sender.send(&target, payload.clone()).await.unwrap();
+        if i % 256 == 0 {
+            peak = peak.max(rss(cluster.daemons[0].pid()));
+        }
+    }
+    peak = peak.max(rss(cluster.daemons[0].pid()));
+    let refused = drain.await.unwrap();
+    let growth = peak.saturating_sub(before);
+    println!("flood: RSS {before} -> peak {peak} (growth {growth} bytes); {refused} refused");
+    assert!(growth < 256 << 20, "remd grew by {growth} bytes");
+    assert!(refused > 3000, "only {refused} envelopes were refused");
+    assert!(c.hosts().await.is_ok());
+}
