@@ -184,13 +184,7 @@ impl DaemonSettings {
         if !env_allow.is_empty() {
             s.policy.env_allow = env_allow;
         }
-        for (name, value) in &file.limits {
-            let value = match value {
-                toml::Value::String(v) => v.clone(),
-                other => other.to_string(),
-            };
-            s.limits.set(name, &value).map_err(Error::Config)?;
-        }
+        set_limits(&mut s.limits, &file.limits)?;
         for pair in &args.limits {
             s.limits.set_pair(pair).map_err(Error::Config)?;
         }
@@ -236,6 +230,21 @@ impl DaemonSettings {
         };
         Ok(s)
     }
+}
+
+/// Applies the file's `[limits]` table (numbers, or strings such as "64M").
+fn set_limits(
+    limits: &mut Limits,
+    table: &std::collections::BTreeMap<String, toml::Value>,
+) -> Result<()> {
+    for (name, value) in table {
+        let value = match value {
+            toml::Value::String(v) => v.clone(),
+            other => other.to_string(),
+        };
+        limits.set(name, &value).map_err(Error::Config)?;
+    }
+    Ok(())
 }
 
 /// Refuses a secret file that other users may read (or that cannot be examined).
@@ -373,6 +382,16 @@ mod tests {
         private(&key);
         let args = RemdArgs::parse_from(["remd", "--secret-file", key.to_str().unwrap()]);
         assert!(DaemonSettings::from_args(args).is_err());
+    }
+
+    #[test]
+    fn the_shipped_config_file_parses() {
+        let text = include_str!("../../deploy/remd.toml");
+        let file: FileConfig = toml::from_str(text).unwrap();
+        assert_eq!(file.allow, ["/usr/local/bin/sunray:worker|controller"]);
+        let mut limits = Limits::default();
+        set_limits(&mut limits, &file.limits).unwrap();
+        assert_eq!(limits, Limits::default(), "the file shows the defaults");
     }
 
     fn private(path: &Path) {
