@@ -52,6 +52,15 @@ impl Daemon {
         }
     }
 
+    /// The other hosts alive now.
+    fn live_peers(&self) -> impl Iterator<Item = crate::proto::HostInfo> {
+        self.membership
+            .hosts()
+            .into_iter()
+            .skip(1)
+            .filter(|h| h.alive)
+    }
+
     /// A fresh process id on this host.
     pub fn new_proc_id(&self) -> ProcId {
         ProcId::new(&self.name, self.seq.fetch_add(1, Ordering::Relaxed))
@@ -240,13 +249,7 @@ impl Daemon {
     pub async fn ps(&self) -> Result<Vec<ProcessInfo>> {
         let mut out = self.processes.list().await?;
         let mut tasks = JoinSet::new();
-        for h in self
-            .membership
-            .hosts()
-            .into_iter()
-            .skip(1)
-            .filter(|h| h.alive)
-        {
+        for h in self.live_peers() {
             let peers = self.peers.clone();
             tasks.spawn(async move {
                 peers
@@ -291,13 +294,7 @@ impl Daemon {
         self.checkpoints.seal(&mut cp);
         self.checkpoints.put(&cp).await?;
         let mut stored = vec![self.name.clone()];
-        let mut others: Vec<_> = self
-            .membership
-            .hosts()
-            .into_iter()
-            .skip(1)
-            .filter(|h| h.alive)
-            .collect();
+        let mut others: Vec<_> = self.live_peers().collect();
         others.sort_by(|a, b| {
             let la = a.load.as_ref().map_or(0.0, |l| l.load_per_core);
             let lb = b.load.as_ref().map_or(0.0, |l| l.load_per_core);
@@ -334,13 +331,7 @@ impl Daemon {
     pub async fn get_checkpoint(&self, job: String) -> Result<Option<Checkpoint>> {
         let mut best = self.checkpoints.get(&job).await?;
         let mut tasks = JoinSet::new();
-        for h in self
-            .membership
-            .hosts()
-            .into_iter()
-            .skip(1)
-            .filter(|h| h.alive)
-        {
+        for h in self.live_peers() {
             let req = crate::proto::GetCheckpointRequest { job: job.clone() };
             let peers = self.peers.clone();
             tasks.spawn(async move {

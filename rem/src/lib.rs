@@ -119,6 +119,7 @@ pub mod proto {
 }
 
 pub use auth::Secret;
+pub use child::RunAs;
 pub use client::{ConnectOptions, Credential, Job, RemClient, SpawnRequest};
 pub use error::{Error, Result};
 pub use ids::ProcId;

@@ -6,6 +6,10 @@
 //! heard from (either direction) for `lost_after` is marked lost, and `MemberEvent::Lost` is
 //! broadcast; when it answers again it is alive again (`MemberEvent::Back`). Heartbeat calls
 //! time out, so a hung (SIGSTOPped) daemon is detected like a dead one.
+//!
+//! Heartbeats go through `PeerPool::call_proven`: a reply counts only with a daemon's proof
+//! (`peer_auth`), and only its sender's own entry is believed, so whoever answers at a lost
+//! member's address can neither revive it nor add members.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};

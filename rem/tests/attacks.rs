@@ -116,6 +116,35 @@ async fn clients_cannot_choose_a_childs_environment_and_children_never_see_the_s
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn children_of_a_root_remd_run_as_the_configured_user() {
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } != 0 {
+        println!("skipped: this test needs root (remd as root, children as nobody)");
+        return;
+    }
+    // A copy of rem-echo that user 65534 may execute, whatever the checkout's permissions.
+    let dir = tempfile::tempdir().unwrap();
+    let echo = dir.path().join("rem-echo");
+    std::fs::copy(ECHO, &echo).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
+    std::fs::set_permissions(&echo, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let program = echo.to_str().unwrap().to_string();
+    let allowed = program.clone();
+    let cluster = InProcessRemds::start(1, move |s| {
+        s.allow_program(&allowed);
+        s.run_as = Some(rem::RunAs {
+            uid: 65534,
+            gid: 65534,
+        });
+    })
+    .await;
+    let c = cluster.client(0).await;
+    let (_, env) = spawn_env_printer_of(&c, &program, "as-nobody", 5).await;
+    assert_eq!(env["uid"], "65534");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
     // As `sunray:worker|controller` keeps `sunray spd -o ANYPATH` out, this rule lets
     // rem-echo run only as `echo`, `env` or `spin`.

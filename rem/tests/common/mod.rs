@@ -216,9 +216,19 @@ pub async fn spawn_env_printer(
     job: &str,
     seconds: u32,
 ) -> (rem::ProcId, std::collections::BTreeMap<String, String>) {
+    spawn_env_printer_of(c, ECHO, job, seconds).await
+}
+
+/// [`spawn_env_printer`] with rem-echo at another path.
+pub async fn spawn_env_printer_of(
+    c: &RemClient,
+    program: &str,
+    job: &str,
+    seconds: u32,
+) -> (rem::ProcId, std::collections::BTreeMap<String, String>) {
     let spawned = c
         .spawn(rem::SpawnRequest {
-            program: ECHO.into(),
+            program: program.into(),
             args: vec!["env".into(), seconds.to_string()],
             job: Some(job.into()),
             ..rem::SpawnRequest::default()
