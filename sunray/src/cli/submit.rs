@@ -106,7 +106,12 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     request.check()?;
     // A new job's scene is compiled before anything else, so a bad scene starts nothing.
     let scene = match &args.resume {
-        None => JobScene::New(args.render.load()?),
+        None => {
+            let loaded = args.render.load()?;
+            // Settings out of bounds are refused before a remd or a worker is started.
+            request.overrides.settings(&loaded.scene)?;
+            JobScene::New(loaded)
+        }
         Some(job) => JobScene::Resume {
             job: job.clone(),
             scene: args.render.source().path().map(Path::to_path_buf),

@@ -7,8 +7,14 @@
 //! save costs what is new, not the whole image) and each under the relay's message limit.
 //! Segments are written before the header that names them, so a crash between the two
 //! leaves a consistent, slightly older checkpoint.
+//!
+//! A checkpoint read back is not trusted: [`load`] refuses one whose render settings are
+//! missing or out of bounds (`render::settings`), or whose segments and lines disagree with
+//! them (a line beyond the image's height, pixels that are not the image's width).
 
 use super::messages::proto::{CheckpointHeader, CheckpointSegment, FinishedLine, JobSpec};
+use super::messages::MessageError;
+use crate::render::Settings;
 use prost::Message;
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -64,6 +70,28 @@ pub enum CheckpointError {
     /// The header was written by a program with another [`FORMAT`].
     #[error("checkpoint format {0} is not supported (this program reads format {FORMAT})")]
     Format(u32),
+    /// The header holds no render settings.
+    #[error("checkpoint of job {job} holds no render settings")]
+    NoSettings {
+        /// The job id.
+        job: String,
+    },
+    /// The header's render settings are out of bounds.
+    #[error("checkpoint of job {job}: {source}")]
+    Settings {
+        /// The job id.
+        job: String,
+        /// What is out of bounds.
+        source: MessageError,
+    },
+    /// A header or segment disagrees with the header's render settings.
+    #[error("checkpoint {key} disagrees with its header: {reason}")]
+    Inconsistent {
+        /// The store key of the blob (`JOB` or `JOB.sN`).
+        key: String,
+        /// What disagrees, with the values.
+        reason: String,
+    },
     /// One finished line alone is larger than the store accepts.
     #[error("a finished line of {bytes} bytes does not fit the checkpoint limit of {limit}")]
     TooLarge {
@@ -185,6 +213,25 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
     if header.format != FORMAT {
         return Err(CheckpointError::Format(header.format));
     }
+    let settings = header_settings(job, &header)?;
+    let (width, height) = (settings.render.width, settings.render.height);
+    let inconsistent = |key: &str, reason: String| CheckpointError::Inconsistent {
+        key: key.to_string(),
+        reason,
+    };
+    // Every segment holds at least one line, and each line is finished once.
+    for (what, n) in [
+        ("segments", header.segments),
+        ("lines_done", header.lines_done),
+    ] {
+        if n > height {
+            return Err(inconsistent(
+                job,
+                format!("{what} = {n}, more than the image's {height} lines"),
+            ));
+        }
+    }
+    let line_bytes = width as usize * 12;
     let mut lines = BTreeMap::new();
     for s in 0..header.segments {
         let key = segment_key(job, s);
@@ -197,10 +244,41 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
             })?;
         let seg = CheckpointSegment::decode(bytes.as_slice()).map_err(|e| corrupt(&key, e))?;
         for l in seg.lines {
+            if l.line >= height {
+                return Err(inconsistent(
+                    &key,
+                    format!("line {} of an image of {height} lines", l.line),
+                ));
+            }
+            if l.pixels.len() != line_bytes {
+                return Err(inconsistent(
+                    &key,
+                    format!(
+                        "line {} has {} bytes of pixels, not {line_bytes} ({width} pixels)",
+                        l.line,
+                        l.pixels.len()
+                    ),
+                ));
+            }
             lines.insert(l.line, l);
         }
     }
     Ok(Some(Restored { header, lines }))
+}
+
+/// The render settings of a checkpoint's header, checked against their bounds.
+fn header_settings(job: &str, header: &CheckpointHeader) -> Result<Settings, CheckpointError> {
+    let p = header
+        .spec
+        .as_ref()
+        .and_then(|s| s.settings.as_ref())
+        .ok_or_else(|| CheckpointError::NoSettings {
+            job: job.to_string(),
+        })?;
+    Settings::from_proto(p).map_err(|source| CheckpointError::Settings {
+        job: job.to_string(),
+        source,
+    })
 }
 
 /// Milliseconds since the Unix epoch.
@@ -213,6 +291,7 @@ pub fn unix_ms() -> u64 {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::distrib::messages::proto::RenderSettings;
     use std::collections::HashMap;
     use std::sync::Mutex;
 
@@ -252,9 +331,26 @@ pub(crate) mod tests {
         }
     }
 
+    /// Render settings of a `width` x `height` image (what a header carries).
+    fn settings(width: u32, height: u32) -> RenderSettings {
+        RenderSettings {
+            width,
+            height,
+            samples: 1,
+            max_depth: 5,
+            min_weight: 0.001,
+            accel: "auto".into(),
+            max_per_voxel: 10,
+            octree_max_depth: 8,
+            mailbox: true,
+        }
+    }
+
+    /// The spec of a 10 x 16 image: `line` writes 10 pixels (120 bytes).
     fn spec() -> JobSpec {
         JobSpec {
             scene: "/scenes/a.yari".into(),
+            settings: Some(settings(10, 16)),
             hosts: 3,
             strategy: "dynamic".into(),
             ..Default::default()
@@ -348,5 +444,107 @@ pub(crate) mod tests {
                 Err(CheckpointError::TooLarge { .. })
             ));
         });
+    }
+
+    /// Saves `lines` under `job` with header spec `spec`, in a fresh store.
+    fn saved(spec: JobSpec, lines: &[FinishedLine]) -> MemStore {
+        let store = MemStore {
+            limit: 1 << 20,
+            ..Default::default()
+        };
+        rt().block_on(async {
+            let mut c = Checkpointer::new("j4", spec, 1, None);
+            for l in lines {
+                c.record(l.clone());
+            }
+            c.save(&store, "running").await.unwrap();
+        });
+        store
+    }
+
+    fn load_error(store: &MemStore) -> CheckpointError {
+        rt().block_on(load(store, "j4")).unwrap_err()
+    }
+
+    #[test]
+    fn a_header_without_settings_or_out_of_bounds_is_refused() {
+        let none = saved(
+            JobSpec {
+                settings: None,
+                ..spec()
+            },
+            &[line(0)],
+        );
+        let e = load_error(&none);
+        assert!(matches!(e, CheckpointError::NoSettings { .. }), "{e}");
+
+        for (bad, field) in [
+            (settings(u32::MAX, 16), "width"),
+            (settings(10, 0), "height"),
+            (
+                RenderSettings {
+                    max_depth: 1_000_000_000,
+                    ..settings(10, 16)
+                },
+                "max_depth",
+            ),
+            (
+                RenderSettings {
+                    min_weight: -1.0,
+                    ..settings(10, 16)
+                },
+                "min_weight",
+            ),
+        ] {
+            let store = saved(
+                JobSpec {
+                    settings: Some(bad),
+                    ..spec()
+                },
+                &[line(0)],
+            );
+            let e = load_error(&store);
+            assert!(matches!(e, CheckpointError::Settings { .. }), "{e}");
+            let text = e.to_string();
+            assert!(text.contains(field) && !text.contains('\n'), "{text}");
+        }
+    }
+
+    #[test]
+    fn lines_that_disagree_with_the_header_are_refused() {
+        // A line beyond the image's 16 lines.
+        let e = load_error(&saved(spec(), &[line(0), line(16)]));
+        assert!(
+            e.to_string().contains("line 16 of an image of 16 lines"),
+            "{e}"
+        );
+        // A line of 11 pixels in an image 10 wide.
+        let wide = FinishedLine {
+            line: 2,
+            pixels: vec![0; 132],
+            counters: None,
+        };
+        let e = load_error(&saved(spec(), &[line(0), wide]));
+        assert!(
+            e.to_string().contains("132 bytes of pixels, not 120"),
+            "{e}"
+        );
+        // A header naming more segments than the image has lines.
+        let store = saved(spec(), &[line(0)]);
+        let header = CheckpointHeader {
+            segments: 17,
+            ..CheckpointHeader::decode(store.map.lock().unwrap()["j4"].as_slice()).unwrap()
+        };
+        store
+            .map
+            .lock()
+            .unwrap()
+            .insert("j4".into(), header.encode_to_vec());
+        let e = load_error(&store);
+        assert!(matches!(e, CheckpointError::Inconsistent { .. }), "{e}");
+        // The same lines under a matching header are read back.
+        let ok = saved(spec(), &[line(0), line(15)]);
+        let r = rt().block_on(load(&ok, "j4")).unwrap().unwrap();
+        assert_eq!(r.lines.len(), 2);
     }
 }

@@ -11,6 +11,7 @@ use super::messages::{self, proto, Body, MessageError};
 use super::nodes::{self, JobStats};
 use super::strategy::Strategy;
 use crate::film::{FilmError, Format};
+use crate::render::settings::SettingsError;
 use crate::render::{Overrides, Settings};
 use crate::scene::load::{self, LoadedScene, SceneLoadError, SceneSource};
 use std::path::{Path, PathBuf};
@@ -136,6 +137,9 @@ pub enum JobError {
         /// What is wrong with them, if they are there.
         reason: Option<MessageError>,
     },
+    /// The scene and flags ask for render settings out of bounds.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
     /// The scene of a job to resume is not the one checkpointed.
     #[error("the scene has changed since job {0} was checkpointed; it cannot be resumed")]
     SceneChanged(String),
@@ -225,7 +229,7 @@ pub async fn run(
 }
 
 fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, JobError> {
-    let settings = req.overrides.settings(&loaded.scene);
+    let settings = req.overrides.settings(&loaded.scene)?;
     let output = req
         .output
         .clone()

@@ -2,7 +2,8 @@
 //! [`proto::SunrayMessage`] per REM envelope, pixels as little-endian `f32`, counters as in
 //! [`crate::stats::Counters`], render settings as [`RenderOptions`] + [`AccelOptions`].
 
-use crate::accel::{AccelKind, AccelOptions};
+use crate::accel::AccelOptions;
+use crate::render::settings::{self, SettingsError};
 use crate::render::{RenderOptions, Settings};
 use crate::shading::TraceOptions;
 use crate::stats::Counters;
@@ -34,9 +35,10 @@ pub enum MessageError {
         /// Pixels in a line.
         width: u32,
     },
-    /// The render settings name an accelerator this program does not know.
-    #[error("unknown accelerator {0:?}")]
-    Accel(String),
+    /// The render settings are out of bounds (or name an accelerator this program does not
+    /// know).
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
 }
 
 /// Encodes one message body for an envelope.
@@ -133,39 +135,31 @@ impl Settings {
         }
     }
 
-    /// The settings of a `Scene` message or a checkpoint (the accelerator name checked).
+    /// The settings of a `Scene` message or a checkpoint, as they came: every field checked
+    /// against its bound ([`Settings::check`]) and the accelerator name against the known
+    /// ones, before anything is allocated for them. Nothing is clamped: 0 pixels, samples or
+    /// primitives per voxel are refused, as `to_proto` never sends them.
     pub fn from_proto(p: &proto::RenderSettings) -> Result<Settings, MessageError> {
-        let kind = accel_from_name(&p.accel).ok_or_else(|| MessageError::Accel(p.accel.clone()))?;
-        Ok(Settings {
+        let s = Settings {
             render: RenderOptions {
-                width: p.width.max(1),
-                height: p.height.max(1),
-                samples: p.samples.max(1),
+                width: p.width,
+                height: p.height,
+                samples: p.samples,
                 trace: TraceOptions {
                     max_depth: p.max_depth,
                     min_weight: p.min_weight,
                 },
             },
             accel: AccelOptions {
-                kind,
-                max_per_voxel: (p.max_per_voxel as usize).max(1),
+                kind: settings::accel_kind(&p.accel)?,
+                max_per_voxel: p.max_per_voxel as usize,
                 max_depth: p.octree_max_depth,
             },
             mailbox: p.mailbox,
-        })
+        };
+        s.check()?;
+        Ok(s)
     }
-}
-
-/// The accelerator kind of a command-line name ([`AccelKind::name`]).
-pub fn accel_from_name(name: &str) -> Option<AccelKind> {
-    [
-        AccelKind::Auto,
-        AccelKind::Octree,
-        AccelKind::Bvh,
-        AccelKind::Exhaustive,
-    ]
-    .into_iter()
-    .find(|k| k.name() == name)
 }
 
 /// FNV-1a, 64 bits: the model hash a resumed job is checked against.
@@ -181,6 +175,7 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::AccelKind;
 
     #[test]
     fn pixels_round_trip_bit_for_bit() {
@@ -252,5 +247,46 @@ mod tests {
         let mut bad = s.to_proto();
         bad.accel = "kd-tree".into();
         assert!(Settings::from_proto(&bad).is_err());
+    }
+
+    #[test]
+    fn settings_out_of_bounds_are_refused_with_the_field_named() {
+        let good = Settings {
+            render: RenderOptions {
+                width: 64,
+                height: 48,
+                samples: 1,
+                trace: TraceOptions::default(),
+            },
+            accel: AccelOptions::default(),
+            mailbox: true,
+        }
+        .to_proto();
+        type Change = fn(&mut proto::RenderSettings);
+        let cases: [(Change, &str); 10] = [
+            (|p| p.width = u32::MAX, "width"),
+            (|p| p.width = 0, "width"),
+            (|p| p.height = u32::MAX, "height"),
+            (|p| p.samples = 0, "samples"),
+            (|p| p.max_depth = 1_000_000_000, "max_depth"),
+            (|p| p.min_weight = -1.0, "min_weight"),
+            (|p| p.min_weight = f64::NAN, "min_weight"),
+            (|p| p.max_per_voxel = u32::MAX, "max_per_voxel"),
+            (|p| p.octree_max_depth = 1_000, "octree_max_depth"),
+            (|p| p.accel = "kd-tree".into(), "accel"),
+        ];
+        for (change, field) in cases {
+            let mut p = good.clone();
+            change(&mut p);
+            let e = Settings::from_proto(&p).unwrap_err();
+            assert!(matches!(e, MessageError::Settings(_)), "{e}");
+            let text = e.to_string();
+            assert!(
+                text.contains(field) && !text.contains('\n'),
+                "{field}: {text}"
+            );
+        }
+        // Nothing is clamped silently, nothing in bounds refused.
+        assert!(Settings::from_proto(&good).is_ok());
     }
 }

@@ -8,6 +8,11 @@
 //! measured delay and line time). Each Request and Done says the window it wants now. With
 //! nothing to do it repeats its Request now and then, which tells it (by an Undeliverable
 //! notice) when its controller is gone. It obeys only its job's owner.
+//!
+//! The Scene message is not trusted: a model that does not decode, or render settings out of
+//! their bounds (`render::settings`, checked before anything is allocated), make the worker
+//! tell its controller why (a WorkerError message, waited for until its remd has it) and exit
+//! with an error.
 
 use super::messages::{self, proto, Body};
 use super::pool::{LineJob, PoolScene, RenderPool, Rendered};
@@ -72,6 +77,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let started = Instant::now();
     let relay = RemClient::attach_from_env().await?;
     let owner = relay.owner().cloned().ok_or(WorkerError::NoOwner)?;
+    let me = relay.id().clone();
     let host = relay.host().to_string();
     let (sender, receiver) = relay.split();
     let link = Link {
@@ -101,15 +107,15 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let t_pre = Instant::now();
     let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg))
         .await
-        .map_err(|e| WorkerError::BadScene(format!("preparing the scene panicked: {e}")))?;
+        .unwrap_or_else(|e| {
+            Err(WorkerError::BadScene(format!(
+                "preparing the scene panicked: {e}"
+            )))
+        });
     let (scene, accel, settings) = match prepared {
         Ok(p) => p,
         Err(e) => {
-            let _ = link
-                .send(Body::WorkerError(proto::WorkerError {
-                    message: e.to_string(),
-                }))
-                .await;
+            report(&link, &me, &mut inbox, &e).await;
             return Err(e);
         }
     };
@@ -260,7 +266,49 @@ impl Waits {
     }
 }
 
-/// Decodes the model and settings and builds the accelerator.
+/// How long a worker that cannot go on waits for its WorkerError to leave before it exits.
+const REPORT_WAIT: Duration = Duration::from_secs(5);
+
+/// What a worker sends itself to learn that its remd has taken what it sent before.
+const FLUSH_MARKER: &[u8] = b"sunray-worker-flush";
+
+/// Tells the controller why this worker cannot go on (a WorkerError message), and waits, at
+/// most [`REPORT_WAIT`], until the local remd has taken the message: sending only queues it in
+/// this process, which is about to exit. The wait is for a marker the worker sends itself
+/// after the error; remd routes one process's messages in order, so when the marker is back
+/// the error has left.
+async fn report(
+    link: &Link,
+    me: &ProcId,
+    inbox: &mut mpsc::Receiver<rem::Result<Incoming>>,
+    error: &WorkerError,
+) {
+    let message = Body::WorkerError(proto::WorkerError {
+        message: error.to_string(),
+    });
+    if link.send(message).await.is_err() || link.sender.send(me, FLUSH_MARKER).await.is_err() {
+        return;
+    }
+    let flushed = async {
+        loop {
+            match inbox.recv().await {
+                None | Some(Err(_)) => return,
+                Some(Ok(Incoming::Message { from, payload }))
+                    if from == me.as_str() && payload == FLUSH_MARKER =>
+                {
+                    return
+                }
+                Some(Ok(Incoming::Undeliverable { to, .. })) if to == me.as_str() => return,
+                Some(Ok(_)) => {}
+            }
+        }
+    };
+    let _ = tokio::time::timeout(REPORT_WAIT, flushed).await;
+}
+
+/// Decodes the model and settings and builds the accelerator. The settings are checked
+/// against their bounds first (`Settings::from_proto`), so settings out of bounds are refused
+/// before the model is decoded or anything is allocated for them.
 fn prepare(msg: proto::Scene) -> Result<(Arc<Scene>, Arc<Accel>, Settings), WorkerError> {
     let settings = msg
         .settings

@@ -3,11 +3,167 @@
 //! own resolution and samples. `sunray render`, `sunray submit` and the SunRay III workers all
 //! go through [`Overrides::settings`], so a distributed render decides its pixels exactly as a
 //! local one.
+//!
+//! Every field has explicit bounds ([`MAX_SIDE`], [`MAX_PIXELS`], [`MAX_SAMPLES`],
+//! [`MAX_DEPTH`], [`MIN_WEIGHT`], [`MAX_PER_VOXEL`], [`MAX_OCTREE_DEPTH`], [`ACCEL_NAMES`]),
+//! checked by [`Settings::check`] wherever settings come from outside: a user's flags and
+//! scene ([`Overrides::settings`]), a controller's `Scene` message and a checkpoint
+//! (`Settings::from_proto` in `distrib::messages`). A value out of bounds is a
+//! [`SettingsError`] naming the field, the value and the bound, found before anything is
+//! allocated for the render.
 
 use super::RenderOptions;
 use crate::accel::{AccelKind, AccelOptions};
 use crate::scene::Scene;
+use crate::shading::TraceOptions;
 use crate::stats::RenderStats;
+use std::fmt;
+use std::ops::RangeInclusive;
+
+/// The widest and tallest image: 16384 pixels a side (16K). A worker allocates one line of
+/// `width` pixels per render thread, so this bounds what a `Scene` message can make it
+/// allocate; the thesis's scenes are 256 to 512 pixels wide. In `--spd-corners` mode the
+/// corner grid is one larger than the image, so the image itself is at most 16383 a side.
+pub const MAX_SIDE: u32 = 16_384;
+
+/// The most pixels in an image, width x height: 2^27 = 134,217,728 (16K UHD, 15360 x 8640,
+/// fits). The controller (and `sunray render`) holds the whole film, 12 bytes a pixel: 1.5 GiB
+/// at this bound.
+pub const MAX_PIXELS: u64 = 1 << 27;
+
+/// The most samples per pixel: 65536. The accuracy benchmark's converged reference uses
+/// 16384; the stochastic scenes use 4 to 64.
+pub const MAX_SAMPLES: u32 = 65_536;
+
+/// The deepest ray tree: 64 levels (eye ray = 1). A Whitted/Hall ray tree rarely needs more
+/// than 10 (the SPD rule is 5); every level is a stack frame of the recursive tracer, so this
+/// also bounds its stack. The tracer never goes deeper, whatever it is given
+/// ([`TraceOptions::MAX_DEPTH`]).
+pub const MAX_DEPTH: u32 = TraceOptions::MAX_DEPTH;
+
+/// The weight threshold below which no secondary ray is spawned: a finite number in [0, 1].
+/// 0 spawns every ray the depth allows (the SPD corner mode), 1 none.
+pub const MIN_WEIGHT: RangeInclusive<f64> = 0.0..=1.0;
+
+/// The octree's split threshold: a voxel holding more than this many primitives is split;
+/// 1 to 2^20 (1,048,576; the thesis uses 10). Above a few thousand the octree is one voxel.
+pub const MAX_PER_VOXEL: u32 = 1 << 20;
+
+/// The octree's deepest subdivision: 0 (one voxel) to 12, 4096 cells a side (the default
+/// and the thesis's tables use 8). The octree's memory grows up to four times a level where
+/// primitives share surfaces and `max_per_voxel` is small: with 1 primitive a voxel, the SPD
+/// mount (size 4) builds 150 MB at depth 12 but 2.4 GB at 16, the built-in scene 3.2 GB at
+/// the octree's own cap of 20 ([`crate::accel::octree::MAX_DEPTH`], which stays the cap for
+/// options built in code). So a `Scene` message cannot make a worker build a multi-gigabyte
+/// octree.
+pub const MAX_OCTREE_DEPTH: u32 = 12;
+
+/// The accelerator names a `Scene` message or a checkpoint may carry ([`AccelKind::name`]).
+pub const ACCEL_NAMES: [&str; 4] = ["auto", "octree", "bvh", "exhaustive"];
+
+/// A bounded integer field of [`Settings`], named as in `proto::RenderSettings`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    /// Image width (`--resolution W`x).
+    Width,
+    /// Image height (`--resolution x`H).
+    Height,
+    /// Samples per pixel (`--samples`).
+    Samples,
+    /// Ray-tree depth (`--depth`).
+    MaxDepth,
+    /// The octree's split threshold (`--max-per-voxel`).
+    MaxPerVoxel,
+    /// The octree's subdivision depth (`--max-depth`).
+    OctreeMaxDepth,
+}
+
+impl Field {
+    /// The field's name in `proto::RenderSettings`, with the flag that sets it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Field::Width => "width (--resolution WxH)",
+            Field::Height => "height (--resolution WxH)",
+            Field::Samples => "samples (--samples)",
+            Field::MaxDepth => "max_depth (ray-tree depth, --depth)",
+            Field::MaxPerVoxel => "max_per_voxel (--max-per-voxel)",
+            Field::OctreeMaxDepth => "octree_max_depth (--max-depth)",
+        }
+    }
+}
+
+impl fmt::Display for Field {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A render setting out of its bounds: which, its value and the bound, on one line.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SettingsError {
+    /// An integer field outside `min..=max`.
+    #[error("render setting {field} = {value} is out of range {min}..={max}")]
+    OutOfRange {
+        /// The field.
+        field: Field,
+        /// Its value.
+        value: u64,
+        /// The smallest value allowed.
+        min: u64,
+        /// The largest value allowed.
+        max: u64,
+    },
+    /// Both sides within [`MAX_SIDE`], but more than [`MAX_PIXELS`] pixels.
+    #[error("render setting width x height = {width} x {height} = {} pixels is more than {MAX_PIXELS}", u64::from(*.width) * u64::from(*.height))]
+    TooManyPixels {
+        /// The width.
+        width: u32,
+        /// The height.
+        height: u32,
+    },
+    /// The weight threshold is not a finite number in [`MIN_WEIGHT`].
+    #[error("render setting min_weight (--min-weight) = {value} is not a number in [0, 1]")]
+    MinWeight {
+        /// Its value (NaN and infinities included).
+        value: f64,
+    },
+    /// An accelerator name that is not one of [`ACCEL_NAMES`].
+    #[error("render setting accel = {name:?} is not one of auto, octree, bvh, exhaustive")]
+    Accel {
+        /// The name given.
+        name: String,
+    },
+}
+
+/// Checks that `value` of `field` is within `range`.
+fn check_range(field: Field, value: u64, range: RangeInclusive<u64>) -> Result<(), SettingsError> {
+    if range.contains(&value) {
+        Ok(())
+    } else {
+        Err(SettingsError::OutOfRange {
+            field,
+            value,
+            min: *range.start(),
+            max: *range.end(),
+        })
+    }
+}
+
+/// The accelerator of a name in [`ACCEL_NAMES`] (as a `Scene` message or checkpoint spells it).
+pub fn accel_kind(name: &str) -> Result<AccelKind, SettingsError> {
+    [
+        AccelKind::Auto,
+        AccelKind::Octree,
+        AccelKind::Bvh,
+        AccelKind::Exhaustive,
+    ]
+    .into_iter()
+    .find(|k| k.name() == name)
+    .ok_or_else(|| SettingsError::Accel {
+        name: name.to_string(),
+    })
+}
 
 /// Everything besides the scene that decides the pixels of a render, and how they are found.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,8 +213,10 @@ impl Default for Overrides {
 }
 
 impl Overrides {
-    /// The settings for `scene`: its own resolution and samples, overridden as asked.
-    pub fn settings(&self, scene: &Scene) -> Settings {
+    /// The settings for `scene`: its own resolution and samples, overridden as asked (a
+    /// sample count of 0 and a split threshold of 0 count as 1); refused if out of bounds
+    /// ([`Settings::check`]), whether the scene or the flags asked for it.
+    pub fn settings(&self, scene: &Scene) -> Result<Settings, SettingsError> {
         let mut render = RenderOptions::for_scene(scene);
         if let Some((w, h)) = self.resolution {
             (render.width, render.height) = (w, h);
@@ -68,21 +226,60 @@ impl Overrides {
         }
         render.trace.max_depth = self.depth;
         render.trace.min_weight = self.min_weight;
-        if self.spd_corners {
-            render = render.spd_corners();
-        }
-        Settings {
+        let mut settings = Settings {
             render,
             accel: AccelOptions {
                 max_per_voxel: self.accel.max_per_voxel.max(1),
                 ..self.accel
             },
             mailbox: self.mailbox,
+        };
+        // Checked before the corner grid adds a line and a column, so that cannot overflow.
+        settings.check()?;
+        if self.spd_corners {
+            settings.render = settings.render.spd_corners();
+            settings.check()?;
         }
+        Ok(settings)
     }
 }
 
 impl Settings {
+    /// Checks every field against its bound: width and height in 1..=[`MAX_SIDE`], at most
+    /// [`MAX_PIXELS`] pixels, samples in 1..=[`MAX_SAMPLES`], ray-tree depth in
+    /// 1..=[`MAX_DEPTH`], min_weight finite in [`MIN_WEIGHT`], max_per_voxel in
+    /// 1..=[`MAX_PER_VOXEL`], the octree's depth in 0..=[`MAX_OCTREE_DEPTH`]. The first field
+    /// out of bounds is the error.
+    pub fn check(&self) -> Result<(), SettingsError> {
+        let r = &self.render;
+        let side = 1..=u64::from(MAX_SIDE);
+        check_range(Field::Width, r.width.into(), side.clone())?;
+        check_range(Field::Height, r.height.into(), side)?;
+        if u64::from(r.width) * u64::from(r.height) > MAX_PIXELS {
+            return Err(SettingsError::TooManyPixels {
+                width: r.width,
+                height: r.height,
+            });
+        }
+        check_range(Field::Samples, r.samples.into(), 1..=MAX_SAMPLES.into())?;
+        check_range(
+            Field::MaxDepth,
+            r.trace.max_depth.into(),
+            1..=MAX_DEPTH.into(),
+        )?;
+        let w = r.trace.min_weight;
+        if !w.is_finite() || !MIN_WEIGHT.contains(&w) {
+            return Err(SettingsError::MinWeight { value: w });
+        }
+        let per_voxel = u64::try_from(self.accel.max_per_voxel).unwrap_or(u64::MAX);
+        check_range(Field::MaxPerVoxel, per_voxel, 1..=MAX_PER_VOXEL.into())?;
+        check_range(
+            Field::OctreeMaxDepth,
+            self.accel.max_depth.into(),
+            0..=MAX_OCTREE_DEPTH.into(),
+        )
+    }
+
     /// The statistics header of a render of `scene` (named `name`) with these settings: image,
     /// accelerator (as [`crate::accel::Accel::build`] resolves it), objects and primitives.
     /// Counters, times, threads and accelerator cells are the caller's to fill in.
@@ -112,14 +309,15 @@ mod tests {
     #[test]
     fn overrides_replace_the_scenes_own_size_and_samples() {
         let scene = load(&SceneSource::Builtin, None).unwrap().scene;
-        let own = Overrides::default().settings(&scene);
+        let own = Overrides::default().settings(&scene).unwrap();
         assert_eq!(own.render, RenderOptions::for_scene(&scene));
         let s = Overrides {
             resolution: Some((64, 32)),
             samples: Some(0),
             ..Overrides::default()
         }
-        .settings(&scene);
+        .settings(&scene)
+        .unwrap();
         assert_eq!(
             (s.render.width, s.render.height, s.render.samples),
             (64, 32, 1)
@@ -129,8 +327,274 @@ mod tests {
             spd_corners: true,
             ..Overrides::default()
         }
-        .settings(&scene);
+        .settings(&scene)
+        .unwrap();
         assert_eq!((c.render.width, c.render.height), (65, 33));
         assert_eq!(c.render.trace.min_weight, 0.0);
+    }
+
+    /// Settings well inside every bound.
+    fn base() -> Settings {
+        Settings {
+            render: RenderOptions {
+                width: 64,
+                height: 48,
+                samples: 4,
+                trace: TraceOptions::default(),
+            },
+            accel: AccelOptions::default(),
+            mailbox: true,
+        }
+    }
+
+    /// `base()` changed by `f`, checked.
+    fn check(f: impl FnOnce(&mut Settings)) -> Result<(), SettingsError> {
+        let mut s = base();
+        f(&mut s);
+        s.check()
+    }
+
+    /// `f` out of range: the error names `field`, `value` and the range, on one line.
+    fn refused(f: impl FnOnce(&mut Settings), field: Field, value: u64, min: u64, max: u64) {
+        let e = check(f).unwrap_err();
+        assert_eq!(
+            e,
+            SettingsError::OutOfRange {
+                field,
+                value,
+                min,
+                max
+            }
+        );
+        let text = e.to_string();
+        assert!(
+            text.contains(field.name())
+                && text.contains(&value.to_string())
+                && text.contains(&format!("{min}..={max}"))
+                && !text.contains('\n'),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn the_bounds_are_generous_for_real_use() {
+        assert_eq!((MAX_SIDE, MAX_DEPTH), (16_384, 64));
+        // The defaults; a 16K UHD frame at the accuracy benchmark's reference sample count,
+        // ray depth 20, the thesis's octree (10 a voxel, depth 8).
+        base().check().unwrap();
+        Overrides::default()
+            .settings(&load(&SceneSource::Builtin, None).unwrap().scene)
+            .unwrap();
+        check(|x| {
+            (x.render.width, x.render.height, x.render.samples) = (15_360, 8_640, 16_384);
+            x.render.trace.max_depth = 20;
+            x.accel = AccelOptions {
+                kind: AccelKind::Octree,
+                max_per_voxel: 10,
+                max_depth: 8,
+            };
+        })
+        .unwrap();
+    }
+
+    #[test]
+    fn width_and_height_are_within_1_to_max_side() {
+        let s = u64::from(MAX_SIDE);
+        for w in [1, MAX_SIDE] {
+            check(|x| (x.render.width, x.render.height) = (w, 1)).unwrap();
+            check(|x| (x.render.width, x.render.height) = (1, w)).unwrap();
+        }
+        refused(|x| x.render.width = 0, Field::Width, 0, 1, s);
+        refused(|x| x.render.width = MAX_SIDE + 1, Field::Width, s + 1, 1, s);
+        refused(
+            |x| x.render.width = u32::MAX,
+            Field::Width,
+            u32::MAX.into(),
+            1,
+            s,
+        );
+        refused(|x| x.render.height = 0, Field::Height, 0, 1, s);
+        refused(
+            |x| x.render.height = MAX_SIDE + 1,
+            Field::Height,
+            s + 1,
+            1,
+            s,
+        );
+    }
+
+    #[test]
+    fn pixels_are_at_most_max_pixels() {
+        // 16384 x 8192 = 2^27 exactly; one more line is over.
+        let tall = (MAX_PIXELS / u64::from(MAX_SIDE)) as u32;
+        check(|x| (x.render.width, x.render.height) = (MAX_SIDE, tall)).unwrap();
+        let e = check(|x| (x.render.width, x.render.height) = (MAX_SIDE, tall + 1)).unwrap_err();
+        assert_eq!(
+            e,
+            SettingsError::TooManyPixels {
+                width: MAX_SIDE,
+                height: tall + 1
+            }
+        );
+        let text = e.to_string();
+        assert!(
+            text.contains("134234112 pixels") && text.contains("134217728"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn samples_and_depth_are_bounded() {
+        let (smax, dmax) = (u64::from(MAX_SAMPLES), u64::from(MAX_DEPTH));
+        check(|x| x.render.samples = 1).unwrap();
+        check(|x| x.render.samples = MAX_SAMPLES).unwrap();
+        refused(|x| x.render.samples = 0, Field::Samples, 0, 1, smax);
+        refused(
+            |x| x.render.samples = MAX_SAMPLES + 1,
+            Field::Samples,
+            smax + 1,
+            1,
+            smax,
+        );
+        check(|x| x.render.trace.max_depth = 1).unwrap();
+        check(|x| x.render.trace.max_depth = MAX_DEPTH).unwrap();
+        refused(
+            |x| x.render.trace.max_depth = 0,
+            Field::MaxDepth,
+            0,
+            1,
+            dmax,
+        );
+        refused(
+            |x| x.render.trace.max_depth = MAX_DEPTH + 1,
+            Field::MaxDepth,
+            dmax + 1,
+            1,
+            dmax,
+        );
+        refused(
+            |x| x.render.trace.max_depth = 1_000_000_000,
+            Field::MaxDepth,
+            1_000_000_000,
+            1,
+            dmax,
+        );
+    }
+
+    #[test]
+    fn min_weight_is_a_finite_number_in_0_to_1() {
+        for w in [0.0, 1e-300, 0.5, 1.0] {
+            check(|x| x.render.trace.min_weight = w).unwrap();
+        }
+        for w in [
+            -1.0,
+            -f64::MIN_POSITIVE,
+            1.0 + f64::EPSILON,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ] {
+            let e = check(|x| x.render.trace.min_weight = w).unwrap_err();
+            assert!(matches!(e, SettingsError::MinWeight { .. }), "{w}: {e}");
+            let text = e.to_string();
+            assert!(
+                text.contains("min_weight") && text.contains("[0, 1]"),
+                "{text}"
+            );
+        }
+        assert!(check(|x| x.render.trace.min_weight = f64::NAN)
+            .unwrap_err()
+            .to_string()
+            .contains("= NaN"));
+    }
+
+    #[test]
+    fn the_octree_parameters_are_bounded() {
+        let (vmax, omax) = (u64::from(MAX_PER_VOXEL), u64::from(MAX_OCTREE_DEPTH));
+        check(|x| x.accel.max_per_voxel = 1).unwrap();
+        check(|x| x.accel.max_per_voxel = MAX_PER_VOXEL as usize).unwrap();
+        refused(
+            |x| x.accel.max_per_voxel = 0,
+            Field::MaxPerVoxel,
+            0,
+            1,
+            vmax,
+        );
+        refused(
+            |x| x.accel.max_per_voxel = MAX_PER_VOXEL as usize + 1,
+            Field::MaxPerVoxel,
+            vmax + 1,
+            1,
+            vmax,
+        );
+        check(|x| x.accel.max_depth = 0).unwrap();
+        check(|x| x.accel.max_depth = MAX_OCTREE_DEPTH).unwrap();
+        refused(
+            |x| x.accel.max_depth = MAX_OCTREE_DEPTH + 1,
+            Field::OctreeMaxDepth,
+            omax + 1,
+            0,
+            omax,
+        );
+    }
+
+    #[test]
+    fn accelerators_are_known_by_name_only() {
+        for name in ACCEL_NAMES {
+            assert_eq!(accel_kind(name).unwrap().name(), name);
+        }
+        for bad in ["", "kd-tree", "BVH", "bvh ", "octree\n"] {
+            let e = accel_kind(bad).unwrap_err();
+            assert_eq!(e, SettingsError::Accel { name: bad.into() });
+            assert!(!e.to_string().contains('\n'), "{e}");
+        }
+    }
+
+    #[test]
+    fn overrides_out_of_bounds_are_refused_from_flags_and_scene() {
+        let scene = load(&SceneSource::Builtin, None).unwrap().scene;
+        let with = |o: Overrides| o.settings(&scene);
+        let e = with(Overrides {
+            resolution: Some((u32::MAX, 16)),
+            ..Overrides::default()
+        })
+        .unwrap_err();
+        assert!(matches!(
+            e,
+            SettingsError::OutOfRange {
+                field: Field::Width,
+                ..
+            }
+        ));
+        assert!(with(Overrides {
+            depth: 1_000_000_000,
+            ..Overrides::default()
+        })
+        .is_err());
+        assert!(with(Overrides {
+            min_weight: -1.0,
+            ..Overrides::default()
+        })
+        .is_err());
+        assert!(with(Overrides {
+            samples: Some(MAX_SAMPLES + 1),
+            ..Overrides::default()
+        })
+        .is_err());
+        // The corner grid is one larger than the image: a side of MAX_SIDE - 1 at most.
+        let corners = |side: u32| {
+            with(Overrides {
+                resolution: Some((side, 1)),
+                spd_corners: true,
+                ..Overrides::default()
+            })
+        };
+        assert_eq!(corners(MAX_SIDE - 1).unwrap().render.width, MAX_SIDE);
+        assert!(corners(MAX_SIDE).is_err());
+        assert!(corners(u32::MAX).is_err(), "no overflow of the corner grid");
+        // A scene asking for a huge image is refused the same way.
+        let mut huge = scene.clone();
+        huge.world.resolution = [u32::MAX, u32::MAX];
+        assert!(Overrides::default().settings(&huge).is_err());
     }
 }

@@ -31,6 +31,20 @@ pub struct TraceOptions {
     pub min_weight: Real,
 }
 
+impl TraceOptions {
+    /// The deepest ray tree traced whatever `max_depth` and `min_weight` say: 64 levels (eye
+    /// ray = 1). Each level is a few stack frames of the recursive tracer, so two facing
+    /// mirrors with `min_weight` 0 (or negative) cannot overflow a render thread's stack.
+    /// `render::settings::MAX_DEPTH` refuses deeper settings up front; this is the tracer's
+    /// own guard for options built any other way.
+    pub const MAX_DEPTH: u32 = 64;
+
+    /// The depth at which no secondary ray is spawned: `max_depth`, at most [`Self::MAX_DEPTH`].
+    pub fn depth_limit(&self) -> u32 {
+        self.max_depth.min(Self::MAX_DEPTH)
+    }
+}
+
 impl Default for TraceOptions {
     fn default() -> TraceOptions {
         TraceOptions {
@@ -124,7 +138,7 @@ impl<'a> Tracer<'a> {
     ) -> Vec3 {
         let at = self.surface_point(ray, t, prim_index, media);
         let result = self.direct_light(&at, ray, rng);
-        if depth >= self.opts.max_depth {
+        if depth >= self.opts.depth_limit() {
             return result;
         }
         self.secondary_rays(&at, ray, depth, weight, rng, result)

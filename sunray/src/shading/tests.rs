@@ -396,3 +396,50 @@ fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
         2
     );
 }
+
+#[test]
+fn the_ray_tree_never_goes_past_max_depth_whatever_it_is_asked() {
+    // Two facing perfect mirrors, no depth limit asked and a negative weight threshold: only
+    // the tracer's own cap stops the bounces (before, the recursion overflowed the stack).
+    let mirror = Surface {
+        kdr: 0.0,
+        ka: 0.0,
+        ..Surface::default()
+    };
+    let mut w = world(
+        vec![(square(0.0), mirror.clone()), (square(4.0), mirror)],
+        vec![],
+    );
+    w.camera.position = Vec3::new(0.0, 0.0, 2.0);
+    let scene = Scene::new(w);
+    let accel = Accel::build(&scene.prims, &AccelOptions::default());
+    for opts in [
+        TraceOptions {
+            max_depth: u32::MAX,
+            min_weight: -1.0,
+        },
+        TraceOptions {
+            max_depth: 1_000_000_000,
+            min_weight: 0.0,
+        },
+    ] {
+        let mut scratch = Scratch::new(scene.prims.len(), true);
+        let mut counters = Counters::default();
+        let mut t = Tracer {
+            scene: &scene,
+            accel: &accel,
+            opts,
+            scratch: &mut scratch,
+            counters: &mut counters,
+        };
+        t.trace(
+            Ray::new(Vec3::new(0.0, 0.0, 2.0), -Vec3::Z),
+            RayKind::Eye,
+            1,
+            1.0,
+            crate::shading::Media::AIR,
+            &mut SampleStream::new(0, 0, 0),
+        );
+        assert_eq!(counters.reflected, u64::from(TraceOptions::MAX_DEPTH - 1));
+    }
+}

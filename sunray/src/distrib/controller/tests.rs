@@ -15,6 +15,26 @@ use std::time::Duration;
 const WIDTH: u32 = 4;
 const JOB: &str = "job-under-test";
 
+/// The job spec checkpointed for an image of `height` lines (a checkpoint is only read back
+/// with render settings that match its lines).
+fn spec(height: u32) -> proto::JobSpec {
+    let settings = crate::render::Settings {
+        render: crate::render::RenderOptions {
+            width: WIDTH,
+            height,
+            samples: 1,
+            trace: Default::default(),
+        },
+        accel: Default::default(),
+        mailbox: true,
+    }
+    .to_proto();
+    proto::JobSpec {
+        settings: Some(settings),
+        ..Default::default()
+    }
+}
+
 /// What the controller did: messages sent (decoded), processes killed, checkpoints stored.
 #[derive(Default)]
 struct Record {
@@ -108,7 +128,7 @@ impl Job {
             events: false,
             finish_grace: Duration::from_millis(200),
         };
-        let checkpointer = Checkpointer::new(JOB, proto::JobSpec::default(), 7, restored.as_ref());
+        let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);
         Job {
             link,
@@ -326,7 +346,7 @@ async fn forged_and_duplicate_completions_do_not_touch_the_image() {
 async fn a_resumed_job_hands_out_only_the_missing_lines() {
     // An earlier run checkpointed lines 0, 1, 2 and 5.
     let link = FakeLink::default();
-    let mut earlier = Checkpointer::new(JOB, proto::JobSpec::default(), 7, None);
+    let mut earlier = Checkpointer::new(JOB, spec(8), 7, None);
     for y in [0u32, 1, 2, 5] {
         earlier.record(proto::FinishedLine {
             line: y,
