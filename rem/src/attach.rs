@@ -16,7 +16,7 @@ use tonic::{Status, Streaming};
 use crate::auth::Caller;
 use crate::budget::Reservation;
 use crate::daemon::Daemon;
-use crate::ids::{is_valid_name, ProcId};
+use crate::ids::{is_valid_name, shown, ProcId};
 use crate::proto::{
     client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome,
 };
@@ -39,8 +39,8 @@ pub async fn attach(
     };
     if !hello.job.is_empty() && !is_valid_name(&hello.job) {
         return Err(Status::invalid_argument(format!(
-            "bad job id {:?}",
-            hello.job
+            "bad job id {}",
+            shown(&hello.job)
         )));
     }
     let (id, external, token) = match (hello.proc_id.is_empty(), caller) {
@@ -56,7 +56,7 @@ pub async fn attach(
         }
         (false, caller) => {
             let id = ProcId::parse(&hello.proc_id).ok_or_else(|| {
-                Status::invalid_argument(format!("bad process id {:?}", hello.proc_id))
+                Status::invalid_argument(format!("bad process id {}", shown(&hello.proc_id)))
             })?;
             let Caller::Process(token) = caller else {
                 return Err(Status::permission_denied(format!(

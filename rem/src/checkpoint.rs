@@ -122,7 +122,10 @@ impl CheckpointStore {
 
     fn path(&self, job: &str) -> Result<PathBuf> {
         if !crate::ids::is_valid_name(job) {
-            return Err(Error::Invalid(format!("bad job id {job:?}")));
+            return Err(Error::Invalid(format!(
+                "bad job id {}",
+                crate::ids::shown(job)
+            )));
         }
         Ok(self.dir.join(format!("{job}.ckpt")))
     }

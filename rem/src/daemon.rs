@@ -9,7 +9,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::checkpoint::CheckpointStore;
 use crate::error::{Error, Result};
-use crate::ids::{is_valid_name, ProcId};
+use crate::ids::{is_valid_name, shown, ProcId};
 use crate::jobs::Jobs;
 use crate::limits::Limits;
 use crate::membership::Membership;
@@ -77,14 +77,17 @@ impl Daemon {
             }
         }
         if !req.owner.is_empty() && ProcId::parse(&req.owner).is_none() {
-            return Err(Error::Invalid(format!("bad owner id {:?}", req.owner)));
+            return Err(Error::Invalid(format!(
+                "bad owner id {}",
+                shown(&req.owner)
+            )));
         }
         let job = if req.job.is_empty() {
             format!("{}-{}", self.name, self.seq.fetch_add(1, Ordering::Relaxed))
         } else if is_valid_name(&req.job) {
             req.job.clone()
         } else {
-            return Err(Error::Invalid(format!("bad job id {:?}", req.job)));
+            return Err(Error::Invalid(format!("bad job id {}", shown(&req.job))));
         };
         let candidates: Vec<Candidate> = self
             .membership
@@ -282,7 +285,7 @@ impl Daemon {
             });
         }
         if !is_valid_name(&job) {
-            return Err(Error::Invalid(format!("bad job id {job:?}")));
+            return Err(Error::Invalid(format!("bad job id {}", shown(&job))));
         }
         let mut cp = Checkpoint {
             job,

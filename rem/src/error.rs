@@ -75,6 +75,23 @@ pub enum Error {
     Transport(#[from] tonic::transport::Error),
 }
 
+/// Most bytes of a status message: it travels in an HTTP/2 header, and a peer's HTTP/2 stack
+/// closes the whole connection (with every relay link on it) over a header block too large.
+pub const MAX_STATUS_MESSAGE: usize = 1024;
+
+/// `text` cut to [`MAX_STATUS_MESSAGE`] bytes.
+fn bounded(mut text: String) -> String {
+    if text.len() > MAX_STATUS_MESSAGE {
+        let mut end = MAX_STATUS_MESSAGE;
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        text.truncate(end);
+        text.push_str("...");
+    }
+    text
+}
+
 /// REM's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
@@ -92,9 +109,11 @@ impl Error {
             Error::Spawn { .. } | Error::Io(_) | Error::Transport(_) | Error::Config(_) => {
                 Code::Internal
             }
-            Error::Rpc(status) => return Status::new(status.code(), status.message().to_string()),
+            Error::Rpc(status) => {
+                return Status::new(status.code(), bounded(status.message().to_string()))
+            }
         };
-        Status::new(code, self.to_string())
+        Status::new(code, bounded(self.to_string()))
     }
 
     /// The gRPC code, if this error came from or maps to one.

@@ -14,6 +14,20 @@ pub fn is_valid_name(s: &str) -> bool {
             .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'.' | b'_' | b'-'))
 }
 
+/// `s` quoted for an error message, cut to its first 64 bytes (an error echoes what a
+/// client sent; a status message travels in an HTTP/2 header, which must stay small).
+pub fn shown(s: &str) -> String {
+    const MAX: usize = 64;
+    if s.len() <= MAX {
+        return format!("{s:?}");
+    }
+    let mut end = MAX;
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{:?}... ({} bytes)", &s[..end], s.len())
+}
+
 /// A process id, `HOST/NUMBER`.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ProcId(String);
@@ -24,10 +38,13 @@ impl ProcId {
         ProcId(format!("{host}/{number}"))
     }
 
-    /// Parses `HOST/NUMBER`; `None` when malformed.
+    /// Parses `HOST/NUMBER` (the number fits in 64 bits); `None` when malformed.
     pub fn parse(s: &str) -> Option<Self> {
         let (host, number) = s.split_once('/')?;
-        if !is_valid_name(host) || number.is_empty() || !number.bytes().all(|b| b.is_ascii_digit())
+        if !is_valid_name(host)
+            || number.is_empty()
+            || !number.bytes().all(|b| b.is_ascii_digit())
+            || number.parse::<u64>().is_err()
         {
             return None;
         }
@@ -54,7 +71,8 @@ impl fmt::Display for ProcId {
 impl std::str::FromStr for ProcId {
     type Err = crate::Error;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        ProcId::parse(s).ok_or_else(|| crate::Error::Invalid(format!("bad process id {s:?}")))
+        ProcId::parse(s)
+            .ok_or_else(|| crate::Error::Invalid(format!("bad process id {}", shown(s))))
     }
 }
 
@@ -81,5 +99,10 @@ mod tests {
         assert_eq!(ProcId::parse("alpha/4x"), None);
         assert_eq!(ProcId::parse("al pha/4"), None);
         assert_eq!(ProcId::parse("alpha"), None);
+        assert_eq!(ProcId::parse(&format!("a/{}", "9".repeat(21))), None);
+        assert!(ProcId::parse(&format!("a/{}", u64::MAX)).is_some());
+        let long = "é".repeat(100);
+        assert!(shown(&long).len() < 100 && shown(&long).ends_with("(200 bytes)"));
+        assert_eq!(shown("ab"), "\"ab\"");
     }
 }

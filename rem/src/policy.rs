@@ -12,6 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::ids::shown;
 use crate::wire::env::PREFIX as REM_PREFIX;
 
 /// Most arguments a spawn may give.
@@ -104,7 +105,8 @@ impl SpawnPolicy {
     ) -> Result<()> {
         if !program.starts_with('/') {
             return Err(Error::Invalid(format!(
-                "program {program:?} is not an absolute path"
+                "program {} is not an absolute path",
+                shown(program)
             )));
         }
         if args.len() > MAX_ARGS || env.len() > MAX_ENV {
@@ -161,7 +163,8 @@ impl SpawnPolicy {
             && name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_');
         if !well_formed {
             return Err(Error::Invalid(format!(
-                "bad environment variable name {name:?}"
+                "bad environment variable name {}",
+                shown(name)
             )));
         }
         let allowed = !name.starts_with(REM_PREFIX)

@@ -18,7 +18,7 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_util::sync::CancellationToken;
 
 use crate::budget::{ByteBudget, Reservation};
-use crate::ids::ProcId;
+use crate::ids::{shown, ProcId};
 use crate::limits::{Limits, ITEM_OVERHEAD};
 use crate::membership::{MemberEvent, Membership};
 use crate::peer_auth::method;
@@ -224,7 +224,8 @@ impl Router {
 
     /// Sends an envelope towards `env.to`. `Err` = why it cannot be delivered.
     pub async fn route(&self, env: Envelope) -> Result<(), String> {
-        let to = ProcId::parse(&env.to).ok_or_else(|| format!("bad process id {:?}", env.to))?;
+        let to =
+            ProcId::parse(&env.to).ok_or_else(|| format!("bad process id {}", shown(&env.to)))?;
         if to.host() == self.inner.host {
             self.deliver_local(to.as_str(), Delivery::Envelope(env))
                 .await
@@ -269,8 +270,8 @@ impl Router {
             Some(peer_item::Item::Envelope(env)) => {
                 if !from_peer(&env.from) {
                     return Err(tonic::Status::permission_denied(format!(
-                        "daemon {peer} forwarded an envelope from {:?}, not one of its processes",
-                        env.from
+                        "daemon {peer} forwarded an envelope from {}, not one of its processes",
+                        shown(&env.from)
                     )));
                 }
                 let (to, sender) = (env.to.clone(), env.from.clone());
@@ -287,8 +288,8 @@ impl Router {
             Some(peer_item::Item::Undeliverable(u)) => {
                 if !from_peer(&u.to) {
                     return Err(tonic::Status::permission_denied(format!(
-                        "daemon {peer} sent a notice about {:?}, not one of its processes",
-                        u.to
+                        "daemon {peer} sent a notice about {}, not one of its processes",
+                        shown(&u.to)
                     )));
                 }
                 let sender = u.sender.clone();
@@ -309,7 +310,10 @@ impl Router {
     }
 
     fn bounce(&self, notice: Undeliverable) {
-        let Some(sender) = ProcId::parse(&notice.sender) else {
+        // A notice about a malformed id would be refused by the sender's daemon.
+        let Some(sender) =
+            ProcId::parse(&notice.sender).filter(|_| ProcId::parse(&notice.to).is_some())
+        else {
             return;
         };
         let item = PeerItem {

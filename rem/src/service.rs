@@ -10,7 +10,7 @@ use tonic::{Request, Response, Status, Streaming};
 
 use crate::auth::{caller, require_client};
 use crate::daemon::Daemon;
-use crate::ids::ProcId;
+use crate::ids::{shown, ProcId};
 use crate::peer_auth::{digest, method};
 use crate::proto::{self, peer_server::Peer, rem_server::Rem};
 
@@ -19,7 +19,7 @@ use crate::proto::{self, peer_server::Peer, rem_server::Rem};
 pub struct Service(pub Arc<Daemon>);
 
 fn proc_id(s: &str) -> Result<ProcId, Status> {
-    ProcId::parse(s).ok_or_else(|| Status::invalid_argument(format!("bad process id {s:?}")))
+    ProcId::parse(s).ok_or_else(|| Status::invalid_argument(format!("bad process id {}", shown(s))))
 }
 
 #[tonic::async_trait]
