@@ -61,6 +61,29 @@ impl Daemon {
             .filter(|h| h.alive)
     }
 
+    /// Asks every live peer the same thing at once; the replies of those that answered.
+    async fn ask_live_peers<T, R, F, Fut>(&self, method: &'static str, msg: T, call: F) -> Vec<R>
+    where
+        T: prost::Message + Clone + 'static,
+        R: prost::Message + 'static,
+        F: FnOnce(crate::peers::PeerRpc, tonic::Request<T>) -> Fut + Clone + Send + 'static,
+        Fut: std::future::Future<Output = std::result::Result<tonic::Response<R>, tonic::Status>>
+            + Send,
+    {
+        let mut tasks = JoinSet::new();
+        for h in self.live_peers() {
+            let (peers, msg, call) = (self.peers.clone(), msg.clone(), call.clone());
+            tasks.spawn(async move { peers.call(&h.name, &h.addr, method, msg, call).await });
+        }
+        let mut replies = Vec::new();
+        while let Some(r) = tasks.join_next().await {
+            if let Ok(Ok(reply)) = r {
+                replies.push(reply);
+            }
+        }
+        replies
+    }
+
     /// A fresh process id on this host.
     pub fn new_proc_id(&self) -> ProcId {
         ProcId::new(&self.name, self.seq.fetch_add(1, Ordering::Relaxed))
@@ -251,26 +274,12 @@ impl Daemon {
     /// The processes of every live host (hosts that do not answer are skipped).
     pub async fn ps(&self) -> Result<Vec<ProcessInfo>> {
         let mut out = self.processes.list().await?;
-        let mut tasks = JoinSet::new();
-        for h in self.live_peers() {
-            let peers = self.peers.clone();
-            tasks.spawn(async move {
-                peers
-                    .call(
-                        &h.name,
-                        &h.addr,
-                        method::PS,
-                        PsRequest {},
-                        |mut c, r| async move { c.ps_local(r).await },
-                    )
-                    .await
-            });
-        }
-        while let Some(r) = tasks.join_next().await {
-            if let Ok(Ok(reply)) = r {
-                out.extend(reply.processes);
-            }
-        }
+        let replies = self
+            .ask_live_peers(method::PS, PsRequest {}, |mut c, r| async move {
+                c.ps_local(r).await
+            })
+            .await;
+        out.extend(replies.into_iter().flat_map(|r| r.processes));
         out.sort_by(|a, b| (&a.host, &a.proc_id).cmp(&(&b.host, &b.proc_id)));
         Ok(out)
     }
@@ -333,32 +342,16 @@ impl Daemon {
     /// The newest checkpoint of `job` on this or any live host.
     pub async fn get_checkpoint(&self, job: String) -> Result<Option<Checkpoint>> {
         let mut best = self.checkpoints.get(&job).await?;
-        let mut tasks = JoinSet::new();
-        for h in self.live_peers() {
-            let req = crate::proto::GetCheckpointRequest { job: job.clone() };
-            let peers = self.peers.clone();
-            tasks.spawn(async move {
-                peers
-                    .call(
-                        &h.name,
-                        &h.addr,
-                        method::FETCH,
-                        req,
-                        |mut c, r| async move { c.fetch_replica(r).await },
-                    )
-                    .await
-            });
-        }
-        while let Some(r) = tasks.join_next().await {
-            if let Ok(Ok(reply)) = r {
-                if let Some(cp) = reply
-                    .checkpoint
-                    .filter(|cp| self.checkpoints.believe(cp, &job))
-                {
-                    if best.as_ref().is_none_or(|b| cp.version > b.version) {
-                        best = Some(cp);
-                    }
-                }
+        let req = crate::proto::GetCheckpointRequest { job: job.clone() };
+        let replies = self
+            .ask_live_peers(method::FETCH, req, |mut c, r| async move {
+                c.fetch_replica(r).await
+            })
+            .await;
+        for cp in replies.into_iter().filter_map(|r| r.checkpoint) {
+            let newer = best.as_ref().is_none_or(|b| cp.version > b.version);
+            if newer && self.checkpoints.believe(&cp, &job) {
+                best = Some(cp);
             }
         }
         Ok(best)
