@@ -44,9 +44,9 @@ pub async fn attach(
         )));
     }
     let (id, external, token) = match (hello.proc_id.is_empty(), caller) {
-        (true, Caller::Client) => {
+        (true, Caller::Client(who)) => {
             let id = daemon.new_proc_id();
-            daemon.router.register(&id, None);
+            daemon.router.register(&id, None, &who.user);
             (id, true, None)
         }
         (true, Caller::Process(_)) => {

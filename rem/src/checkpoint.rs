@@ -1,6 +1,8 @@
-//! Checkpoints: opaque blobs keyed by job id, kept in files written atomically (temporary
-//! file, fsync, rename). The newest version wins. Replication to other hosts is done by the
-//! service (`PutCheckpoint` stores here and on one more live host).
+//! Checkpoints: opaque blobs keyed by user and job id (`DIR/USER/JOB.ckpt`), kept in files
+//! written atomically (temporary file, fsync, rename). The newest version wins. Replication to
+//! other hosts is done by the daemon (`PutCheckpoint` stores here and on one more live host).
+//! Each user has a namespace of its own: nobody reads, overwrites or shadows another user's
+//! checkpoint of the same job id.
 //!
 //! Every checkpoint is sealed by the daemon that wrote it (an HMAC under the daemon key), and
 //! one is believed, from a peer or from this host's disk, only with a good seal and a version
@@ -54,6 +56,7 @@ impl CheckpointStore {
         let data = crate::peer_auth::digest_bytes(&cp.data);
         self.key.seal(&[
             "checkpoint",
+            &cp.user,
             &cp.job,
             &cp.version.to_string(),
             &cp.written_by,
@@ -66,11 +69,12 @@ impl CheckpointStore {
         cp.mac = self.seal_of(cp).to_vec();
     }
 
-    /// True when `cp` is a checkpoint of `job` sealed by a daemon of this cluster, and its
-    /// version is not from the future.
-    pub fn believe(&self, cp: &Checkpoint, job: &str) -> bool {
+    /// True when `cp` is `user`'s checkpoint of `job` sealed by a daemon of this cluster, and
+    /// its version is not from the future.
+    pub fn believe(&self, cp: &Checkpoint, user: &str, job: &str) -> bool {
         use subtle::ConstantTimeEq;
         cp.job == job
+            && cp.user == user
             && cp.version <= now_ns().saturating_add(MAX_SKEW.as_nanos() as u64)
             && bool::from(self.seal_of(cp).as_slice().ct_eq(&cp.mac))
     }
@@ -89,7 +93,7 @@ impl CheckpointStore {
                 cp.version
             )));
         }
-        if !self.believe(cp, &cp.job) {
+        if !self.believe(cp, &cp.user, &cp.job) {
             return Err(Error::Refused(
                 "the checkpoint is not sealed by a daemon of this cluster".into(),
             ));
@@ -97,12 +101,19 @@ impl CheckpointStore {
         Ok(())
     }
 
-    /// Bytes of checkpoints on disk now, besides `except`'s file.
+    /// Bytes of checkpoints on disk now (every user's), besides `except`'s file.
     fn used(&self, except: &Path) -> u64 {
-        let Ok(dir) = std::fs::read_dir(&self.dir) else {
-            return 0;
+        let files = |dir: &Path| {
+            std::fs::read_dir(dir)
+                .into_iter()
+                .flatten()
+                .filter_map(|e| e.ok())
+                .collect::<Vec<_>>()
         };
-        dir.filter_map(|e| e.ok())
+        files(&self.dir)
+            .into_iter()
+            .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+            .flat_map(|user| files(&user.path()))
             .filter(|e| e.path() != except)
             .filter_map(|e| e.metadata().ok())
             .map(|m| m.len())
@@ -120,20 +131,26 @@ impl CheckpointStore {
         }
     }
 
-    fn path(&self, job: &str) -> Result<PathBuf> {
+    fn path(&self, user: &str, job: &str) -> Result<PathBuf> {
         if !crate::ids::is_valid_name(job) {
             return Err(Error::Invalid(format!(
                 "bad job id {}",
                 crate::ids::shown(job)
             )));
         }
-        Ok(self.dir.join(format!("{job}.ckpt")))
+        if !crate::identity::is_valid_user(user) || user.starts_with('.') {
+            return Err(Error::Invalid(format!(
+                "bad user name {}",
+                crate::ids::shown(user)
+            )));
+        }
+        Ok(self.dir.join(user).join(format!("{job}.ckpt")))
     }
 
     /// Stores `cp` unless a newer version is already here; refuses one that is too large,
     /// unsealed, from the future, or over the quota.
     pub async fn put(&self, cp: &Checkpoint) -> Result<()> {
-        let path = self.path(&cp.job)?;
+        let path = self.path(&cp.user, &cp.job)?;
         self.admit(cp)?;
         let _guard = self.lock.lock().await;
         if let Some(old) = self.read(&path).await? {
@@ -149,7 +166,9 @@ impl CheckpointStore {
                 self.quota
             )));
         }
-        let tmp = self.dir.join(format!(".{}.tmp", cp.job));
+        let user_dir = self.dir.join(&cp.user);
+        tokio::fs::create_dir_all(&user_dir).await?;
+        let tmp = user_dir.join(format!(".{}.tmp", cp.job));
         let bytes = cp.encode_to_vec();
         let tmp2 = tmp.clone();
         tokio::task::spawn_blocking(move || -> std::io::Result<()> {
@@ -165,11 +184,11 @@ impl CheckpointStore {
         Ok(())
     }
 
-    /// The checkpoint of `job` kept here, if it is one to believe.
-    pub async fn get(&self, job: &str) -> Result<Option<Checkpoint>> {
-        let path = self.path(job)?;
+    /// `user`'s checkpoint of `job` kept here, if it is one to believe.
+    pub async fn get(&self, user: &str, job: &str) -> Result<Option<Checkpoint>> {
+        let path = self.path(user, job)?;
         Ok(self.read(&path).await?.filter(|cp| {
-            let good = self.believe(cp, job);
+            let good = self.believe(cp, user, job);
             if !good {
                 tracing::warn!(%job, "ignoring a checkpoint file whose seal is wrong");
             }
@@ -204,6 +223,7 @@ mod tests {
             version,
             written_by: "a".into(),
             mac: Vec::new(),
+            user: "alice".into(),
         };
         store.seal(&mut cp);
         cp
@@ -230,7 +250,7 @@ mod tests {
             store.put(&future).await.unwrap_err().code(),
             tonic::Code::InvalidArgument
         );
-        assert!(!store.believe(&future, "j1"));
+        assert!(!store.believe(&future, "alice", "j1"));
         let big = sealed(&store, &[0; 101], v);
         assert_eq!(
             store.put(&big).await.unwrap_err().code(),
@@ -254,7 +274,7 @@ mod tests {
         again.job = "a".into();
         store.seal(&mut again);
         store.put(&again).await.unwrap();
-        assert!(store.get("c").await.unwrap().is_none());
+        assert!(store.get("alice", "c").await.unwrap().is_none());
     }
 
     #[tokio::test]
@@ -268,14 +288,35 @@ mod tests {
         store.put(&cp(b"two", v2)).await.unwrap();
         store.put(&cp(b"one", v1)).await.unwrap();
         let again = self::store(dir.path(), &Limits::default());
-        assert_eq!(again.get("j1").await.unwrap().unwrap().data, b"two");
-        assert!(again.get("nothing").await.unwrap().is_none());
-        assert!(store.get("../etc").await.is_err());
+        assert_eq!(again.get("alice", "j1").await.unwrap().unwrap().data, b"two");
+        assert!(again.get("alice", "nothing").await.unwrap().is_none());
+        assert!(store.get("alice", "../etc").await.is_err());
+        assert!(store.get("..", "etc").await.is_err());
         // No temporary file is left behind.
-        let names: Vec<_> = std::fs::read_dir(dir.path())
+        let names: Vec<_> = std::fs::read_dir(dir.path().join("alice"))
             .unwrap()
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names.len(), 1);
+    }
+
+    #[tokio::test]
+    async fn each_user_has_a_namespace_of_its_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store(dir.path(), &Limits::default());
+        let alice = sealed(&store, b"alice's", store.next_version());
+        store.put(&alice).await.unwrap();
+        // Mallory's checkpoint of the same job, newer, lands in Mallory's namespace only.
+        let mut mallory = sealed(&store, b"mallory's", store.next_version());
+        mallory.user = "mallory".into();
+        store.seal(&mut mallory);
+        store.put(&mallory).await.unwrap();
+        assert_eq!(store.get("alice", "j1").await.unwrap().unwrap().data, b"alice's");
+        assert_eq!(store.get("mallory", "j1").await.unwrap().unwrap().data, b"mallory's");
+        // Alice's seal does not cover a copy relabelled as Mallory's.
+        let mut relabelled = alice.clone();
+        relabelled.user = "mallory".into();
+        assert!(!store.believe(&relabelled, "mallory", "j1"));
+        assert!(!store.believe(&alice, "mallory", "j1"));
     }
 }

@@ -67,6 +67,8 @@ pub struct ProcessConfig {
 pub struct StartSpec {
     pub job: String,
     pub owner: String,
+    /// The user the processes belong to.
+    pub user: String,
     pub program: String,
     pub args: Vec<String>,
     pub env: BTreeMap<String, String>,

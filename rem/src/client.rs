@@ -24,6 +24,11 @@ pub struct ConnectOptions {
     pub tls: Option<ClientTls>,
     /// Largest relay payload this side sends (the daemon has its own limit).
     pub max_message: usize,
+    /// The user to act as with the cluster secret (`None`: `REM_USER`, else the login name);
+    /// a client-key file is always its own user's.
+    pub user: Option<String>,
+    /// Present the admin key (needs the cluster secret): act on every user's processes.
+    pub admin: bool,
 }
 
 /// A client's credential.
@@ -44,12 +49,21 @@ impl ConnectOptions {
             credential: Credential::Secret(secret),
             tls: None,
             max_message: DEFAULT_MAX_MESSAGE,
+            user: None,
+            admin: false,
         }
+    }
+
+    /// The same, acting as `user`.
+    pub fn as_user(mut self, user: impl Into<String>) -> Self {
+        self.user = Some(user.into());
+        self
     }
 
     /// From the environment: `REM_ADDR` (default `127.0.0.1:7077`), the credential
     /// (`REM_PROC_TOKEN` in a process REM started, else `REM_SECRET_FILE` or `REM_SECRET`),
-    /// `REM_TLS_CA` / `REM_TLS_DOMAIN`, `REM_MAX_MESSAGE`.
+    /// `REM_TLS_CA` / `REM_TLS_DOMAIN`, `REM_MAX_MESSAGE`; the user is `REM_USER` or the login
+    /// name (see [`crate::identity::default_user`]).
     pub fn from_env() -> Result<Self> {
         let addr = std::env::var(env::ADDR)
             .ok()
@@ -170,7 +184,7 @@ impl RemClient {
         let channel = transport::connect(&opts.addr, opts.tls.as_ref()).await?;
         let frame = opts.max_message + FRAME_OVERHEAD;
         let credential = match &opts.credential {
-            Credential::Secret(s) => SendSecret::new(s),
+            Credential::Secret(s) => SendSecret::new(s, opts.user.as_deref(), opts.admin)?,
             Credential::ProcessToken(t) => SendSecret::process(t)?,
         };
         let rpc = rem_client::RemClient::with_interceptor(channel, credential)

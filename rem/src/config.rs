@@ -378,7 +378,7 @@ mod tests {
         let err = DaemonSettings::from_args(args).unwrap_err().to_string();
         assert!(err.contains("readable by every user"), "{err}");
         let key = dir.path().join("client-key");
-        std::fs::write(&key, Secret::new("x").unwrap().client_key_line()).unwrap();
+        std::fs::write(&key, Secret::new("x").unwrap().client_key_line("u").unwrap()).unwrap();
         private(&key);
         let args = RemdArgs::parse_from(["remd", "--secret-file", key.to_str().unwrap()]);
         assert!(DaemonSettings::from_args(args).is_err());

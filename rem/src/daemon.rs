@@ -9,6 +9,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::checkpoint::CheckpointStore;
 use crate::error::{Error, Result};
+use crate::identity::Identity;
 use crate::ids::{is_valid_name, shown, ProcId};
 use crate::jobs::Jobs;
 use crate::limits::Limits;
@@ -19,8 +20,8 @@ use crate::placement::{self, Candidate};
 use crate::policy::SpawnPolicy;
 use crate::process::{ProcessTable, StartSpec};
 use crate::proto::{
-    job_event, Checkpoint, JobEvent, KillRequest, LogsReply, LogsRequest, Placement, ProcessInfo,
-    PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
+    job_event, Checkpoint, FetchReplicaRequest, JobEvent, KillLocalRequest, LogsLocalRequest,
+    LogsReply, Placement, ProcessInfo, PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
 };
 use crate::relay::Router;
 
@@ -89,7 +90,8 @@ impl Daemon {
         ProcId::new(&self.name, self.seq.fetch_add(1, Ordering::Relaxed))
     }
 
-    pub async fn spawn(&self, req: SpawnRequest) -> Result<SpawnReply> {
+    /// Places and starts `req.count` processes for `who`, who owns them.
+    pub async fn spawn(&self, who: &Identity, req: SpawnRequest) -> Result<SpawnReply> {
         self.check_accepting()?;
         self.check_count(req.count)?;
         self.policy
@@ -99,11 +101,8 @@ impl Daemon {
                 return Err(Error::Invalid(format!("nice {n} is outside -20..19")));
             }
         }
-        if !req.owner.is_empty() && ProcId::parse(&req.owner).is_none() {
-            return Err(Error::Invalid(format!(
-                "bad owner id {}",
-                shown(&req.owner)
-            )));
+        if !req.owner.is_empty() {
+            self.check_owner(who, &req.owner)?;
         }
         let job = if req.job.is_empty() {
             format!("{}-{}", self.name, self.seq.fetch_add(1, Ordering::Relaxed))
@@ -137,6 +136,7 @@ impl Daemon {
             let spec = StartSpec {
                 job: job.clone(),
                 owner: req.owner.clone(),
+                user: who.user.clone(),
                 program: req.program.clone(),
                 args: req.args.clone(),
                 env: req.env.clone().into_iter().collect(),
@@ -169,7 +169,7 @@ impl Daemon {
         if let Some(e) = failure {
             for p in &placed {
                 if let Some(id) = ProcId::parse(&p.proc_id) {
-                    let _ = self.kill(id).await;
+                    let _ = self.kill(who, id).await;
                 }
             }
             return Err(e);
@@ -195,6 +195,24 @@ impl Daemon {
         })
     }
 
+    /// A spawn's owner (who receives the job's events) must be a relay process attached here
+    /// by the same user: nobody sends events to another user's process.
+    fn check_owner(&self, who: &Identity, owner: &str) -> Result<()> {
+        let id = ProcId::parse(owner)
+            .ok_or_else(|| Error::Invalid(format!("bad owner id {}", shown(owner))))?;
+        match self.router.user_of(id.as_str()) {
+            Some(user) if user == who.user => Ok(()),
+            Some(_) => Err(Error::Refused(format!(
+                "owner {id} belongs to another user (you are {})",
+                who.user
+            ))),
+            None => Err(Error::Invalid(format!(
+                "owner {id} is not attached to host {} (attach and spawn through the same remd)",
+                self.name
+            ))),
+        }
+    }
+
     /// A spawn's count: at least 1, at most the `spawn_count` limit.
     fn check_count(&self, count: u32) -> Result<()> {
         let max = self.limits.spawn_count;
@@ -212,10 +230,14 @@ impl Daemon {
         self.check_count(req.count)?;
         self.policy
             .check(&self.name, &req.program, &req.args, &req.env)?;
+        if !crate::identity::is_valid_user(&req.user) {
+            return Err(Error::Invalid(format!("bad user name {}", shown(&req.user))));
+        }
         self.processes
             .start_local(StartSpec {
                 job: req.job,
                 owner: req.owner,
+                user: req.user,
                 program: req.program,
                 args: req.args,
                 env: req.env,
@@ -238,12 +260,14 @@ impl Daemon {
             })
     }
 
-    pub async fn kill(&self, id: ProcId) -> Result<()> {
+    /// Ends process `id` for `who` (checked where it runs).
+    pub async fn kill(&self, who: &Identity, id: ProcId) -> Result<()> {
         match self.peer_for(&id)? {
-            None => self.processes.kill(id).await,
+            None => self.processes.kill(id, who.clone()).await,
             Some(addr) => {
-                let req = KillRequest {
+                let req = KillLocalRequest {
                     proc_id: id.to_string(),
+                    acting: Some(who.acting()),
                 };
                 self.peers
                     .call(id.host(), &addr, method::KILL, req, |mut c, r| async move {
@@ -255,12 +279,14 @@ impl Daemon {
         }
     }
 
-    pub async fn logs(&self, id: ProcId) -> Result<LogsReply> {
+    /// The kept output of process `id`, for `who` (checked where it runs).
+    pub async fn logs(&self, who: &Identity, id: ProcId) -> Result<LogsReply> {
         match self.peer_for(&id)? {
-            None => self.processes.logs(id).await,
+            None => self.processes.logs(id, who.clone()).await,
             Some(addr) => {
-                let req = LogsRequest {
+                let req = LogsLocalRequest {
                     proc_id: id.to_string(),
+                    acting: Some(who.acting()),
                 };
                 self.peers
                     .call(id.host(), &addr, method::LOGS, req, |mut c, r| async move {
@@ -284,8 +310,14 @@ impl Daemon {
         Ok(out)
     }
 
-    /// Stores a checkpoint here and on one more live host; returns (version, hosts).
-    pub async fn put_checkpoint(&self, job: String, data: Vec<u8>) -> Result<(u64, Vec<String>)> {
+    /// Stores `who`'s checkpoint of `job` here and on one more live host; returns (version,
+    /// hosts). Checkpoints are kept per user: nobody writes over another user's.
+    pub async fn put_checkpoint(
+        &self,
+        who: &Identity,
+        job: String,
+        data: Vec<u8>,
+    ) -> Result<(u64, Vec<String>)> {
         let limit = self.max_message.min(self.limits.checkpoint_bytes);
         if data.len() > limit {
             return Err(Error::TooLarge {
@@ -302,6 +334,7 @@ impl Daemon {
             version: self.checkpoints.next_version(),
             written_by: self.name.clone(),
             mac: Vec::new(),
+            user: who.user.clone(),
         };
         self.checkpoints.seal(&mut cp);
         self.checkpoints.put(&cp).await?;
@@ -339,10 +372,14 @@ impl Daemon {
         Ok((cp.version, stored))
     }
 
-    /// The newest checkpoint of `job` on this or any live host.
-    pub async fn get_checkpoint(&self, job: String) -> Result<Option<Checkpoint>> {
-        let mut best = self.checkpoints.get(&job).await?;
-        let req = crate::proto::GetCheckpointRequest { job: job.clone() };
+    /// The newest of `who`'s checkpoints of `job` on this or any live host.
+    pub async fn get_checkpoint(&self, who: &Identity, job: String) -> Result<Option<Checkpoint>> {
+        let user = who.user.clone();
+        let mut best = self.checkpoints.get(&user, &job).await?;
+        let req = FetchReplicaRequest {
+            job: job.clone(),
+            user: user.clone(),
+        };
         let replies = self
             .ask_live_peers(method::FETCH, req, |mut c, r| async move {
                 c.fetch_replica(r).await
@@ -350,7 +387,7 @@ impl Daemon {
             .await;
         for cp in replies.into_iter().filter_map(|r| r.checkpoint) {
             let newer = best.as_ref().is_none_or(|b| cp.version > b.version);
-            if newer && self.checkpoints.believe(&cp, &job) {
+            if newer && self.checkpoints.believe(&cp, &user, &job) {
                 best = Some(cp);
             }
         }
@@ -367,6 +404,7 @@ async fn start_remote(
     let req = StartLocalRequest {
         job: spec.job,
         owner: spec.owner,
+        user: spec.user,
         program: spec.program,
         args: spec.args,
         env: spec.env,

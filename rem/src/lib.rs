@@ -52,8 +52,10 @@
 //! - [`proto`]: generated gRPC types (`proto/rem.proto`).
 //! - [`error`]: [`Error`], and its mapping to gRPC status codes.
 //! - [`ids`]: host names, job ids, [`ProcId`].
-//! - [`auth`]: the cluster [`Secret`], the client key made from it, and the interceptors
-//!   that send and check a client's key or a process's token.
+//! - [`auth`]: the cluster [`Secret`], the keys made from it, and the interceptors that send
+//!   and check a user's key or a process's token.
+//! - [`identity`]: who a client is (user, admin), users' keys and client-key files, and who
+//!   may act on what (ownership).
 //! - `peer_auth`: how daemons prove the secret to each other (HMAC) without sending it.
 //! - `token`: random tokens (a spawned process attaches with its own).
 //! - [`limits`]: the daemon's hard limits; `budget`: byte budgets of the relay's queues.
@@ -92,6 +94,7 @@ mod daemon;
 pub mod embedded;
 pub mod error;
 pub mod ids;
+pub mod identity;
 mod jobs;
 pub mod limits;
 mod listener;
@@ -122,6 +125,7 @@ pub use auth::Secret;
 pub use child::RunAs;
 pub use client::{ConnectOptions, Credential, Job, RemClient, SpawnRequest};
 pub use error::{Error, Result};
+pub use identity::Identity;
 pub use ids::ProcId;
 pub use listener::{bind_listener, raise_fd_limit, ConnectionLimits};
 pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, ProcessInfo};

@@ -14,6 +14,7 @@ use tokio::sync::{mpsc, oneshot};
 
 use crate::child;
 use crate::error::{Error, Result};
+use crate::identity::Identity;
 use crate::ids::ProcId;
 use crate::logbuf::{self, Output};
 use crate::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
@@ -32,8 +33,8 @@ struct Entry {
 
 enum Cmd {
     Start(StartSpec, oneshot::Sender<Result<Vec<Placement>>>),
-    Kill(ProcId, oneshot::Sender<Result<()>>),
-    Logs(ProcId, oneshot::Sender<Result<LogsReply>>),
+    Kill(ProcId, Identity, oneshot::Sender<Result<()>>),
+    Logs(ProcId, Identity, oneshot::Sender<Result<LogsReply>>),
     List(oneshot::Sender<Vec<ProcessInfo>>),
     Exited {
         id: ProcId,
@@ -89,13 +90,15 @@ impl ProcessTable {
         self.ask(|tx| Cmd::Start(spec, tx)).await?
     }
 
-    /// SIGTERM to the process group, SIGKILL after the grace period.
-    pub async fn kill(&self, id: ProcId) -> Result<()> {
-        self.ask(|tx| Cmd::Kill(id, tx)).await?
+    /// SIGTERM to the process group, SIGKILL after the grace period; only for the process's
+    /// user or an admin.
+    pub async fn kill(&self, id: ProcId, who: Identity) -> Result<()> {
+        self.ask(|tx| Cmd::Kill(id, who, tx)).await?
     }
 
-    pub async fn logs(&self, id: ProcId) -> Result<LogsReply> {
-        self.ask(|tx| Cmd::Logs(id, tx)).await?
+    /// The kept output of a process; only for its user or an admin.
+    pub async fn logs(&self, id: ProcId, who: Identity) -> Result<LogsReply> {
+        self.ask(|tx| Cmd::Logs(id, who, tx)).await?
     }
 
     pub async fn list(&self) -> Result<Vec<ProcessInfo>> {
@@ -129,14 +132,12 @@ impl Actor {
                 Cmd::Start(spec, reply) => {
                     let _ = reply.send(self.start(spec));
                 }
-                Cmd::Kill(id, reply) => {
-                    let _ = reply.send(self.kill(&id));
+                Cmd::Kill(id, who, reply) => {
+                    let r = self.owned(&id, &who).map(|_| ()).and_then(|()| self.kill(&id));
+                    let _ = reply.send(r);
                 }
-                Cmd::Logs(id, reply) => {
-                    let r = self
-                        .entries
-                        .get(&id)
-                        .ok_or_else(|| Error::NotFound(format!("process {id}")));
+                Cmd::Logs(id, who, reply) => {
+                    let r = self.owned(&id, &who);
                     let _ = reply.send(r.map(|e| {
                         let (stdout, stderr, truncated) = e.output.snapshot();
                         LogsReply {
@@ -205,7 +206,7 @@ impl Actor {
         let id = ProcId::new(&self.cfg.host, self.seq.fetch_add(1, Ordering::Relaxed));
         let token = Token::random()?;
         let mut cmd = child::command(&self.cfg, spec, &id, &token);
-        self.router.register(&id, Some(token));
+        self.router.register(&id, Some(token), &spec.user);
         let mut child = match cmd.spawn() {
             Ok(c) => c,
             Err(e) => {
@@ -257,6 +258,7 @@ impl Actor {
             host: self.cfg.host.clone(),
             job: spec.job.clone(),
             owner: spec.owner.clone(),
+            user: spec.user.clone(),
             program: spec.program.clone(),
             args: spec.args.clone(),
             pid,
@@ -276,6 +278,16 @@ impl Actor {
             host: self.cfg.host.clone(),
             pid,
         })
+    }
+
+    /// Process `id`, if `who` may act on it.
+    fn owned(&self, id: &ProcId, who: &Identity) -> Result<&Entry> {
+        let e = self
+            .entries
+            .get(id)
+            .ok_or_else(|| Error::NotFound(format!("process {id}")))?;
+        who.may_act_on(&e.info.user, &format!("process {id}"))?;
+        Ok(e)
     }
 
     fn kill(&mut self, id: &ProcId) -> Result<()> {

@@ -64,6 +64,8 @@ struct ProcessMailbox {
     /// What a spawned process must present to attach (`None`: an owner's mailbox, made by
     /// its own attach stream).
     token: Option<Token>,
+    /// The user the process belongs to.
+    user: String,
 }
 
 struct Link {
@@ -135,8 +137,8 @@ impl Router {
     }
 
     /// Creates the mailbox of a local process (before it starts, so nothing sent early is
-    /// lost); a spawned process attaches to it with `token`.
-    pub fn register(&self, id: &ProcId, token: Option<Token>) {
+    /// lost); a spawned process attaches to it with `token`. It belongs to `user`.
+    pub fn register(&self, id: &ProcId, token: Option<Token>, user: &str) {
         let (tx, rx) = mpsc::channel(self.inner.queue);
         self.mailboxes_mut().insert(
             id.to_string(),
@@ -146,6 +148,7 @@ impl Router {
                 attached: false,
                 budget: ByteBudget::new(self.inner.limits.mailbox_bytes),
                 token,
+                user: user.to_string(),
             },
         );
     }
@@ -188,6 +191,16 @@ impl Router {
             .read()
             .unwrap_or_else(|e| e.into_inner());
         map.get(id).is_some_and(|mb| mb.attached)
+    }
+
+    /// The user a local process belongs to (`None`: no such process here).
+    pub fn user_of(&self, id: &str) -> Option<String> {
+        let map = self
+            .inner
+            .mailboxes
+            .read()
+            .unwrap_or_else(|e| e.into_inner());
+        map.get(id).map(|mb| mb.user.clone())
     }
 
     /// Removes a local mailbox (process exited or owner detached).

@@ -137,7 +137,7 @@ pub async fn run(
     });
 
     let service = Service(daemon);
-    let auth = RequireSecret::new(&settings.secret);
+    let auth = RequireSecret::new(&settings.secret)?;
     let rem = RemServer::new(service.clone())
         .max_decoding_message_size(max_frame)
         .max_encoding_message_size(max_frame);

@@ -1,7 +1,7 @@
 //! The gRPC services (`Rem` for clients and processes, `Peer` for daemons): thin adapters
 //! from protobuf requests to `Daemon` operations, and from `Error` to `tonic::Status`. Who
-//! may call what is decided here: a `Rem` call's [`Caller`] (client or process token) comes
-//! from the interceptor; a `Peer` call is verified here (`peer_auth`) and answered with this
+//! may call what is decided here: a `Rem` call's [`Caller`] (a user's key, or a process token)
+//! comes from the interceptor, and the user it proved is who the call acts for; a `Peer` call is verified here (`peer_auth`) and answered with this
 //! daemon's proof.
 
 use std::sync::Arc;
@@ -10,6 +10,7 @@ use tonic::{Request, Response, Status, Streaming};
 
 use crate::auth::{caller, require_client};
 use crate::daemon::Daemon;
+use crate::identity::Identity;
 use crate::ids::{shown, ProcId};
 use crate::peer_auth::{digest, method};
 use crate::proto::{self, peer_server::Peer, rem_server::Rem};
@@ -37,8 +38,8 @@ impl Rem for Service {
         &self,
         req: Request<proto::SpawnRequest>,
     ) -> Result<Response<proto::SpawnReply>, Status> {
-        require_client(&req)?;
-        Ok(Response::new(self.0.spawn(req.into_inner()).await?))
+        let who = require_client(&req)?;
+        Ok(Response::new(self.0.spawn(&who, req.into_inner()).await?))
     }
 
     async fn ps(&self, req: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
@@ -52,8 +53,10 @@ impl Rem for Service {
         &self,
         req: Request<proto::KillRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
-        require_client(&req)?;
-        self.0.kill(proc_id(&req.into_inner().proc_id)?).await?;
+        let who = require_client(&req)?;
+        self.0
+            .kill(&who, proc_id(&req.into_inner().proc_id)?)
+            .await?;
         Ok(Response::new(proto::KillReply {}))
     }
 
@@ -61,9 +64,11 @@ impl Rem for Service {
         &self,
         req: Request<proto::LogsRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
-        require_client(&req)?;
+        let who = require_client(&req)?;
         Ok(Response::new(
-            self.0.logs(proc_id(&req.into_inner().proc_id)?).await?,
+            self.0
+                .logs(&who, proc_id(&req.into_inner().proc_id)?)
+                .await?,
         ))
     }
 
@@ -83,9 +88,9 @@ impl Rem for Service {
         &self,
         req: Request<proto::PutCheckpointRequest>,
     ) -> Result<Response<proto::PutCheckpointReply>, Status> {
-        require_client(&req)?;
+        let who = require_client(&req)?;
         let req = req.into_inner();
-        let (version, stored_on) = self.0.put_checkpoint(req.job, req.data).await?;
+        let (version, stored_on) = self.0.put_checkpoint(&who, req.job, req.data).await?;
         Ok(Response::new(proto::PutCheckpointReply {
             version,
             stored_on,
@@ -96,8 +101,8 @@ impl Rem for Service {
         &self,
         req: Request<proto::GetCheckpointRequest>,
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
-        require_client(&req)?;
-        let checkpoint = self.0.get_checkpoint(req.into_inner().job).await?;
+        let who = require_client(&req)?;
+        let checkpoint = self.0.get_checkpoint(&who, req.into_inner().job).await?;
         Ok(Response::new(proto::GetCheckpointReply { checkpoint }))
     }
 }
@@ -149,26 +154,23 @@ impl Peer for Service {
 
     async fn kill_local(
         &self,
-        req: Request<proto::KillRequest>,
+        req: Request<proto::KillLocalRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
         self.peer(&req, method::KILL)?;
-        self.0
-            .processes
-            .kill(proc_id(&req.get_ref().proc_id)?)
-            .await?;
+        let r = req.get_ref();
+        let who = Identity::from_acting(r.acting.as_ref())?;
+        self.0.processes.kill(proc_id(&r.proc_id)?, who).await?;
         Ok(self.answer(&req, method::KILL, proto::KillReply {}))
     }
 
     async fn logs_local(
         &self,
-        req: Request<proto::LogsRequest>,
+        req: Request<proto::LogsLocalRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
         self.peer(&req, method::LOGS)?;
-        let logs = self
-            .0
-            .processes
-            .logs(proc_id(&req.get_ref().proc_id)?)
-            .await?;
+        let r = req.get_ref();
+        let who = Identity::from_acting(r.acting.as_ref())?;
+        let logs = self.0.processes.logs(proc_id(&r.proc_id)?, who).await?;
         Ok(self.answer(&req, method::LOGS, logs))
     }
 
@@ -211,10 +213,11 @@ impl Peer for Service {
 
     async fn fetch_replica(
         &self,
-        req: Request<proto::GetCheckpointRequest>,
+        req: Request<proto::FetchReplicaRequest>,
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
         self.peer(&req, method::FETCH)?;
-        let checkpoint = self.0.checkpoints.get(&req.get_ref().job).await?;
+        let r = req.get_ref();
+        let checkpoint = self.0.checkpoints.get(&r.user, &r.job).await?;
         Ok(self.answer(
             &req,
             method::FETCH,

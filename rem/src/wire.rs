@@ -47,6 +47,8 @@ pub mod env {
     pub const SECRET_FILE: &str = "REM_SECRET_FILE";
     /// The cluster secret itself (when no file is given).
     pub const SECRET: &str = "REM_SECRET";
+    /// The user a holder of the cluster secret acts as (default: the login name).
+    pub const USER: &str = "REM_USER";
     /// The CA certificate to trust for TLS to remd.
     pub const TLS_CA: &str = "REM_TLS_CA";
     /// The name to expect in remd's certificate.

@@ -13,7 +13,7 @@ use rem::proto::{
     self, peer_client::PeerClient, peer_item, peer_server, HeartbeatReply, HostInfo, Member,
     PeerBatch, PeerItem,
 };
-use rem::{Error, RemClient, Secret, SpawnRequest};
+use rem::{ConnectOptions, Error, RemClient, Secret, SpawnRequest};
 use tonic::metadata::MetadataMap;
 use tonic::{Code, Request, Response, Status, Streaming};
 
@@ -208,14 +208,14 @@ impl peer_server::Peer for FakePeer {
     }
     async fn kill_local(
         &self,
-        req: Request<proto::KillRequest>,
+        req: Request<proto::KillLocalRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
         self.record(&req);
         Err(Status::unimplemented(""))
     }
     async fn logs_local(
         &self,
-        req: Request<proto::LogsRequest>,
+        req: Request<proto::LogsLocalRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
         self.record(&req);
         Err(Status::unimplemented(""))
@@ -243,7 +243,7 @@ impl peer_server::Peer for FakePeer {
     }
     async fn fetch_replica(
         &self,
-        req: Request<proto::GetCheckpointRequest>,
+        req: Request<proto::FetchReplicaRequest>,
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
         self.record(&req);
         Err(Status::unimplemented(""))
@@ -274,7 +274,12 @@ async fn a_fake_peer_on_a_dead_members_port_learns_nothing_and_is_not_believed()
     }
     // ... and carry no secret and no key: only a proof bound to this call.
     let secret = cluster.secret();
-    let client_key = secret.client_key();
+    let keys = [
+        secret.user_root().unwrap(),
+        secret.client_credential(None).unwrap().1,
+        secret.admin_key().unwrap(),
+        secret.daemon_key().unwrap(),
+    ];
     for md in fake.seen.lock().unwrap().iter() {
         for kv in md.iter() {
             let bytes: Vec<u8> = match kv {
@@ -283,11 +288,10 @@ async fn a_fake_peer_on_a_dead_members_port_learns_nothing_and_is_not_believed()
             };
             let text = String::from_utf8_lossy(&bytes);
             assert!(!text.contains(SECRET), "the secret was sent");
-            assert!(
-                !bytes.windows(32).any(|w| w == client_key),
-                "the client key was sent"
-            );
-            assert!(!text.contains(&hex::encode(client_key)));
+            for key in &keys {
+                assert!(!bytes.windows(32).any(|w| w == key), "a key was sent");
+                assert!(!text.contains(&hex::encode(key)));
+            }
         }
     }
     // Its made-up replies changed nothing: b stays lost, "evil" is unknown.
@@ -304,7 +308,7 @@ async fn identities_cannot_be_forged() {
     let admin = cluster.client(0).await;
     let addr = cluster.addrs()[0].clone();
     // A user holding only the client key (`rem client-key`).
-    let user_key = Secret::new(cluster.secret().client_key_line()).unwrap();
+    let user_key = Secret::new(cluster.secret().client_key_line("mallory").unwrap()).unwrap();
     let user = RemClient::connect(&addr, user_key.clone()).await.unwrap();
     assert!(user.hosts().await.is_ok());
     let mut victim = admin.attach(Some("victim")).await.unwrap();
@@ -315,7 +319,7 @@ async fn identities_cannot_be_forged() {
         .connect()
         .await
         .unwrap();
-    let mut peer = PeerClient::with_interceptor(channel, rem::auth::SendSecret::new(&user_key));
+    let mut peer = PeerClient::with_interceptor(channel, rem::auth::SendSecret::new(&user_key, None, false).unwrap());
     let forged = PeerBatch {
         from_host: "a".into(),
         items: vec![
@@ -349,6 +353,7 @@ async fn identities_cannot_be_forged() {
             version: u64::MAX,
             written_by: "a".into(),
             mac: vec![0; 32],
+            user: rem::identity::default_user(),
         })
         .await
         .unwrap_err();
@@ -382,6 +387,86 @@ async fn identities_cannot_be_forged() {
 }
 
 /// Resident set size of a process, in bytes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_second_user_cannot_kill_read_or_overwrite_the_first_users_job() {
+    let cluster = InProcessRemds::start(2, |_| {}).await;
+    cluster.converge(T).await;
+    let addrs = cluster.addrs();
+    let secret = cluster.secret();
+    // Each user holds only a client-key file of its own (`rem client-key --user NAME`).
+    let connect = |i: usize, user: &str| {
+        let key = Secret::new(secret.client_key_line(user).unwrap()).unwrap();
+        RemClient::connect_with(ConnectOptions::new(addrs[i].clone(), key))
+    };
+    let alice = connect(0, "alice").await.unwrap();
+    let mallory = connect(1, "mallory").await.unwrap();
+    let mallory_on_a = connect(0, "mallory").await.unwrap();
+    // Alice's job: an owner, a process on each host, a checkpoint.
+    let owner = alice.attach(Some("render")).await.unwrap();
+    let job = alice
+        .spawn(SpawnRequest {
+            count: 2,
+            job: Some("render".into()),
+            owner: Some(owner.id().clone()),
+            ..spin(30)
+        })
+        .await
+        .unwrap();
+    alice
+        .put_checkpoint("render", b"alice's pixels".to_vec())
+        .await
+        .unwrap();
+    let ps = mallory.ps().await.unwrap();
+    for p in &job.processes {
+        let info = ps.iter().find(|i| i.proc_id == p.proc_id.as_str()).unwrap();
+        assert_eq!(info.user, "alice");
+        // Mallory can neither end it nor read its output, on either host.
+        assert_eq!(code(mallory.kill(&p.proc_id).await), Code::PermissionDenied);
+        assert_eq!(code(mallory.logs(&p.proc_id).await), Code::PermissionDenied);
+        assert!(running(&alice, &p.proc_id).await, "{} was ended", p.proc_id);
+    }
+    // She cannot read Alice's checkpoint; her own, newer, of the same job id shadows nothing.
+    assert!(mallory.get_checkpoint("render").await.unwrap().is_none());
+    mallory
+        .put_checkpoint("render", b"poison".to_vec())
+        .await
+        .unwrap();
+    assert_eq!(
+        alice.get_checkpoint("render").await.unwrap().unwrap(),
+        b"alice's pixels"
+    );
+    assert_eq!(
+        mallory.get_checkpoint("render").await.unwrap().unwrap(),
+        b"poison"
+    );
+    // She cannot send job events to Alice's owner by naming it as her processes' owner.
+    let hijack = SpawnRequest {
+        owner: Some(owner.id().clone()),
+        ..spin(1)
+    };
+    assert_eq!(
+        code(mallory_on_a.spawn(hijack).await),
+        Code::PermissionDenied
+    );
+    // Her key under Alice's name is not Alice's key.
+    let mut as_alice = ConnectOptions::new(
+        addrs[0].clone(),
+        Secret::new(secret.client_key_line("mallory").unwrap()).unwrap(),
+    );
+    as_alice.user = Some("alice".into());
+    assert!(RemClient::connect_with(as_alice).await.is_err());
+    // An admin (the cluster secret, `--admin`) may read and end it; so may Alice.
+    let mut opts = ConnectOptions::new(addrs[1].clone(), secret.clone()).as_user("root-admin");
+    opts.admin = true;
+    let admin = RemClient::connect_with(opts).await.unwrap();
+    let [first, second] = &job.processes[..] else {
+        panic!("two processes")
+    };
+    admin.logs(&first.proc_id).await.unwrap();
+    admin.kill(&first.proc_id).await.unwrap();
+    alice.kill(&second.proc_id).await.unwrap();
+}
+
 fn rss(pid: i32) -> u64 {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
     let kb: u64 = status

@@ -210,6 +210,26 @@ impl Gen<'_> {
         }
     }
 
+    /// A user name: the fuzzer's own, another, or anything (`..`, empty, long, unicode).
+    fn user(&mut self) -> String {
+        match self.rng.below(4) {
+            0 => self.string(),
+            1 => self.rng.pick(&["..", ".", "", "a/b", "mallory"]).into(),
+            _ => fuzz_user(),
+        }
+    }
+
+    /// On whose behalf a daemon asks: missing, or any user, admin or not.
+    fn acting(&mut self) -> Option<proto::Acting> {
+        if self.rng.one_in(4) {
+            return None;
+        }
+        Some(proto::Acting {
+            user: self.user(),
+            admin: self.rng.one_in(2),
+        })
+    }
+
     fn job(&mut self) -> String {
         match self.rng.below(4) {
             0 => self.string(),
@@ -469,14 +489,25 @@ impl Gen<'_> {
                 env: self.env(),
                 nice: self.nice(),
                 count: self.u32(),
+                user: self.user(),
             }
             .encode_to_vec(),
-            Rpc::Kill | Rpc::KillLocal => proto::KillRequest {
+            Rpc::Kill => proto::KillRequest {
                 proc_id: self.proc_id(),
             }
             .encode_to_vec(),
-            Rpc::Logs | Rpc::LogsLocal => proto::LogsRequest {
+            Rpc::KillLocal => proto::KillLocalRequest {
                 proc_id: self.proc_id(),
+                acting: self.acting(),
+            }
+            .encode_to_vec(),
+            Rpc::Logs => proto::LogsRequest {
+                proc_id: self.proc_id(),
+            }
+            .encode_to_vec(),
+            Rpc::LogsLocal => proto::LogsLocalRequest {
+                proc_id: self.proc_id(),
+                acting: self.acting(),
             }
             .encode_to_vec(),
             Rpc::PutCheckpoint => proto::PutCheckpointRequest {
@@ -484,9 +515,12 @@ impl Gen<'_> {
                 data: self.data(),
             }
             .encode_to_vec(),
-            Rpc::GetCheckpoint | Rpc::FetchReplica => {
-                proto::GetCheckpointRequest { job: self.job() }.encode_to_vec()
+            Rpc::GetCheckpoint => proto::GetCheckpointRequest { job: self.job() }.encode_to_vec(),
+            Rpc::FetchReplica => proto::FetchReplicaRequest {
+                job: self.job(),
+                user: self.user(),
             }
+            .encode_to_vec(),
             Rpc::Attach => {
                 let frame = if first && !self.rng.one_in(8) {
                     client_frame::Frame::Hello(proto::Hello {
@@ -563,6 +597,7 @@ impl Gen<'_> {
                         self.string()
                     },
                     mac: self.rng.bytes(32),
+                    user: self.user(),
                 };
                 if self.rng.one_in(2) {
                     cp.mac = checkpoint_seal(&cp).to_vec();
@@ -762,11 +797,11 @@ impl Rpc {
             Rpc::Forward => return "-".into(),
             Rpc::Heartbeat => canonical::<proto::HeartbeatRequest>(body),
             Rpc::StartLocal => canonical::<proto::StartLocalRequest>(body),
-            Rpc::KillLocal => canonical::<proto::KillRequest>(body),
-            Rpc::LogsLocal => canonical::<proto::LogsRequest>(body),
+            Rpc::KillLocal => canonical::<proto::KillLocalRequest>(body),
+            Rpc::LogsLocal => canonical::<proto::LogsLocalRequest>(body),
             Rpc::PsLocal => canonical::<proto::PsRequest>(body),
             Rpc::StoreReplica => canonical::<proto::Checkpoint>(body),
-            Rpc::FetchReplica => canonical::<proto::GetCheckpointRequest>(body),
+            Rpc::FetchReplica => canonical::<proto::FetchReplicaRequest>(body),
             _ => None,
         };
         sha256_hex(canon.as_deref().unwrap_or(body))
@@ -925,8 +960,14 @@ fn secret() -> rem::Secret {
     rem::Secret::new(SECRET).unwrap()
 }
 
+/// The user the fuzzer's valid client credential proves (the harness's clients act as the
+/// same, the default user).
+fn fuzz_user() -> String {
+    rem::identity::default_user()
+}
+
 fn client_key() -> [u8; 32] {
-    secret().client_key()
+    secret().client_credential(Some(&fuzz_user())).unwrap().1
 }
 
 fn unix_ms() -> u64 {
@@ -954,6 +995,7 @@ fn daemon_mac(fields: &[&str]) -> [u8; 32] {
 fn checkpoint_seal(cp: &proto::Checkpoint) -> [u8; 32] {
     daemon_mac(&[
         "checkpoint",
+        &cp.user,
         &cp.job,
         &cp.version.to_string(),
         &cp.written_by,
@@ -984,6 +1026,7 @@ fn authorize<T>(req: &mut Request<T>, input: &Input, world: &World) {
     };
     let peer_line_value = match &input.credential {
         Credential::Valid(_) if !input.rpc.is_peer() => {
+            md.insert(rem::auth::USER_METADATA, fuzz_user().parse().unwrap());
             md.insert_bin(
                 rem::auth::CLIENT_KEY_METADATA,
                 BinaryMetadataValue::from_bytes(&client_key()),
@@ -993,6 +1036,7 @@ fn authorize<T>(req: &mut Request<T>, input: &Input, world: &World) {
         Credential::Valid(from) => Some(peer_line(input.rpc.name(), from, me, unix_ms(), &body())),
         Credential::None => None,
         Credential::ClientKey(k) => {
+            md.insert(rem::auth::USER_METADATA, fuzz_user().parse().unwrap());
             md.insert_bin(
                 rem::auth::CLIENT_KEY_METADATA,
                 BinaryMetadataValue::from_bytes(k),
@@ -1435,8 +1479,9 @@ async fn the_fuzzers_codec_and_credentials_reach_past_the_checks() {
     let elsewhere = Credential::SignedAt("fz0".into(), "b".into(), unix_ms());
     assert_eq!(call(Rpc::PsLocal, Vec::new(), elsewhere).await, refused);
     let other = Credential::SignedOtherBody("fz0".into());
-    let kill = proto::KillRequest {
+    let kill = proto::KillLocalRequest {
         proc_id: "a/1".into(),
+        acting: None,
     };
     assert_eq!(
         call(Rpc::KillLocal, kill.encode_to_vec(), other).await,
@@ -1461,6 +1506,7 @@ async fn the_fuzzers_codec_and_credentials_reach_past_the_checks() {
         version: now_ns(),
         written_by: "fz0".into(),
         mac: Vec::new(),
+        user: fuzz_user(),
     };
     cp.mac = checkpoint_seal(&cp).to_vec();
     assert_eq!(

@@ -29,6 +29,14 @@ struct Cli {
     /// Name to verify in remd's certificate (default: the address's host).
     #[arg(long, env = "REM_TLS_DOMAIN", global = true)]
     tls_domain: Option<String>,
+    /// The user to act as with the cluster secret (default: the login name); a client-key
+    /// file is always its own user's.
+    #[arg(long, env = "REM_USER", global = true)]
+    user: Option<String>,
+    /// Act as admin (needs the cluster secret): kill and read the logs of every user's
+    /// processes.
+    #[arg(long, global = true)]
+    admin: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -73,8 +81,9 @@ enum Command {
     Kill { proc_id: String },
     /// Print a process's kept stdout (to stdout) and stderr (to stderr).
     Logs { proc_id: String },
-    /// Print the client key of the cluster secret: a file holding it lets a user run jobs
-    /// (rem, sunray submit) without being able to act as a daemon. Reads no network.
+    /// Print a user's client key (needs the cluster secret): a file holding it lets that
+    /// user run jobs (rem, sunray submit) as that user only, without being able to act as
+    /// another user, an admin or a daemon. Reads no network.
     ClientKey,
 }
 
@@ -102,6 +111,8 @@ fn main() -> ExitCode {
 async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
     let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
     let mut opts = ConnectOptions::new(cli.remd.clone(), secret);
+    opts.user = cli.user.clone();
+    opts.admin = cli.admin;
     if let Some(ca) = &cli.tls_ca {
         opts.tls = Some(ClientTls::from_file(ca, cli.tls_domain.clone())?);
     }
@@ -113,7 +124,8 @@ async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
 async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     if let Command::ClientKey = cli.command {
         let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
-        println!("{}", secret.client_key_line());
+        let user = cli.user.clone().unwrap_or_else(rem::identity::default_user);
+        println!("{}", secret.client_key_line(&user)?);
         return Ok(ExitCode::SUCCESS);
     }
     let client = connect(&cli).await?;
@@ -136,8 +148,8 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             } else {
                 writeln!(
                     out,
-                    "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} program",
-                    "PROCESS", "HOST", "JOB", "PID", "NICE", "STATE"
+                    "{:<24} {:<12} {:<12} {:<20} {:>8} {:>5} {:<10} program",
+                    "PROCESS", "HOST", "USER", "JOB", "PID", "NICE", "STATE"
                 )?;
                 for p in &procs {
                     let state = match (p.state.as_str(), p.exit_code, p.signal) {
@@ -148,9 +160,10 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                     let nice = p.nice.map_or("-".to_string(), |n| n.to_string());
                     writeln!(
                         out,
-                        "{:<24} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}",
+                        "{:<24} {:<12} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}",
                         p.proc_id,
                         p.host,
+                        p.user,
                         p.job,
                         p.pid,
                         nice,
@@ -287,7 +300,7 @@ fn host_json(h: &rem::HostInfo) -> serde_json::Value {
 
 fn proc_json(p: &rem::ProcessInfo) -> serde_json::Value {
     json!({
-        "proc_id": p.proc_id, "host": p.host, "job": p.job, "owner": p.owner, "program": p.program,
+        "proc_id": p.proc_id, "host": p.host, "user": p.user, "job": p.job, "owner": p.owner, "program": p.program,
         "args": p.args, "pid": p.pid, "nice": p.nice, "state": p.state, "exit_code": p.exit_code,
         "signal": p.signal, "started_unix_ms": p.started_unix_ms,
     })

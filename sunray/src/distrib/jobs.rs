@@ -1,6 +1,7 @@
 //! The job index for `sunray jobs`: REM keeps checkpoints by key but cannot list them, so
-//! controllers also keep a small index under the key `sunray-jobs` (read, change, write; the
-//! newest write wins if two controllers race, which loses at most a state change).
+//! controllers also keep a small index under the key `sunray-jobs` (one per REM user, as every
+//! checkpoint is; read, change, write; the newest write wins if two controllers race, which
+//! loses at most a state change).
 
 use super::checkpoint::{unix_ms, Store};
 use super::messages::proto::{JobEntry, JobIndex};
