@@ -30,7 +30,9 @@ for b in remd rem sunray rem-echo; do
       done
 done
 printf 'hosts: files dns\n' > "$root/etc/nsswitch.conf"
-printf 'root:x:0:0:root:/:/bin/remd\n' > "$root/etc/passwd"
+printf 'root:x:0:0:root:/:/bin/remd\nnobody:x:65534:65534:nobody:/nonexistent:/bin/remd\n' \
+  > "$root/etc/passwd"
+printf 'root:x:0:\nnogroup:x:65534:\n' > "$root/etc/group"
 cp deploy/Dockerfile "$ctx/Dockerfile"
 docker build -q -t "$image" "$ctx" >/dev/null
 echo "built $image"

@@ -38,7 +38,7 @@ def compose_cmd():
 def env_for(project):
     e = dict(os.environ)
     e["SUNRAY_OUT"] = WORK
-    e["REM_SECRET_PATH"] = os.path.join(WORK, "secret")
+    e["REM_CREDENTIALS"] = os.path.join(WORK, "credentials")
     e["COMPOSE_PROJECT_NAME"] = project
     e.pop("COMPOSE_FILE", None)
     return e

@@ -13,8 +13,8 @@ here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
 cd "$root"
 if [ -z "${SKIP_IMAGE:-}" ]; then deploy/build-image.sh; fi
-mkdir -p "$here/work"
-[ -s "$here/work/secret" ] || (umask 077 && head -c 32 /dev/urandom | base64 > "$here/work/secret")
+mkdir -p "$here/work" && chmod 1777 "$here/work"      # images are written by the daemons' user
+REM_CREDENTIALS="$here/work/credentials" deploy/credentials.sh >/dev/null
 if [ -z "${SUNRAY_SCENES:-}" ]; then
   SUNRAY_SCENES="$here/work/scenes"; mkdir -p "$SUNRAY_SCENES"
   "${CARGO_TARGET_DIR:-target}/release/sunray" spd mount -o "$SUNRAY_SCENES/mount6.nff"

@@ -411,9 +411,10 @@ mod tests {
         );
         // So is a made-up admin key.
         let mut forged = send(&k, "mallory", false);
-        forged
-            .metadata_mut()
-            .insert_bin(ADMIN_KEY_METADATA, BinaryMetadataValue::from_bytes(&[0; 32]));
+        forged.metadata_mut().insert_bin(
+            ADMIN_KEY_METADATA,
+            BinaryMetadataValue::from_bytes(&[0; 32]),
+        );
         assert_eq!(
             check.call(forged).unwrap_err().code(),
             tonic::Code::Unauthenticated

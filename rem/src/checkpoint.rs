@@ -288,7 +288,10 @@ mod tests {
         store.put(&cp(b"two", v2)).await.unwrap();
         store.put(&cp(b"one", v1)).await.unwrap();
         let again = self::store(dir.path(), &Limits::default());
-        assert_eq!(again.get("alice", "j1").await.unwrap().unwrap().data, b"two");
+        assert_eq!(
+            again.get("alice", "j1").await.unwrap().unwrap().data,
+            b"two"
+        );
         assert!(again.get("alice", "nothing").await.unwrap().is_none());
         assert!(store.get("alice", "../etc").await.is_err());
         assert!(store.get("..", "etc").await.is_err());
@@ -311,8 +314,14 @@ mod tests {
         mallory.user = "mallory".into();
         store.seal(&mut mallory);
         store.put(&mallory).await.unwrap();
-        assert_eq!(store.get("alice", "j1").await.unwrap().unwrap().data, b"alice's");
-        assert_eq!(store.get("mallory", "j1").await.unwrap().unwrap().data, b"mallory's");
+        assert_eq!(
+            store.get("alice", "j1").await.unwrap().unwrap().data,
+            b"alice's"
+        );
+        assert_eq!(
+            store.get("mallory", "j1").await.unwrap().unwrap().data,
+            b"mallory's"
+        );
         // Alice's seal does not cover a copy relabelled as Mallory's.
         let mut relabelled = alice.clone();
         relabelled.user = "mallory".into();

@@ -378,7 +378,11 @@ mod tests {
         let err = DaemonSettings::from_args(args).unwrap_err().to_string();
         assert!(err.contains("readable by every user"), "{err}");
         let key = dir.path().join("client-key");
-        std::fs::write(&key, Secret::new("x").unwrap().client_key_line("u").unwrap()).unwrap();
+        std::fs::write(
+            &key,
+            Secret::new("x").unwrap().client_key_line("u").unwrap(),
+        )
+        .unwrap();
         private(&key);
         let args = RemdArgs::parse_from(["remd", "--secret-file", key.to_str().unwrap()]);
         assert!(DaemonSettings::from_args(args).is_err());
@@ -389,6 +393,9 @@ mod tests {
         let text = include_str!("../../deploy/remd.toml");
         let file: FileConfig = toml::from_str(text).unwrap();
         assert_eq!(file.allow, ["/usr/local/bin/sunray:worker|controller"]);
+        // It listens off loopback, so it ships with TLS, not `insecure`.
+        assert!(file.tls_cert.is_some() && file.tls_key.is_some());
+        assert_eq!(file.tls_domain.as_deref(), Some("rem.cluster"));
         let mut limits = Limits::default();
         set_limits(&mut limits, &file.limits).unwrap();
         assert_eq!(limits, Limits::default(), "the file shows the defaults");

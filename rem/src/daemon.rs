@@ -231,7 +231,10 @@ impl Daemon {
         self.policy
             .check(&self.name, &req.program, &req.args, &req.env)?;
         if !crate::identity::is_valid_user(&req.user) {
-            return Err(Error::Invalid(format!("bad user name {}", shown(&req.user))));
+            return Err(Error::Invalid(format!(
+                "bad user name {}",
+                shown(&req.user)
+            )));
         }
         self.processes
             .start_local(StartSpec {

@@ -120,6 +120,26 @@ impl Error {
     pub fn code(&self) -> Code {
         self.to_status().code()
     }
+
+    /// True when no daemon answered (connection refused, closed or broken, a TLS mismatch),
+    /// as opposed to a daemon's answer with an error status.
+    pub fn is_transport(&self) -> bool {
+        match self {
+            Error::Transport(_) => true,
+            Error::Rpc(s) => std::error::Error::source(s).is_some(),
+            _ => false,
+        }
+    }
+
+    /// The innermost error of the chain ("Connection refused (os error 111)", "connection
+    /// closed") rather than four layers of "transport error": one line for a person.
+    pub fn root_cause(&self) -> String {
+        let mut cur: &(dyn std::error::Error + 'static) = self;
+        while let Some(next) = cur.source() {
+            cur = next;
+        }
+        cur.to_string()
+    }
 }
 
 impl From<Error> for Status {

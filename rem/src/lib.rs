@@ -60,7 +60,8 @@
 //! - `token`: random tokens (a spawned process attaches with its own).
 //! - [`limits`]: the daemon's hard limits; `budget`: byte budgets of the relay's queues.
 //! - [`policy`]: which programs (and first arguments) and environment names may be spawned.
-//! - [`transport`]: channels, plain or TLS (rustls).
+//! - [`transport`]: channels, plain or TLS (rustls); [`cluster_files`]: the secret and TLS
+//!   certificate a cluster's daemons share (`rem credentials`).
 //! - [`cli`]: remd's flags (clap); [`config`]: remd settings from flags, environment and TOML.
 //! - [`load`]: this host's load (sysinfo) and REM process count.
 //! - [`cgroup`]: the CPU limit and use of remd's control group (containers).
@@ -89,12 +90,13 @@ mod checkpoint;
 mod child;
 pub mod cli;
 pub mod client;
+pub mod cluster_files;
 pub mod config;
 mod daemon;
 pub mod embedded;
 pub mod error;
-pub mod ids;
 pub mod identity;
+pub mod ids;
 mod jobs;
 pub mod limits;
 mod listener;

@@ -133,7 +133,10 @@ impl Actor {
                     let _ = reply.send(self.start(spec));
                 }
                 Cmd::Kill(id, who, reply) => {
-                    let r = self.owned(&id, &who).map(|_| ()).and_then(|()| self.kill(&id));
+                    let r = self
+                        .owned(&id, &who)
+                        .map(|_| ())
+                        .and_then(|()| self.kill(&id));
                     let _ = reply.send(r);
                 }
                 Cmd::Logs(id, who, reply) => {

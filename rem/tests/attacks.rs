@@ -319,7 +319,10 @@ async fn identities_cannot_be_forged() {
         .connect()
         .await
         .unwrap();
-    let mut peer = PeerClient::with_interceptor(channel, rem::auth::SendSecret::new(&user_key, None, false).unwrap());
+    let mut peer = PeerClient::with_interceptor(
+        channel,
+        rem::auth::SendSecret::new(&user_key, None, false).unwrap(),
+    );
     let forged = PeerBatch {
         from_host: "a".into(),
         items: vec![

@@ -152,6 +152,20 @@ fn remove_leftovers() {
     }
 }
 
+fn running_as_root() -> bool {
+    (unsafe { libc::getuid() }) == 0
+}
+
+/// The user the daemons run as: nobody (65534), as deploy/ ships, when the tests run as root
+/// (who can give it the cluster's files), else the tests' own user.
+pub fn daemon_user() -> (u32, u32) {
+    if running_as_root() {
+        (65534, 65534)
+    } else {
+        (unsafe { libc::getuid() }, unsafe { libc::getgid() })
+    }
+}
+
 /// A running compose cluster; `docker-compose down -v` when dropped.
 pub struct ComposeCluster {
     pub project: String,
@@ -168,11 +182,13 @@ impl ComposeCluster {
         let dir = tempfile::tempdir().unwrap();
         let out_dir = dir.path().join("out");
         std::fs::create_dir(&out_dir).unwrap();
-        rem::auth::write_private(
-            &dir.path().join("secret"),
-            "cluster-test-secret-0123456789\n",
-        )
-        .unwrap();
+        // The secret, TLS certificate and key, given to the daemons' user, as
+        // deploy/credentials.sh does.
+        let give = running_as_root().then(daemon_user);
+        rem::cluster_files::write(&dir.path().join("credentials"), give, &[]).unwrap();
+        if let Some((uid, gid)) = give {
+            std::os::unix::fs::chown(&out_dir, Some(uid), Some(gid)).unwrap();
+        }
         let cluster = ComposeCluster {
             project: format!("{PREFIX}{}_{n}", std::process::id()),
             program: compose_program().expect("compose"),
@@ -210,13 +226,11 @@ impl ComposeCluster {
             .env("SUNRAY_IMAGE", IMAGE)
             .env("SUNRAY_SCENES", spd_dir())
             .env("SUNRAY_OUT", &self.out_dir)
-            .env("REM_SECRET_PATH", self.dir.path().join("secret"))
-            .env(
-                "SUNRAY_USER",
-                format!("{}:{}", unsafe { libc::getuid() }, unsafe {
-                    libc::getgid()
-                }),
-            )
+            .env("REM_CREDENTIALS", self.dir.path().join("credentials"))
+            .env("SUNRAY_USER", {
+                let (uid, gid) = daemon_user();
+                format!("{uid}:{gid}")
+            })
             .env_remove("COMPOSE_FILE")
             .env_remove("COMPOSE_PROJECT_NAME")
             .stdin(Stdio::null());
@@ -317,6 +331,24 @@ impl ComposeCluster {
         }
     }
 
+    /// The user ids of a workstation's processes named `comm` (as the host's `ps` sees them).
+    pub fn uids_of(&self, host: &str, comm: &str) -> Vec<u32> {
+        let id = self.container(host);
+        let o = Command::new("docker")
+            .args(["top", &id, "-eo", "uid,comm"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "docker top {host}");
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter_map(|l| {
+                let mut f = l.split_whitespace();
+                let uid = f.next()?.parse().ok()?;
+                (f.next()? == comm).then_some(uid)
+            })
+            .collect()
+    }
+
     /// `rem hosts --json` as `via` sees the cluster.
     pub fn hosts(&self, via: &str) -> Vec<serde_json::Value> {
         let o = self
@@ -383,7 +415,8 @@ impl Drop for ComposeCluster {
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .status();
-        // Files the containers wrote belong to SUNRAY_USER, i.e. us; TempDir removes them.
+        // Files the containers wrote belong to SUNRAY_USER: nobody when we are root (who
+        // may remove them), else us; TempDir removes them.
     }
 }
 

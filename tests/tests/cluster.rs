@@ -73,6 +73,34 @@ fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
     assert_eq!(capacity("ws1"), Some(1.0), "{hosts:#?}");
     assert_eq!(capacity("ws3"), Some(0.5), "{hosts:#?}");
     assert_eq!(capacity("ws6"), Some(0.25), "{hosts:#?}");
+    // The daemons run unprivileged (nobody, when the tests run as root) ...
+    for h in HOSTS {
+        assert_eq!(
+            cluster.uids_of(h, "remd"),
+            [daemon_user().0],
+            "remd's user on {h}"
+        );
+    }
+    // ... and speak only TLS: a client verifies another workstation's daemon by the
+    // cluster certificate's name; one without TLS gets nowhere.
+    let tls = output(&mut cluster.exec("ws1", &["/bin/rem", "--remd", "ws2:7070", "hosts"]));
+    assert!(tls.status.success(), "rem over TLS to ws2");
+    let mut plain = cluster.compose();
+    plain.args([
+        "exec",
+        "-T",
+        "-e",
+        "REM_TLS_CA=",
+        "ws1",
+        "/bin/rem",
+        "--remd",
+        "ws2:7070",
+        "hosts",
+    ]);
+    assert!(
+        !plain.output().unwrap().status.success(),
+        "plain HTTP/2 was answered"
+    );
 
     let want = reference(cluster.dir.path(), &spd("mount6"), &["--resolution", SMALL]).0;
     let o = output(&mut cluster.exec(

@@ -85,6 +85,18 @@ enum Command {
     /// user run jobs (rem, sunray submit) as that user only, without being able to act as
     /// another user, an admin or a daemon. Reads no network.
     ClientKey,
+    /// Make a cluster's shared files in DIR, keeping any that exist: the secret (`secret`,
+    /// mode 600) and one TLS certificate for every daemon (`cluster.pem`, for the name
+    /// `rem.cluster`) with its key (`cluster.key`, mode 600). Reads no network.
+    Credentials {
+        dir: PathBuf,
+        /// Give the files to UID:GID (needs root), the user remd runs as.
+        #[arg(long, value_name = "UID:GID")]
+        owner: Option<String>,
+        /// Another name for the certificate (repeatable).
+        #[arg(long = "name")]
+        names: Vec<String>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -99,10 +111,22 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    let (remd, tls) = (cli.remd.clone(), cli.tls_ca.is_some());
     match runtime.block_on(run(cli)) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("rem: {e:#}");
+            match e.downcast_ref::<rem::Error>().filter(|e| e.is_transport()) {
+                Some(e) => {
+                    let root = e.root_cause();
+                    let hint = if tls || root.contains("refused") {
+                        ""
+                    } else {
+                        " (if remd uses TLS, give --tls-ca or set REM_TLS_CA)"
+                    };
+                    eprintln!("rem: cannot reach remd at {remd}: {root}{hint}");
+                }
+                None => eprintln!("rem: {e:#}"),
+            }
             ExitCode::FAILURE
         }
     }
@@ -126,6 +150,17 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
         let user = cli.user.clone().unwrap_or_else(rem::identity::default_user);
         println!("{}", secret.client_key_line(&user)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    if let Command::Credentials { dir, owner, names } = &cli.command {
+        let owner = owner
+            .as_deref()
+            .map(rem::cluster_files::parse_owner)
+            .transpose()?;
+        for w in rem::cluster_files::write(dir, owner, names)? {
+            let what = if w.created { "made" } else { "kept" };
+            println!("{what} {}", w.path.display());
+        }
         return Ok(ExitCode::SUCCESS);
     }
     let client = connect(&cli).await?;
@@ -238,7 +273,7 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 eprintln!("rem: (older output was dropped)");
             }
         }
-        Command::ClientKey => {}
+        Command::ClientKey | Command::Credentials { .. } => {}
     }
     Ok(ExitCode::SUCCESS)
 }

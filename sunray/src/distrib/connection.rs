@@ -1,6 +1,7 @@
 //! Reaching REM: the configured remd (`--remd` / `REM_ADDR`, with the cluster secret from
-//! `--secret-file`, `REM_SECRET_FILE` or `REM_SECRET`), or else a private embedded one. Every
-//! way this can fail gets its own clear error.
+//! `--secret-file`, `REM_SECRET_FILE` or `REM_SECRET`, over TLS when `REM_TLS_CA` names the
+//! cluster's certificate, verified against `REM_TLS_DOMAIN`), or else a private embedded one.
+//! Every way this can fail gets its own clear error.
 
 use super::embedded;
 use rem::embedded::EmbeddedRemd;
@@ -28,7 +29,7 @@ pub enum ConnectionError {
         /// The innermost error of the chain, e.g. "Connection refused (os error 111)".
         reason: String,
     },
-    /// remd answered with unauthenticated or permission denied.
+    /// remd answered that the credential is not good (unauthenticated).
     #[error("remd at {addr} refused the cluster secret (is it the right one?)")]
     WrongSecret {
         /// The remd address.
@@ -79,7 +80,28 @@ impl RemConnection {
                         Err(e) => return Err(ConnectionError::Secret(e)),
                     },
                 };
-                let client = connect(addr, secret).await?;
+                let mut opts = rem::ConnectOptions::new(addr, secret);
+                opts.tls = rem::transport::ClientTls::from_env().map_err(|e| {
+                    ConnectionError::Unreachable {
+                        addr: addr.to_string(),
+                        reason: e.to_string(),
+                    }
+                })?;
+                let tls = opts.tls.is_some();
+                let client = connect(opts).await.map_err(|e| match e {
+                    // A TLS remd closes a plain connection at once.
+                    ConnectionError::Unreachable { addr, reason }
+                        if !tls && !reason.contains("refused") =>
+                    {
+                        ConnectionError::Unreachable {
+                            addr,
+                            reason: format!(
+                                "{reason} (if remd uses TLS, set REM_TLS_CA and REM_TLS_DOMAIN)"
+                            ),
+                        }
+                    }
+                    e => e,
+                })?;
                 Ok(RemConnection {
                     client,
                     addr: addr.to_string(),
@@ -90,7 +112,8 @@ impl RemConnection {
                 let rem = embedded::start(program.to_path_buf(), embedded::state_dir())
                     .await
                     .map_err(ConnectionError::Embedded)?;
-                let client = connect(rem.addr(), rem.secret().clone()).await?;
+                let opts = rem::ConnectOptions::new(rem.addr(), rem.secret().clone());
+                let client = connect(opts).await?;
                 Ok(RemConnection {
                     client,
                     addr: rem.addr().to_string(),
@@ -128,47 +151,39 @@ impl RemConnection {
 }
 
 /// Connects and checks the secret with one call.
-async fn connect(addr: &str, secret: Secret) -> Result<RemClient, ConnectionError> {
-    let client =
-        RemClient::connect(addr, secret)
-            .await
-            .map_err(|e| ConnectionError::Unreachable {
-                addr: addr.to_string(),
-                reason: root_cause(&e),
-            })?;
-    client.hosts().await.map_err(|e| classify(addr, e))?;
+async fn connect(opts: rem::ConnectOptions) -> Result<RemClient, ConnectionError> {
+    let addr = opts.addr.clone();
+    let client = RemClient::connect_with(opts)
+        .await
+        .map_err(|e| ConnectionError::Unreachable {
+            addr: addr.clone(),
+            reason: e.root_cause(),
+        })?;
+    client.hosts().await.map_err(|e| classify(&addr, e))?;
     Ok(client)
 }
 
 fn classify(addr: &str, e: rem::Error) -> ConnectionError {
     let addr = addr.to_string();
+    if e.is_transport() {
+        return ConnectionError::Unreachable {
+            addr,
+            reason: e.root_cause(),
+        };
+    }
     match e.code() as i32 {
-        tonic_code::UNAUTHENTICATED | tonic_code::PERMISSION_DENIED
-            if matches!(e, rem::Error::Rpc(_)) =>
-        {
-            ConnectionError::WrongSecret { addr }
-        }
+        // (PERMISSION_DENIED is a refusal of what was asked, e.g. a program not allowed.)
+        tonic_code::UNAUTHENTICATED => ConnectionError::WrongSecret { addr },
         tonic_code::UNAVAILABLE => ConnectionError::Unreachable {
             addr,
-            reason: root_cause(&e),
+            reason: e.root_cause(),
         },
         _ => ConnectionError::Rpc { addr, source: e },
     }
 }
 
-/// The innermost error of a chain: "Connection refused (os error 111)" rather than four
-/// layers of "transport error".
-fn root_cause(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut cur = e;
-    while let Some(next) = cur.source() {
-        cur = next;
-    }
-    cur.to_string()
-}
-
 /// The gRPC codes we tell apart, without depending on tonic here.
 mod tonic_code {
     pub const UNAUTHENTICATED: i32 = 16;
-    pub const PERMISSION_DENIED: i32 = 7;
     pub const UNAVAILABLE: i32 = 14;
 }
