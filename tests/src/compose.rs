@@ -331,18 +331,53 @@ impl ComposeCluster {
         }
     }
 
-    /// The user ids of a workstation's processes named `comm` (as the host's `ps` sees them).
+    /// A workstation's address on the farm network (reachable from this host).
+    pub fn ip(&self, host: &str) -> String {
+        let o = Command::new("docker")
+            .args([
+                "inspect",
+                "-f",
+                "{{range .NetworkSettings.Networks}}{{.IPAddress}}{{end}}",
+                &self.container(host),
+            ])
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&o.stdout).trim().to_string()
+    }
+
+    /// This build's `rem` on this host, as another machine would run it against `host`'s
+    /// daemon: the cluster's secret, and TLS when `tls`.
+    pub fn rem_from_outside(&self, host: &str, tls: bool) -> Command {
+        let creds = self.dir.path().join("credentials");
+        let mut c = Command::new(ensure_built().join("rem"));
+        c.arg("--remd")
+            .arg(format!("{}:7070", self.ip(host)))
+            .arg("--secret-file")
+            .arg(creds.join(rem::cluster_files::SECRET))
+            .env_remove("REM_TLS_CA")
+            .env_remove("REM_TLS_DOMAIN");
+        if tls {
+            c.arg("--tls-ca")
+                .arg(creds.join(rem::cluster_files::CERT))
+                .arg("--tls-domain")
+                .arg(rem::cluster_files::TLS_DOMAIN);
+        }
+        c
+    }
+
+    /// The user ids of a workstation's processes named `comm` (as the host's `ps` sees them;
+    /// docker top wants the pid column).
     pub fn uids_of(&self, host: &str, comm: &str) -> Vec<u32> {
         let id = self.container(host);
         let o = Command::new("docker")
-            .args(["top", &id, "-eo", "uid,comm"])
+            .args(["top", &id, "-eo", "pid,uid,comm"])
             .output()
             .unwrap();
         assert!(o.status.success(), "docker top {host}");
         String::from_utf8_lossy(&o.stdout)
             .lines()
             .filter_map(|l| {
-                let mut f = l.split_whitespace();
+                let mut f = l.split_whitespace().skip(1);
                 let uid = f.next()?.parse().ok()?;
                 (f.next()? == comm).then_some(uid)
             })
