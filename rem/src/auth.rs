@@ -12,7 +12,7 @@ use tonic::service::Interceptor;
 use tonic::{Request, Status};
 
 use crate::error::{Error, Result};
-use crate::identity::{self, Identity};
+use crate::identity::{self, derive, Identity};
 use crate::wire::env::{SECRET as ENV_SECRET, SECRET_FILE as ENV_SECRET_FILE};
 
 /// Metadata entry that carries a client's key (binary).
@@ -155,15 +155,6 @@ pub fn write_private(path: &Path, contents: impl AsRef<[u8]>) -> std::io::Result
         .open(path)?;
     std::fs::set_permissions(path, std::os::unix::fs::PermissionsExt::from_mode(0o600))?;
     f.write_all(contents.as_ref())
-}
-
-/// HMAC-SHA256 of `label` under `key`.
-pub fn derive(key: &[u8], label: &[u8]) -> [u8; 32] {
-    use hmac::{Mac, SimpleHmac};
-    let mut mac = <SimpleHmac<sha2::Sha256> as Mac>::new_from_slice(key)
-        .unwrap_or_else(|_| unreachable!("HMAC accepts keys of every length"));
-    mac.update(label);
-    mac.finalize().into_bytes().into()
 }
 
 /// Who made a call to the `Rem` service, as the interceptor established it.

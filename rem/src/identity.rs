@@ -9,9 +9,17 @@
 //! secret may be any user (by default its login name, or `REM_USER`) and, when it asks, an
 //! admin (the admin key is HMAC(secret, "rem admin key v1")).
 
-use crate::auth::derive;
 use crate::error::{Error, Result};
 use crate::proto::Acting;
+
+/// HMAC-SHA256 of `label` under `key`.
+pub fn derive(key: &[u8], label: &[u8]) -> [u8; 32] {
+    use hmac::{Mac, SimpleHmac};
+    let mut mac = <SimpleHmac<sha2::Sha256> as Mac>::new_from_slice(key)
+        .unwrap_or_else(|_| unreachable!("HMAC accepts keys of every length"));
+    mac.update(label);
+    mac.finalize().into_bytes().into()
+}
 
 /// What a client-key file starts with: `rem-client-key-v2:USER:HEX`.
 pub const CLIENT_KEY_PREFIX: &str = "rem-client-key-v2:";

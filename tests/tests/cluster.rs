@@ -86,11 +86,9 @@ fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
     // answer.
     let tls = output(&mut cluster.exec("ws1", &["/bin/rem", "--remd", "ws2:7070", "hosts"]));
     assert!(tls.status.success(), "rem over TLS to ws2");
-    assert!(
-        output(&mut cluster.rem_from_outside("ws3", true).arg("hosts"))
-            .status
-            .success()
-    );
+    assert!(output(cluster.rem_from_outside("ws3", true).arg("hosts"))
+        .status
+        .success());
     let plain = cluster
         .rem_from_outside("ws3", false)
         .arg("hosts")
