@@ -150,13 +150,23 @@ impl CheckpointStore {
     /// Stores `cp` unless a newer version is already here; refuses one that is too large,
     /// unsealed, from the future, or over the quota.
     pub async fn put(&self, cp: &Checkpoint) -> Result<()> {
+        self.put_checked(cp, |_| Ok(())).await
+    }
+
+    /// As [`put`](Self::put), after `check` accepted what is kept now (called under the
+    /// store's lock, so nothing changes between the check and the write).
+    pub async fn put_checked(
+        &self,
+        cp: &Checkpoint,
+        check: impl FnOnce(Option<&Checkpoint>) -> Result<()>,
+    ) -> Result<()> {
         let path = self.path(&cp.user, &cp.job)?;
         self.admit(cp)?;
         let _guard = self.lock.lock().await;
-        if let Some(old) = self.read(&path).await? {
-            if old.version >= cp.version {
-                return Ok(());
-            }
+        let old = self.read(&path).await?;
+        check(old.as_ref())?;
+        if old.is_some_and(|old| old.version >= cp.version) {
+            return Ok(());
         }
         let size = cp.encoded_len() as u64;
         let used = self.used(&path);
@@ -194,6 +204,80 @@ impl CheckpointStore {
             }
             good
         }))
+    }
+
+    /// Every believable entry kept here, of `user` (or of every user when `None`).
+    pub async fn list(&self, user: Option<&str>) -> Result<Vec<Checkpoint>> {
+        let users: Vec<String> = match user {
+            Some(u) => vec![u.to_string()],
+            None => self.users(),
+        };
+        let mut out = Vec::new();
+        for user in users {
+            let Ok(dir) = std::fs::read_dir(self.dir.join(&user)) else {
+                continue;
+            };
+            for entry in dir.filter_map(|e| e.ok()) {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let Some(job) = name.strip_suffix(".ckpt") else {
+                    continue;
+                };
+                if let Ok(Some(cp)) = self.get(&user, job).await {
+                    out.push(cp);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// The users with a folder here.
+    fn users(&self) -> Vec<String> {
+        std::fs::read_dir(&self.dir)
+            .into_iter()
+            .flatten()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|u| crate::identity::is_valid_user(u))
+            .collect()
+    }
+
+    /// Removes `user`'s entries for which `doomed(key, last written)` holds; returns how
+    /// many went.
+    pub async fn remove_where(
+        &self,
+        user: &str,
+        doomed: impl Fn(&str, SystemTime) -> bool,
+    ) -> Result<usize> {
+        let _guard = self.lock.lock().await;
+        let Ok(dir) = std::fs::read_dir(self.dir.join(user)) else {
+            return Ok(0);
+        };
+        let mut removed = 0;
+        for entry in dir.filter_map(|e| e.ok()) {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let Some(key) = name.strip_suffix(".ckpt") else {
+                continue;
+            };
+            let written = entry
+                .metadata()
+                .and_then(|m| m.modified())
+                .unwrap_or(SystemTime::now());
+            if doomed(key, written) {
+                tokio::fs::remove_file(entry.path()).await?;
+                removed += 1;
+            }
+        }
+        Ok(removed)
+    }
+
+    /// Removes every entry (of every user) not written since `cutoff`; returns how many.
+    pub async fn remove_older_than(&self, cutoff: SystemTime) -> Result<usize> {
+        let mut removed = 0;
+        for user in self.users() {
+            removed += self.remove_where(&user, |_, t| t < cutoff).await?;
+        }
+        Ok(removed)
     }
 
     async fn read(&self, path: &Path) -> Result<Option<Checkpoint>> {

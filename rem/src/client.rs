@@ -342,6 +342,29 @@ impl RemClient {
         Ok(r.into_inner().checkpoint.map(|c| c.data))
     }
 
+    /// Stores the record of one of your jobs on this daemon's host and one more; refused
+    /// (`FAILED_PRECONDITION`) when a record of a newer epoch is kept. Returns the hosts.
+    pub async fn put_job(&self, record: proto::JobRecord) -> Result<Vec<String>> {
+        let r = self
+            .rpc
+            .clone()
+            .put_job(proto::PutJobRequest {
+                record: Some(record),
+            })
+            .await?;
+        Ok(r.into_inner().stored_on)
+    }
+
+    /// The newest record of each of your jobs on the live hosts (every user's as admin).
+    pub async fn list_jobs(&self) -> Result<Vec<proto::JobRecord>> {
+        let r = self
+            .rpc
+            .clone()
+            .list_jobs(proto::ListJobsRequest {})
+            .await?;
+        Ok(r.into_inner().records)
+    }
+
     /// Attaches to the relay as a new process (a job owner); `job` is informational.
     pub async fn attach(&self, job: Option<&str>) -> Result<Relay> {
         let max = self.options().max_message;

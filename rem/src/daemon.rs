@@ -11,6 +11,7 @@ use crate::checkpoint::CheckpointStore;
 use crate::error::{Error, Result};
 use crate::identity::Identity;
 use crate::ids::{is_valid_name, shown, ProcId};
+use crate::job_store::{self, JobStore};
 use crate::jobs::Jobs;
 use crate::limits::Limits;
 use crate::membership::Membership;
@@ -20,8 +21,9 @@ use crate::placement::{self, Candidate};
 use crate::policy::SpawnPolicy;
 use crate::process::{ProcessTable, StartSpec};
 use crate::proto::{
-    job_event, Checkpoint, FetchReplicaRequest, JobEvent, KillLocalRequest, LogsLocalRequest,
-    LogsReply, Placement, ProcessInfo, PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
+    job_event, Checkpoint, FetchReplicaRequest, JobEvent, JobRecord, KillLocalRequest,
+    ListJobsLocalRequest, LogsLocalRequest, LogsReply, Placement, ProcessInfo, PsRequest,
+    SpawnReply, SpawnRequest, StartLocalRequest,
 };
 use crate::relay::Router;
 
@@ -36,6 +38,7 @@ pub struct Daemon {
     pub processes: ProcessTable,
     pub jobs: Jobs,
     pub checkpoints: CheckpointStore,
+    pub job_store: JobStore,
     pub peers: PeerPool,
     pub accepting: Arc<AtomicBool>,
     /// Numbers process ids (spawned and attached-only alike).
@@ -341,6 +344,34 @@ impl Daemon {
         };
         self.checkpoints.seal(&mut cp);
         self.checkpoints.put(&cp).await?;
+        let stored = self
+            .replicate(&cp, method::STORE, |mut c, r| async move {
+                c.store_replica(r).await
+            })
+            .await?;
+        Ok((cp.version, stored))
+    }
+
+    /// Sends `cp` (stored here already) to one more live host, the least loaded that takes
+    /// it; the hosts that hold it. An error when there are peers and none took it.
+    async fn replicate<F, Fut>(
+        &self,
+        cp: &Checkpoint,
+        method: &'static str,
+        call: F,
+    ) -> Result<Vec<String>>
+    where
+        F: FnOnce(crate::peers::PeerRpc, tonic::Request<Checkpoint>) -> Fut
+            + Clone
+            + Send
+            + 'static,
+        Fut: std::future::Future<
+                Output = std::result::Result<
+                    tonic::Response<crate::proto::StoreReplicaReply>,
+                    tonic::Status,
+                >,
+            > + Send,
+    {
         let mut stored = vec![self.name.clone()];
         let mut others: Vec<_> = self.live_peers().collect();
         others.sort_by(|a, b| {
@@ -352,27 +383,90 @@ impl Daemon {
         for h in others {
             let stored_there = self
                 .peers
-                .call(
-                    &h.name,
-                    &h.addr,
-                    method::STORE,
-                    cp.clone(),
-                    |mut c, r| async move { c.store_replica(r).await },
-                )
+                .call(&h.name, &h.addr, method, cp.clone(), call.clone())
                 .await;
-            if stored_there.is_ok() {
-                stored.push(h.name);
-                break;
+            match stored_there {
+                Ok(_) => {
+                    stored.push(h.name);
+                    break;
+                }
+                // A newer epoch is kept there: the writer has been superseded.
+                Err(e) if e.code() == tonic::Code::FailedPrecondition => return Err(e),
+                Err(_) => {}
             }
         }
         if had_peers && stored.len() < 2 {
             return Err(Error::Unreachable {
                 host: "any peer".into(),
-                reason: "the checkpoint is stored only on this host: no live peer took a replica"
-                    .into(),
+                reason: "stored only on this host: no live peer took a replica".into(),
             });
         }
-        Ok((cp.version, stored))
+        Ok(stored)
+    }
+
+    /// Stores `who`'s job record here and on one more live host (REM sets its user and
+    /// time); refused if a record of a newer epoch is kept here.
+    pub async fn put_job(&self, who: &Identity, mut record: JobRecord) -> Result<Vec<String>> {
+        if !is_valid_name(&record.id) {
+            return Err(Error::Invalid(format!("bad job id {}", shown(&record.id))));
+        }
+        if !job_store::STATES.contains(&record.state.as_str()) {
+            return Err(Error::Invalid(format!(
+                "bad job state {} (one of {})",
+                shown(&record.state),
+                job_store::STATES.join(", ")
+            )));
+        }
+        let limit = self.max_message.min(self.limits.checkpoint_bytes);
+        if record.app.len() > limit {
+            return Err(Error::TooLarge {
+                size: record.app.len(),
+                limit,
+            });
+        }
+        record.user = who.user.clone();
+        record.updated_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
+        let cp = self.job_store.seal(&record, &self.name);
+        self.job_store.put(&cp).await?;
+        self.replicate(&cp, method::STORE_JOB, |mut c, r| async move {
+            c.store_job(r).await
+        })
+        .await
+    }
+
+    /// The newest record of each of `who`'s jobs (every user's for an admin) on this and the
+    /// live hosts.
+    pub async fn list_jobs(&self, who: &Identity) -> Result<Vec<JobRecord>> {
+        let user = (!who.admin).then(|| who.user.clone());
+        let mut all = self.job_store.list(user.as_deref()).await?;
+        let req = ListJobsLocalRequest {
+            user: user.clone().unwrap_or_default(),
+            all: user.is_none(),
+        };
+        let replies = self
+            .ask_live_peers(method::LIST_JOBS, req, |mut c, r| async move {
+                c.list_jobs_local(r).await
+            })
+            .await;
+        all.extend(replies.into_iter().flat_map(|r| r.records));
+        let mut newest: BTreeMap<(String, String), ((u64, u64), JobRecord)> = BTreeMap::new();
+        for cp in all {
+            let wanted = user.as_ref().is_none_or(|u| *u == cp.user);
+            if !wanted || !self.job_store.believe(&cp) {
+                continue;
+            }
+            let Ok(record) = job_store::decode(&cp) else {
+                continue;
+            };
+            // The highest epoch wins, then the newest write: a superseded controller's late
+            // write on a host that had not heard of its successor does not show.
+            let rank = (record.epoch, cp.version);
+            let key = (cp.user.clone(), cp.job.clone());
+            if newest.get(&key).is_none_or(|(best, _)| rank > *best) {
+                newest.insert(key, (rank, record));
+            }
+        }
+        Ok(newest.into_values().map(|(_, r)| r).collect())
     }
 
     /// The newest of `who`'s checkpoints of `job` on this or any live host.

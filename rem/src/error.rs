@@ -58,6 +58,9 @@ pub enum Error {
         /// What the OS said.
         reason: String,
     },
+    /// A write from a controller older than the one that owns the job now.
+    #[error("{0}")]
+    Fenced(String),
     /// Configuration is missing or wrong.
     #[error("configuration: {0}")]
     Config(String),
@@ -103,7 +106,7 @@ impl Error {
             Error::NotAllowed(..) | Error::Refused(_) => Code::PermissionDenied,
             Error::Limit(_) => Code::ResourceExhausted,
             Error::NotFound(_) => Code::NotFound,
-            Error::NotEnoughHosts { .. } => Code::FailedPrecondition,
+            Error::NotEnoughHosts { .. } | Error::Fenced(_) => Code::FailedPrecondition,
             Error::TooLarge { .. } => Code::ResourceExhausted,
             Error::Unreachable { .. } | Error::ShuttingDown | Error::Closed => Code::Unavailable,
             Error::Spawn { .. } | Error::Io(_) | Error::Transport(_) | Error::Config(_) => {

@@ -73,7 +73,7 @@
 //! - [`relay`]: mailboxes and daemon-to-daemon links.
 //! - [`attach`]: one process's relay stream.
 //! - [`jobs`]: job owners and `Lost` reports.
-//! - [`checkpoint`]: atomic checkpoint files.
+//! - [`checkpoint`]: atomic checkpoint files; `job_store`: job records (epochs, retention).
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
 //! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
 //!   [`raise_fd_limit`].
@@ -97,6 +97,7 @@ pub mod embedded;
 pub mod error;
 pub mod identity;
 pub mod ids;
+mod job_store;
 mod jobs;
 pub mod limits;
 mod listener;
@@ -130,5 +131,5 @@ pub use error::{Error, Result};
 pub use identity::Identity;
 pub use ids::ProcId;
 pub use listener::{bind_listener, raise_fd_limit, ConnectionLimits};
-pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, ProcessInfo};
+pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, JobRecord, ProcessInfo};
 pub use relay_client::{Incoming, Relay, RelayReceiver, RelaySender};

@@ -1,6 +1,7 @@
 //! Hard limits of one daemon: how many processes a request and a host may have, how many
 //! bytes the relay may queue (per mailbox, per link, in all), how many bytes of checkpoints
-//! a job and the whole host may keep, how many bytes of output are kept. Every limit is a
+//! a job and the whole host may keep, how many bytes of output are kept, how many ended jobs
+//! and for how long. Every limit is a
 //! setting (`DaemonSettings::limits`, flags and TOML keys of the same names); reaching one
 //! is answered with a gRPC status (`INVALID_ARGUMENT` for a request that can never be met,
 //! `RESOURCE_EXHAUSTED` for one that cannot be met now), never with an abort.
@@ -31,6 +32,11 @@ pub struct Limits {
     pub connections: usize,
     /// Connections open at once from one address (one IPv6 /64).
     pub connections_per_ip: usize,
+    /// Records of ended jobs (finished, failed, cancelled) kept per user; older ones go,
+    /// with their checkpoints.
+    pub kept_jobs: usize,
+    /// Seconds an ended job's record, or any checkpoint, is kept after its last change.
+    pub kept_secs: u64,
 }
 
 impl Default for Limits {
@@ -47,6 +53,8 @@ impl Default for Limits {
             log_quota: 256 << 20,
             connections: 4096,
             connections_per_ip: 512,
+            kept_jobs: 100,
+            kept_secs: 7 * 24 * 3600,
         }
     }
 }
@@ -57,7 +65,7 @@ pub const ITEM_OVERHEAD: usize = 256;
 
 impl Limits {
     /// The names of the limits, as `--limit NAME=VALUE` and the `[limits]` table take them.
-    pub const NAMES: [&'static str; 11] = [
+    pub const NAMES: [&'static str; 13] = [
         "spawn_count",
         "host_processes",
         "mailbox_bytes",
@@ -69,6 +77,8 @@ impl Limits {
         "log_quota",
         "connections",
         "connections_per_ip",
+        "kept_jobs",
+        "kept_secs",
     ];
 
     /// Sets the limit `name` from `value`: a whole number, for bytes optionally followed by
@@ -93,6 +103,8 @@ impl Limits {
             "log_quota" => self.log_quota = small(n)?,
             "connections" => self.connections = small(n)?,
             "connections_per_ip" => self.connections_per_ip = small(n)?,
+            "kept_jobs" => self.kept_jobs = small(n)?,
+            "kept_secs" => self.kept_secs = n,
             _ => {
                 return Err(format!(
                     "unknown limit {name:?} (known: {})",

@@ -58,6 +58,10 @@ pub mod method {
     pub const STORE: &str = "StoreReplica";
     /// `Peer.FetchReplica`.
     pub const FETCH: &str = "FetchReplica";
+    /// `Peer.StoreJob`.
+    pub const STORE_JOB: &str = "StoreJob";
+    /// `Peer.ListJobsLocal`.
+    pub const LIST_JOBS: &str = "ListJobsLocal";
 }
 
 /// This daemon's key and name, and the nonces it has seen.

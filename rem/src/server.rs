@@ -22,6 +22,7 @@ use crate::checkpoint::CheckpointStore;
 use crate::config::DaemonSettings;
 use crate::daemon::Daemon;
 use crate::error::{Error, Result};
+use crate::job_store::JobStore;
 use crate::jobs::Jobs;
 use crate::listener::Gate;
 use crate::load::LoadGauge;
@@ -119,7 +120,18 @@ pub async fn run(
         seq.clone(),
     );
     let jobs = Jobs::start(router.clone(), observed, membership.subscribe());
-    let checkpoints = CheckpointStore::open(&state_dir.join("checkpoints"), key, &settings.limits)?;
+    let checkpoints = CheckpointStore::open(
+        &state_dir.join("checkpoints"),
+        key.clone(),
+        &settings.limits,
+    )?;
+    let records = CheckpointStore::open(&state_dir.join("jobs"), key, &settings.limits)?;
+    let job_store = JobStore::new(records, checkpoints.clone());
+    tokio::spawn(retention(
+        job_store.clone(),
+        settings.limits.clone(),
+        stop.clone(),
+    ));
     let daemon = Arc::new(Daemon {
         name: settings.name.clone(),
         max_message: settings.max_message,
@@ -130,6 +142,7 @@ pub async fn run(
         processes: processes.clone(),
         jobs,
         checkpoints,
+        job_store,
         peers,
         accepting: accepting.clone(),
         seq,
@@ -199,6 +212,29 @@ pub async fn run(
         Err(_) => {
             tracing::warn!("server did not stop in time");
             Ok(())
+        }
+    }
+}
+
+/// How often the retention of ended jobs and old checkpoints runs.
+const RETENTION_EVERY: Duration = Duration::from_secs(60);
+
+/// Applies the job store's retention now and then, until `stop`.
+async fn retention(store: JobStore, limits: crate::limits::Limits, stop: CancellationToken) {
+    loop {
+        match store
+            .expire(SystemTime::now(), limits.kept_jobs, limits.kept_secs)
+            .await
+        {
+            Ok((0, 0)) => {}
+            Ok((records, checkpoints)) => {
+                tracing::info!(records, checkpoints, "retention: removed ended jobs' state")
+            }
+            Err(e) => tracing::warn!("retention: {e}"),
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(RETENTION_EVERY) => {}
+            _ = stop.cancelled() => break,
         }
     }
 }

@@ -105,6 +105,28 @@ impl Rem for Service {
         let checkpoint = self.0.get_checkpoint(&who, req.into_inner().job).await?;
         Ok(Response::new(proto::GetCheckpointReply { checkpoint }))
     }
+
+    async fn put_job(
+        &self,
+        req: Request<proto::PutJobRequest>,
+    ) -> Result<Response<proto::PutJobReply>, Status> {
+        let who = require_client(&req)?;
+        let record = req
+            .into_inner()
+            .record
+            .ok_or_else(|| Status::invalid_argument("no job record"))?;
+        let stored_on = self.0.put_job(&who, record).await?;
+        Ok(Response::new(proto::PutJobReply { stored_on }))
+    }
+
+    async fn list_jobs(
+        &self,
+        req: Request<proto::ListJobsRequest>,
+    ) -> Result<Response<proto::ListJobsReply>, Status> {
+        let who = require_client(&req)?;
+        let records = self.0.list_jobs(&who).await?;
+        Ok(Response::new(proto::ListJobsReply { records }))
+    }
 }
 
 impl Service {
@@ -222,6 +244,30 @@ impl Peer for Service {
             &req,
             method::FETCH,
             proto::GetCheckpointReply { checkpoint },
+        ))
+    }
+
+    async fn store_job(
+        &self,
+        req: Request<proto::Checkpoint>,
+    ) -> Result<Response<proto::StoreReplicaReply>, Status> {
+        self.peer(&req, method::STORE_JOB)?;
+        self.0.job_store.put(req.get_ref()).await?;
+        Ok(self.answer(&req, method::STORE_JOB, proto::StoreReplicaReply {}))
+    }
+
+    async fn list_jobs_local(
+        &self,
+        req: Request<proto::ListJobsLocalRequest>,
+    ) -> Result<Response<proto::ListJobsLocalReply>, Status> {
+        self.peer(&req, method::LIST_JOBS)?;
+        let r = req.get_ref();
+        let user = (!r.all).then_some(r.user.as_str());
+        let records = self.0.job_store.list(user).await?;
+        Ok(self.answer(
+            &req,
+            method::LIST_JOBS,
+            proto::ListJobsLocalReply { records },
         ))
     }
 }

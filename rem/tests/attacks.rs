@@ -248,6 +248,20 @@ impl peer_server::Peer for FakePeer {
         self.record(&req);
         Err(Status::unimplemented(""))
     }
+    async fn store_job(
+        &self,
+        req: Request<proto::Checkpoint>,
+    ) -> Result<Response<proto::StoreReplicaReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn list_jobs_local(
+        &self,
+        req: Request<proto::ListJobsLocalRequest>,
+    ) -> Result<Response<proto::ListJobsLocalReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -210,6 +210,36 @@ impl Gen<'_> {
         }
     }
 
+    /// A job record: any id, user, state, epoch and application bytes.
+    fn job_record(&mut self) -> proto::JobRecord {
+        proto::JobRecord {
+            id: self.job(),
+            user: self.user(),
+            state: if self.rng.one_in(4) {
+                self.string()
+            } else {
+                self.rng
+                    .pick(&[
+                        "queued",
+                        "running",
+                        "recovering",
+                        "finished",
+                        "failed",
+                        "cancelled",
+                    ])
+                    .into()
+            },
+            epoch: self.u64(),
+            controller: self.proc_id(),
+            controller_host: self.string(),
+            created_unix_ms: self.u64(),
+            updated_unix_ms: self.u64(),
+            progress_done: self.u64(),
+            progress_total: self.u64(),
+            app: self.data(),
+        }
+    }
+
     /// A user name: the fuzzer's own, another, or anything (`..`, empty, long, unicode).
     fn user(&mut self) -> String {
         match self.rng.below(4) {
@@ -586,10 +616,29 @@ impl Gen<'_> {
                 }),
             }
             .encode_to_vec(),
-            Rpc::StoreReplica => {
+            Rpc::PutJob => proto::PutJobRequest {
+                record: (!self.rng.one_in(8)).then(|| self.job_record()),
+            }
+            .encode_to_vec(),
+            Rpc::ListJobs => proto::ListJobsRequest {}.encode_to_vec(),
+            Rpc::ListJobsLocal => proto::ListJobsLocalRequest {
+                user: self.user(),
+                all: self.rng.one_in(2),
+            }
+            .encode_to_vec(),
+            Rpc::StoreReplica | Rpc::StoreJob => {
+                let record = self.job_record();
                 let mut cp = proto::Checkpoint {
-                    job: self.job(),
-                    data: self.data(),
+                    job: if self.rng.one_in(2) {
+                        record.id.clone()
+                    } else {
+                        self.job()
+                    },
+                    data: if self.rng.one_in(2) {
+                        record.encode_to_vec()
+                    } else {
+                        self.data()
+                    },
                     version: self.u64(),
                     written_by: if self.rng.one_in(2) {
                         from.to_string()
@@ -722,6 +771,8 @@ enum Rpc {
     Attach,
     PutCheckpoint,
     GetCheckpoint,
+    PutJob,
+    ListJobs,
     Heartbeat,
     StartLocal,
     KillLocal,
@@ -730,9 +781,11 @@ enum Rpc {
     Forward,
     StoreReplica,
     FetchReplica,
+    StoreJob,
+    ListJobsLocal,
 }
 
-const RPCS: [Rpc; 16] = [
+const RPCS: [Rpc; 20] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -741,6 +794,8 @@ const RPCS: [Rpc; 16] = [
     Rpc::Attach,
     Rpc::PutCheckpoint,
     Rpc::GetCheckpoint,
+    Rpc::PutJob,
+    Rpc::ListJobs,
     Rpc::Heartbeat,
     Rpc::StartLocal,
     Rpc::KillLocal,
@@ -749,6 +804,8 @@ const RPCS: [Rpc; 16] = [
     Rpc::Forward,
     Rpc::StoreReplica,
     Rpc::FetchReplica,
+    Rpc::StoreJob,
+    Rpc::ListJobsLocal,
 ];
 
 impl Rpc {
@@ -771,6 +828,10 @@ impl Rpc {
             Rpc::Forward => "Forward",
             Rpc::StoreReplica => "StoreReplica",
             Rpc::FetchReplica => "FetchReplica",
+            Rpc::PutJob => "PutJob",
+            Rpc::ListJobs => "ListJobs",
+            Rpc::StoreJob => "StoreJob",
+            Rpc::ListJobsLocal => "ListJobsLocal",
         }
     }
 
@@ -802,6 +863,8 @@ impl Rpc {
             Rpc::PsLocal => canonical::<proto::PsRequest>(body),
             Rpc::StoreReplica => canonical::<proto::Checkpoint>(body),
             Rpc::FetchReplica => canonical::<proto::FetchReplicaRequest>(body),
+            Rpc::StoreJob => canonical::<proto::Checkpoint>(body),
+            Rpc::ListJobsLocal => canonical::<proto::ListJobsLocalRequest>(body),
             _ => None,
         };
         sha256_hex(canon.as_deref().unwrap_or(body))

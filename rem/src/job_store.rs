@@ -1,0 +1,272 @@
+//! Job records kept on this host: what REM knows of a job so that it outlives the process
+//! and the host that started it. A record travels and is stored in a sealed envelope, the
+//! same as a checkpoint's (`Checkpoint`, its data the encoded [`JobRecord`]), in a store of
+//! its own (`STATE/jobs/USER/ID.ckpt`), so it has the same per-user namespaces, seals,
+//! versions, atomic files and quota.
+//!
+//! Two rules are the job store's own:
+//! - **Epochs fence.** A record with an older epoch than the kept one is refused: a controller
+//!   cut off by a partition cannot overwrite what its successor wrote.
+//! - **Retention.** Records of ended jobs (finished, failed, cancelled) are kept at most
+//!   `kept_jobs` per user and `kept_secs` after their last change; one that goes takes its
+//!   job's checkpoints on this host with it. Any checkpoint not written for `kept_secs` goes
+//!   too, so the state directory stays bounded without anybody's help.
+
+use std::time::{Duration, SystemTime};
+
+use prost::Message;
+
+use crate::checkpoint::CheckpointStore;
+use crate::error::{Error, Result};
+use crate::proto::{Checkpoint, JobRecord};
+
+/// The states a record may be in.
+pub const STATES: [&str; 6] = [
+    "queued",
+    "running",
+    "recovering",
+    "finished",
+    "failed",
+    "cancelled",
+];
+
+/// True for the states of a job that will not run again.
+pub fn is_ended(state: &str) -> bool {
+    matches!(state, "finished" | "failed" | "cancelled")
+}
+
+/// The job records of this host, and its checkpoints (which retention removes with them).
+#[derive(Clone, Debug)]
+pub struct JobStore {
+    records: CheckpointStore,
+    checkpoints: CheckpointStore,
+}
+
+impl JobStore {
+    /// Records in `records`; `checkpoints` is the host's checkpoint store.
+    pub fn new(records: CheckpointStore, checkpoints: CheckpointStore) -> Self {
+        JobStore {
+            records,
+            checkpoints,
+        }
+    }
+
+    /// A sealed envelope of `record` written by this daemon (`writer`).
+    pub fn seal(&self, record: &JobRecord, writer: &str) -> Checkpoint {
+        let mut cp = Checkpoint {
+            job: record.id.clone(),
+            data: record.encode_to_vec(),
+            version: self.records.next_version(),
+            written_by: writer.to_string(),
+            mac: Vec::new(),
+            user: record.user.clone(),
+        };
+        self.records.seal(&mut cp);
+        cp
+    }
+
+    /// Keeps `cp` (a sealed record) unless the kept one has a newer epoch.
+    pub async fn put(&self, cp: &Checkpoint) -> Result<()> {
+        let record = decode(cp)?;
+        if record.user != cp.user || record.id != cp.job {
+            return Err(Error::Invalid(
+                "a job record's user and id must be its envelope's".into(),
+            ));
+        }
+        self.records
+            .put_checked(cp, |kept| match kept.and_then(|k| decode(k).ok()) {
+                Some(k) if k.epoch > record.epoch => Err(Error::Fenced(format!(
+                    "job {} belongs to a newer controller (epoch {} > {})",
+                    record.id, k.epoch, record.epoch
+                ))),
+                _ => Ok(()),
+            })
+            .await
+    }
+
+    /// The sealed records kept here, of `user` or (`None`) of every user.
+    pub async fn list(&self, user: Option<&str>) -> Result<Vec<Checkpoint>> {
+        self.records.list(user).await
+    }
+
+    /// True when `cp` is a record sealed by a daemon of this cluster (and not from the
+    /// future).
+    pub fn believe(&self, cp: &Checkpoint) -> bool {
+        self.records.believe(cp, &cp.user, &cp.job)
+    }
+
+    /// Applies the retention at `now`: see the module's documentation. Returns (records,
+    /// checkpoints) removed.
+    pub async fn expire(
+        &self,
+        now: SystemTime,
+        kept_jobs: usize,
+        kept_secs: u64,
+    ) -> Result<(usize, usize)> {
+        let cutoff = now
+            .checked_sub(Duration::from_secs(kept_secs))
+            .unwrap_or(SystemTime::UNIX_EPOCH);
+        let cutoff_ms = unix_ms(cutoff);
+        let mut by_user: std::collections::BTreeMap<String, Vec<JobRecord>> = Default::default();
+        for cp in self.list(None).await? {
+            if let Ok(r) = decode(&cp) {
+                if is_ended(&r.state) {
+                    by_user.entry(r.user.clone()).or_default().push(r);
+                }
+            }
+        }
+        let (mut records, mut checkpoints) = (0, 0);
+        for (user, mut ended) in by_user {
+            ended.sort_by(|a, b| b.updated_unix_ms.cmp(&a.updated_unix_ms));
+            let doomed: Vec<String> = ended
+                .iter()
+                .enumerate()
+                .filter(|(i, r)| *i >= kept_jobs || r.updated_unix_ms < cutoff_ms)
+                .map(|(_, r)| r.id.clone())
+                .collect();
+            if doomed.is_empty() {
+                continue;
+            }
+            let of_doomed = |key: &str| doomed.iter().any(|id| belongs_to(key, id));
+            // Checkpoints first: a record is listed as long as anything of it is left.
+            checkpoints += self
+                .checkpoints
+                .remove_where(&user, |key, _| of_doomed(key))
+                .await?;
+            records += self
+                .records
+                .remove_where(&user, |key, _| doomed.iter().any(|id| id == key))
+                .await?;
+        }
+        checkpoints += self.checkpoints.remove_older_than(cutoff).await?;
+        Ok((records, checkpoints))
+    }
+}
+
+/// True when checkpoint `key` is job `id`'s: the id itself or `ID.ANYTHING` (segments).
+pub fn belongs_to(key: &str, id: &str) -> bool {
+    key == id
+        || key
+            .strip_prefix(id)
+            .is_some_and(|rest| rest.starts_with('.'))
+}
+
+/// The record inside an envelope.
+pub fn decode(cp: &Checkpoint) -> Result<JobRecord> {
+    JobRecord::decode(cp.data.as_slice())
+        .map_err(|e| Error::Invalid(format!("a job record does not decode: {e}")))
+}
+
+/// Milliseconds since the epoch.
+pub fn unix_ms(t: SystemTime) -> u64 {
+    t.duration_since(SystemTime::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::limits::Limits;
+
+    fn stores(dir: &std::path::Path) -> (JobStore, CheckpointStore) {
+        let key = crate::peer_auth::DaemonKey::new(&crate::Secret::new("s").unwrap(), "a").unwrap();
+        let limits = Limits::default();
+        let records = CheckpointStore::open(&dir.join("jobs"), key.clone(), &limits).unwrap();
+        let checkpoints = CheckpointStore::open(&dir.join("checkpoints"), key, &limits).unwrap();
+        (JobStore::new(records, checkpoints.clone()), checkpoints)
+    }
+
+    fn record(id: &str, state: &str, epoch: u64, updated: u64) -> JobRecord {
+        JobRecord {
+            id: id.into(),
+            user: "alice".into(),
+            state: state.into(),
+            epoch,
+            updated_unix_ms: updated,
+            ..JobRecord::default()
+        }
+    }
+
+    #[tokio::test]
+    async fn an_older_epoch_cannot_overwrite_a_newer_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let (jobs, _) = stores(dir.path());
+        jobs.put(&jobs.seal(&record("j", "running", 2, 1), "a"))
+            .await
+            .unwrap();
+        let old = jobs.seal(&record("j", "finished", 1, 2), "a");
+        assert_eq!(
+            jobs.put(&old).await.unwrap_err().code(),
+            tonic::Code::FailedPrecondition
+        );
+        jobs.put(&jobs.seal(&record("j", "finished", 2, 3), "a"))
+            .await
+            .unwrap();
+        let kept = jobs.list(Some("alice")).await.unwrap();
+        assert_eq!(decode(&kept[0]).unwrap().state, "finished");
+        // The envelope's user and id are the record's.
+        let mut other = record("k", "running", 1, 1);
+        other.user = "bob".into();
+        let mut cp = jobs.seal(&other, "a");
+        cp.user = "alice".into();
+        jobs.records.seal(&mut cp);
+        assert!(jobs.put(&cp).await.is_err());
+    }
+
+    #[tokio::test]
+    async fn ended_jobs_go_by_count_and_age_with_their_checkpoints() {
+        let dir = tempfile::tempdir().unwrap();
+        let (jobs, checkpoints) = stores(dir.path());
+        let now = SystemTime::now();
+        let now_ms = unix_ms(now);
+        let day = 24 * 3600 * 1000;
+        for (id, state, updated) in [
+            ("old", "finished", now_ms - 9 * day),
+            ("done1", "finished", now_ms - 3),
+            ("done2", "failed", now_ms - 2),
+            ("done3", "cancelled", now_ms - 1),
+            ("live", "running", now_ms - 9 * day),
+        ] {
+            jobs.put(&jobs.seal(&record(id, state, 1, updated), "a"))
+                .await
+                .unwrap();
+            for key in [id.to_string(), format!("{id}.seg1")] {
+                let mut cp = Checkpoint {
+                    job: key,
+                    data: b"pixels".to_vec(),
+                    version: checkpoints.next_version(),
+                    written_by: "a".into(),
+                    mac: Vec::new(),
+                    user: "alice".into(),
+                };
+                checkpoints.seal(&mut cp);
+                checkpoints.put(&cp).await.unwrap();
+            }
+        }
+        // Keep 2 ended jobs, for a week: "old" (too old) and "done1" (third newest) go.
+        let (records, cps) = jobs.expire(now, 2, 7 * 24 * 3600).await.unwrap();
+        assert_eq!((records, cps), (2, 4));
+        let mut left: Vec<String> = jobs
+            .list(Some("alice"))
+            .await
+            .unwrap()
+            .iter()
+            .map(|c| c.job.clone())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["done2", "done3", "live"]);
+        assert!(checkpoints
+            .get("alice", "live.seg1")
+            .await
+            .unwrap()
+            .is_some());
+        assert!(checkpoints.get("alice", "done1").await.unwrap().is_none());
+        // A checkpoint nobody wrote for longer than the retention goes too.
+        let (_, cps) = jobs
+            .expire(now + Duration::from_secs(8 * 24 * 3600), 100, 7 * 24 * 3600)
+            .await
+            .unwrap();
+        assert!(cps >= 2, "{cps}");
+        assert!(belongs_to("j.seg", "j") && belongs_to("j", "j") && !belongs_to("jj", "j"));
+    }
+}
