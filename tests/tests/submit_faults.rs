@@ -188,8 +188,14 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
             .cloned();
         let entry = entry.unwrap_or_else(|| panic!("{id} not listed: {v}"));
         assert_eq!(entry["state"], state, "{entry}");
+        entry
     };
-    jobs("running");
+    // The killed controller's job counts the lines of its checkpoint.
+    let listed = jobs("running");
+    assert!(
+        listed["lines_done"].as_u64().unwrap() >= stored,
+        "{listed} lists fewer lines than the {stored} checkpointed"
+    );
 
     // The checkpoint remembers the scene, the options and the output.
     let out = output(

@@ -42,7 +42,7 @@ async fn list(args: JobsArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
-    let index = jobs::read_index(&cluster.client)
+    let index = jobs::list(&cluster.client)
         .await
         .map_err(|e| cluster.rpc_error(e))?;
     let procs = cluster
@@ -52,7 +52,6 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
         .map_err(|e| cluster.rpc_error(e))?;
     let now = unix_ms();
     let rows: Vec<serde_json::Value> = index
-        .jobs
         .iter()
         .map(|j| {
             let prefix = format!("{}.", j.job);

@@ -172,7 +172,7 @@ pub struct JobOutcome {
 
 /// Checks a job id given by a user.
 pub fn check_job_id(job: &str) -> Result<(), JobError> {
-    if !rem::ids::is_valid_name(job) || job.len() > MAX_JOB_ID || job == jobs::INDEX_KEY {
+    if !rem::ids::is_valid_name(job) || job.len() > MAX_JOB_ID {
         return Err(JobError::BadJobId(job.to_string()));
     }
     Ok(())
@@ -372,7 +372,7 @@ async fn run_plan(
         output: plan.output.display().to_string(),
         ..Default::default()
     };
-    index_update(cluster, &entry).await;
+    record_update(cluster, &entry).await;
 
     let spawned = start_workers(cluster, req, &plan, allow_same_host, relay.id().clone()).await?;
     let workers: Vec<WorkerProc> = spawned
@@ -422,7 +422,7 @@ async fn run_plan(
         "failed"
     }
     .into();
-    index_update(cluster, &entry).await;
+    record_update(cluster, &entry).await;
     if result.finished {
         result.film.write(&plan.output)?;
     }
@@ -516,9 +516,9 @@ async fn start_workers(
         .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
 }
 
-async fn index_update(cluster: &RemConnection, entry: &proto::JobEntry) {
-    if let Err(e) = jobs::update(&cluster.client, entry.clone()).await {
-        eprintln!("sunray: warning: job index: {e}");
+async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry) {
+    if let Err(e) = jobs::update(&cluster.client, entry).await {
+        eprintln!("sunray: warning: the job's record in REM: {e}");
     }
 }
 
@@ -529,13 +529,7 @@ mod tests {
     #[test]
     fn job_ids_are_checked() {
         assert!(check_job_id("render-7.b_c").is_ok());
-        for bad in [
-            "",
-            "a/b",
-            "a b",
-            jobs::INDEX_KEY,
-            &"x".repeat(MAX_JOB_ID + 1),
-        ] {
+        for bad in ["", "a/b", "a b", &"x".repeat(MAX_JOB_ID + 1)] {
             assert!(check_job_id(bad).is_err(), "{bad:?}");
         }
     }

@@ -1,43 +1,73 @@
-//! The job index for `sunray jobs`: REM keeps checkpoints by key but cannot list them, so
-//! controllers also keep a small index under the key `sunray-jobs` (one per REM user, as every
-//! checkpoint is; read, change, write; the newest write wins if two controllers race, which
-//! loses at most a state change).
+//! SunRay III jobs as REM keeps them: each job's record (REM's `JobRecord`: state, progress,
+//! epoch, on two hosts, removed some time after the job ended) carries SunRay's own fields
+//! (`JobEntry`: scene, hosts, output) as its application bytes. `sunray jobs` lists them
+//! with no index of its own; a job's lines done count its checkpoint, which the controller
+//! writes more often than the record.
 
-use super::checkpoint::{unix_ms, Store};
-use super::messages::proto::{JobEntry, JobIndex};
+use super::checkpoint::Store;
+use super::messages::proto::{CheckpointHeader, JobEntry};
 use prost::Message;
 
-/// The checkpoint key of the index.
-pub const INDEX_KEY: &str = "sunray-jobs";
-/// Entries kept (the oldest are dropped).
-pub const KEEP: usize = 200;
+/// The epoch of a job's record until controllers move (issue "Jobs owned by the farm").
+pub const EPOCH: u64 = 1;
 
-/// The index, empty when there is none or it cannot be decoded.
-pub async fn read_index(store: &impl Store) -> Result<JobIndex, rem::Error> {
-    Ok(store
-        .get(INDEX_KEY)
-        .await?
-        .and_then(|b| JobIndex::decode(b.as_slice()).ok())
-        .unwrap_or_default())
+/// REM's record of `entry`.
+pub fn to_record(entry: &JobEntry) -> rem::JobRecord {
+    rem::JobRecord {
+        id: entry.job.clone(),
+        state: entry.state.clone(),
+        epoch: EPOCH,
+        created_unix_ms: entry.started_unix_ms,
+        progress_done: entry.lines_done.into(),
+        progress_total: entry.height.into(),
+        app: entry.encode_to_vec(),
+        ..rem::JobRecord::default()
+    }
 }
 
-/// Inserts or replaces the entry of `entry.job`, stamping it with the time.
-pub async fn update(store: &impl Store, mut entry: JobEntry) -> Result<(), rem::Error> {
-    let mut index = read_index(store).await?;
-    entry.updated_unix_ms = unix_ms();
-    match index.jobs.iter_mut().find(|j| j.job == entry.job) {
-        Some(j) => {
-            if entry.started_unix_ms == 0 {
-                entry.started_unix_ms = j.started_unix_ms;
-            }
-            *j = entry;
+/// The entry a record carries, with REM's state, progress and times (which are newer than
+/// what the application bytes say).
+pub fn from_record(r: &rem::JobRecord) -> JobEntry {
+    let mut e = JobEntry::decode(r.app.as_slice()).unwrap_or_default();
+    e.job = r.id.clone();
+    e.state = r.state.clone();
+    e.lines_done = u32::try_from(r.progress_done).unwrap_or(u32::MAX);
+    e.height = u32::try_from(r.progress_total).unwrap_or(u32::MAX);
+    e.started_unix_ms = r.created_unix_ms;
+    e.updated_unix_ms = r.updated_unix_ms;
+    e
+}
+
+/// Stores the record of `entry` in REM.
+pub async fn update(client: &rem::RemClient, entry: &JobEntry) -> Result<(), rem::Error> {
+    client.put_job(to_record(entry)).await.map(|_| ())
+}
+
+/// Your jobs, oldest first; a running job's lines done and last change are its
+/// checkpoint's when those are newer.
+pub async fn list(client: &rem::RemClient) -> Result<Vec<JobEntry>, rem::Error> {
+    let mut jobs: Vec<JobEntry> = client.list_jobs().await?.iter().map(from_record).collect();
+    for e in jobs.iter_mut().filter(|e| e.state == "running") {
+        if let Some(h) = header(client, &e.job).await? {
+            catch_up(e, &h);
         }
-        None => index.jobs.push(entry),
     }
-    index.jobs.sort_by_key(|j| j.started_unix_ms);
-    let excess = index.jobs.len().saturating_sub(KEEP);
-    index.jobs.drain(..excess);
-    store.put(INDEX_KEY, index.encode_to_vec()).await
+    jobs.sort_by_key(|j| j.started_unix_ms);
+    Ok(jobs)
+}
+
+/// A job's checkpoint header, if there is one that decodes.
+async fn header(store: &impl Store, job: &str) -> Result<Option<CheckpointHeader>, rem::Error> {
+    Ok(store
+        .get(job)
+        .await?
+        .and_then(|b| CheckpointHeader::decode(b.as_slice()).ok()))
+}
+
+/// Takes the checkpoint's progress when it is ahead of the record's.
+fn catch_up(e: &mut JobEntry, h: &CheckpointHeader) {
+    e.lines_done = e.lines_done.max(h.lines_done);
+    e.updated_unix_ms = e.updated_unix_ms.max(h.updated_unix_ms);
 }
 
 /// A job's state as `sunray jobs` shows it: a job marked running whose controller has not
@@ -52,7 +82,6 @@ pub fn shown_state(entry: &JobEntry, live_workers: usize, now_ms: u64, stale_ms:
 
 #[cfg(test)]
 mod tests {
-    use super::super::checkpoint::tests::MemStore;
     use super::*;
 
     fn entry(job: &str, state: &str, started: u64) -> JobEntry {
@@ -61,35 +90,36 @@ mod tests {
             state: state.into(),
             started_unix_ms: started,
             height: 64,
+            scene: "mount6.nff".into(),
+            hosts: 3,
             ..Default::default()
         }
     }
 
     #[test]
-    fn entries_are_inserted_replaced_and_kept_in_start_order() {
-        let rt = tokio::runtime::Builder::new_current_thread()
-            .build()
-            .unwrap();
-        rt.block_on(async {
-            let store = MemStore {
-                limit: 1 << 20,
-                ..Default::default()
-            };
-            assert!(read_index(&store).await.unwrap().jobs.is_empty());
-            update(&store, entry("b", "running", 20)).await.unwrap();
-            update(&store, entry("a", "running", 10)).await.unwrap();
-            let mut done = entry("b", "finished", 0);
-            done.lines_done = 64;
-            update(&store, done).await.unwrap();
-            let jobs = read_index(&store).await.unwrap().jobs;
-            assert_eq!(
-                jobs.iter().map(|j| j.job.as_str()).collect::<Vec<_>>(),
-                vec!["a", "b"]
-            );
-            assert_eq!(jobs[1].state, "finished");
-            assert_eq!(jobs[1].started_unix_ms, 20, "the start time is kept");
-            assert!(jobs[1].updated_unix_ms > 0);
-        });
+    fn an_entry_travels_in_a_record_and_the_checkpoint_counts_its_lines() {
+        let mut e = entry("b", "running", 20);
+        e.lines_done = 5;
+        let mut r = to_record(&e);
+        assert_eq!((r.progress_done, r.progress_total, r.epoch), (5, 64, EPOCH));
+        r.updated_unix_ms = 1_000;
+        let mut back = from_record(&r);
+        assert_eq!(back.scene, "mount6.nff");
+        assert_eq!((back.hosts, back.started_unix_ms), (3, 20));
+        // The controller checkpointed 17 lines since it last wrote the record.
+        let h = CheckpointHeader {
+            lines_done: 17,
+            updated_unix_ms: 5_000,
+            ..Default::default()
+        };
+        catch_up(&mut back, &h);
+        assert_eq!((back.lines_done, back.updated_unix_ms), (17, 5_000));
+        // An older checkpoint does not move it back.
+        catch_up(&mut back, &CheckpointHeader::default());
+        assert_eq!((back.lines_done, back.updated_unix_ms), (17, 5_000));
+        // Garbage application bytes still list the job, with REM's fields.
+        r.app = vec![0xff; 3];
+        assert_eq!(from_record(&r).job, "b");
     }
 
     #[test]

@@ -17,7 +17,7 @@
 //! - [`grants`]: the grant table (assign, complete, first completion wins, faults, timeouts,
 //!   duplication of stragglers).
 //! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
-//! - [`jobs`]: the job index behind `sunray jobs`.
+//! - [`jobs`]: SunRay jobs as REM's job records (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
 //! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
