@@ -97,22 +97,35 @@ impl LoopbackCluster {
         &self,
         f: impl FnOnce(rem::RemClient) -> F,
     ) -> T {
+        self.with_client_of(&self.daemons[0].name, f)
+    }
+
+    /// Runs `f` with a client of daemon `name`, on a runtime of its own.
+    fn with_client_of<T, F: std::future::Future<Output = T>>(
+        &self,
+        name: &str,
+        f: impl FnOnce(rem::RemClient) -> F,
+    ) -> T {
+        let addr = self.daemon(name).addr.clone();
         let rt = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()
             .unwrap();
         rt.block_on(async {
             let secret = rem::Secret::new(SECRET).unwrap();
-            let client = rem::RemClient::connect(&self.daemons[0].addr, secret)
-                .await
-                .unwrap();
+            let client = rem::RemClient::connect(&addr, secret).await.unwrap();
             f(client).await
         })
     }
 
     /// Waits until the first daemon sees all `n` hosts alive (bounded).
     fn converge(&self, n: usize) {
-        self.with_client(|client| async move {
+        self.wait_alive(&self.daemons[0].name.clone(), n)
+    }
+
+    /// Waits (bounded) until daemon `via` sees exactly `n` hosts alive.
+    pub fn wait_alive(&self, via: &str, n: usize) {
+        self.with_client_of(via, |client| async move {
             let end = Instant::now() + Duration::from_secs(20);
             loop {
                 let hosts = client.hosts().await.unwrap();

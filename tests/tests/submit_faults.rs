@@ -291,3 +291,56 @@ fn workers_that_never_say_ready_time_out() {
     }
     assert!(!job.out.exists(), "no image from a failed job");
 }
+
+#[test]
+fn losing_the_controllers_remd_is_one_line_and_the_job_resumes_on_the_hosts_left() {
+    let cluster = LoopbackCluster::start(3);
+    let job = job();
+    let id = "lost-remd-1";
+    let mut run = SubmitRun::start(slow_submit(
+        &cluster,
+        &job,
+        60,
+        &["--job", id, "--checkpoint-ms", "100"],
+    ));
+    run.wait_until(Duration::from_secs(60), |seen| {
+        seen.iter()
+            .filter(|v| v["event"] == "checkpoint")
+            .filter_map(|v| v["lines"].as_u64())
+            .find(|&l| l >= 12)
+    });
+    // The remd the controller talks to (and every process under it) dies.
+    cluster.daemon("a").signal(libc::SIGKILL);
+    assert!(!run.wait(Duration::from_secs(60)).success());
+    let text = run.text();
+    let errors: Vec<&str> = text.lines().filter(|l| l.contains("error")).collect();
+    assert_eq!(errors.len(), 1, "one line, not a chain:\n{text}");
+    assert!(
+        errors[0].contains("lost remd at") && errors[0].contains(&format!("--resume {id}")),
+        "{text}"
+    );
+    assert!(!text.contains("h2 protocol"), "{text}");
+    cluster.wait_alive("b", 2);
+    // Resumed through another remd, with no --hosts: it goes on with the two hosts left.
+    let out = output(
+        sunray()
+            .args([
+                "submit",
+                "--remd",
+                &cluster.daemon("b").addr,
+                "--secret-file",
+            ])
+            .arg(&cluster.secret_file)
+            .args(["--resume", id, "-q", "--stats-json"])
+            .arg(&job.json),
+    );
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("resuming on 2 host(s)"), "{err}");
+    assert!(
+        std::fs::read(&job.out).unwrap() == job.want,
+        "the image differs from sunray render"
+    );
+    let s = read_json(&job.json);
+    assert!(s["lines"]["resumed"].as_u64().unwrap() >= 12, "{s}");
+}

@@ -155,6 +155,20 @@ pub enum JobError {
     /// The controller failed.
     #[error(transparent)]
     Controller(#[from] ControllerError),
+    /// The connection to remd was lost mid-job (its daemon or host stopped): the checkpoint
+    /// is kept in the farm.
+    #[error(
+        "lost remd at {addr} mid-job ({reason}); the checkpoint is kept: \
+         resume with `sunray submit --resume {job}` through a live remd"
+    )]
+    LostRemd {
+        /// The remd address.
+        addr: String,
+        /// The innermost cause.
+        reason: String,
+        /// The job.
+        job: String,
+    },
 }
 
 /// How a job ended.
@@ -323,10 +337,24 @@ async fn resume_plan(
 async fn run_plan(
     cluster: &RemConnection,
     req: &JobRequest,
-    plan: Plan,
+    mut plan: Plan,
 ) -> Result<JobOutcome, JobError> {
     let allow_same_host = cluster.is_embedded() || req.same_host;
     let live = cluster.live_hosts().await?;
+    // A resumed job goes on with the hosts that are left, unless --hosts says otherwise.
+    let fewer = live.len().min(u32::MAX as usize) as u32;
+    if plan.restored.is_some()
+        && req.hosts.is_none()
+        && !allow_same_host
+        && fewer >= 1
+        && plan.hosts > fewer
+    {
+        eprintln!(
+            "sunray: resuming on {fewer} host(s): the job had {}, the others are not live",
+            plan.hosts
+        );
+        plan.hosts = fewer;
+    }
     if !allow_same_host && plan.hosts as usize > live.len() {
         return Err(JobError::TooFewHosts {
             asked: plan.hosts,
@@ -413,7 +441,16 @@ async fn run_plan(
         restored: plan.restored,
         checkpointer,
     });
-    let result = handle.join().await?;
+    let result = handle.join().await.map_err(|e| match e {
+        ControllerError::Relay(e) if e.is_transport() || matches!(e, rem::Error::Closed) => {
+            JobError::LostRemd {
+                addr: cluster.addr.clone(),
+                reason: e.root_cause(),
+                job: plan.job.clone(),
+            }
+        }
+        e => JobError::Controller(e),
+    })?;
 
     entry.lines_done = result.lines.resumed + result.lines.rendered;
     entry.state = if result.finished {

@@ -94,12 +94,19 @@ pub struct JobResult {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ControllerError {
-    /// The REM relay failed (remd went away or refused a message).
-    #[error("the relay to remd failed: {0}")]
-    Relay(#[from] rem::Error),
+    /// The REM relay failed (remd went away or refused a message); shown as one line, the
+    /// innermost cause, not the transport's chain.
+    #[error("lost the relay to remd: {}", .0.root_cause())]
+    Relay(rem::Error),
     /// The actor's task panicked or was cancelled; the text is the join error.
     #[error("the controller task failed: {0}")]
     Task(String),
+}
+
+impl From<rem::Error> for ControllerError {
+    fn from(e: rem::Error) -> Self {
+        ControllerError::Relay(e)
+    }
 }
 
 /// What the actor is fed.
