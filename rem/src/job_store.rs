@@ -117,7 +117,7 @@ impl JobStore {
         }
         let (mut records, mut checkpoints) = (0, 0);
         for (user, mut ended) in by_user {
-            ended.sort_by(|a, b| b.updated_unix_ms.cmp(&a.updated_unix_ms));
+            ended.sort_by_key(|r| std::cmp::Reverse(r.updated_unix_ms));
             let doomed: Vec<String> = ended
                 .iter()
                 .enumerate()
