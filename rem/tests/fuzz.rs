@@ -218,16 +218,7 @@ impl Gen<'_> {
             state: if self.rng.one_in(4) {
                 self.string()
             } else {
-                self.rng
-                    .pick(&[
-                        "queued",
-                        "running",
-                        "recovering",
-                        "finished",
-                        "failed",
-                        "cancelled",
-                    ])
-                    .into()
+                self.rng.pick(&rem::job_store::STATES).into()
             },
             epoch: self.u64(),
             controller: self.proc_id(),
