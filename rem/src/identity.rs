@@ -134,13 +134,38 @@ pub fn check_user(user: &str) -> Result<()> {
 }
 
 /// Who a holder of the secret is by default: `REM_USER`, else the login name (`USER`,
-/// `LOGNAME`), else `uid-N`.
+/// `LOGNAME`, else the password database's name of this uid), else `uid-N`.
 pub fn default_user() -> String {
     [crate::wire::env::USER, "USER", "LOGNAME"]
         .iter()
         .filter_map(|v| std::env::var(v).ok())
+        .chain(account_name())
         .find(|u| is_valid_user(u))
         .unwrap_or_else(|| format!("uid-{}", unsafe { libc::getuid() }))
+}
+
+/// The password database's name of this process's uid, if it has one.
+fn account_name() -> Option<String> {
+    let mut pw: libc::passwd = unsafe { std::mem::zeroed() };
+    let mut buf = vec![0 as libc::c_char; 4096];
+    let mut found: *mut libc::passwd = std::ptr::null_mut();
+    // SAFETY: getpwuid_r writes into `pw` and `buf` (whose length it is given) only, and
+    // sets `found` to `&pw` or null; the name is read before `buf` goes.
+    let rc = unsafe {
+        libc::getpwuid_r(
+            libc::getuid(),
+            &mut pw,
+            buf.as_mut_ptr(),
+            buf.len(),
+            &mut found,
+        )
+    };
+    if rc != 0 || found.is_null() || pw.pw_name.is_null() {
+        return None;
+    }
+    // SAFETY: pw_name points into `buf`, NUL-terminated by getpwuid_r.
+    let name = unsafe { std::ffi::CStr::from_ptr(pw.pw_name) };
+    name.to_str().ok().map(str::to_string)
 }
 
 #[cfg(test)]

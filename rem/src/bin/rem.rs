@@ -7,7 +7,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::{Parser, Subcommand};
 use rem::client::ConnectOptions;
 use rem::transport::ClientTls;
@@ -140,9 +140,8 @@ async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
     if let Some(ca) = &cli.tls_ca {
         opts.tls = Some(ClientTls::from_file(ca, cli.tls_domain.clone())?);
     }
-    RemClient::connect_with(opts)
-        .await
-        .with_context(|| format!("cannot reach remd at {}", cli.remd))
+    // A transport failure is named with the address by `main`; the rest speak for themselves.
+    Ok(RemClient::connect_with(opts).await?)
 }
 
 async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
