@@ -27,8 +27,11 @@ fn proc_id(s: &str) -> Result<ProcId, Status> {
 impl Rem for Service {
     async fn hosts(
         &self,
-        _: Request<proto::HostsRequest>,
+        req: Request<proto::HostsRequest>,
     ) -> Result<Response<proto::HostsReply>, Status> {
+        // A process token is not checked by the interceptor (only attaching proves it), so
+        // it must not open anything else (found by the fuzz run: any token listed the hosts).
+        require_client(&req)?;
         Ok(Response::new(proto::HostsReply {
             hosts: self.0.membership.hosts(),
         }))

@@ -401,6 +401,9 @@ async fn identities_cannot_be_forged() {
     );
     assert_eq!(code(owner.attach(None).await), Code::PermissionDenied);
     assert!(owner.attach_as(&id, "job").await.is_ok());
+    // Nor does a made-up token list the hosts (the fuzz run found it did).
+    let stranger = process_client(&addr, "made-up-token").await;
+    assert_eq!(code(stranger.hosts().await), Code::PermissionDenied);
 }
 
 /// Resident set size of a process, in bytes.
