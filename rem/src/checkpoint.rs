@@ -61,6 +61,7 @@ impl CheckpointStore {
             &cp.version.to_string(),
             &cp.written_by,
             &data,
+            &cp.epoch.to_string(),
         ])
     }
 
@@ -165,7 +166,13 @@ impl CheckpointStore {
         let _guard = self.lock.lock().await;
         let old = self.read(&path).await?;
         check(old.as_ref())?;
-        if old.is_some_and(|old| old.version >= cp.version) {
+        if let Some(old) = old.as_ref().filter(|old| old.epoch > cp.epoch) {
+            return Err(Error::Fenced(format!(
+                "checkpoint {} was written by a newer controller (epoch {} > {})",
+                cp.job, old.epoch, cp.epoch
+            )));
+        }
+        if old.is_some_and(|old| (old.epoch, old.version) >= (cp.epoch, cp.version)) {
             return Ok(());
         }
         let size = cp.encoded_len() as u64;
@@ -308,6 +315,7 @@ mod tests {
             written_by: "a".into(),
             mac: Vec::new(),
             user: "alice".into(),
+            epoch: 0,
         };
         store.seal(&mut cp);
         cp

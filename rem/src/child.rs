@@ -74,6 +74,9 @@ pub struct StartSpec {
     pub env: BTreeMap<String, String>,
     pub nice: Option<i32>,
     pub count: u32,
+    /// For a job's controller: the job record it runs and its epoch (empty, 0 otherwise).
+    pub job_record: String,
+    pub job_epoch: u64,
 }
 
 /// The command for one process of `spec`, with id `id` and attach token `token` (not yet
@@ -100,6 +103,10 @@ pub fn command(
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .process_group(0);
+    if !spec.job_record.is_empty() {
+        cmd.env(env::JOB_RECORD, &spec.job_record)
+            .env(env::JOB_EPOCH, spec.job_epoch.to_string());
+    }
     if let Some(user) = cfg.run_as {
         // std drops the supplementary groups when it changes the user as root.
         cmd.uid(user.uid).gid(user.gid);

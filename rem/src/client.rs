@@ -109,6 +109,25 @@ pub struct SpawnRequest {
     pub job: Option<String>,
     /// Who receives Started / Exited / Lost events (a relay id from `RemClient::attach`).
     pub owner: Option<ProcId>,
+    /// Place every process on this host only; `None` = the least-loaded hosts.
+    pub host: Option<String>,
+}
+
+impl SpawnRequest {
+    /// The request as sent.
+    pub fn to_proto(&self) -> proto::SpawnRequest {
+        proto::SpawnRequest {
+            program: self.program.clone(),
+            args: self.args.clone(),
+            env: self.env.clone().into_iter().collect(),
+            nice: self.nice,
+            count: self.count,
+            allow_same_host: self.allow_same_host,
+            job: self.job.clone().unwrap_or_default(),
+            owner: self.owner.as_ref().map(|o| o.to_string()).unwrap_or_default(),
+            host: self.host.clone().unwrap_or_default(),
+        }
+    }
 }
 
 impl Default for SpawnRequest {
@@ -122,6 +141,7 @@ impl Default for SpawnRequest {
             allow_same_host: false,
             job: None,
             owner: None,
+            host: None,
         }
     }
 }
@@ -237,16 +257,7 @@ impl RemClient {
 
     /// Places and starts processes; all or nothing.
     pub async fn spawn(&self, req: SpawnRequest) -> Result<Job> {
-        let req = proto::SpawnRequest {
-            program: req.program,
-            args: req.args,
-            env: req.env.into_iter().collect(),
-            nice: req.nice,
-            count: req.count,
-            allow_same_host: req.allow_same_host,
-            job: req.job.unwrap_or_default(),
-            owner: req.owner.map(|o| o.to_string()).unwrap_or_default(),
-        };
+        let req = req.to_proto();
         let reply = self.rpc.clone().spawn(req).await?.into_inner();
         let processes = reply
             .processes
@@ -309,6 +320,19 @@ impl RemClient {
 
     /// Stores `data` as the checkpoint of `job`, on this daemon's host and one more.
     pub async fn put_checkpoint(&self, job: &str, data: Vec<u8>) -> Result<StoredCheckpoint> {
+        self.put_checkpoint_fenced(job, data, 0, "").await
+    }
+
+    /// [`put_checkpoint`](Self::put_checkpoint) by the controller of epoch `epoch` of job
+    /// record `fence_job` (empty: `job`): refused ([`Error::is_fenced`]) where a newer epoch
+    /// is known.
+    pub async fn put_checkpoint_fenced(
+        &self,
+        job: &str,
+        data: Vec<u8>,
+        epoch: u64,
+        fence_job: &str,
+    ) -> Result<StoredCheckpoint> {
         if data.len() > self.opts.max_message {
             return Err(Error::TooLarge {
                 size: data.len(),
@@ -321,6 +345,8 @@ impl RemClient {
             .put_checkpoint(proto::PutCheckpointRequest {
                 job: job.to_string(),
                 data,
+                epoch,
+                fence_job: fence_job.to_string(),
             })
             .await?
             .into_inner();
@@ -343,7 +369,8 @@ impl RemClient {
     }
 
     /// Stores the record of one of your jobs on this daemon's host and one more; refused
-    /// (`FAILED_PRECONDITION`) when a record of a newer epoch is kept. Returns the hosts.
+    /// ([`Error::is_fenced`]) when a record of a newer epoch is kept, or the job has ended.
+    /// Returns the hosts.
     pub async fn put_job(&self, record: proto::JobRecord) -> Result<Vec<String>> {
         let r = self
             .rpc
@@ -363,6 +390,21 @@ impl RemClient {
             .list_jobs(proto::ListJobsRequest {})
             .await?;
         Ok(r.into_inner().records)
+    }
+
+    /// Stores a new job (epoch 1) and starts its controller, `record.controller_spawn`; the
+    /// daemons keep it running from then on. Returns the record as stored.
+    pub async fn start_job(&self, record: proto::JobRecord) -> Result<proto::JobRecord> {
+        let r = self
+            .rpc
+            .clone()
+            .start_job(proto::StartJobRequest {
+                record: Some(record),
+            })
+            .await?;
+        r.into_inner()
+            .record
+            .ok_or_else(|| Error::Invalid("the daemon sent no job record".into()))
     }
 
     /// Attaches to the relay as a new process (a job owner); `job` is informational.

@@ -27,6 +27,21 @@ use crate::proto::{
 };
 use crate::relay::Router;
 
+/// The job epoch a checkpoint write carries (0: none), and the job record it belongs to
+/// (empty: the checkpoint's own key).
+#[derive(Clone, Debug, Default)]
+pub struct Fence {
+    pub epoch: u64,
+    pub job: String,
+}
+
+/// Which job record and epoch a spawned controller runs (empty for other processes).
+#[derive(Clone, Debug, Default)]
+pub struct JobTag {
+    pub record: String,
+    pub epoch: u64,
+}
+
 /// Shared state of one running daemon.
 pub struct Daemon {
     pub name: String,
@@ -95,6 +110,17 @@ impl Daemon {
 
     /// Places and starts `req.count` processes for `who`, who owns them.
     pub async fn spawn(&self, who: &Identity, req: SpawnRequest) -> Result<SpawnReply> {
+        self.spawn_tagged(who, req, &JobTag::default()).await
+    }
+
+    /// [`spawn`](Self::spawn), telling the processes (job controllers) which job record and
+    /// epoch they run.
+    pub(crate) async fn spawn_tagged(
+        &self,
+        who: &Identity,
+        req: SpawnRequest,
+        tag: &JobTag,
+    ) -> Result<SpawnReply> {
         self.check_accepting()?;
         self.check_count(req.count)?;
         self.policy
@@ -119,6 +145,7 @@ impl Daemon {
             .hosts()
             .into_iter()
             .filter(|h| h.alive && h.accepting)
+            .filter(|h| req.host.is_empty() || h.name == req.host)
             .map(|h| {
                 let load = h.load.unwrap_or_default();
                 Candidate {
@@ -145,6 +172,8 @@ impl Daemon {
                 env: req.env.clone().into_iter().collect(),
                 nice: req.nice,
                 count,
+                job_record: tag.record.clone(),
+                job_epoch: tag.epoch,
             };
             let processes = self.processes.clone();
             let remote = (host != self.name).then(|| self.membership.live_addr(&host));
@@ -249,6 +278,8 @@ impl Daemon {
                 env: req.env,
                 nice: req.nice,
                 count: req.count,
+                job_record: req.job_record,
+                job_epoch: req.job_epoch,
             })
             .await
     }
@@ -323,6 +354,7 @@ impl Daemon {
         who: &Identity,
         job: String,
         data: Vec<u8>,
+        fence: Fence,
     ) -> Result<(u64, Vec<String>)> {
         let limit = self.max_message.min(self.limits.checkpoint_bytes);
         if data.len() > limit {
@@ -334,6 +366,17 @@ impl Daemon {
         if !is_valid_name(&job) {
             return Err(Error::Invalid(format!("bad job id {}", shown(&job))));
         }
+        if fence.epoch > 0 {
+            let record = if fence.job.is_empty() { &job } else { &fence.job };
+            if let Some(kept) = self.job_store.get(&who.user, record).await? {
+                if kept.epoch > fence.epoch {
+                    return Err(Error::Fenced(format!(
+                        "job {record} belongs to a newer controller (epoch {} > {})",
+                        kept.epoch, fence.epoch
+                    )));
+                }
+            }
+        }
         let mut cp = Checkpoint {
             job,
             data,
@@ -341,6 +384,7 @@ impl Daemon {
             written_by: self.name.clone(),
             mac: Vec::new(),
             user: who.user.clone(),
+            epoch: fence.epoch,
         };
         self.checkpoints.seal(&mut cp);
         self.checkpoints.put(&cp).await?;
@@ -391,7 +435,7 @@ impl Daemon {
                     break;
                 }
                 // A newer epoch is kept there: the writer has been superseded.
-                Err(e) if e.code() == tonic::Code::FailedPrecondition => return Err(e),
+                Err(e) if e.code() == tonic::Code::Aborted => return Err(e),
                 Err(_) => {}
             }
         }
@@ -418,11 +462,9 @@ impl Daemon {
             )));
         }
         let limit = self.max_message.min(self.limits.checkpoint_bytes);
-        if record.app.len() > limit {
-            return Err(Error::TooLarge {
-                size: record.app.len(),
-                limit,
-            });
+        let size = prost::Message::encoded_len(&record);
+        if size > limit {
+            return Err(Error::TooLarge { size, limit });
         }
         record.user = who.user.clone();
         record.updated_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
@@ -482,8 +524,12 @@ impl Daemon {
                 c.fetch_replica(r).await
             })
             .await;
+        // The highest epoch wins, then the newest write: a superseded controller's late write
+        // on a host that had not heard of its successor is not read back.
         for cp in replies.into_iter().filter_map(|r| r.checkpoint) {
-            let newer = best.as_ref().is_none_or(|b| cp.version > b.version);
+            let newer = best
+                .as_ref()
+                .is_none_or(|b| (cp.epoch, cp.version) > (b.epoch, b.version));
             if newer && self.checkpoints.believe(&cp, &user, &job) {
                 best = Some(cp);
             }
@@ -507,6 +553,8 @@ async fn start_remote(
         env: spec.env,
         nice: spec.nice,
         count: spec.count,
+        job_record: spec.job_record,
+        job_epoch: spec.job_epoch,
     };
     let reply = peers
         .call(host, addr, method::START, req, |mut c, r| async move {

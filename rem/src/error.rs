@@ -106,7 +106,8 @@ impl Error {
             Error::NotAllowed(..) | Error::Refused(_) => Code::PermissionDenied,
             Error::Limit(_) => Code::ResourceExhausted,
             Error::NotFound(_) => Code::NotFound,
-            Error::NotEnoughHosts { .. } | Error::Fenced(_) => Code::FailedPrecondition,
+            Error::NotEnoughHosts { .. } => Code::FailedPrecondition,
+            Error::Fenced(_) => Code::Aborted,
             Error::TooLarge { .. } => Code::ResourceExhausted,
             Error::Unreachable { .. } | Error::ShuttingDown | Error::Closed => Code::Unavailable,
             Error::Spawn { .. } | Error::Io(_) | Error::Transport(_) | Error::Config(_) => {
@@ -122,6 +123,12 @@ impl Error {
     /// The gRPC code, if this error came from or maps to one.
     pub fn code(&self) -> Code {
         self.to_status().code()
+    }
+
+    /// True when a daemon refused the write because the job belongs to a newer controller
+    /// (or has ended): the writer must stand down.
+    pub fn is_fenced(&self) -> bool {
+        self.code() == Code::Aborted
     }
 
     /// True when no daemon answered (connection refused, closed or broken, a TLS mismatch),

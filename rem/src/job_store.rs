@@ -6,7 +6,9 @@
 //!
 //! Two rules are the job store's own:
 //! - **Epochs fence.** A record with an older epoch than the kept one is refused: a controller
-//!   cut off by a partition cannot overwrite what its successor wrote.
+//!   cut off by a partition cannot overwrite what its successor wrote. A job that ended
+//!   (finished, failed, cancelled) keeps its state unless a newer epoch takes it up again
+//!   (a resumed job): a late write of the controller cannot undo a cancel.
 //! - **Retention.** Records of ended jobs (finished, failed, cancelled) are kept at most
 //!   `kept_jobs` per user and `kept_secs` after their last change; one that goes takes its
 //!   job's checkpoints on this host with it. Any checkpoint not written for `kept_secs` goes
@@ -35,6 +37,14 @@ pub fn is_ended(state: &str) -> bool {
     matches!(state, "finished" | "failed" | "cancelled")
 }
 
+/// How an ended job is said: "has finished", "has failed", "was cancelled".
+fn ended_verb(state: &str) -> String {
+    match state {
+        "cancelled" => "been cancelled".into(),
+        s => s.to_string(),
+    }
+}
+
 /// The job records of this host, and its checkpoints (which retention removes with them).
 #[derive(Clone, Debug)]
 pub struct JobStore {
@@ -60,6 +70,7 @@ impl JobStore {
             written_by: writer.to_string(),
             mac: Vec::new(),
             user: record.user.clone(),
+            epoch: record.epoch,
         };
         self.records.seal(&mut cp);
         cp
@@ -79,9 +90,22 @@ impl JobStore {
                     "job {} belongs to a newer controller (epoch {} > {})",
                     record.id, k.epoch, record.epoch
                 ))),
+                Some(k)
+                    if is_ended(&k.state) && k.epoch == record.epoch && k.state != record.state =>
+                {
+                    Err(Error::Fenced(format!("job {} has {}", record.id, ended_verb(&k.state))))
+                }
                 _ => Ok(()),
             })
             .await
+    }
+
+    /// The record of `user`'s job `id` kept here, if any.
+    pub async fn get(&self, user: &str, id: &str) -> Result<Option<JobRecord>> {
+        match self.records.get(user, id).await? {
+            Some(cp) => Ok(decode(&cp).ok()),
+            None => Ok(None),
+        }
     }
 
     /// The sealed records kept here, of `user` or (`None`) of every user.
@@ -197,13 +221,25 @@ mod tests {
         let old = jobs.seal(&record("j", "finished", 1, 2), "a");
         assert_eq!(
             jobs.put(&old).await.unwrap_err().code(),
-            tonic::Code::FailedPrecondition
+            tonic::Code::Aborted
         );
         jobs.put(&jobs.seal(&record("j", "finished", 2, 3), "a"))
             .await
             .unwrap();
         let kept = jobs.list(Some("alice")).await.unwrap();
         assert_eq!(decode(&kept[0]).unwrap().state, "finished");
+        // Ended is final at its epoch: a late "running" of the same controller is refused,
+        // the same state again is not, and a newer epoch takes the job up again.
+        let late = jobs.seal(&record("j", "running", 2, 4), "a");
+        let err = jobs.put(&late).await.unwrap_err();
+        assert_eq!(err.code(), tonic::Code::Aborted, "{err}");
+        assert!(err.to_string().contains("has finished"), "{err}");
+        jobs.put(&jobs.seal(&record("j", "finished", 2, 5), "a"))
+            .await
+            .unwrap();
+        jobs.put(&jobs.seal(&record("j", "running", 3, 6), "a"))
+            .await
+            .unwrap();
         // The envelope's user and id are the record's.
         let mut other = record("k", "running", 1, 1);
         other.user = "bob".into();
@@ -238,6 +274,7 @@ mod tests {
                     written_by: "a".into(),
                     mac: Vec::new(),
                     user: "alice".into(),
+                    epoch: 0,
                 };
                 checkpoints.seal(&mut cp);
                 checkpoints.put(&cp).await.unwrap();

@@ -73,7 +73,8 @@
 //! - [`relay`]: mailboxes and daemon-to-daemon links.
 //! - [`attach`]: one process's relay stream.
 //! - [`jobs`]: job owners and `Lost` reports.
-//! - [`checkpoint`]: atomic checkpoint files; [`job_store`]: job records (epochs, retention).
+//! - [`checkpoint`]: atomic checkpoint files; [`job_store`]: job records (epochs, retention);
+//!   [`job_control`]: jobs the farm keeps running (`StartJob`, the supervisor, restarts).
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
 //! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
 //!   [`raise_fd_limit`].
@@ -97,6 +98,7 @@ pub mod embedded;
 pub mod error;
 pub mod identity;
 pub mod ids;
+pub mod job_control;
 pub mod job_store;
 mod jobs;
 pub mod limits;

@@ -37,6 +37,11 @@ pub struct Limits {
     pub kept_jobs: usize,
     /// Seconds an ended job's record, or any checkpoint, is kept after its last change.
     pub kept_secs: u64,
+    /// Milliseconds a job's controller may go without writing its record before the
+    /// daemons restart it elsewhere (a stopped or stuck controller).
+    pub job_lease_ms: u64,
+    /// Restarts of a job's controller before the job is failed.
+    pub job_restarts: u64,
 }
 
 impl Default for Limits {
@@ -55,6 +60,8 @@ impl Default for Limits {
             connections_per_ip: 512,
             kept_jobs: 100,
             kept_secs: 7 * 24 * 3600,
+            job_lease_ms: 10_000,
+            job_restarts: 10,
         }
     }
 }
@@ -65,7 +72,7 @@ pub const ITEM_OVERHEAD: usize = 256;
 
 impl Limits {
     /// The names of the limits, as `--limit NAME=VALUE` and the `[limits]` table take them.
-    pub const NAMES: [&'static str; 13] = [
+    pub const NAMES: [&'static str; 15] = [
         "spawn_count",
         "host_processes",
         "mailbox_bytes",
@@ -79,6 +86,8 @@ impl Limits {
         "connections_per_ip",
         "kept_jobs",
         "kept_secs",
+        "job_lease_ms",
+        "job_restarts",
     ];
 
     /// Sets the limit `name` from `value`: a whole number, for bytes optionally followed by
@@ -105,6 +114,8 @@ impl Limits {
             "connections_per_ip" => self.connections_per_ip = small(n)?,
             "kept_jobs" => self.kept_jobs = small(n)?,
             "kept_secs" => self.kept_secs = n,
+            "job_lease_ms" => self.job_lease_ms = n,
+            "job_restarts" => self.job_restarts = n,
             _ => {
                 return Err(format!(
                     "unknown limit {name:?} (known: {})",

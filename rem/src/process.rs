@@ -273,6 +273,8 @@ impl Actor {
                 .duration_since(UNIX_EPOCH)
                 .map_or(0, |d| d.as_millis() as u64),
             attached: false,
+            job_record: spec.job_record.clone(),
+            job_epoch: spec.job_epoch,
         };
         tracing::info!(proc = %id, pid, program = %spec.program, "started");
         self.entries.insert(id.clone(), Entry { info, output });

@@ -203,6 +203,19 @@ impl Router {
         map.get(id).map(|mb| mb.user.clone())
     }
 
+    /// The user of the local spawned process whose token is `token` (compared in constant
+    /// time with each); `None` when no process here has it.
+    pub fn user_of_token(&self, token: &str) -> Option<String> {
+        let map = self
+            .inner
+            .mailboxes
+            .read()
+            .unwrap_or_else(|e| e.into_inner());
+        map.values()
+            .find(|mb| mb.token.as_ref().is_some_and(|t| t.matches(token)))
+            .map(|mb| mb.user.clone())
+    }
+
     /// Removes a local mailbox (process exited or owner detached).
     pub fn unregister(&self, id: &ProcId) {
         self.mailboxes_mut().remove(id.as_str());

@@ -149,6 +149,7 @@ pub async fn run(
         stop: stop.clone(),
     });
 
+    tokio::spawn(supervision(Arc::downgrade(&daemon), stop.clone()));
     let service = Service(daemon);
     let auth = RequireSecret::new(&settings.secret)?;
     let rem = RemServer::new(service.clone())
@@ -234,6 +235,26 @@ async fn retention(store: JobStore, limits: crate::limits::Limits, stop: Cancell
         }
         tokio::select! {
             _ = tokio::time::sleep(RETENTION_EVERY) => {}
+            _ = stop.cancelled() => break,
+        }
+    }
+}
+
+/// Keeps the farm's jobs running (see `job_control`): notes this host's controllers that
+/// exited, and, on the supervisor, restarts what needs it; until `stop`.
+async fn supervision(daemon: std::sync::Weak<Daemon>, stop: CancellationToken) {
+    let mut seen = std::collections::HashSet::new();
+    loop {
+        let every = {
+            let Some(d) = daemon.upgrade() else { break };
+            d.note_exited_controllers(&mut seen).await;
+            if let Err(e) = d.supervise().await {
+                tracing::warn!("supervising jobs: {e}");
+            }
+            crate::job_control::tick(d.limits.job_lease_ms)
+        };
+        tokio::select! {
+            _ = tokio::time::sleep(every) => {}
             _ = stop.cancelled() => break,
         }
     }

@@ -1,14 +1,16 @@
 //! The gRPC services (`Rem` for clients and processes, `Peer` for daemons): thin adapters
 //! from protobuf requests to `Daemon` operations, and from `Error` to `tonic::Status`. Who
 //! may call what is decided here: a `Rem` call's [`Caller`] (a user's key, or a process token)
-//! comes from the interceptor, and the user it proved is who the call acts for; a `Peer` call is verified here (`peer_auth`) and answered with this
-//! daemon's proof.
+//! comes from the interceptor, and the user it proved is who the call acts for. A process
+//! REM started on this host (a job's controller, say) acts for the user it belongs to, once
+//! its token is checked here ([`Service::user`]); never as admin. A `Peer` call is verified
+//! here (`peer_auth`) and answered with this daemon's proof.
 
 use std::sync::Arc;
 
 use tonic::{Request, Response, Status, Streaming};
 
-use crate::auth::{caller, require_client};
+use crate::auth::{caller, Caller};
 use crate::daemon::Daemon;
 use crate::identity::Identity;
 use crate::ids::{shown, ProcId};
@@ -29,9 +31,9 @@ impl Rem for Service {
         &self,
         req: Request<proto::HostsRequest>,
     ) -> Result<Response<proto::HostsReply>, Status> {
-        // A process token is not checked by the interceptor (only attaching proves it), so
-        // it must not open anything else (found by the fuzz run: any token listed the hosts).
-        require_client(&req)?;
+        // A process token is not checked by the interceptor: `user` checks it (the fuzz run
+        // found that any token listed the hosts when nothing did).
+        self.user(&req)?;
         Ok(Response::new(proto::HostsReply {
             hosts: self.0.membership.hosts(),
         }))
@@ -41,12 +43,12 @@ impl Rem for Service {
         &self,
         req: Request<proto::SpawnRequest>,
     ) -> Result<Response<proto::SpawnReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         Ok(Response::new(self.0.spawn(&who, req.into_inner()).await?))
     }
 
     async fn ps(&self, req: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
-        require_client(&req)?;
+        self.user(&req)?;
         Ok(Response::new(proto::PsReply {
             processes: self.0.ps().await?,
         }))
@@ -56,7 +58,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::KillRequest>,
     ) -> Result<Response<proto::KillReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         self.0
             .kill(&who, proc_id(&req.into_inner().proc_id)?)
             .await?;
@@ -67,7 +69,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::LogsRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         Ok(Response::new(
             self.0
                 .logs(&who, proc_id(&req.into_inner().proc_id)?)
@@ -91,9 +93,16 @@ impl Rem for Service {
         &self,
         req: Request<proto::PutCheckpointRequest>,
     ) -> Result<Response<proto::PutCheckpointReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         let req = req.into_inner();
-        let (version, stored_on) = self.0.put_checkpoint(&who, req.job, req.data).await?;
+        let fence = crate::daemon::Fence {
+            epoch: req.epoch,
+            job: req.fence_job,
+        };
+        let (version, stored_on) = self
+            .0
+            .put_checkpoint(&who, req.job, req.data, fence)
+            .await?;
         Ok(Response::new(proto::PutCheckpointReply {
             version,
             stored_on,
@@ -104,7 +113,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::GetCheckpointRequest>,
     ) -> Result<Response<proto::GetCheckpointReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         let checkpoint = self.0.get_checkpoint(&who, req.into_inner().job).await?;
         Ok(Response::new(proto::GetCheckpointReply { checkpoint }))
     }
@@ -113,7 +122,7 @@ impl Rem for Service {
         &self,
         req: Request<proto::PutJobRequest>,
     ) -> Result<Response<proto::PutJobReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         let record = req
             .into_inner()
             .record
@@ -122,17 +131,48 @@ impl Rem for Service {
         Ok(Response::new(proto::PutJobReply { stored_on }))
     }
 
+    async fn start_job(
+        &self,
+        req: Request<proto::StartJobRequest>,
+    ) -> Result<Response<proto::StartJobReply>, Status> {
+        let who = self.user(&req)?;
+        let record = req
+            .into_inner()
+            .record
+            .ok_or_else(|| Status::invalid_argument("no job record"))?;
+        let record = self.0.start_job(&who, record).await?;
+        Ok(Response::new(proto::StartJobReply {
+            record: Some(record),
+        }))
+    }
+
     async fn list_jobs(
         &self,
         req: Request<proto::ListJobsRequest>,
     ) -> Result<Response<proto::ListJobsReply>, Status> {
-        let who = require_client(&req)?;
+        let who = self.user(&req)?;
         let records = self.0.list_jobs(&who).await?;
         Ok(Response::new(proto::ListJobsReply { records }))
     }
 }
 
 impl Service {
+    /// Who a `Rem` call acts for: the user a client proved, or the user of the process of this
+    /// host whose token the call carries.
+    fn user<T>(&self, req: &Request<T>) -> Result<Identity, Status> {
+        match caller(req)? {
+            Caller::Client(who) => Ok(who),
+            Caller::Process(token) => self
+                .0
+                .router
+                .user_of_token(&token)
+                .map(Identity::user)
+                .ok_or_else(|| {
+                    Status::unauthenticated("the process token is not one of a process of this host")
+                }),
+        }
+    }
+
     /// The calling daemon's name, if `req` proves the daemon key for `method`.
     fn peer<T: prost::Message>(&self, req: &Request<T>, method: &str) -> Result<String, Status> {
         self.0

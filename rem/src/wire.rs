@@ -41,6 +41,10 @@ pub mod env {
     pub const JOB_ID: &str = "REM_JOB_ID";
     /// The process id of the job's owner (empty when the job has none).
     pub const OWNER_ID: &str = "REM_OWNER_ID";
+    /// In a job's controller started by REM: the id of the job record it runs.
+    pub const JOB_RECORD: &str = "REM_JOB_RECORD";
+    /// In a job's controller started by REM: the epoch it runs at (its writes carry it).
+    pub const JOB_EPOCH: &str = "REM_JOB_EPOCH";
     /// Largest relay payload in bytes.
     pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
     /// A file holding the cluster secret.

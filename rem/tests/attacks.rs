@@ -371,6 +371,7 @@ async fn identities_cannot_be_forged() {
             written_by: "a".into(),
             mac: vec![0; 32],
             user: rem::identity::default_user(),
+            epoch: u64::MAX,
         })
         .await
         .unwrap_err();
@@ -391,19 +392,29 @@ async fn identities_cannot_be_forged() {
         code(thief.attach_as(&id, "job").await),
         Code::FailedPrecondition
     );
-    // A process token does nothing but attach as its own process.
+    // A process token acts for its process's user on its own host (as a job controller REM
+    // started does), never for another user and never as admin.
     let owner = process_client(&addr, &env["REM_PROC_TOKEN"]).await;
-    assert_eq!(code(owner.spawn(spin(1)).await), Code::PermissionDenied);
-    assert_eq!(code(owner.kill(&id).await), Code::PermissionDenied);
-    assert_eq!(
-        code(owner.get_checkpoint("job").await),
-        Code::PermissionDenied
-    );
-    assert_eq!(code(owner.attach(None).await), Code::PermissionDenied);
     assert!(owner.attach_as(&id, "job").await.is_ok());
-    // Nor does a made-up token list the hosts (the fuzz run found it did).
+    assert_eq!(code(owner.attach(None).await), Code::PermissionDenied);
+    let (_, mallorys) = spawn_env_printer(&user, "mjob", 10).await;
+    let hers = process_client(&addr, &mallorys["REM_PROC_TOKEN"]).await;
+    assert!(hers.hosts().await.is_ok());
+    assert_eq!(code(hers.kill(&id).await), Code::PermissionDenied);
+    assert_eq!(code(hers.logs(&id).await), Code::PermissionDenied);
+    admin.put_checkpoint("job", b"admin's".to_vec()).await.unwrap();
+    assert!(hers.get_checkpoint("job").await.unwrap().is_none());
+    let spawned = hers.spawn(spin(1)).await.unwrap();
+    let ps = admin.ps().await.unwrap();
+    let theirs = ps
+        .iter()
+        .find(|p| p.proc_id == spawned.processes[0].proc_id.to_string())
+        .unwrap();
+    assert_eq!(theirs.user, "mallory");
+    // A made-up token is nobody's (the fuzz run found one listed the hosts).
     let stranger = process_client(&addr, "made-up-token").await;
-    assert_eq!(code(stranger.hosts().await), Code::PermissionDenied);
+    assert_eq!(code(stranger.hosts().await), Code::Unauthenticated);
+    assert_eq!(code(stranger.spawn(spin(1)).await), Code::Unauthenticated);
 }
 
 /// Resident set size of a process, in bytes.

@@ -211,6 +211,28 @@ impl Gen<'_> {
     }
 
     /// A job record: any id, user, state, epoch and application bytes.
+    fn spawn_request(&mut self) -> proto::SpawnRequest {
+        proto::SpawnRequest {
+            program: self.program(),
+            args: self.args(),
+            env: self.env(),
+            nice: self.nice(),
+            count: self.u32(),
+            allow_same_host: self.rng.one_in(2),
+            job: self.job(),
+            owner: if self.rng.one_in(2) {
+                String::new()
+            } else {
+                self.proc_id()
+            },
+            host: if self.rng.one_in(2) {
+                String::new()
+            } else {
+                self.string()
+            },
+        }
+    }
+
     fn job_record(&mut self) -> proto::JobRecord {
         proto::JobRecord {
             id: self.job(),
@@ -228,6 +250,8 @@ impl Gen<'_> {
             progress_done: self.u64(),
             progress_total: self.u64(),
             app: self.data(),
+            controller_spawn: self.rng.one_in(2).then(|| self.spawn_request()),
+            message: self.string(),
         }
     }
 
@@ -487,19 +511,9 @@ impl Gen<'_> {
         match rpc {
             Rpc::Hosts => proto::HostsRequest {}.encode_to_vec(),
             Rpc::Ps | Rpc::PsLocal => proto::PsRequest {}.encode_to_vec(),
-            Rpc::Spawn => proto::SpawnRequest {
-                program: self.program(),
-                args: self.args(),
-                env: self.env(),
-                nice: self.nice(),
-                count: self.u32(),
-                allow_same_host: self.rng.one_in(2),
-                job: self.job(),
-                owner: if self.rng.one_in(2) {
-                    String::new()
-                } else {
-                    self.proc_id()
-                },
+            Rpc::Spawn => self.spawn_request().encode_to_vec(),
+            Rpc::StartJob => proto::StartJobRequest {
+                record: Some(self.job_record()),
             }
             .encode_to_vec(),
             Rpc::StartLocal => proto::StartLocalRequest {
@@ -511,6 +525,12 @@ impl Gen<'_> {
                 nice: self.nice(),
                 count: self.u32(),
                 user: self.user(),
+                job_record: if self.rng.one_in(2) {
+                    String::new()
+                } else {
+                    self.job()
+                },
+                job_epoch: self.u64(),
             }
             .encode_to_vec(),
             Rpc::Kill => proto::KillRequest {
@@ -534,6 +554,12 @@ impl Gen<'_> {
             Rpc::PutCheckpoint => proto::PutCheckpointRequest {
                 job: self.job(),
                 data: self.data(),
+                epoch: if self.rng.one_in(2) { 0 } else { self.u64() },
+                fence_job: if self.rng.one_in(2) {
+                    String::new()
+                } else {
+                    self.job()
+                },
             }
             .encode_to_vec(),
             Rpc::GetCheckpoint => proto::GetCheckpointRequest { job: self.job() }.encode_to_vec(),
@@ -638,6 +664,7 @@ impl Gen<'_> {
                     },
                     mac: self.rng.bytes(32),
                     user: self.user(),
+                    epoch: if self.rng.one_in(2) { 0 } else { self.u64() },
                 };
                 if self.rng.one_in(2) {
                     cp.mac = checkpoint_seal(&cp).to_vec();
@@ -764,6 +791,7 @@ enum Rpc {
     GetCheckpoint,
     PutJob,
     ListJobs,
+    StartJob,
     Heartbeat,
     StartLocal,
     KillLocal,
@@ -776,7 +804,7 @@ enum Rpc {
     ListJobsLocal,
 }
 
-const RPCS: [Rpc; 20] = [
+const RPCS: [Rpc; 21] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -787,6 +815,7 @@ const RPCS: [Rpc; 20] = [
     Rpc::GetCheckpoint,
     Rpc::PutJob,
     Rpc::ListJobs,
+    Rpc::StartJob,
     Rpc::Heartbeat,
     Rpc::StartLocal,
     Rpc::KillLocal,
@@ -821,6 +850,7 @@ impl Rpc {
             Rpc::FetchReplica => "FetchReplica",
             Rpc::PutJob => "PutJob",
             Rpc::ListJobs => "ListJobs",
+            Rpc::StartJob => "StartJob",
             Rpc::StoreJob => "StoreJob",
             Rpc::ListJobsLocal => "ListJobsLocal",
         }
@@ -1054,6 +1084,7 @@ fn checkpoint_seal(cp: &proto::Checkpoint) -> [u8; 32] {
         &cp.version.to_string(),
         &cp.written_by,
         &sha256_hex(&cp.data),
+        &cp.epoch.to_string(),
     ])
 }
 
@@ -1561,6 +1592,7 @@ async fn the_fuzzers_codec_and_credentials_reach_past_the_checks() {
         written_by: "fz0".into(),
         mac: Vec::new(),
         user: fuzz_user(),
+        epoch: 0,
     };
     cp.mac = checkpoint_seal(&cp).to_vec();
     assert_eq!(

@@ -211,6 +211,7 @@ async fn oversized_messages_are_refused() {
         .put_checkpoint(proto::PutCheckpointRequest {
             job: "j".into(),
             data: vec![0; 2048],
+            ..Default::default()
         })
         .await
         .unwrap_err();

@@ -240,6 +240,7 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 allow_same_host,
                 job,
                 owner: relay.as_ref().map(|r| r.id().clone()),
+                host: None,
             };
             let spawned = client.spawn(req).await?;
             if json {

@@ -6,3 +6,12 @@ pub const NO_WORKERS_LEFT: u8 = 3;
 
 /// `sunray worker`: the controller went away, so the worker stopped.
 pub const CONTROLLER_GONE: u8 = 3;
+
+/// `sunray watch` (and `submit` following a farm job): the job failed.
+pub const JOB_FAILED: u8 = 3;
+
+/// `sunray watch` (and `submit` following a farm job): the job was cancelled.
+pub const JOB_CANCELLED: u8 = 4;
+
+/// `sunray controller`: a newer controller has the job, so this one stood down.
+pub const SUPERSEDED: u8 = 5;

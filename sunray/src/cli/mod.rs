@@ -11,6 +11,7 @@ pub mod colours;
 pub mod compile;
 pub mod convert;
 pub mod exit;
+pub mod farm;
 pub mod jobs;
 pub mod render;
 pub mod spd;
@@ -58,6 +59,15 @@ pub enum Command {
     Worker(worker::WorkerArgs),
     /// List SunRay III jobs and their state.
     Jobs(jobs::JobsArgs),
+    /// Follow a job from any host until it ends (exit 0 finished, 3 failed, 4 cancelled).
+    Watch(farm::WatchArgs),
+    /// Write a finished job's image (.png, .ppm or .pfm).
+    Fetch(farm::FetchArgs),
+    /// Cancel a job: its controller and workers end, and it is not started again.
+    Cancel(farm::CancelArgs),
+    /// A farm job's controller (started by REM for `submit --detach`, not by hand).
+    #[command(hide = true)]
+    Controller(farm::ControllerArgs),
 }
 
 /// Runs one subcommand.
@@ -73,5 +83,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Submit(args) => submit::run(args),
         Command::Worker(args) => worker::run(args),
         Command::Jobs(args) => jobs::run(args),
+        Command::Watch(args) => farm::watch(args),
+        Command::Fetch(args) => farm::fetch(args),
+        Command::Cancel(args) => farm::cancel(args),
+        Command::Controller(args) => farm::controller(args),
     }
 }

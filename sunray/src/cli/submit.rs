@@ -7,6 +7,7 @@
 use super::exit;
 use super::render::RenderArgs;
 use crate::distrib::connection::RemConnection;
+use crate::distrib::farm::{self, ControllerFlags};
 use crate::distrib::job::{self, JobRequest, JobScene};
 use crate::distrib::strategy::Strategy;
 use crate::scene::load::BUILTIN;
@@ -49,6 +50,13 @@ pub struct SubmitArgs {
     /// Continue the job JOB from its checkpoint.
     #[arg(long, value_name = "JOB", conflicts_with = "job")]
     pub resume: Option<String>,
+    /// Hand the job to the farm and exit: print its id alone on stdout. REM runs its
+    /// controller and starts it again elsewhere if it or its host fails; follow it with
+    /// `sunray watch ID`, get the image with `sunray fetch ID -o FILE`, stop it with `sunray
+    /// cancel ID`. Needs a cluster (--remd): the private remd of the default set-up ends with
+    /// this command, so without one a job lives as long as `submit` does.
+    #[arg(long, conflicts_with_all = ["resume", "preview"])]
+    pub detach: bool,
     /// Rewrite the partial image to FILE every few seconds.
     #[arg(long, value_name = "FILE")]
     pub preview: Option<PathBuf>,
@@ -104,6 +112,9 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     };
     let request = args.request(program);
     request.check()?;
+    if args.detach {
+        return detach(&args, &request);
+    }
     // A new job's scene is compiled before anything else, so a bad scene starts nothing.
     let scene = match &args.resume {
         None => {
@@ -148,6 +159,33 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::from(exit::NO_WORKERS_LEFT));
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--detach`: stores the job in the farm, starts its controller, prints the job id.
+fn detach(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> {
+    let loaded = args.render.load()?;
+    request.overrides.settings(&loaded.scene)?;
+    let flags = ControllerFlags {
+        checkpoint_ms: args.checkpoint_ms.max(50),
+        worker_timeout_ms: args.worker_timeout_ms,
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let job = runtime.block_on(async {
+        let cluster = RemConnection::open(
+            args.remd.as_deref(),
+            args.secret_file.as_deref(),
+            &request.worker_program,
+        )
+        .await?;
+        let job = farm::submit(&cluster, request, loaded, &flags).await;
+        cluster.close().await;
+        anyhow::Ok(job?)
+    })?;
+    println!("{job}");
     Ok(ExitCode::SUCCESS)
 }
 

@@ -44,6 +44,32 @@ impl Store for rem::RemClient {
     }
 }
 
+/// REM's store as the controller of epoch `epoch` of job `job` writes it: refused
+/// ([`rem::Error::is_fenced`]) once a newer controller has the job.
+pub struct Fenced<'a> {
+    /// The connection to REM.
+    pub client: &'a rem::RemClient,
+    /// The writer's epoch.
+    pub epoch: u64,
+    /// The job the epoch belongs to.
+    pub job: &'a str,
+}
+
+impl Store for Fenced<'_> {
+    async fn put(&self, key: &str, data: Vec<u8>) -> Result<(), rem::Error> {
+        self.client
+            .put_checkpoint_fenced(key, data, self.epoch, self.job)
+            .await
+            .map(|_| ())
+    }
+    async fn get(&self, key: &str) -> Result<Option<Vec<u8>>, rem::Error> {
+        self.client.get_checkpoint(key).await
+    }
+    fn max_bytes(&self) -> usize {
+        self.client.options().max_message
+    }
+}
+
 /// Why a checkpoint could not be written or read back.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -201,18 +201,18 @@ pub fn worker_env(
 }
 
 /// Everything decided before the workers start.
-struct Plan {
-    job: String,
-    loaded: LoadedScene,
-    settings: Settings,
-    model: Vec<u8>,
-    output: PathBuf,
-    colours: Option<PathBuf>,
-    strategy: Strategy,
-    hosts: u32,
-    nice: bool,
-    threads: Option<usize>,
-    restored: Option<Restored>,
+pub(crate) struct Plan {
+    pub(crate) job: String,
+    pub(crate) loaded: LoadedScene,
+    pub(crate) settings: Settings,
+    pub(crate) model: Vec<u8>,
+    pub(crate) output: PathBuf,
+    pub(crate) colours: Option<PathBuf>,
+    pub(crate) strategy: Strategy,
+    pub(crate) hosts: u32,
+    pub(crate) nice: bool,
+    pub(crate) threads: Option<usize>,
+    pub(crate) restored: Option<Restored>,
 }
 
 impl JobRequest {
@@ -242,7 +242,7 @@ pub async fn run(
     run_plan(cluster, req, plan).await
 }
 
-fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, JobError> {
+pub(crate) fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, JobError> {
     let settings = req.overrides.settings(&loaded.scene)?;
     let output = req
         .output
@@ -400,7 +400,10 @@ async fn run_plan(
         output: plan.output.display().to_string(),
         ..Default::default()
     };
-    record_update(cluster, &entry).await;
+    let epoch = jobs::next_epoch(&cluster.client, &plan.job)
+        .await
+        .unwrap_or(1);
+    record_update(cluster, &entry, epoch).await;
 
     let spawned = start_workers(cluster, req, &plan, allow_same_host, relay.id().clone()).await?;
     let workers: Vec<WorkerProc> = spawned
@@ -431,6 +434,7 @@ async fn run_plan(
         show_bar: req.show_bar,
         events: req.events,
         finish_grace: Duration::from_secs(3),
+        checkpointed: None,
     };
     let handle = controller::spawn(Start {
         cfg,
@@ -440,6 +444,7 @@ async fn run_plan(
         workers,
         restored: plan.restored,
         checkpointer,
+        epoch: 0,
     });
     let result = handle.join().await.map_err(|e| match e {
         ControllerError::Relay(e) if e.is_transport() || matches!(e, rem::Error::Closed) => {
@@ -459,7 +464,7 @@ async fn run_plan(
         "failed"
     }
     .into();
-    record_update(cluster, &entry).await;
+    record_update(cluster, &entry, epoch).await;
     if result.finished {
         result.film.write(&plan.output)?;
     }
@@ -491,7 +496,7 @@ async fn run_plan(
 }
 
 /// What the checkpoint remembers of the job, so `--resume` can continue it.
-fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
+pub(crate) fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
     let path_string = |p: &Path| p.display().to_string();
     proto::JobSpec {
         scene: plan.loaded.source.remembered(),
@@ -505,6 +510,7 @@ fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
         colours: plan.colours.as_deref().map(path_string).unwrap_or_default(),
         spd_corners: req.overrides.spd_corners,
         threads: plan.threads.unwrap_or(0) as u32,
+        same_host: req.same_host,
     }
 }
 
@@ -548,13 +554,14 @@ async fn start_workers(
             allow_same_host,
             job: Some(rem_job),
             owner: Some(owner),
+            host: None,
         })
         .await
         .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
 }
 
-async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry) {
-    if let Err(e) = jobs::update(&cluster.client, entry).await {
+async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, epoch: u64) {
+    if let Err(e) = jobs::update(&cluster.client, entry, epoch).await {
         eprintln!("sunray: warning: the job's record in REM: {e}");
     }
 }

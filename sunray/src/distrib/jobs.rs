@@ -8,15 +8,12 @@ use super::checkpoint::Store;
 use super::messages::proto::{CheckpointHeader, JobEntry};
 use prost::Message;
 
-/// The epoch of a job's record until controllers move (issue "Jobs owned by the farm").
-pub const EPOCH: u64 = 1;
-
-/// REM's record of `entry`.
-pub fn to_record(entry: &JobEntry) -> rem::JobRecord {
+/// REM's record of `entry` at `epoch`.
+pub fn to_record(entry: &JobEntry, epoch: u64) -> rem::JobRecord {
     rem::JobRecord {
         id: entry.job.clone(),
         state: entry.state.clone(),
-        epoch: EPOCH,
+        epoch,
         created_unix_ms: entry.started_unix_ms,
         progress_done: entry.lines_done.into(),
         progress_total: entry.height.into(),
@@ -38,9 +35,24 @@ pub fn from_record(r: &rem::JobRecord) -> JobEntry {
     e
 }
 
-/// Stores the record of `entry` in REM.
-pub async fn update(client: &rem::RemClient, entry: &JobEntry) -> Result<(), rem::Error> {
-    client.put_job(to_record(entry)).await.map(|_| ())
+/// Stores the record of `entry` in REM at `epoch`.
+pub async fn update(
+    client: &rem::RemClient,
+    entry: &JobEntry,
+    epoch: u64,
+) -> Result<(), rem::Error> {
+    client.put_job(to_record(entry, epoch)).await.map(|_| ())
+}
+
+/// The record of job `id`, if a live host holds one.
+pub async fn find(client: &rem::RemClient, id: &str) -> Result<Option<rem::JobRecord>, rem::Error> {
+    Ok(client.list_jobs().await?.into_iter().find(|r| r.id == id))
+}
+
+/// The epoch a job run from this terminal takes: one past its record's (a job resumed, or
+/// an id used again), else 1.
+pub async fn next_epoch(client: &rem::RemClient, id: &str) -> Result<u64, rem::Error> {
+    Ok(find(client, id).await?.map_or(1, |r| r.epoch + 1))
 }
 
 /// Your jobs, oldest first; a running job's lines done and last change are its
@@ -100,8 +112,8 @@ mod tests {
     fn an_entry_travels_in_a_record_and_the_checkpoint_counts_its_lines() {
         let mut e = entry("b", "running", 20);
         e.lines_done = 5;
-        let mut r = to_record(&e);
-        assert_eq!((r.progress_done, r.progress_total, r.epoch), (5, 64, EPOCH));
+        let mut r = to_record(&e, 2);
+        assert_eq!((r.progress_done, r.progress_total, r.epoch), (5, 64, 2));
         r.updated_unix_ms = 1_000;
         let mut back = from_record(&r);
         assert_eq!(back.scene, "mount6.nff");

@@ -24,11 +24,14 @@
 //!   lines it holds.
 //! - [`connection`]: reaching REM; [`embedded`]: the private remd of the default set-up.
 //! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals).
+//! - [`farm`]: jobs owned by the farm (`submit --detach`, the controller process REM keeps
+//!   running, `watch`, `fetch`, `cancel`).
 
 pub mod checkpoint;
 pub mod connection;
 pub mod controller;
 pub mod embedded;
+pub mod farm;
 pub mod grants;
 pub mod job;
 pub mod jobs;

@@ -3,7 +3,7 @@
 //! store checkpoints); the unit tests put a recording fake in its place, so the controller's
 //! rules (faults, silence, duplicates, resume) are tested without processes.
 
-use crate::distrib::checkpoint::Store;
+use crate::distrib::checkpoint::{Fenced, Store};
 use rem::{ProcId, RelaySender, RemClient};
 use std::future::Future;
 
@@ -27,11 +27,21 @@ pub struct RemLink {
     pub client: RemClient,
     /// Messages to the workers.
     pub sender: RelaySender,
+    /// The job's epoch when the farm runs the controller (0: none): every checkpoint write
+    /// carries it, and REM refuses it once a newer controller has the job.
+    pub epoch: u64,
+    /// The job id (the record the epoch belongs to).
+    pub job: String,
 }
 
 impl Store for RemLink {
     async fn put(&self, key: &str, data: Vec<u8>) -> Result<(), rem::Error> {
-        Store::put(&self.client, key, data).await
+        let store = Fenced {
+            client: &self.client,
+            epoch: self.epoch,
+            job: &self.job,
+        };
+        store.put(key, data).await
     }
     async fn get(&self, key: &str) -> Result<Option<Vec<u8>>, rem::Error> {
         Store::get(&self.client, key).await

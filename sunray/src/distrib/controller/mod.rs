@@ -54,6 +54,8 @@ pub struct ControllerConfig {
     pub events: bool,
     /// How long finished workers get to exit before they are killed.
     pub finish_grace: Duration,
+    /// Set to the lines in the checkpoint after each save (for whoever reports progress).
+    pub checkpointed: Option<std::sync::Arc<std::sync::atomic::AtomicU32>>,
 }
 
 /// A spawned worker.
@@ -101,6 +103,10 @@ pub enum ControllerError {
     /// The actor's task panicked or was cancelled; the text is the join error.
     #[error("the controller task failed: {0}")]
     Task(String),
+    /// REM refused a checkpoint because a newer controller (a higher epoch) has the job:
+    /// this one stands down.
+    #[error("a newer controller has the job: {0}")]
+    Superseded(String),
 }
 
 impl From<rem::Error> for ControllerError {
@@ -154,6 +160,8 @@ pub struct Start {
     pub restored: Option<Restored>,
     /// Where checkpoints are written.
     pub checkpointer: Checkpointer,
+    /// The job's epoch when the farm runs the controller (0: none; see [`RemLink::epoch`]).
+    pub epoch: u64,
 }
 
 /// Starts the actor and the task that feeds it from the relay.
@@ -161,6 +169,8 @@ pub fn spawn(start: Start) -> ControllerHandle {
     let link = RemLink {
         client: start.client,
         sender: start.sender,
+        epoch: start.epoch,
+        job: start.cfg.job.clone(),
     };
     let handle = spawn_with(
         start.cfg,
@@ -223,6 +233,8 @@ struct Controller<L> {
     stamps_to_echo: Vec<Option<f64>>,
     view: ProgressView,
     all_silent_since: Option<Instant>,
+    /// Set when REM refused a checkpoint for a newer epoch.
+    superseded: Option<String>,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -298,6 +310,7 @@ impl<L: WorkerLink> Controller<L> {
             stamps_to_echo: vec![None; workers.len()],
             view,
             all_silent_since: None,
+            superseded: None,
         }
     }
 
@@ -324,6 +337,9 @@ impl<L: WorkerLink> Controller<L> {
                 _ = tick.tick() => self.on_tick().await,
             }
             self.dispatch().await?;
+            if let Some(why) = self.superseded.take() {
+                return Err(ControllerError::Superseded(why));
+            }
             if self.no_worker_left() {
                 break;
             }
@@ -406,10 +422,20 @@ impl<L: WorkerLink> Controller<L> {
     async fn save_checkpoint(&mut self, state: &str) {
         self.last_checkpoint = Instant::now();
         match self.checkpointer.save(&self.link, state).await {
-            Ok(()) => self
-                .view
-                .event(json!({"event": "checkpoint", "state": state,
-                "lines": self.checkpointer.lines_done()})),
+            Ok(()) => {
+                if let Some(c) = &self.cfg.checkpointed {
+                    c.store(
+                        self.checkpointer.lines_done(),
+                        std::sync::atomic::Ordering::Relaxed,
+                    );
+                }
+                self.view
+                    .event(json!({"event": "checkpoint", "state": state,
+                    "lines": self.checkpointer.lines_done()}))
+            }
+            Err(crate::distrib::checkpoint::CheckpointError::Rem(e)) if e.is_fenced() => {
+                self.superseded = Some(e.to_string());
+            }
             Err(e) => self.view.note(&format!("sunray: warning: checkpoint: {e}")),
         }
     }

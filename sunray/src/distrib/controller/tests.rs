@@ -127,6 +127,7 @@ impl Job {
             show_bar: false,
             events: false,
             finish_grace: Duration::from_millis(200),
+            checkpointed: None,
         };
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);

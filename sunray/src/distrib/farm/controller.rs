@@ -1,0 +1,296 @@
+//! `sunray controller`: a farm job's controller, a process REM starts (and starts again, at a
+//! higher epoch, when it exits unfinished, stalls or loses its host). It reads the job from
+//! REM (its record, `JOB.scene` and the checkpoint), starts workers on the live hosts (never
+//! failing for too few: as many as there are, at least one), runs the controller actor
+//! unchanged in its rules, and keeps its record fresh (state, lines in the checkpoint, its
+//! own process and host) every [`LEASE_WRITE`]: REM restarts a controller that stops writing.
+//!
+//! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
+//! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
+
+use super::{scene_key, FarmError};
+use crate::distrib::checkpoint::{self, Checkpointer};
+use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
+use crate::distrib::job::worker_env;
+use crate::distrib::jobs;
+use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::nodes::{self, JobStats};
+use crate::distrib::strategy::Strategy;
+use crate::render::Settings;
+use prost::Message;
+use rem::RemClient;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How often the controller writes its record (REM's lease is several times longer).
+pub const LEASE_WRITE: Duration = Duration::from_secs(1);
+
+/// How the controller runs (its command line).
+#[derive(Clone, Debug)]
+pub struct ControllerOptions {
+    /// How often the controller checkpoints.
+    pub checkpoint_every: Duration,
+    /// A worker holding a line longer than this is silent.
+    pub worker_timeout: Option<Duration>,
+    /// The program REM starts as `PROGRAM worker`.
+    pub worker_program: PathBuf,
+}
+
+/// How a controller process ended.
+#[derive(Debug)]
+pub enum ControllerEnd {
+    /// Every line is in: the record says finished.
+    Finished,
+    /// No worker was left: REM starts the controller again.
+    Unfinished,
+    /// A newer controller has the job.
+    Superseded(String),
+}
+
+/// The job this process controls: REM_JOB_RECORD at REM_JOB_EPOCH.
+fn job_from_env() -> Result<(String, u64), FarmError> {
+    let job = std::env::var(rem::wire::env::JOB_RECORD).unwrap_or_default();
+    let epoch = std::env::var(rem::wire::env::JOB_EPOCH)
+        .ok()
+        .and_then(|e| e.parse::<u64>().ok())
+        .unwrap_or(0);
+    if job.is_empty() || epoch == 0 {
+        return Err(FarmError::Stored {
+            job,
+            reason: "REM_JOB_RECORD and REM_JOB_EPOCH are not set: controllers are started by REM for `sunray submit --detach`".into(),
+        });
+    }
+    Ok((job, epoch))
+}
+
+/// Runs the job REM gave this process to its end.
+pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
+    let (job, epoch) = job_from_env()?;
+    let client = RemClient::from_env().await?;
+    let relay = RemClient::attach_from_env().await?;
+    let me = relay.id().clone();
+    let host = relay.host().to_string();
+    let mut record = own_record(&client, &job, epoch).await?;
+    let stored = |reason: &str| FarmError::Stored {
+        job: job.clone(),
+        reason: reason.to_string(),
+    };
+    let scene_bytes = client
+        .get_checkpoint(&scene_key(&job))
+        .await?
+        .ok_or_else(|| stored("its scene is not in REM's store"))?;
+    let scene = proto::Scene::decode(scene_bytes.as_slice())
+        .map_err(|e| stored(&format!("its stored scene does not decode: {e}")))?;
+    let restored = checkpoint::load(&client, &job)
+        .await?
+        .ok_or_else(|| stored("it has no checkpoint"))?;
+    if messages::fnv1a(&scene.model) != restored.header.model_hash {
+        return Err(stored("its stored scene is not the checkpoint's"));
+    }
+    let spec = restored.header.spec.clone().unwrap_or_default();
+    let settings = scene
+        .settings
+        .as_ref()
+        .map(Settings::from_proto)
+        .transpose()
+        .map_err(|e| stored(&e.to_string()))?
+        .ok_or_else(|| stored("its stored scene has no render settings"))?;
+    let (width, height) = (settings.render.width, settings.render.height);
+
+    record.state = "running".into();
+    record.controller = me.to_string();
+    record.controller_host = host.clone();
+    record.progress_done = restored.lines.len() as u64;
+    put_record(&client, &record, &job).await?;
+
+    let all_in = restored.lines.len() as u32 >= height;
+    let live: Vec<rem::HostInfo> = client
+        .hosts()
+        .await?
+        .into_iter()
+        .filter(|h| h.alive && h.accepting)
+        .collect();
+    let want = spec.hosts.max(1);
+    // Never "too few hosts" here: as many workers as there are live hosts, at least one.
+    let count = if spec.same_host {
+        want
+    } else {
+        want.min(live.len().max(1) as u32)
+    };
+    let workers = if all_in {
+        Vec::new()
+    } else {
+        start_workers(&client, &opts, &spec, &job, epoch, count, &me, &live).await?
+    };
+    let checkpointed = Arc::new(AtomicU32::new(restored.lines.len() as u32));
+    let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
+    let cfg = ControllerConfig {
+        job: job.clone(),
+        strategy,
+        width,
+        height,
+        scene: messages::encode(Body::Scene(scene)),
+        worker_timeout: opts.worker_timeout,
+        checkpoint_every: opts.checkpoint_every,
+        preview: None,
+        preview_every: Duration::from_secs(3600),
+        show_bar: false,
+        events: false,
+        finish_grace: Duration::from_secs(3),
+        checkpointed: Some(checkpointed.clone()),
+    };
+    let checkpointer = Checkpointer::new(
+        &job,
+        spec.clone(),
+        restored.header.model_hash,
+        Some(&restored),
+    );
+    let (sender, receiver) = relay.split();
+    let handle = controller::spawn(Start {
+        cfg,
+        client: client.clone(),
+        sender,
+        receiver,
+        workers,
+        restored: Some(restored),
+        checkpointer,
+        epoch,
+    });
+    let lease = keep_lease(&client, &mut record, &checkpointed, &job);
+    let result = tokio::select! {
+        r = handle.join() => r,
+        e = lease => return Ok(ControllerEnd::Superseded(e.to_string())),
+    };
+    let result = match result {
+        Ok(r) => r,
+        Err(ControllerError::Superseded(why)) => return Ok(ControllerEnd::Superseded(why)),
+        Err(e) => return Err(stored(&e.to_string())),
+    };
+    if !result.finished {
+        return Ok(ControllerEnd::Unfinished);
+    }
+    let (wait_share, tail_wait_share) = nodes::wait_shares(&result.nodes);
+    let stats = JobStats {
+        job: job.clone(),
+        strategy: Some(strategy),
+        hosts: count,
+        lines: result.lines,
+        elapsed_s: result.elapsed_s,
+        totals: Default::default(),
+        controller: result.cost,
+        wait_share,
+        tail_wait_share,
+        nodes: result.nodes,
+    };
+    let mut entry = jobs::from_record(&record);
+    entry.summary = stats.summary();
+    record.app = entry.encode_to_vec();
+    record.state = "finished".into();
+    record.progress_done = u64::from(height);
+    record.message.clear();
+    put_record(&client, &record, &job).await?;
+    Ok(ControllerEnd::Finished)
+}
+
+/// The job's record at this epoch, waiting briefly for the write of whoever started this
+/// process; a newer epoch means this controller is not needed.
+async fn own_record(client: &RemClient, job: &str, epoch: u64) -> Result<rem::JobRecord, FarmError> {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        match jobs::find(client, job).await? {
+            Some(r) if r.epoch > epoch => {
+                return Err(FarmError::Superseded {
+                    job: job.to_string(),
+                    reason: format!("the job is at epoch {}, this controller's is {epoch}", r.epoch),
+                })
+            }
+            Some(mut r) if r.epoch == epoch || tokio::time::Instant::now() > deadline => {
+                r.epoch = epoch;
+                return Ok(r);
+            }
+            None if tokio::time::Instant::now() > deadline => {
+                return Err(FarmError::NoRecord(job.to_string()))
+            }
+            _ => tokio::time::sleep(Duration::from_millis(100)).await,
+        }
+    }
+}
+
+/// Writes the record; a refusal for a newer epoch (or an ended job) is [`FarmError::Superseded`].
+async fn put_record(client: &RemClient, record: &rem::JobRecord, job: &str) -> Result<(), FarmError> {
+    match client.put_job(record.clone()).await {
+        Ok(_) => Ok(()),
+        Err(e) if e.is_fenced() => Err(FarmError::Superseded {
+            job: job.to_string(),
+            reason: e.to_string(),
+        }),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// Writes the record with the checkpoint's progress every [`LEASE_WRITE`]; returns only when
+/// REM refuses it for a newer epoch or an ended job (a cancel).
+async fn keep_lease(
+    client: &RemClient,
+    record: &mut rem::JobRecord,
+    checkpointed: &AtomicU32,
+    job: &str,
+) -> FarmError {
+    loop {
+        tokio::time::sleep(LEASE_WRITE).await;
+        record.progress_done = u64::from(checkpointed.load(Ordering::Relaxed));
+        match put_record(client, record, job).await {
+            Err(e @ FarmError::Superseded { .. }) => return e,
+            // A daemon that does not answer now may later: the lease is REM's to judge.
+            Err(e) => eprintln!("sunray controller: warning: the job's record: {e}"),
+            Ok(()) => {}
+        }
+    }
+}
+
+/// Starts `count` workers owned by this controller (`me`).
+#[allow(clippy::too_many_arguments)]
+async fn start_workers(
+    client: &RemClient,
+    opts: &ControllerOptions,
+    spec: &proto::JobSpec,
+    job: &str,
+    epoch: u64,
+    count: u32,
+    me: &rem::ProcId,
+    live: &[rem::HostInfo],
+) -> Result<Vec<WorkerProc>, FarmError> {
+    let mut args = vec!["worker".to_string()];
+    if spec.threads > 0 {
+        args.extend(["--threads".to_string(), spec.threads.to_string()]);
+    }
+    let spawned = client
+        .spawn(rem::SpawnRequest {
+            program: opts.worker_program.display().to_string(),
+            args,
+            env: worker_env(std::env::vars()),
+            nice: spec.nice.then_some(10),
+            count,
+            allow_same_host: spec.same_host,
+            job: Some(format!("{job}.w{epoch}")),
+            owner: Some(me.clone()),
+            host: None,
+        })
+        .await?;
+    Ok(spawned
+        .processes
+        .iter()
+        .map(|p| WorkerProc {
+            proc_id: p.proc_id.clone(),
+            host: p.host.clone(),
+            pid: p.pid,
+            load_at_start: live
+                .iter()
+                .find(|h| h.name == p.host)
+                .and_then(|h| h.load.as_ref())
+                .map(|l| l.load_per_core),
+        })
+        .collect())
+}

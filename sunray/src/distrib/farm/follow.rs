@@ -1,0 +1,223 @@
+//! Following a farm job from any host: `watch` (its state and lines until it ends, through
+//! controller moves), `fetch` (the finished image, from its last checkpoint) and `cancel`.
+
+use super::FarmError;
+use crate::distrib::checkpoint;
+use crate::distrib::jobs;
+use crate::distrib::messages;
+use crate::film::{Film, Format};
+use rem::job_store::is_ended;
+use rem::{JobRecord, RemClient};
+use serde_json::json;
+use std::path::Path;
+use std::time::Duration;
+
+/// How often `watch` reads the job's record.
+pub const POLL: Duration = Duration::from_millis(250);
+
+/// How a watched job ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Ended {
+    /// Every line is in; the record carries the per-node table.
+    Finished {
+        /// The per-node table and totals, as `submit` prints them.
+        summary: String,
+    },
+    /// Failed, with REM's reason.
+    Failed(String),
+    /// Cancelled by its owner.
+    Cancelled(String),
+}
+
+/// How `watch` shows the job.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WatchView {
+    /// Draw a progress bar on stderr.
+    pub bar: bool,
+    /// Print JSON events on stderr (state, controller and progress changes).
+    pub events: bool,
+}
+
+/// What changed between two records of the same job, as events.
+pub fn changes(before: Option<&JobRecord>, now: &JobRecord) -> Vec<serde_json::Value> {
+    let mut out = Vec::new();
+    let moved = before.is_none_or(|b| b.epoch != now.epoch || b.controller != now.controller);
+    if moved && !now.controller.is_empty() {
+        out.push(json!({"event": "controller", "epoch": now.epoch,
+            "host": now.controller_host, "proc": now.controller}));
+    }
+    if before.is_none_or(|b| b.state != now.state) {
+        out.push(json!({"event": "state", "state": now.state, "epoch": now.epoch,
+            "message": now.message}));
+    }
+    if before.is_none_or(|b| b.progress_done != now.progress_done) {
+        out.push(json!({"event": "progress", "done": now.progress_done,
+            "total": now.progress_total}));
+    }
+    out
+}
+
+/// Follows job `job` through the remd at `addr` until it ends.
+pub async fn watch(
+    client: &RemClient,
+    addr: &str,
+    job: &str,
+    view: WatchView,
+) -> Result<Ended, FarmError> {
+    let mut last: Option<JobRecord> = None;
+    let bar = view.bar.then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{prefix} [{bar:40}] {pos}/{len} lines {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b.set_prefix(job.to_string());
+        b
+    });
+    loop {
+        let found = jobs::find(client, job)
+            .await
+            .map_err(|e| FarmError::from_rem(e, addr, job))?;
+        let Some(now) = found else {
+            if let Some(b) = &bar {
+                b.abandon();
+            }
+            return Err(FarmError::NoRecord(job.to_string()));
+        };
+        for ev in changes(last.as_ref(), &now) {
+            if view.events {
+                eprintln!("{ev}");
+            }
+        }
+        if let Some(b) = &bar {
+            b.set_length(now.progress_total);
+            b.set_position(now.progress_done);
+            b.set_message(format!("{} (epoch {}, {})", now.state, now.epoch, now.controller_host));
+        }
+        if is_ended(&now.state) {
+            if let Some(b) = &bar {
+                b.finish_and_clear();
+            }
+            return Ok(match now.state.as_str() {
+                "finished" => Ended::Finished {
+                    summary: jobs::from_record(&now).summary,
+                },
+                "cancelled" => Ended::Cancelled(now.message),
+                _ => Ended::Failed(now.message),
+            });
+        }
+        last = Some(now);
+        tokio::time::sleep(POLL).await;
+    }
+}
+
+/// Writes job `job`'s finished image to `out` (.png, .ppm or .pfm, as `sunray render`).
+pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), FarmError> {
+    Format::from_path(out)?;
+    let restored = checkpoint::load(client, job)
+        .await?
+        .ok_or_else(|| FarmError::Stored {
+            job: job.to_string(),
+            reason: "no host holds its image or checkpoint".into(),
+        })?;
+    let settings = restored
+        .header
+        .spec
+        .as_ref()
+        .and_then(|s| s.settings.as_ref())
+        .map(|s| (s.width, s.height))
+        .unwrap_or_default();
+    let (width, height) = settings;
+    if (restored.lines.len() as u32) < height {
+        return Err(FarmError::Stored {
+            job: job.to_string(),
+            reason: format!(
+                "it is not finished: {} of {height} lines are in (`sunray watch {job}` waits for it)",
+                restored.lines.len()
+            ),
+        });
+    }
+    let mut film = Film::new(width, height);
+    for l in restored.lines.values() {
+        let px = messages::pixels_from_bytes(&l.pixels, width).map_err(|e| FarmError::Stored {
+            job: job.to_string(),
+            reason: e.to_string(),
+        })?;
+        film.set_line(l.line, &px);
+    }
+    film.write(out)?;
+    Ok(())
+}
+
+/// Cancels job `job`: its record says cancelled (so no controller is started again), then
+/// its controller and workers are ended. Returns the record as it was.
+pub async fn cancel(client: &RemClient, job: &str) -> Result<JobRecord, FarmError> {
+    for _ in 0..3 {
+        let r = jobs::find(client, job)
+            .await?
+            .ok_or_else(|| FarmError::NoRecord(job.to_string()))?;
+        if is_ended(&r.state) {
+            return Err(FarmError::Stored {
+                job: job.to_string(),
+                reason: format!("it has already ended ({})", r.state),
+            });
+        }
+        let mut cancelled = r.clone();
+        cancelled.state = "cancelled".into();
+        cancelled.message = "cancelled by its owner".into();
+        match client.put_job(cancelled).await {
+            // The controller moved meanwhile: read the record again.
+            Err(e) if e.is_fenced() => continue,
+            Err(e) => return Err(e.into()),
+            Ok(_) => {}
+        }
+        let prefix = format!("{job}.");
+        let procs = client.ps().await?;
+        for p in procs
+            .iter()
+            .filter(|p| p.state == "running" && p.job.starts_with(&prefix))
+        {
+            if let Some(id) = rem::ProcId::parse(&p.proc_id) {
+                let _ = client.kill(&id).await;
+            }
+        }
+        return Ok(r);
+    }
+    Err(FarmError::Stored {
+        job: job.to_string(),
+        reason: "its controller keeps moving; try again".into(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(state: &str, epoch: u64, done: u64) -> JobRecord {
+        JobRecord {
+            id: "j".into(),
+            state: state.into(),
+            epoch,
+            controller: format!("h{epoch}/1"),
+            controller_host: format!("h{epoch}"),
+            progress_done: done,
+            progress_total: 64,
+            ..JobRecord::default()
+        }
+    }
+
+    #[test]
+    fn watch_reports_moves_states_and_progress_once_each() {
+        let first = changes(None, &record("running", 1, 0));
+        assert_eq!(first.len(), 3);
+        assert!(changes(Some(&record("running", 1, 5)), &record("running", 1, 5)).is_empty());
+        let moved = changes(Some(&record("running", 1, 5)), &record("running", 2, 9));
+        let kinds: Vec<&str> = moved.iter().map(|e| e["event"].as_str().unwrap()).collect();
+        assert_eq!(kinds, ["controller", "progress"]);
+        assert_eq!(moved[0]["host"], "h2");
+        let ended = changes(Some(&record("running", 2, 9)), &record("finished", 2, 9));
+        assert_eq!(ended[0]["state"], "finished");
+    }
+}

@@ -1,0 +1,214 @@
+//! Jobs owned by the farm (DESIGN section 7): `sunray submit --detach` checks and compiles
+//! the scene here, stores the job in REM (the model, the first checkpoint and the job
+//! record) and asks REM to start its controller (`sunray controller`, a REM process like the
+//! workers). From then on REM keeps the controller running: if it exits unfinished, stalls or
+//! loses its host, the daemons start another at the next epoch, which continues from the
+//! checkpoint. The terminal only follows (`sunray watch`), fetches the image (`sunray fetch`)
+//! or cancels (`sunray cancel`).
+//!
+//! Keys in REM's store: `JOB` the checkpoint header and `JOB.sN` its segments (see
+//! [`checkpoint`](super::checkpoint)), `JOB.scene` the Scene message every worker gets. A
+//! finished job's image is its last checkpoint (every line in it).
+//!
+//! # Layout
+//! - [`controller`]: the controller process.
+//! - [`follow`]: `watch`, `fetch` and `cancel`.
+
+pub mod controller;
+pub mod follow;
+
+use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
+use super::connection::RemConnection;
+use super::job::{self, JobError, JobRequest};
+use super::jobs;
+use super::messages::{self, proto, Body};
+use crate::scene::load::LoadedScene;
+use prost::Message;
+
+/// The key of a job's Scene message in REM's store.
+pub fn scene_key(job: &str) -> String {
+    format!("{job}.scene")
+}
+
+/// Why a farm job could not be submitted, followed or run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FarmError {
+    /// The job could not be planned or checked (scene, settings, hosts, sizes).
+    #[error(transparent)]
+    Job(#[from] JobError),
+    /// A job by that id is still active.
+    #[error("job {job} exists and is {state}: choose another --job, or follow it with `sunray watch {job}`")]
+    Exists {
+        /// The job id.
+        job: String,
+        /// Its state.
+        state: String,
+    },
+    /// No live host holds the job's record.
+    #[error("no live host holds a record of job {0} (never submitted, expired, or lost with the hosts that held it)")]
+    NoRecord(String),
+    /// The job's stored scene or checkpoint is missing or unusable.
+    #[error("job {job}: {reason}")]
+    Stored {
+        /// The job id.
+        job: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The checkpoint could not be written or read.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    /// REM failed.
+    #[error("{}", rem_line(.0))]
+    Rem(#[from] rem::Error),
+    /// The connection to the local remd was lost; the job goes on in the farm.
+    #[error("lost remd at {addr} ({reason}); job {job} continues in the farm: follow it with `sunray watch {job}` through a live remd")]
+    LostRemd {
+        /// The remd address.
+        addr: String,
+        /// The innermost cause.
+        reason: String,
+        /// The job.
+        job: String,
+    },
+    /// A newer controller has the job (this one stands down).
+    #[error("a newer controller has job {job}: {reason}")]
+    Superseded {
+        /// The job id.
+        job: String,
+        /// REM's refusal.
+        reason: String,
+    },
+    /// `--detach` on the private embedded remd, which ends with the command.
+    #[error("--detach needs a cluster (--remd or REM_ADDR): the private remd of the default set-up ends with this command")]
+    DetachNeedsCluster,
+    /// The image could not be written.
+    #[error(transparent)]
+    Film(#[from] crate::film::FilmError),
+}
+
+/// One line for a REM error: the innermost cause for transport failures.
+fn rem_line(e: &rem::Error) -> String {
+    if e.is_transport() {
+        format!("cannot reach remd: {}", e.root_cause())
+    } else {
+        e.to_string()
+    }
+}
+
+impl FarmError {
+    /// `e` from the remd at `addr`, following `job`: a lost connection says the job goes on.
+    pub fn from_rem(e: rem::Error, addr: &str, job: &str) -> FarmError {
+        if e.is_transport() || matches!(e, rem::Error::Closed) {
+            FarmError::LostRemd {
+                addr: addr.to_string(),
+                reason: e.root_cause(),
+                job: job.to_string(),
+            }
+        } else {
+            FarmError::Rem(e)
+        }
+    }
+}
+
+/// How the controller REM starts is to run (its command line besides `controller`).
+#[derive(Clone, Debug, Default)]
+pub struct ControllerFlags {
+    /// Milliseconds between checkpoints.
+    pub checkpoint_ms: u64,
+    /// A worker holding a line longer than this is silent (milliseconds).
+    pub worker_timeout_ms: Option<u64>,
+}
+
+/// Stores a new job of `loaded` in the farm and starts its controller; returns the job id.
+pub async fn submit(
+    cluster: &RemConnection,
+    req: &JobRequest,
+    loaded: LoadedScene,
+    flags: &ControllerFlags,
+) -> Result<String, FarmError> {
+    if cluster.is_embedded() {
+        return Err(FarmError::DetachNeedsCluster);
+    }
+    req.check()?;
+    let plan = job::new_plan(req, loaded)?;
+    let client = &cluster.client;
+    let live = cluster.live_hosts().await.map_err(JobError::from)?;
+    if !req.same_host && plan.hosts as usize > live.len() {
+        return Err(JobError::TooFewHosts {
+            asked: plan.hosts,
+            live: live.iter().map(|h| h.name.clone()).collect(),
+        }
+        .into());
+    }
+    let existing = jobs::find(client, &plan.job).await?;
+    if let Some(r) = &existing {
+        if !rem::job_store::is_ended(&r.state) {
+            return Err(FarmError::Exists {
+                job: plan.job,
+                state: r.state.clone(),
+            });
+        }
+    }
+    // An id used again takes the next epoch (as REM will), so it may write over the old job.
+    let store = Fenced {
+        client,
+        epoch: existing.map_or(1, |r| r.epoch + 1),
+        job: &plan.job,
+    };
+    let scene_msg = proto::Scene {
+        model: plan.model.clone(),
+        settings: Some(plan.settings.to_proto()),
+        job: plan.job.clone(),
+    };
+    let encoded = messages::encode(Body::Scene(scene_msg.clone()));
+    let limit = client.options().max_message;
+    if encoded.len() > limit {
+        return Err(JobError::ModelTooLarge {
+            bytes: encoded.len(),
+            limit,
+        }
+        .into());
+    }
+    store
+        .put(&scene_key(&plan.job), scene_msg.encode_to_vec())
+        .await?;
+    let mut checkpointer = Checkpointer::new(
+        &plan.job,
+        job::job_spec(req, &plan),
+        messages::fnv1a(&plan.model),
+        None,
+    );
+    checkpointer.save(&store, "queued").await?;
+    let entry = proto::JobEntry {
+        job: plan.job.clone(),
+        scene: plan.loaded.source.display_name(),
+        state: "queued".into(),
+        height: plan.settings.render.height,
+        hosts: plan.hosts,
+        started_unix_ms: checkpoint::unix_ms(),
+        output: plan.output.display().to_string(),
+        ..Default::default()
+    };
+    let mut args = vec![
+        "controller".to_string(),
+        "--checkpoint-ms".to_string(),
+        flags.checkpoint_ms.to_string(),
+        "--worker-program".to_string(),
+        req.worker_program.display().to_string(),
+    ];
+    if let Some(ms) = flags.worker_timeout_ms {
+        args.extend(["--worker-timeout-ms".to_string(), ms.to_string()]);
+    }
+    let spawn = rem::SpawnRequest {
+        program: req.worker_program.display().to_string(),
+        args,
+        env: job::worker_env(std::env::vars()),
+        ..rem::SpawnRequest::default()
+    };
+    let mut record = jobs::to_record(&entry, 1);
+    record.controller_spawn = Some(spawn.to_proto());
+    let stored = client.start_job(record).await?;
+    Ok(stored.id)
+}
