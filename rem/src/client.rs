@@ -124,7 +124,11 @@ impl SpawnRequest {
             count: self.count,
             allow_same_host: self.allow_same_host,
             job: self.job.clone().unwrap_or_default(),
-            owner: self.owner.as_ref().map(|o| o.to_string()).unwrap_or_default(),
+            owner: self
+                .owner
+                .as_ref()
+                .map(|o| o.to_string())
+                .unwrap_or_default(),
             host: self.host.clone().unwrap_or_default(),
         }
     }

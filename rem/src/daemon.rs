@@ -367,7 +367,11 @@ impl Daemon {
             return Err(Error::Invalid(format!("bad job id {}", shown(&job))));
         }
         if fence.epoch > 0 {
-            let record = if fence.job.is_empty() { &job } else { &fence.job };
+            let record = if fence.job.is_empty() {
+                &job
+            } else {
+                &fence.job
+            };
             if let Some(kept) = self.job_store.get(&who.user, record).await? {
                 if kept.epoch > fence.epoch {
                     return Err(Error::Fenced(format!(

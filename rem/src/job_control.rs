@@ -52,7 +52,10 @@ pub fn verdict(
     } else if !r.controller_host.is_empty() && !alive(&r.controller_host) {
         format!("its controller's host {} was lost", r.controller_host)
     } else if quiet_ms > lease_ms {
-        format!("its controller wrote nothing for {:.1} s", quiet_ms as f64 / 1000.0)
+        format!(
+            "its controller wrote nothing for {:.1} s",
+            quiet_ms as f64 / 1000.0
+        )
     } else {
         return Verdict::Healthy;
     };
@@ -292,8 +295,12 @@ mod tests {
         let alive = |h: &str| h != "b";
         let v = |r: &JobRecord| verdict(r, alive, 20_000, 10_000, 3);
         assert_eq!(v(&running("a", 15_000, 1)), Verdict::Healthy);
-        assert!(matches!(v(&running("b", 15_000, 1)), Verdict::Restart(w) if w.contains("host b was lost")));
-        assert!(matches!(v(&running("a", 5_000, 1)), Verdict::Restart(w) if w.contains("wrote nothing for 15.0 s")));
+        assert!(
+            matches!(v(&running("b", 15_000, 1)), Verdict::Restart(w) if w.contains("host b was lost"))
+        );
+        assert!(
+            matches!(v(&running("a", 5_000, 1)), Verdict::Restart(w) if w.contains("wrote nothing for 15.0 s"))
+        );
         let mut exited = running("", 19_000, 2);
         exited.state = "recovering".into();
         exited.controller.clear();
@@ -302,7 +309,9 @@ mod tests {
         let mut started = running("a", 19_000, 2);
         started.state = "recovering".into();
         assert_eq!(v(&started), Verdict::Healthy);
-        assert!(matches!(v(&running("b", 15_000, 4)), Verdict::Fail(w) if w.contains("restarted 3 times")));
+        assert!(
+            matches!(v(&running("b", 15_000, 4)), Verdict::Fail(w) if w.contains("restarted 3 times"))
+        );
         let mut ended = running("b", 0, 1);
         ended.state = "cancelled".into();
         assert_eq!(v(&ended), Verdict::Healthy);

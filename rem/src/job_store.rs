@@ -93,7 +93,11 @@ impl JobStore {
                 Some(k)
                     if is_ended(&k.state) && k.epoch == record.epoch && k.state != record.state =>
                 {
-                    Err(Error::Fenced(format!("job {} has {}", record.id, ended_verb(&k.state))))
+                    Err(Error::Fenced(format!(
+                        "job {} has {}",
+                        record.id,
+                        ended_verb(&k.state)
+                    )))
                 }
                 _ => Ok(()),
             })

@@ -168,7 +168,9 @@ impl Service {
                 .user_of_token(&token)
                 .map(Identity::user)
                 .ok_or_else(|| {
-                    Status::unauthenticated("the process token is not one of a process of this host")
+                    Status::unauthenticated(
+                        "the process token is not one of a process of this host",
+                    )
                 }),
         }
     }

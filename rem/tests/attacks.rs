@@ -402,7 +402,10 @@ async fn identities_cannot_be_forged() {
     assert!(hers.hosts().await.is_ok());
     assert_eq!(code(hers.kill(&id).await), Code::PermissionDenied);
     assert_eq!(code(hers.logs(&id).await), Code::PermissionDenied);
-    admin.put_checkpoint("job", b"admin's".to_vec()).await.unwrap();
+    admin
+        .put_checkpoint("job", b"admin's".to_vec())
+        .await
+        .unwrap();
     assert!(hers.get_checkpoint("job").await.unwrap().is_none());
     let spawned = hers.spawn(spin(1)).await.unwrap();
     let ps = admin.ps().await.unwrap();

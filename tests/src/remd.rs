@@ -9,6 +9,10 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// The job lease of a [`LoopbackCluster`]'s daemons (`job_lease_ms`): a farm job's controller
+/// that writes nothing for this long is replaced.
+pub const LEASE_MS: u64 = 3000;
+
 /// The secret of a [`LoopbackCluster`].
 pub const SECRET: &str = "submit-test-secret";
 
@@ -64,6 +68,8 @@ impl LoopbackCluster {
         let mut cmd = Command::new(remd_bin());
         cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
             .args(["--heartbeat-ms", "150", "--lost-after-ms", "900"])
+            // A stopped farm-job controller is replaced after 3 s without a record write.
+            .args(["--limit", &format!("job_lease_ms={LEASE_MS}")])
             .arg("--allow")
             .arg(format!("{}:worker|controller", sunray_bin().display()))
             .arg("--secret-file")
@@ -138,9 +144,65 @@ impl LoopbackCluster {
         })
     }
 
+    /// The REM processes of the cluster, as daemon `via` lists them.
+    pub fn processes_via(&self, via: &str) -> Vec<rem::ProcessInfo> {
+        self.with_client_of(via, |client| async move { client.ps().await.unwrap() })
+    }
+
     /// The REM processes of the cluster (to check that nothing was started).
     pub fn processes(&self) -> Vec<rem::ProcessInfo> {
         self.with_client(|client| async move { client.ps().await.unwrap() })
+    }
+
+    /// The record of job `id` as daemon `via` lists it.
+    pub fn record(&self, via: &str, id: &str) -> Option<rem::JobRecord> {
+        let id = id.to_string();
+        self.with_client_of(via, |client| async move {
+            client
+                .list_jobs()
+                .await
+                .unwrap()
+                .into_iter()
+                .find(|r| r.id == id)
+        })
+    }
+
+    /// Waits (bounded) until daemon `via` lists job `id` with a record `pred` accepts.
+    pub fn wait_record(
+        &self,
+        via: &str,
+        id: &str,
+        what: &str,
+        pred: impl Fn(&rem::JobRecord) -> bool,
+    ) -> rem::JobRecord {
+        let end = Instant::now() + Duration::from_secs(60);
+        loop {
+            if let Some(r) = self.record(via, id).filter(|r| pred(r)) {
+                return r;
+            }
+            assert!(
+                Instant::now() < end,
+                "job {id} never {what}: {:?}",
+                self.record(via, id)
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// A `sunray` command with the cluster's secret, talking to daemon `via`.
+    pub fn sunray_via(&self, via: &str) -> Command {
+        let mut c = sunray();
+        c.env("REM_ADDR", &self.daemon(via).addr)
+            .env("REM_SECRET_FILE", &self.secret_file)
+            .env_remove("REM_SECRET");
+        c
+    }
+
+    /// Kills daemon `name` with SIGKILL (its processes die with it) and waits for it.
+    pub fn kill_daemon(&mut self, name: &str) {
+        let d = self.daemons.iter_mut().find(|d| d.name == name).unwrap();
+        let _ = d.child.kill();
+        let _ = d.child.wait();
     }
 
     /// `sunray submit` against daemon `a`.

@@ -27,7 +27,10 @@ pub struct RemFlags {
 impl RemFlags {
     async fn open(&self) -> anyhow::Result<RemConnection> {
         let program = std::env::current_exe()?;
-        Ok(RemConnection::open(self.remd.as_deref(), self.secret_file.as_deref(), &program).await?)
+        Ok(
+            RemConnection::open(self.remd.as_deref(), self.secret_file.as_deref(), &program)
+                .await?,
+        )
     }
 }
 
@@ -122,7 +125,9 @@ pub fn report_end(job: &str, end: &Ended, quiet: bool) -> ExitCode {
         Ended::Finished { summary } => {
             if !quiet {
                 eprint!("{summary}");
-                eprintln!("sunray: job {job} finished; `sunray fetch {job} -o FILE` writes its image");
+                eprintln!(
+                    "sunray: job {job} finished; `sunray fetch {job} -o FILE` writes its image"
+                );
             }
             ExitCode::SUCCESS
         }

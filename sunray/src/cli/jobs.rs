@@ -58,6 +58,7 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
             let workers = procs
                 .iter()
                 .filter(|p| p.state == "running" && p.job.starts_with(&prefix))
+                .filter(|p| p.args.first().is_some_and(|a| a == "worker"))
                 .count();
             serde_json::json!({
                 "job": j.job,
@@ -70,6 +71,9 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
                 "output": j.output,
                 "started_unix_ms": j.started_unix_ms,
                 "updated_unix_ms": j.updated_unix_ms,
+                "epoch": j.epoch,
+                "controller_host": j.controller_host,
+                "message": j.message,
             })
         })
         .collect();
@@ -82,18 +86,20 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "{:<32} {:<12} {:>11} {:>5} {:>7} {:>9}  scene",
-        "job", "state", "lines", "hosts", "workers", "started"
+        "{:<32} {:<12} {:>11} {:>5} {:>7} {:>5} {:<12} {:>9}  scene",
+        "job", "state", "lines", "hosts", "workers", "epoch", "controller", "started"
     );
     for r in &rows {
         let ago = now.saturating_sub(r["started_unix_ms"].as_u64().unwrap_or(0)) / 1000;
         println!(
-            "{:<32} {:<12} {:>11} {:>5} {:>7} {:>9}  {}",
+            "{:<32} {:<12} {:>11} {:>5} {:>7} {:>5} {:<12} {:>9}  {}",
             r["job"].as_str().unwrap_or(""),
             r["state"].as_str().unwrap_or(""),
             format!("{}/{}", r["lines_done"], r["lines"]),
             r["hosts"].to_string(),
             r["workers"].to_string(),
+            r["epoch"].to_string(),
+            r["controller_host"].as_str().unwrap_or(""),
             format!("{}", Ago(ago)),
             r["scene"].as_str().unwrap_or("")
         );

@@ -10,6 +10,12 @@ use prost::Message;
 
 /// REM's record of `entry` at `epoch`.
 pub fn to_record(entry: &JobEntry, epoch: u64) -> rem::JobRecord {
+    let app = JobEntry {
+        epoch: 0,
+        controller_host: String::new(),
+        message: String::new(),
+        ..entry.clone()
+    };
     rem::JobRecord {
         id: entry.job.clone(),
         state: entry.state.clone(),
@@ -17,7 +23,7 @@ pub fn to_record(entry: &JobEntry, epoch: u64) -> rem::JobRecord {
         created_unix_ms: entry.started_unix_ms,
         progress_done: entry.lines_done.into(),
         progress_total: entry.height.into(),
-        app: entry.encode_to_vec(),
+        app: app.encode_to_vec(),
         ..rem::JobRecord::default()
     }
 }
@@ -32,6 +38,9 @@ pub fn from_record(r: &rem::JobRecord) -> JobEntry {
     e.height = u32::try_from(r.progress_total).unwrap_or(u32::MAX);
     e.started_unix_ms = r.created_unix_ms;
     e.updated_unix_ms = r.updated_unix_ms;
+    e.epoch = r.epoch;
+    e.controller_host = r.controller_host.clone();
+    e.message = r.message.clone();
     e
 }
 
@@ -55,11 +64,14 @@ pub async fn next_epoch(client: &rem::RemClient, id: &str) -> Result<u64, rem::E
     Ok(find(client, id).await?.map_or(1, |r| r.epoch + 1))
 }
 
-/// Your jobs, oldest first; a running job's lines done and last change are its
+/// Your jobs, oldest first; an unfinished job's lines done and last change are its
 /// checkpoint's when those are newer.
 pub async fn list(client: &rem::RemClient) -> Result<Vec<JobEntry>, rem::Error> {
     let mut jobs: Vec<JobEntry> = client.list_jobs().await?.iter().map(from_record).collect();
-    for e in jobs.iter_mut().filter(|e| e.state == "running") {
+    // A finished job's record says every line; any other's may be behind its checkpoint
+    // (the controller checkpoints more often than it writes the record, and one killed or
+    // cancelled writes no last record).
+    for e in jobs.iter_mut().filter(|e| e.state != "finished") {
         if let Some(h) = header(client, &e.job).await? {
             catch_up(e, &h);
         }

@@ -196,14 +196,21 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
 
 /// The job's record at this epoch, waiting briefly for the write of whoever started this
 /// process; a newer epoch means this controller is not needed.
-async fn own_record(client: &RemClient, job: &str, epoch: u64) -> Result<rem::JobRecord, FarmError> {
+async fn own_record(
+    client: &RemClient,
+    job: &str,
+    epoch: u64,
+) -> Result<rem::JobRecord, FarmError> {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
     loop {
         match jobs::find(client, job).await? {
             Some(r) if r.epoch > epoch => {
                 return Err(FarmError::Superseded {
                     job: job.to_string(),
-                    reason: format!("the job is at epoch {}, this controller's is {epoch}", r.epoch),
+                    reason: format!(
+                        "the job is at epoch {}, this controller's is {epoch}",
+                        r.epoch
+                    ),
                 })
             }
             Some(mut r) if r.epoch == epoch || tokio::time::Instant::now() > deadline => {
@@ -219,7 +226,11 @@ async fn own_record(client: &RemClient, job: &str, epoch: u64) -> Result<rem::Jo
 }
 
 /// Writes the record; a refusal for a newer epoch (or an ended job) is [`FarmError::Superseded`].
-async fn put_record(client: &RemClient, record: &rem::JobRecord, job: &str) -> Result<(), FarmError> {
+async fn put_record(
+    client: &RemClient,
+    record: &rem::JobRecord,
+    job: &str,
+) -> Result<(), FarmError> {
     match client.put_job(record.clone()).await {
         Ok(_) => Ok(()),
         Err(e) if e.is_fenced() => Err(FarmError::Superseded {

@@ -47,8 +47,10 @@ pub fn changes(before: Option<&JobRecord>, now: &JobRecord) -> Vec<serde_json::V
             "host": now.controller_host, "proc": now.controller}));
     }
     if before.is_none_or(|b| b.state != now.state) {
-        out.push(json!({"event": "state", "state": now.state, "epoch": now.epoch,
-            "message": now.message}));
+        out.push(
+            json!({"event": "state", "state": now.state, "epoch": now.epoch,
+            "message": now.message}),
+        );
     }
     if before.is_none_or(|b| b.progress_done != now.progress_done) {
         out.push(json!({"event": "progress", "done": now.progress_done,
@@ -68,10 +70,8 @@ pub async fn watch(
     let bar = view.bar.then(|| {
         let b = indicatif::ProgressBar::new(0);
         b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{prefix} [{bar:40}] {pos}/{len} lines {msg}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} lines {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b.set_prefix(job.to_string());
         b
@@ -94,7 +94,10 @@ pub async fn watch(
         if let Some(b) = &bar {
             b.set_length(now.progress_total);
             b.set_position(now.progress_done);
-            b.set_message(format!("{} (epoch {}, {})", now.state, now.epoch, now.controller_host));
+            b.set_message(format!(
+                "{} (epoch {}, {})",
+                now.state, now.epoch, now.controller_host
+            ));
         }
         if is_ended(&now.state) {
             if let Some(b) = &bar {

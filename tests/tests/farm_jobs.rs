@@ -1,0 +1,261 @@
+//! Jobs owned by the farm (`sunray submit --detach`) on three real remd daemons: the
+//! controller is a REM process, and neither its death (kill -9), nor its host's (the remd and
+//! every process under it), nor its stopping (SIGSTOP past the lease, then SIGCONT) stops the
+//! job. Each time the job finishes by itself, `sunray watch` through another remd exits 0,
+//! and `sunray fetch` gives an image byte-identical to `sunray render`. A cancelled job ends
+//! its processes, is not restarted, and `sunray jobs` counts the lines of its checkpoint.
+//!
+//! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
+//! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
+
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+use sunray_e2e::bins::signal;
+use sunray_e2e::fixtures::spd;
+use sunray_e2e::reference::reference;
+use sunray_e2e::remd::LoopbackCluster;
+
+const FLAGS: [&str; 2] = ["--resolution", "64x96"];
+const LINES: u64 = 96;
+
+/// Submits mount6 detached through daemon a (the controller starts there): the job id.
+fn submit(cluster: &LoopbackCluster, job: &str, delay_ms: u32) -> String {
+    let out = cluster
+        .submit()
+        .env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
+        .args([
+            "--detach",
+            "--hosts",
+            "2",
+            "--checkpoint-ms",
+            "200",
+            "--job",
+            job,
+        ])
+        .args(FLAGS)
+        .arg(spd("mount6"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let id = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(id.trim(), job, "--detach prints the job id alone");
+    id.trim().to_string()
+}
+
+/// Waits until the job's record shows some checkpointed lines (and not all).
+fn wait_mid_job(cluster: &LoopbackCluster, job: &str) -> rem::JobRecord {
+    cluster.wait_record("b", job, "got going", |r| {
+        r.state == "running" && r.progress_done >= 8 && !r.controller.is_empty()
+    })
+}
+
+/// `sunray watch JOB` through daemon `via`, to its end.
+fn watch(cluster: &LoopbackCluster, via: &str, job: &str) -> Output {
+    cluster
+        .sunray_via(via)
+        .args(["watch", job, "--events"])
+        .output()
+        .unwrap()
+}
+
+/// The OS pid of the running REM process of job `rem_job`.
+fn pid_of(cluster: &LoopbackCluster, via: &str, rem_job: &str) -> i32 {
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        let procs = cluster.processes_via(via);
+        if let Some(p) = procs
+            .iter()
+            .find(|p| p.job == rem_job && p.state == "running")
+        {
+            return p.pid as i32;
+        }
+        assert!(
+            Instant::now() < end,
+            "no running process of {rem_job}: {procs:#?}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The job ended by itself: watch exits 0 through `via`, the image fetched is `sunray
+/// render`'s, and the record's epoch is past the first.
+fn check_finished(cluster: &LoopbackCluster, via: &str, job: &str, dir: &Path) -> rem::JobRecord {
+    let watched = watch(cluster, via, job);
+    let events = String::from_utf8_lossy(&watched.stderr).to_string();
+    assert!(watched.status.success(), "watch: {events}");
+    assert!(events.contains(r#""state":"finished""#), "{events}");
+    let out = dir.join("fetched.png");
+    let fetched = cluster
+        .sunray_via(via)
+        .args(["fetch", job, "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        fetched.status.success(),
+        "{}",
+        String::from_utf8_lossy(&fetched.stderr)
+    );
+    let (want, _) = reference(dir, &spd("mount6"), &FLAGS);
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "the fetched image differs from sunray render"
+    );
+    let r = cluster.record(via, job).unwrap();
+    assert_eq!((r.state.as_str(), r.progress_done), ("finished", LINES));
+    assert!(r.epoch >= 2, "the controller was never replaced: {r:?}");
+    r
+}
+
+#[test]
+fn a_controller_killed_mid_job_is_replaced_and_the_job_finishes_by_itself() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let job = submit(&cluster, "kill9", 100);
+    wait_mid_job(&cluster, &job);
+    signal(pid_of(&cluster, "a", "kill9.c1"), libc::SIGKILL);
+    let r = check_finished(&cluster, "b", &job, dir.path());
+    assert_eq!(r.epoch, 2, "one replacement: {r:?}");
+}
+
+#[test]
+fn losing_the_controllers_host_moves_the_job_to_a_live_host() {
+    let mut cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let job = submit(&cluster, "hostloss", 100);
+    let before = wait_mid_job(&cluster, &job);
+    assert_eq!(before.controller_host, "a");
+    cluster.kill_daemon("a");
+    let r = check_finished(&cluster, "c", &job, dir.path());
+    assert_ne!(r.controller_host, "a", "{r:?}");
+}
+
+#[test]
+fn a_stopped_controller_is_replaced_and_stands_down_when_it_wakes() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let job = submit(&cluster, "stopped", 100);
+    wait_mid_job(&cluster, &job);
+    let old = pid_of(&cluster, "a", "stopped.c1");
+    signal(old, libc::SIGSTOP);
+    // Past the lease, a second controller takes the job.
+    cluster.wait_record("b", &job, "moved to epoch 2", |r| r.epoch == 2);
+    signal(old, libc::SIGCONT);
+    check_finished(&cluster, "b", &job, dir.path());
+    let procs = cluster.processes_via("b");
+    let first = procs.iter().find(|p| p.job == "stopped.c1").unwrap();
+    assert_eq!(
+        first.state, "exited",
+        "the old controller still runs: {first:?}"
+    );
+}
+
+#[test]
+fn a_cancelled_job_ends_its_processes_and_keeps_its_checkpointed_lines() {
+    let cluster = LoopbackCluster::start(3);
+    let job = submit(&cluster, "cancelme", 150);
+    wait_mid_job(&cluster, &job);
+    let cancel = cluster
+        .sunray_via("c")
+        .args(["cancel", &job])
+        .output()
+        .unwrap();
+    assert!(
+        cancel.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cancel.stderr)
+    );
+    let watched = watch(&cluster, "b", &job);
+    assert_eq!(
+        watched.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&watched.stderr)
+    );
+    // Nothing of the job runs, and nothing starts it again.
+    let end = Instant::now() + Duration::from_secs(15);
+    while cluster
+        .processes_via("b")
+        .iter()
+        .any(|p| p.job.starts_with("cancelme.") && p.state == "running")
+    {
+        assert!(
+            Instant::now() < end,
+            "the cancelled job's processes still run"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_millis(sunray_e2e::remd::LEASE_MS + 500));
+    let r = cluster.record("b", &job).unwrap();
+    assert_eq!((r.state.as_str(), r.epoch), ("cancelled", 1));
+    // `sunray jobs` counts the checkpoint's lines; fetch refuses the unfinished image with the
+    // same count.
+    let listed = cluster
+        .sunray_via("b")
+        .args(["jobs", "--json"])
+        .output()
+        .unwrap();
+    let rows: serde_json::Value = serde_json::from_slice(&listed.stdout).unwrap();
+    let row = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["job"] == job)
+        .unwrap()
+        .clone();
+    assert_eq!(row["state"], "cancelled");
+    let done = row["lines_done"].as_u64().unwrap();
+    assert!(done > 0 && done < LINES, "{row}");
+    let fetched = cluster
+        .sunray_via("b")
+        .args(["fetch", &job, "-o", "/dev/null.png"])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&fetched.stderr).to_string();
+    assert!(!fetched.status.success());
+    assert!(
+        said.contains(&format!("{done} of {LINES} lines are in")),
+        "{said} vs {row}"
+    );
+}
+
+#[test]
+fn detach_refuses_the_embedded_default_and_a_running_job_id() {
+    let out = sunray_e2e::bins::sunray()
+        .env_remove("REM_ADDR")
+        .args(["submit", "--detach", "--resolution", "8x8"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("--detach needs a cluster"), "{said}");
+    assert_eq!(said.trim().lines().count(), 1, "{said}");
+    let cluster = LoopbackCluster::start(2);
+    let job = submit(&cluster, "twice", 150);
+    let again: Command = {
+        let mut c = cluster.submit();
+        c.args(["--detach", "--job", &job])
+            .args(FLAGS)
+            .arg(spd("mount6"));
+        c
+    };
+    let out = {
+        let mut again = again;
+        again.output().unwrap()
+    };
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(said.contains("exists and is"), "{said}");
+    let cancel = cluster
+        .sunray_via("a")
+        .args(["cancel", &job])
+        .output()
+        .unwrap();
+    assert!(cancel.status.success());
+}
