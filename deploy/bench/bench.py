@@ -8,6 +8,10 @@ hetero     the six workstations of deploy/docker-compose.yml at half their CPU l
            (blocks), II (interleaved) and III (dynamic) side by side (Table 4.8).
 fault      8 workers, 2 killed once a quarter of the image is in: the extra time against the
            ideal for the remaining capacity (Table 4.7).
+failover   a detached job (`submit --detach`) on the six workstations, its controller's
+           container (ws1) killed once a quarter of the image is in: the time from the kill
+           to ws1 being seen lost, and from then to the new controller's first Assign; the
+           job's total time with and without the fault.
 
 Raw outputs go to deploy/bench/work/ (ignored by git); the report and plots to
 deploy/bench/results/. Every figure in the report is computed from the saved JSON.
@@ -159,6 +163,74 @@ def fault():
     return {"clean": clean, "kill2": hit}
 
 
+def detached(farm, name, kill_after=None):
+    """A detached job from ws1 (its controller starts there), followed from ws2; with
+    `kill_after`, ws1 is killed once that many lines are checkpointed. Returns times."""
+    argv = ["/bin/sunray", "submit", "--detach", "--hosts", "6", *render_flags(),
+            "--job", name, "--checkpoint-ms", "500", "/scenes/mount6.nff"]
+    t0 = time.time()
+    subprocess.run(farm.exec_argv("ws1", argv), env=farm.env, check=True, capture_output=True)
+    out = {"name": name}
+    if kill_after is not None:
+        while True:
+            r = farm.compose("exec", "-T", "ws2", "/bin/sunray", "jobs", "--json",
+                             capture_output=True)
+            rows = [x for x in json.loads(r.stdout or "[]") if x["job"] == name]
+            if rows and rows[0]["lines_done"] >= kill_after:
+                break
+            time.sleep(0.2)
+        farm.compose("kill", "ws1", capture_output=True)
+        out["killed_at"] = time.time()
+        while not any(h["name"] == "ws1" and not h.get("alive") for h in farm.hosts("ws2")):
+            time.sleep(0.05)
+        out["lost_at"] = time.time()
+    subprocess.run(farm.exec_argv("ws2", ["/bin/sunray", "watch", name, "-q"]),
+                   env=farm.env, check=True, capture_output=True)
+    out["finished_at"] = time.time()
+    out["total_s"] = out["finished_at"] - t0
+    if kill_after is not None:
+        ps = farm.compose("exec", "-T", "ws2", "/bin/rem", "ps", "--json",
+                          capture_output=True)
+        ctl = [p for p in json.loads(ps.stdout) if p["job"] == f"{name}.c2"]
+        logs = farm.compose("exec", "-T", "ws2", "/bin/rem", "logs", ctl[0]["proc_id"],
+                            capture_output=True, text=True)
+        assigns = []
+        for line in (logs.stdout + logs.stderr).splitlines():
+            try:
+                ev = json.loads(line)
+            except ValueError:
+                continue
+            if isinstance(ev, dict) and ev.get("event") == "assign":
+                assigns.append(ev["unix_ms"] / 1000.0)
+        out["controller_started_at"] = ctl[0]["started_unix_ms"] / 1000.0
+        out["first_assign_at"] = min(assigns)
+        out["detect_s"] = out["lost_at"] - out["killed_at"]
+        out["takeover_s"] = out["first_assign_at"] - out["lost_at"]
+        out["kill_to_assign_s"] = out["first_assign_at"] - out["killed_at"]
+    print(f"{name}: " + ", ".join(f"{k} {v:.2f}" for k, v in out.items()
+                                   if k.endswith("_s")), flush=True)
+    return out
+
+
+def failover():
+    farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"),
+                {"SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]})
+    total = int(RES.split("x")[1])
+    runs = {}
+    try:
+        farm.up(6, "ws1")
+        runs["clean"] = detached(farm, "failover-clean")
+        runs["kill"] = detached(farm, "failover-kill", kill_after=total // 4)
+    finally:
+        farm.down()
+    c, k = runs["clean"], runs["kill"]
+    print(f"failover: ws1 seen lost {k['detect_s']:.2f} s after the kill; the new controller's "
+          f"first Assign {k['takeover_s']:.2f} s after that ({k['kill_to_assign_s']:.2f} s "
+          f"after the kill); job {c['total_s']:.1f} s clean, {k['total_s']:.1f} s with the "
+          f"fault", flush=True)
+    return runs
+
+
 def hetero():
     scale = {"WS_CPUS_FAST": "0.5", "WS_CPUS_MEDIUM": "0.25", "WS_CPUS_SLOW": "0.125",
              "SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]}
@@ -189,7 +261,7 @@ def hetero():
 def main():
     os.makedirs(WORK, exist_ok=True)
     os.makedirs(RESULTS, exist_ok=True)
-    which = sys.argv[1:] or ["scaling", "hetero", "fault"]
+    which = sys.argv[1:] or ["scaling", "hetero", "fault", "failover"]
     data = {}
     path = os.path.join(WORK, "bench.json")
     if os.path.exists(path):
@@ -199,7 +271,8 @@ def main():
     data["machine"] = (f"{os.cpu_count()} cores, load average "
                        f"{os.getloadavg()[0]:.1f} when the run started")
     for name in which:
-        data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault}[name]()
+        data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault,
+                      "failover": failover}[name]()
         with open(path, "w") as f:
             json.dump(data, f, indent=1, default=str)
     print(f"raw results in {path}")

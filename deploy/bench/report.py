@@ -173,6 +173,23 @@ def fault_section(data, out):
     out.append("```\n")
 
 
+def failover_section(data, out):
+    c, k = data["clean"], data["kill"]
+    out.append("## Controller failover (jobs owned by the farm)\n")
+    out.append("A detached job (`sunray submit --detach --hosts 6`) on the six workstations, its "
+               "controller on ws1; `docker-compose kill ws1` once a quarter of the lines are "
+               "checkpointed (a worker dies with it). Times on the host's clock, which the "
+               "containers share.\n")
+    out.append("| figure | s |")
+    out.append("|---|---|")
+    out.append(f"| kill to ws1 seen lost by ws2 (detection) | {k['detect_s']:.2f} |")
+    out.append(f"| detection to the new controller's first Assign | {k['takeover_s']:.2f} |")
+    out.append(f"| kill to the new controller's first Assign | {k['kill_to_assign_s']:.2f} |")
+    out.append(f"| job, no fault | {c['total_s']:.2f} |")
+    out.append(f"| job, controller's host killed | {k['total_s']:.2f} |")
+    out.append("")
+
+
 def main():
     with open(os.path.join(WORK, "bench.json")) as f:
         data = json.load(f)
@@ -188,6 +205,8 @@ def main():
         hetero_section(data["hetero"], out)
     if "fault" in data:
         fault_section(data["fault"], out)
+    if "failover" in data:
+        failover_section(data["failover"], out)
     with open(os.path.join(RESULTS, "report.md"), "w") as f:
         f.write("\n".join(out) + "\n")
     shutil.copy(os.path.join(WORK, "bench.json"), os.path.join(RESULTS, "bench.json"))

@@ -495,7 +495,8 @@ impl Daemon {
             })
             .await;
         all.extend(replies.into_iter().flat_map(|r| r.records));
-        let mut newest: BTreeMap<(String, String), ((u64, u64), JobRecord)> = BTreeMap::new();
+        type Rank = (u64, bool, u64);
+        let mut newest: BTreeMap<(String, String), (Rank, JobRecord)> = BTreeMap::new();
         for cp in all {
             let wanted = user.as_ref().is_none_or(|u| *u == cp.user);
             if !wanted || !self.job_store.believe(&cp) {
@@ -504,9 +505,14 @@ impl Daemon {
             let Ok(record) = job_store::decode(&cp) else {
                 continue;
             };
-            // The highest epoch wins, then the newest write: a superseded controller's late
-            // write on a host that had not heard of its successor does not show.
-            let rank = (record.epoch, cp.version);
+            // The highest epoch wins, then an ended record (ended is final at its epoch),
+            // then the newest write: a superseded controller's late write on a host that had
+            // not heard of its successor does not show.
+            let rank = (
+                record.epoch,
+                job_store::is_ended(&record.state),
+                cp.version,
+            );
             let key = (cp.user.clone(), cp.job.clone());
             if newest.get(&key).is_none_or(|(best, _)| rank > *best) {
                 newest.insert(key, (rank, record));

@@ -5,7 +5,9 @@
 //! - A daemon whose local controller process exits while its job has not ended marks the job
 //!   `recovering` (the exit is seen where it happens: no lease to wait for).
 //! - The **supervisor** is the lowest-named live daemon, so exactly one decides in a settled
-//!   cluster. Each tick it reads every active job's newest record and restarts the controller
+//!   cluster; on the minority side of a partition (fewer than half the known hosts live)
+//!   nobody does, and nobody acts until its view of the live hosts has been the same for
+//!   [`SETTLE`] (a daemon that has just rejoined hears from every host first). Each tick it reads every active job's newest record and restarts the controller
 //!   of one that is recovering, whose controller's host is lost, or whose record has not been
 //!   written for the lease (a stopped or stuck controller): it starts a new controller on the
 //!   least-loaded host with the epoch raised, writes the record (which fences every write of
@@ -68,8 +70,13 @@ pub fn verdict(
     }
 }
 
-/// The lowest-named live host: the supervisor, in this daemon's view.
+/// The lowest-named live host: the supervisor, in this daemon's view; nobody when fewer
+/// than half the known hosts are live (the minority side of a partition restarts nothing).
 pub fn supervisor(hosts: &[crate::proto::HostInfo]) -> Option<&str> {
+    let alive = hosts.iter().filter(|h| h.alive).count();
+    if alive * 2 < hosts.len() {
+        return None;
+    }
     hosts
         .iter()
         .filter(|h| h.alive)
@@ -156,10 +163,12 @@ impl Daemon {
         Ok((p.proc_id, p.host))
     }
 
-    /// One supervisor tick: when this daemon is the supervisor, acts on every active job.
-    pub async fn supervise(&self) -> Result<()> {
+    /// One supervisor tick: when this daemon is the supervisor and its view of the live hosts
+    /// has settled (`view`), acts on every active job.
+    pub async fn supervise(&self, view: &mut ViewSettle) -> Result<()> {
         let hosts = self.membership.hosts();
-        if supervisor(&hosts) != Some(self.name.as_str()) {
+        let settled = view.settled(&hosts, std::time::Instant::now());
+        if !settled || supervisor(&hosts) != Some(self.name.as_str()) {
             return Ok(());
         }
         let alive = |name: &str| hosts.iter().any(|h| h.name == name && h.alive);
@@ -266,6 +275,43 @@ fn admin_of(user: &str) -> Identity {
     }
 }
 
+/// How long the set of live hosts must stay the same before the supervisor acts: a daemon
+/// that has just rejoined, or just become the supervisor, first hears from every host, so it
+/// does not restart a job on the word of a stale record.
+pub const SETTLE: Duration = Duration::from_millis(1500);
+
+/// Whether this daemon's view of the live hosts has settled.
+#[derive(Debug)]
+pub struct ViewSettle {
+    alive: Vec<String>,
+    since: std::time::Instant,
+}
+
+impl ViewSettle {
+    /// A view first seen at `now`.
+    pub fn new(now: std::time::Instant) -> Self {
+        ViewSettle {
+            alive: Vec::new(),
+            since: now,
+        }
+    }
+
+    /// Notes the view at `now`; true when it has not changed for [`SETTLE`].
+    pub fn settled(&mut self, hosts: &[crate::proto::HostInfo], now: std::time::Instant) -> bool {
+        let mut alive: Vec<String> = hosts
+            .iter()
+            .filter(|h| h.alive)
+            .map(|h| h.name.clone())
+            .collect();
+        alive.sort();
+        if alive != self.alive {
+            self.alive = alive;
+            self.since = now;
+        }
+        now.duration_since(self.since) >= SETTLE
+    }
+}
+
 /// How often the supervisor looks at the jobs: a quarter of the lease, at most every 500 ms.
 pub fn tick(lease_ms: u64) -> Duration {
     Duration::from_millis((lease_ms / 4).clamp(50, 500))
@@ -330,7 +376,19 @@ mod tests {
         let hosts = [host("c", true), host("a", false), host("b", true)];
         assert_eq!(supervisor(&hosts), Some("b"));
         assert_eq!(supervisor(&[]), None);
+        // Cut off from most of the cluster: no supervisor (half is enough: two hosts).
+        let alone = [host("a", true), host("b", false), host("c", false)];
+        assert_eq!(supervisor(&alone), None);
+        assert_eq!(supervisor(&alone[..2]), Some("a"));
         assert_eq!(tick(10_000), Duration::from_millis(500));
+        // A view acts only once it has stayed the same for SETTLE.
+        let t0 = std::time::Instant::now();
+        let mut view = ViewSettle::new(t0);
+        assert!(!view.settled(&hosts, t0));
+        assert!(view.settled(&hosts, t0 + SETTLE));
+        let rejoined = [host("c", true), host("a", true), host("b", true)];
+        assert!(!view.settled(&rejoined, t0 + SETTLE * 2));
+        assert!(view.settled(&rejoined, t0 + SETTLE * 3));
         assert_eq!(tick(400), Duration::from_millis(100));
     }
 }

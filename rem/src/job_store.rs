@@ -8,7 +8,8 @@
 //! - **Epochs fence.** A record with an older epoch than the kept one is refused: a controller
 //!   cut off by a partition cannot overwrite what its successor wrote. A job that ended
 //!   (finished, failed, cancelled) keeps its state unless a newer epoch takes it up again
-//!   (a resumed job): a late write of the controller cannot undo a cancel.
+//!   (a resumed job): a late write of the controller cannot undo a cancel. An epoch has one
+//!   controller: the first kept here wins.
 //! - **Retention.** Records of ended jobs (finished, failed, cancelled) are kept at most
 //!   `kept_jobs` per user and `kept_secs` after their last change; one that goes takes its
 //!   job's checkpoints on this host with it. Any checkpoint not written for `kept_secs` goes
@@ -97,6 +98,19 @@ impl JobStore {
                         "job {} has {}",
                         record.id,
                         ended_verb(&k.state)
+                    )))
+                }
+                // Two controllers of one epoch (two supervisors in a partition): the first
+                // kept here wins.
+                Some(k)
+                    if k.epoch == record.epoch
+                        && !k.controller.is_empty()
+                        && !record.controller.is_empty()
+                        && k.controller != record.controller =>
+                {
+                    Err(Error::Fenced(format!(
+                        "job {} has another controller at epoch {} ({})",
+                        record.id, k.epoch, k.controller
                     )))
                 }
                 _ => Ok(()),
@@ -244,6 +258,14 @@ mod tests {
         jobs.put(&jobs.seal(&record("j", "running", 3, 6), "a"))
             .await
             .unwrap();
+        // One epoch, one controller: a second one of the same epoch is refused.
+        let mut first = record("j", "running", 4, 7);
+        first.controller = "a/1".into();
+        jobs.put(&jobs.seal(&first, "a")).await.unwrap();
+        let mut second = first.clone();
+        second.controller = "b/9".into();
+        let err = jobs.put(&jobs.seal(&second, "b")).await.unwrap_err();
+        assert_eq!(err.code(), tonic::Code::Aborted, "{err}");
         // The envelope's user and id are the record's.
         let mut other = record("k", "running", 1, 1);
         other.user = "bob".into();

@@ -244,11 +244,12 @@ async fn retention(store: JobStore, limits: crate::limits::Limits, stop: Cancell
 /// exited, and, on the supervisor, restarts what needs it; until `stop`.
 async fn supervision(daemon: std::sync::Weak<Daemon>, stop: CancellationToken) {
     let mut seen = std::collections::HashSet::new();
+    let mut view = crate::job_control::ViewSettle::new(std::time::Instant::now());
     loop {
         let every = {
             let Some(d) = daemon.upgrade() else { break };
             d.note_exited_controllers(&mut seen).await;
-            if let Err(e) = d.supervise().await {
+            if let Err(e) = d.supervise(&mut view).await {
                 tracing::warn!("supervising jobs: {e}");
             }
             crate::job_control::tick(d.limits.job_lease_ms)

@@ -338,6 +338,7 @@ fn proc_json(p: &rem::ProcessInfo) -> serde_json::Value {
         "proc_id": p.proc_id, "host": p.host, "user": p.user, "job": p.job, "owner": p.owner, "program": p.program,
         "args": p.args, "pid": p.pid, "nice": p.nice, "state": p.state, "exit_code": p.exit_code,
         "signal": p.signal, "started_unix_ms": p.started_unix_ms,
+        "job_record": p.job_record, "job_epoch": p.job_epoch,
     })
 }
 

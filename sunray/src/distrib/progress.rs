@@ -47,9 +47,15 @@ impl ProgressView {
         }
     }
 
-    /// Prints an event when `--events` is on.
-    pub fn event(&self, value: serde_json::Value) {
+    /// Prints an event when `--events` is on, stamped with the wall clock (`unix_ms`).
+    pub fn event(&self, mut value: serde_json::Value) {
         if self.events {
+            if let Some(map) = value.as_object_mut() {
+                map.insert(
+                    "unix_ms".into(),
+                    crate::distrib::checkpoint::unix_ms().into(),
+                );
+            }
             eprintln!("{value}");
         }
     }

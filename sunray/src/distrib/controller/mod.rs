@@ -235,6 +235,8 @@ struct Controller<L> {
     all_silent_since: Option<Instant>,
     /// Set when REM refused a checkpoint for a newer epoch.
     superseded: Option<String>,
+    /// Nodes that got their first Assign (an `assign` event marks it).
+    assigned_once: Vec<bool>,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -311,6 +313,7 @@ impl<L: WorkerLink> Controller<L> {
             view,
             all_silent_since: None,
             superseded: None,
+            assigned_once: vec![false; workers.len()],
         }
     }
 
@@ -464,8 +467,16 @@ impl<L: WorkerLink> Controller<L> {
                 lines,
                 echo_s: self.stamps_to_echo[node].unwrap_or(0.0),
             }));
+            let first = !self.assigned_once[node];
             match self.link.send(&self.procs[node], msg).await {
-                Ok(()) => self.messages_out += 1,
+                Ok(()) => {
+                    self.messages_out += 1;
+                    if first {
+                        self.assigned_once[node] = true;
+                        self.view
+                            .event(json!({"event": "assign", "node": node + 1, "first": true}));
+                    }
+                }
                 Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
                 Err(e) => self.on_gone(node, format!("cannot send: {e}"), false),
             }

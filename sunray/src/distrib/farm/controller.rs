@@ -137,7 +137,8 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         preview: None,
         preview_every: Duration::from_secs(3600),
         show_bar: false,
-        events: false,
+        // Its events go to REM's log of this process (`rem logs`): what happened, when.
+        events: true,
         finish_grace: Duration::from_secs(3),
         checkpointed: Some(checkpointed.clone()),
     };
