@@ -84,7 +84,14 @@ pub async fn watch(
             if let Some(b) = &bar {
                 b.abandon();
             }
-            return Err(FarmError::NoRecord(job.to_string()));
+            // Seen, then gone: every host that kept it was lost with it.
+            return match last {
+                Some(_) => Ok(Ended::Failed(
+                    "no live host holds its record any more: the hosts that kept it were lost"
+                        .into(),
+                )),
+                None => Err(FarmError::NoRecord(job.to_string())),
+            };
         };
         for ev in changes(last.as_ref(), &now) {
             if view.events {
