@@ -192,6 +192,9 @@ def detached(farm, name, kill_after=None):
         ps = farm.compose("exec", "-T", "ws2", "/bin/rem", "ps", "--json",
                           capture_output=True)
         ctl = [p for p in json.loads(ps.stdout) if p["job"] == f"{name}.c2"]
+        if not ctl:
+            raise SystemExit(f"{name}: no second controller ran: the job was over before the "
+                             "kill (a longer job: BENCH_SAMPLES=64)")
         logs = farm.compose("exec", "-T", "ws2", "/bin/rem", "logs", ctl[0]["proc_id"],
                             capture_output=True, text=True)
         assigns = []
@@ -216,7 +219,7 @@ def failover():
     farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"),
                 {"SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]})
     total = int(RES.split("x")[1])
-    runs = {}
+    runs = {"settings": {"resolution": RES, "samples": SAMPLES or "default"}}
     try:
         farm.up(6, "ws1")
         runs["clean"] = detached(farm, "failover-clean")

@@ -175,7 +175,10 @@ def fault_section(data, out):
 
 def failover_section(data, out):
     c, k = data["clean"], data["kill"]
+    s = data.get("settings", {})
     out.append("## Controller failover (jobs owned by the farm)\n")
+    out.append(f"mount6 at {s.get('resolution')}, samples: {s.get('samples')} "
+               "(`BENCH_SAMPLES=64 deploy/bench/run.sh failover`).\n")
     out.append("A detached job (`sunray submit --detach --hosts 6`) on the six workstations, its "
                "controller on ws1; `docker-compose kill ws1` once a quarter of the lines are "
                "checkpointed (a worker dies with it). Times on the host's clock, which the "
