@@ -406,20 +406,7 @@ async fn run_plan(
     record_update(cluster, &entry, epoch).await;
 
     let spawned = start_workers(cluster, req, &plan, allow_same_host, relay.id().clone()).await?;
-    let workers: Vec<WorkerProc> = spawned
-        .processes
-        .iter()
-        .map(|p| WorkerProc {
-            proc_id: p.proc_id.clone(),
-            host: p.host.clone(),
-            pid: p.pid,
-            load_at_start: live
-                .iter()
-                .find(|h| h.name == p.host)
-                .and_then(|h| h.load.as_ref())
-                .map(|l| l.load_per_core),
-        })
-        .collect();
+    let workers = WorkerProc::placed(&spawned, &live);
     let (sender, receiver) = relay.split();
     let cfg = ControllerConfig {
         job: plan.job.clone(),

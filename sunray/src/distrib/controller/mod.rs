@@ -72,6 +72,26 @@ pub struct WorkerProc {
     pub load_at_start: Option<f64>,
 }
 
+impl WorkerProc {
+    /// The workers REM placed for `job`, with their hosts' load from `live` (REM's figures
+    /// when the job started).
+    pub fn placed(job: &rem::Job, live: &[rem::HostInfo]) -> Vec<WorkerProc> {
+        job.processes
+            .iter()
+            .map(|p| WorkerProc {
+                proc_id: p.proc_id.clone(),
+                host: p.host.clone(),
+                pid: p.pid,
+                load_at_start: live
+                    .iter()
+                    .find(|h| h.name == p.host)
+                    .and_then(|h| h.load.as_ref())
+                    .map(|l| l.load_per_core),
+            })
+            .collect()
+    }
+}
+
 /// The end of a job.
 #[derive(Debug)]
 pub struct JobResult {

@@ -291,18 +291,5 @@ async fn start_workers(
             host: None,
         })
         .await?;
-    Ok(spawned
-        .processes
-        .iter()
-        .map(|p| WorkerProc {
-            proc_id: p.proc_id.clone(),
-            host: p.host.clone(),
-            pid: p.pid,
-            load_at_start: live
-                .iter()
-                .find(|h| h.name == p.host)
-                .and_then(|h| h.load.as_ref())
-                .map(|l| l.load_per_core),
-        })
-        .collect())
+    Ok(WorkerProc::placed(&spawned, live))
 }
