@@ -508,11 +508,7 @@ impl Daemon {
             // The highest epoch wins, then an ended record (ended is final at its epoch),
             // then the newest write: a superseded controller's late write on a host that had
             // not heard of its successor does not show.
-            let rank = (
-                record.epoch,
-                job_store::is_ended(&record.state),
-                cp.version,
-            );
+            let rank = (record.epoch, job_store::is_ended(&record.state), cp.version);
             let key = (cp.user.clone(), cp.job.clone());
             if newest.get(&key).is_none_or(|(best, _)| rank > *best) {
                 newest.insert(key, (rank, record));

@@ -167,6 +167,13 @@ impl LoopbackCluster {
         })
     }
 
+    /// Stores `record` through daemon `via` (as its user), as a successor controller would.
+    pub fn put_record(&self, via: &str, record: rem::JobRecord) {
+        self.with_client_of(via, |client| async move {
+            client.put_job(record).await.unwrap();
+        })
+    }
+
     /// Waits (bounded) until daemon `via` lists job `id` with a record `pred` accepts.
     pub fn wait_record(
         &self,

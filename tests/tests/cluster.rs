@@ -437,7 +437,10 @@ fn detached_big_job(cluster: &ComposeCluster, job: &str) {
             assert_eq!(row.unwrap()["controller_host"], "ws1");
             return;
         }
-        assert!(std::time::Instant::now() < end, "job {job} never got going: {row:?}");
+        assert!(
+            std::time::Instant::now() < end,
+            "job {job} never got going: {row:?}"
+        );
         std::thread::sleep(Duration::from_millis(300));
     }
 }
@@ -482,7 +485,8 @@ fn a_detached_job_survives_its_controller_cut_off_for_20_seconds() {
     let o = output(Command::new("docker").args(["network", "disconnect", &net, &ws1]));
     assert!(o.status.success());
     std::thread::sleep(Duration::from_secs(20));
-    let o = output(Command::new("docker").args(["network", "connect", "--alias", "ws1", &net, &ws1]));
+    let o =
+        output(Command::new("docker").args(["network", "connect", "--alias", "ws1", &net, &ws1]));
     assert!(o.status.success());
     finishes_elsewhere(&cluster, "farm-cut");
     // The cut-off controller (epoch 1) did not finish the job: a later one did.

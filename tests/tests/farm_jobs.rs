@@ -259,3 +259,41 @@ fn detach_refuses_the_embedded_default_and_a_running_job_id() {
         .unwrap();
     assert!(cancel.status.success());
 }
+
+#[test]
+fn a_controller_whose_job_moved_on_stands_down_and_the_job_finishes() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let job = submit(&cluster, "fenced", 100);
+    let r = wait_mid_job(&cluster, &job);
+    let pid = pid_of(&cluster, "a", "fenced.c1");
+    // A successor's record (epoch 2, no live controller yet), as a partition's other side
+    // would write it: every write of epoch 1 is refused from now on.
+    let mut next = r.clone();
+    next.epoch = 2;
+    next.controller = String::new();
+    next.controller_host = String::new();
+    next.state = "recovering".into();
+    cluster.put_record("b", next);
+    // The epoch-1 controller learns it at its next write and stands down (exit 5) ...
+    let end = Instant::now() + Duration::from_secs(20);
+    let first = loop {
+        let procs = cluster.processes_via("b");
+        let p = procs
+            .iter()
+            .find(|p| p.pid as i32 == pid && p.job == "fenced.c1")
+            .cloned();
+        if let Some(p) = p.as_ref().filter(|p| p.state == "exited") {
+            break p.clone();
+        }
+        assert!(
+            Instant::now() < end,
+            "the fenced controller still runs: {p:?}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(first.exit_code, Some(5), "{first:?}");
+    // ... and the job, with no controller at epoch 2, is started again and finishes.
+    let r = check_finished(&cluster, "b", &job, dir.path());
+    assert!(r.epoch >= 3, "{r:?}");
+}
