@@ -131,6 +131,12 @@ impl Error {
         self.code() == Code::Aborted
     }
 
+    /// True when the daemon is gone: no answer ([`is_transport`](Self::is_transport)) or the
+    /// relay stream closed.
+    pub fn is_connection_lost(&self) -> bool {
+        self.is_transport() || matches!(self, Error::Closed)
+    }
+
     /// True when no daemon answered (connection refused, closed or broken, a TLS mismatch),
     /// as opposed to a daemon's answer with an error status.
     pub fn is_transport(&self) -> bool {

@@ -230,11 +230,13 @@ impl Daemon {
     }
 
     /// Marks the jobs of this host's controllers that exited unfinished as `recovering`
-    /// (once per process), so the supervisor restarts them at once.
+    /// (once per process), so the supervisor restarts them at once. `seen` keeps only the
+    /// exited controllers the process table still lists, so it stays as small as that.
     pub async fn note_exited_controllers(&self, seen: &mut std::collections::HashSet<String>) {
         let Ok(procs) = self.processes.list().await else {
             return;
         };
+        seen.retain(|id| procs.iter().any(|p| p.proc_id == *id));
         let exited: Vec<ProcessInfo> = procs
             .into_iter()
             .filter(|p| !p.job_record.is_empty() && p.state == "exited")

@@ -25,7 +25,8 @@ pub struct RemFlags {
 }
 
 impl RemFlags {
-    async fn open(&self) -> anyhow::Result<RemConnection> {
+    /// Connects to the remd named, or starts the private one.
+    pub async fn open(&self) -> anyhow::Result<RemConnection> {
         let program = std::env::current_exe()?;
         Ok(
             RemConnection::open(self.remd.as_deref(), self.secret_file.as_deref(), &program)
@@ -87,7 +88,8 @@ pub struct CancelArgs {
     pub rem: RemFlags,
 }
 
-fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+/// The runtime of a farm command: two threads are plenty for following and fetching.
+pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     Ok(tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

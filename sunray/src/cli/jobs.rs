@@ -6,18 +6,14 @@ use crate::distrib::checkpoint::unix_ms;
 use crate::distrib::connection::RemConnection;
 use crate::distrib::jobs;
 use clap::Args;
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// The flags of `sunray jobs`.
 #[derive(Args, Debug, Clone)]
 pub struct JobsArgs {
-    /// The remd to ask [default: the private one, whose state lives in ~/.local/state/sunray].
-    #[arg(long, env = "REM_ADDR")]
-    pub remd: Option<String>,
-    /// File with the cluster secret (else REM_SECRET_FILE or REM_SECRET).
-    #[arg(long)]
-    pub secret_file: Option<PathBuf>,
+    /// How to reach REM.
+    #[command(flatten)]
+    pub rem: super::farm::RemFlags,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -25,17 +21,11 @@ pub struct JobsArgs {
 
 /// Lists the jobs of the remd as a table (or JSON).
 pub fn run(args: JobsArgs) -> anyhow::Result<ExitCode> {
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()?;
-    runtime.block_on(list(args))
+    super::farm::runtime()?.block_on(list(args))
 }
 
 async fn list(args: JobsArgs) -> anyhow::Result<ExitCode> {
-    let program = std::env::current_exe()?;
-    let cluster =
-        RemConnection::open(args.remd.as_deref(), args.secret_file.as_deref(), &program).await?;
+    let cluster = args.rem.open().await?;
     let result = print_jobs(&cluster, args.json).await;
     cluster.close().await;
     result.map(|()| ExitCode::SUCCESS)

@@ -170,11 +170,7 @@ fn detach(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> {
         checkpoint_ms: args.checkpoint_ms.max(50),
         worker_timeout_ms: args.worker_timeout_ms,
     };
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
-    let job = runtime.block_on(async {
+    let job = super::farm::runtime()?.block_on(async {
         let cluster = RemConnection::open(
             args.remd.as_deref(),
             args.secret_file.as_deref(),

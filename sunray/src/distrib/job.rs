@@ -434,7 +434,7 @@ async fn run_plan(
         epoch: 0,
     });
     let result = handle.join().await.map_err(|e| match e {
-        ControllerError::Relay(e) if e.is_transport() || matches!(e, rem::Error::Closed) => {
+        ControllerError::Relay(e) if e.is_connection_lost() => {
             JobError::LostRemd {
                 addr: cluster.addr.clone(),
                 reason: e.root_cause(),

@@ -100,7 +100,7 @@ fn rem_line(e: &rem::Error) -> String {
 impl FarmError {
     /// `e` from the remd at `addr`, following `job`: a lost connection says the job goes on.
     pub fn from_rem(e: rem::Error, addr: &str, job: &str) -> FarmError {
-        if e.is_transport() || matches!(e, rem::Error::Closed) {
+        if e.is_connection_lost() {
             FarmError::LostRemd {
                 addr: addr.to_string(),
                 reason: e.root_cause(),
