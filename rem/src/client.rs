@@ -188,6 +188,10 @@ pub struct Logs {
     pub stderr: Vec<u8>,
     /// Whether older output was dropped to keep within the daemon's limit.
     pub truncated: bool,
+    /// The offset (bytes written since the process started) of `stdout`'s first byte.
+    pub stdout_start: u64,
+    /// The offset of `stderr`'s first byte.
+    pub stderr_start: u64,
 }
 
 /// A connection to a remd. Cheap to clone.
@@ -307,11 +311,19 @@ impl RemClient {
 
     /// The kept stdout and stderr of a process.
     pub async fn logs(&self, id: &ProcId) -> Result<Logs> {
+        self.logs_since(id, (0, 0)).await
+    }
+
+    /// The kept stdout and stderr of a process from the offsets `from` (stdout, stderr; bytes
+    /// written since it started) on: a follower asks for what is new since its last read.
+    pub async fn logs_since(&self, id: &ProcId, from: (u64, u64)) -> Result<Logs> {
         let r = self
             .rpc
             .clone()
             .logs(proto::LogsRequest {
                 proc_id: id.to_string(),
+                stdout_from: from.0,
+                stderr_from: from.1,
             })
             .await?
             .into_inner();
@@ -319,6 +331,8 @@ impl RemClient {
             stdout: r.stdout,
             stderr: r.stderr,
             truncated: r.truncated,
+            stdout_start: r.stdout_start,
+            stderr_start: r.stderr_start,
         })
     }
 

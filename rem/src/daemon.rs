@@ -316,14 +316,17 @@ impl Daemon {
         }
     }
 
-    /// The kept output of process `id`, for `who` (checked where it runs).
-    pub async fn logs(&self, who: &Identity, id: ProcId) -> Result<LogsReply> {
+    /// The kept output of process `id` from the offsets `from` (stdout, stderr) on, for
+    /// `who` (checked where it runs).
+    pub async fn logs(&self, who: &Identity, id: ProcId, from: (u64, u64)) -> Result<LogsReply> {
         match self.peer_for(&id)? {
-            None => self.processes.logs(id, who.clone()).await,
+            None => self.processes.logs(id, who.clone(), from).await,
             Some(addr) => {
                 let req = LogsLocalRequest {
                     proc_id: id.to_string(),
                     acting: Some(who.acting()),
+                    stdout_from: from.0,
+                    stderr_from: from.1,
                 };
                 self.peers
                     .call(id.host(), &addr, method::LOGS, req, |mut c, r| async move {
@@ -400,8 +403,8 @@ impl Daemon {
         Ok((cp.version, stored))
     }
 
-    /// Sends `cp` (stored here already) to one more live host, the least loaded that takes
-    /// it; the hosts that hold it. An error when there are peers and none took it.
+    /// Sends `cp` (stored here already) to one more live host, the first in the key's
+    /// rendezvous order that takes it; the hosts that hold it. An error when there are peers and none took it.
     async fn replicate<F, Fut>(
         &self,
         cp: &Checkpoint,
@@ -422,10 +425,13 @@ impl Daemon {
     {
         let mut stored = vec![self.name.clone()];
         let mut others: Vec<_> = self.live_peers().collect();
+        // The same peer for the same key every time (see `replicas`).
         others.sort_by(|a, b| {
-            let la = a.load.as_ref().map_or(0.0, |l| l.load_per_core);
-            let lb = b.load.as_ref().map_or(0.0, |l| l.load_per_core);
-            la.total_cmp(&lb).then_with(|| a.name.cmp(&b.name))
+            let (wa, wb) = (
+                crate::replicas::weight(&cp.job, &a.name),
+                crate::replicas::weight(&cp.job, &b.name),
+            );
+            wb.cmp(&wa).then_with(|| a.name.cmp(&b.name))
         });
         let had_peers = !others.is_empty();
         for h in others {

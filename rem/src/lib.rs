@@ -74,7 +74,8 @@
 //! - [`attach`]: one process's relay stream.
 //! - [`jobs`]: job owners and `Lost` reports.
 //! - [`checkpoint`]: atomic checkpoint files; [`job_store`]: job records (epochs, retention);
-//!   [`job_control`]: jobs the farm keeps running (`StartJob`, the supervisor, restarts).
+//!   [`job_control`]: jobs the farm keeps running (`StartJob`, the supervisor, restarts);
+//!   [`replicas`]: which peer keeps a key's second copy (rendezvous hashing).
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
 //! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
 //!   [`raise_fd_limit`].
@@ -113,6 +114,7 @@ pub mod policy;
 mod process;
 mod relay;
 pub mod relay_client;
+pub mod replicas;
 mod rpc;
 pub mod server;
 mod service;

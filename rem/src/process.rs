@@ -34,7 +34,12 @@ struct Entry {
 enum Cmd {
     Start(StartSpec, oneshot::Sender<Result<Vec<Placement>>>),
     Kill(ProcId, Identity, oneshot::Sender<Result<()>>),
-    Logs(ProcId, Identity, oneshot::Sender<Result<LogsReply>>),
+    Logs(
+        ProcId,
+        Identity,
+        (u64, u64),
+        oneshot::Sender<Result<LogsReply>>,
+    ),
     List(oneshot::Sender<Vec<ProcessInfo>>),
     Exited {
         id: ProcId,
@@ -96,9 +101,10 @@ impl ProcessTable {
         self.ask(|tx| Cmd::Kill(id, who, tx)).await?
     }
 
-    /// The kept output of a process; only for its user or an admin.
-    pub async fn logs(&self, id: ProcId, who: Identity) -> Result<LogsReply> {
-        self.ask(|tx| Cmd::Logs(id, who, tx)).await?
+    /// The kept output of a process from the offsets `from` (stdout, stderr) on; only for
+    /// its user or an admin.
+    pub async fn logs(&self, id: ProcId, who: Identity, from: (u64, u64)) -> Result<LogsReply> {
+        self.ask(|tx| Cmd::Logs(id, who, from, tx)).await?
     }
 
     pub async fn list(&self) -> Result<Vec<ProcessInfo>> {
@@ -139,16 +145,9 @@ impl Actor {
                         .and_then(|()| self.kill(&id));
                     let _ = reply.send(r);
                 }
-                Cmd::Logs(id, who, reply) => {
+                Cmd::Logs(id, who, from, reply) => {
                     let r = self.owned(&id, &who);
-                    let _ = reply.send(r.map(|e| {
-                        let (stdout, stderr, truncated) = e.output.snapshot();
-                        LogsReply {
-                            stdout,
-                            stderr,
-                            truncated,
-                        }
-                    }));
+                    let _ = reply.send(r.map(|e| e.output.since(from)));
                 }
                 Cmd::List(reply) => {
                     let list = self.entries.values().map(|e| {

@@ -70,10 +70,10 @@ impl Rem for Service {
         req: Request<proto::LogsRequest>,
     ) -> Result<Response<proto::LogsReply>, Status> {
         let who = self.user(&req)?;
+        let r = req.into_inner();
+        let from = (r.stdout_from, r.stderr_from);
         Ok(Response::new(
-            self.0
-                .logs(&who, proc_id(&req.into_inner().proc_id)?)
-                .await?,
+            self.0.logs(&who, proc_id(&r.proc_id)?, from).await?,
         ))
     }
 
@@ -237,7 +237,12 @@ impl Peer for Service {
         self.peer(&req, method::LOGS)?;
         let r = req.get_ref();
         let who = Identity::from_acting(r.acting.as_ref())?;
-        let logs = self.0.processes.logs(proc_id(&r.proc_id)?, who).await?;
+        let from = (r.stdout_from, r.stderr_from);
+        let logs = self
+            .0
+            .processes
+            .logs(proc_id(&r.proc_id)?, who, from)
+            .await?;
         Ok(self.answer(&req, method::LOGS, logs))
     }
 

@@ -142,6 +142,11 @@ async fn spawned_process_is_niced_and_its_output_and_exit_arrive() {
         format!("rem-echo stdout {id}\n")
     );
     assert_eq!(String::from_utf8_lossy(&logs.stderr), "rem-echo stderr\n");
+    // A follower asks only for what is new since its last read.
+    let rest = client.logs_since(id, (9, 4)).await.unwrap();
+    assert_eq!((rest.stdout_start, rest.stderr_start), (9, 4));
+    assert_eq!(rest.stdout, logs.stdout[9..]);
+    assert_eq!(String::from_utf8_lossy(&rest.stderr), "echo stderr\n");
     let ps = client.ps().await.unwrap();
     let entry = ps.iter().find(|p| p.proc_id == id.as_str()).unwrap();
     assert_eq!((entry.state.as_str(), entry.exit_code), ("exited", Some(3)));

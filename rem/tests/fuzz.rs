@@ -544,11 +544,15 @@ impl Gen<'_> {
             .encode_to_vec(),
             Rpc::Logs => proto::LogsRequest {
                 proc_id: self.proc_id(),
+                stdout_from: self.u64(),
+                stderr_from: self.u64(),
             }
             .encode_to_vec(),
             Rpc::LogsLocal => proto::LogsLocalRequest {
                 proc_id: self.proc_id(),
                 acting: self.acting(),
+                stdout_from: self.u64(),
+                stderr_from: self.u64(),
             }
             .encode_to_vec(),
             Rpc::PutCheckpoint => proto::PutCheckpointRequest {

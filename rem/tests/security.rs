@@ -134,6 +134,7 @@ async fn only_allow_listed_absolute_programs_are_spawned() {
     let status = raw
         .logs(proto::LogsRequest {
             proc_id: "a/12345".into(),
+            ..Default::default()
         })
         .await
         .unwrap_err();

@@ -16,6 +16,7 @@ use sunray_e2e::bins::signal;
 use sunray_e2e::fixtures::spd;
 use sunray_e2e::reference::reference;
 use sunray_e2e::remd::LoopbackCluster;
+use sunray_e2e::submit_run::SubmitRun;
 
 const FLAGS: [&str; 2] = ["--resolution", "64x96"];
 const LINES: u64 = 96;
@@ -46,6 +47,21 @@ fn submit(cluster: &LoopbackCluster, job: &str, delay_ms: u32) -> String {
     let id = String::from_utf8(out.stdout).unwrap();
     assert_eq!(id.trim(), job, "--detach prints the job id alone");
     id.trim().to_string()
+}
+
+/// `sunray submit` through daemon a, following the job (no --detach).
+fn follow(cluster: &LoopbackCluster, job: &str, delay_ms: u32, dir: &Path) -> SubmitRun {
+    let mut c = cluster.submit();
+    c.env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
+        .args(["--hosts", "2", "--checkpoint-ms", "200", "--job", job])
+        .args(FLAGS)
+        .arg(spd("mount6"))
+        .arg("-o")
+        .arg(dir.join("followed.png"));
+    let mut run = SubmitRun::start(c);
+    // The controller's own events reach the follower, through REM.
+    run.wait_done(8, Duration::from_secs(60));
+    run
 }
 
 /// Waits until the job's record shows some checkpointed lines (and not all).
@@ -109,7 +125,6 @@ fn check_finished(cluster: &LoopbackCluster, via: &str, job: &str, dir: &Path) -
     );
     let r = cluster.record(via, job).unwrap();
     assert_eq!((r.state.as_str(), r.progress_done), ("finished", LINES));
-    assert!(r.epoch >= 2, "the controller was never replaced: {r:?}");
     r
 }
 
@@ -134,6 +149,7 @@ fn losing_the_controllers_host_moves_the_job_to_a_live_host() {
     cluster.kill_daemon("a");
     let r = check_finished(&cluster, "c", &job, dir.path());
     assert_ne!(r.controller_host, "a", "{r:?}");
+    assert!(r.epoch >= 2, "the controller was never replaced: {r:?}");
 }
 
 #[test]
@@ -147,7 +163,8 @@ fn a_stopped_controller_is_replaced_and_stands_down_when_it_wakes() {
     // Past the lease, a second controller takes the job.
     cluster.wait_record("b", &job, "moved to epoch 2", |r| r.epoch == 2);
     signal(old, libc::SIGCONT);
-    check_finished(&cluster, "b", &job, dir.path());
+    let r = check_finished(&cluster, "b", &job, dir.path());
+    assert!(r.epoch >= 2, "{r:?}");
     let procs = cluster.processes_via("b");
     let first = procs.iter().find(|p| p.job == "stopped.c1").unwrap();
     assert_eq!(
@@ -296,4 +313,72 @@ fn a_controller_whose_job_moved_on_stands_down_and_the_job_finishes() {
     // ... and the job, with no controller at epoch 2, is started again and finishes.
     let r = check_finished(&cluster, "b", &job, dir.path());
     assert!(r.epoch >= 3, "{r:?}");
+}
+
+#[test]
+fn ctrl_c_stops_following_and_not_the_job() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = follow(&cluster, "ctrlc", 100, dir.path());
+    signal(run.child.id() as i32, libc::SIGINT);
+    let status = run.wait(Duration::from_secs(20));
+    assert_eq!(status.code(), Some(130), "{}", run.text());
+    let said = run.text();
+    assert!(
+        said.contains("stopped following job ctrlc")
+            && said.contains("`sunray watch ctrlc`")
+            && said.contains("`sunray cancel ctrlc`"),
+        "{said}"
+    );
+    let r = check_finished(&cluster, "b", "ctrlc", dir.path());
+    assert_eq!(r.epoch, 1, "the job was not disturbed: {r:?}");
+}
+
+#[test]
+fn losing_the_followed_remd_is_one_line_and_the_job_finishes_in_the_farm() {
+    let mut cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = follow(&cluster, "lostremd", 100, dir.path());
+    // The remd `submit` talks to dies, and the controller with it.
+    cluster.kill_daemon("a");
+    let status = run.wait(Duration::from_secs(20));
+    assert!(!status.success());
+    let text = run.text();
+    let errors: Vec<&str> = text.lines().filter(|l| l.contains("error")).collect();
+    assert_eq!(errors.len(), 1, "one line, not a chain:\n{text}");
+    assert!(
+        errors[0].contains("lost remd at") && errors[0].contains("`sunray watch lostremd`"),
+        "{text}"
+    );
+    assert!(!text.contains("h2 protocol"), "{text}");
+    let r = check_finished(&cluster, "c", "lostremd", dir.path());
+    assert!(r.epoch >= 2, "{r:?}");
+}
+
+#[test]
+fn a_job_whose_record_holders_are_all_lost_is_reported_failed() {
+    let mut cluster = LoopbackCluster::start(3);
+    let job = submit(&cluster, "orphan", 150);
+    wait_mid_job(&cluster, &job);
+    // Every write of the record goes through daemon a (submit, controller, supervisor), so
+    // it is kept on a and on the peer the job id hashes to.
+    let holder = rem::replicas::order(&job, ["b", "c"])[0];
+    let other = if holder == "b" { "c" } else { "b" };
+    let mut watch = SubmitRun::start({
+        let mut c = cluster.sunray_via(other);
+        c.args(["watch", &job]);
+        c
+    });
+    watch.wait_until(Duration::from_secs(20), |seen| {
+        seen.iter().any(|v| v["event"] == "state").then_some(())
+    });
+    cluster.kill_daemon("a");
+    cluster.kill_daemon(holder);
+    let status = watch.wait(Duration::from_secs(20));
+    assert_eq!(status.code(), Some(3), "{}", watch.text());
+    let said = watch.text();
+    assert!(
+        said.contains("job orphan failed") && said.contains("no live host holds its record"),
+        "{said}"
+    );
 }

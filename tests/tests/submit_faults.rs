@@ -1,7 +1,8 @@
 //! Faults during `sunray submit` on three real remd daemons: a worker killed, a worker
-//! host's remd killed, a worker stopped (SIGSTOP), the controller killed and resumed. Each
-//! run still gives an image byte-identical to `sunray render`, with the lost lines rendered
-//! again and counted.
+//! host's remd killed, a worker stopped (SIGSTOP) in a job handed to the farm and followed;
+//! the controller killed and resumed, and no worker left, with the controller in the
+//! submitting process (`--in-process`, the thesis's way). Each run still gives an image
+//! byte-identical to `sunray render`, with the lost lines rendered again and counted.
 //!
 //! "Mid-job" is made deterministic by watching the controller's `--events` and by making
 //! every line take at least SUNRAY_WORKER_LINE_DELAY_MS (a worker test hook), so the job
@@ -158,7 +159,7 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
         &cluster,
         &job,
         60,
-        &["--job", id, "--checkpoint-ms", "100"],
+        &["--in-process", "--job", id, "--checkpoint-ms", "100"],
     ));
     let stored = run.wait_until(Duration::from_secs(60), |seen| {
         seen.iter()
@@ -236,7 +237,8 @@ fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
     let id = "no-workers-1";
     let mut c = cluster.submit();
     c.env("SUNRAY_WORKER_LINE_DELAY_MS", "60")
-        .args(["--hosts", "1", "--job", id, "--checkpoint-ms", "100"])
+        .args(["--in-process", "--hosts", "1", "--job", id])
+        .args(["--checkpoint-ms", "100"])
         .args(FLAGS)
         .arg(spd("mount6"))
         .arg("-o")
@@ -272,7 +274,7 @@ fn workers_that_never_say_ready_time_out() {
     let job = job();
     let mut c = cluster.submit();
     c.env("SUNRAY_WORKER_READY_DELAY_MS", "120000")
-        .args(["--hosts", "2", "--worker-timeout-ms", "500"])
+        .args(["--in-process", "--hosts", "2", "--worker-timeout-ms", "500"])
         .args(FLAGS)
         .arg(spd("mount6"))
         .arg("-o")
@@ -301,7 +303,7 @@ fn losing_the_controllers_remd_is_one_line_and_the_job_resumes_on_the_hosts_left
         &cluster,
         &job,
         60,
-        &["--job", id, "--checkpoint-ms", "100"],
+        &["--in-process", "--job", id, "--checkpoint-ms", "100"],
     ));
     run.wait_until(Duration::from_secs(60), |seen| {
         seen.iter()

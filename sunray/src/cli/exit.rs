@@ -15,3 +15,6 @@ pub const JOB_CANCELLED: u8 = 4;
 
 /// `sunray controller`: a newer controller has the job, so this one stood down.
 pub const SUPERSEDED: u8 = 5;
+
+/// `sunray submit` following a farm job: Ctrl-C stopped the following; the job goes on.
+pub const STOPPED_FOLLOWING: u8 = 130;

@@ -54,7 +54,8 @@ pub struct ControllerArgs {
 pub struct WatchArgs {
     /// The job to follow.
     pub job: String,
-    /// Print JSON events (state, controller moves, progress) on stderr instead of a bar.
+    /// Print JSON events (state, controller moves, progress, and the controller's own) on
+    /// stderr instead of a bar.
     #[arg(long)]
     pub events: bool,
     /// Print nothing but errors.
@@ -151,6 +152,9 @@ pub fn watch(args: WatchArgs) -> anyhow::Result<ExitCode> {
         let view = WatchView {
             bar: !args.quiet && !args.events && std::io::stderr().is_terminal(),
             events: args.events,
+            // With --events, the controller's own events too (where its host answers).
+            controller_output: args.events,
+            preview: None,
         };
         let end = follow::watch(&cluster.client, &cluster.addr, &args.job, view).await;
         cluster.close().await;

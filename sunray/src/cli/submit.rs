@@ -1,13 +1,16 @@
 //! `sunray submit`: renders a scene on the SunRay III farm (thesis section 4.2.4). Compiles
-//! the scene once, asks REM for N workers on the least-loaded hosts, runs the controller,
-//! writes the image (byte-identical to `sunray render` of the same scene and options) and
-//! prints the per-node table. With no remd configured it runs a private one and local
-//! workers. See docs/sunray-iii.md.
+//! the scene once and checks it; on a cluster (`--remd`) it hands the job to the farm (REM
+//! runs its controller, and starts it again if it or its host fails) and follows it: the
+//! progress bar, the image written to `-o` (byte-identical to `sunray render` of the same
+//! scene and options) and the per-node table. With no remd configured (a private one and
+//! local workers), with `--in-process` or `--resume`, the controller runs in this process,
+//! as the thesis's SunRay III did. See docs/sunray-iii.md.
 
 use super::exit;
 use super::render::RenderArgs;
 use crate::distrib::connection::RemConnection;
-use crate::distrib::farm::{self, ControllerFlags};
+use crate::distrib::farm::follow::{self, Ended, WatchView};
+use crate::distrib::farm::{self, ControllerFlags, FarmError, Submitted};
 use crate::distrib::job::{self, JobRequest, JobScene};
 use crate::distrib::strategy::Strategy;
 use crate::scene::load::BUILTIN;
@@ -55,8 +58,13 @@ pub struct SubmitArgs {
     /// `sunray watch ID`, get the image with `sunray fetch ID -o FILE`, stop it with `sunray
     /// cancel ID`. Needs a cluster (--remd): the private remd of the default set-up ends with
     /// this command, so without one a job lives as long as `submit` does.
-    #[arg(long, conflicts_with_all = ["resume", "preview"])]
+    #[arg(long, conflicts_with_all = ["resume", "preview", "in_process"])]
     pub detach: bool,
+    /// Run the controller in this process, as the thesis's SunRay III did, rather than
+    /// handing the job to the farm: the job stops with this command (`--resume` continues
+    /// it). Always so with the private remd of the default set-up, and with `--resume`.
+    #[arg(long)]
+    pub in_process: bool,
     /// Rewrite the partial image to FILE every few seconds.
     #[arg(long, value_name = "FILE")]
     pub preview: Option<PathBuf>,
@@ -112,8 +120,8 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     };
     let request = args.request(program);
     request.check()?;
-    if args.detach {
-        return detach(&args, &request);
+    if args.detach || (args.remd.is_some() && args.resume.is_none() && !args.in_process) {
+        return in_farm(&args, &request);
     }
     // A new job's scene is compiled before anything else, so a bad scene starts nothing.
     let scene = match &args.resume {
@@ -162,26 +170,87 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `--detach`: stores the job in the farm, starts its controller, prints the job id.
-fn detach(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> {
+/// Hands the job to the farm; with `--detach` prints its id, else follows it to its end
+/// and writes its image and statistics here.
+fn in_farm(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> {
     let loaded = args.render.load()?;
     request.overrides.settings(&loaded.scene)?;
     let flags = ControllerFlags {
         checkpoint_ms: args.checkpoint_ms.max(50),
         worker_timeout_ms: args.worker_timeout_ms,
     };
-    let job = super::farm::runtime()?.block_on(async {
+    super::farm::runtime()?.block_on(async {
         let cluster = RemConnection::open(
             args.remd.as_deref(),
             args.secret_file.as_deref(),
             &request.worker_program,
         )
         .await?;
-        let job = farm::submit(&cluster, request, loaded, &flags).await;
+        let outcome = match farm::submit(&cluster, request, loaded, &flags).await {
+            Ok(job) if args.detach => {
+                println!("{}", job.job);
+                Ok(ExitCode::SUCCESS)
+            }
+            Ok(job) => follow_here(args, request, &cluster, &job).await,
+            Err(e) => Err(e.into()),
+        };
         cluster.close().await;
-        anyhow::Ok(job?)
-    })?;
-    println!("{job}");
+        outcome
+    })
+}
+
+/// Follows a job handed to the farm as the in-process controller shows it; Ctrl-C stops
+/// following, not the job.
+async fn follow_here(
+    args: &SubmitArgs,
+    request: &JobRequest,
+    cluster: &RemConnection,
+    submitted: &Submitted,
+) -> anyhow::Result<ExitCode> {
+    let job = &submitted.job;
+    let quiet = args.render.quiet;
+    if !quiet {
+        eprintln!(
+            "sunray: job {job} is in the farm; following it (Ctrl-C stops following, not the job)"
+        );
+    }
+    let view = WatchView {
+        bar: request.show_bar,
+        events: args.events,
+        controller_output: true,
+        preview: args.preview.clone().map(|p| (p, request.preview_every)),
+    };
+    let end = tokio::select! {
+        end = follow::watch(&cluster.client, &cluster.addr, job, view) => end?,
+        _ = tokio::signal::ctrl_c() => {
+            eprintln!(
+                "sunray: stopped following job {job}; it goes on in the farm: `sunray watch {job}` follows it, `sunray fetch {job} -o FILE` writes its image, `sunray cancel {job}` stops it"
+            );
+            return Ok(ExitCode::from(exit::STOPPED_FOLLOWING));
+        }
+    };
+    let Ended::Finished { summary } = &end else {
+        return Ok(super::farm::report_end(job, &end, quiet));
+    };
+    let lost = |e: FarmError| match e {
+        FarmError::Rem(e) => FarmError::from_rem(e, &cluster.addr, job),
+        e => e,
+    };
+    follow::fetch(&cluster.client, job, &submitted.output)
+        .await
+        .map_err(lost)?;
+    if let Some(path) = &args.render.stats_json {
+        match follow::stats_json(&cluster.client, job)
+            .await
+            .map_err(lost)?
+        {
+            Some(bytes) => crate::film::write_atomically(path, &bytes)?,
+            None => eprintln!("sunray: warning: job {job} left no statistics for --stats-json"),
+        }
+    }
+    if !quiet {
+        eprint!("{summary}");
+    }
     Ok(ExitCode::SUCCESS)
 }
 

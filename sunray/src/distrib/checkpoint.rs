@@ -14,6 +14,7 @@
 
 use super::messages::proto::{CheckpointHeader, CheckpointSegment, FinishedLine, JobSpec};
 use super::messages::MessageError;
+use crate::film::Film;
 use crate::render::Settings;
 use prost::Message;
 use std::collections::BTreeMap;
@@ -140,6 +141,30 @@ pub struct Restored {
     pub header: CheckpointHeader,
     /// Finished lines by line number.
     pub lines: BTreeMap<u32, FinishedLine>,
+}
+
+impl Restored {
+    /// The image's (width, height) in the checkpoint's settings.
+    pub fn size(&self) -> (u32, u32) {
+        self.header
+            .spec
+            .as_ref()
+            .and_then(|s| s.settings.as_ref())
+            .map(|s| (s.width, s.height))
+            .unwrap_or_default()
+    }
+
+    /// A `width` x `height` image with the lines in painted, the rest black ([`load`] has
+    /// checked every line's pixels against the settings).
+    pub fn film(&self, width: u32, height: u32) -> Film {
+        let mut film = Film::new(width, height);
+        for l in self.lines.values().filter(|l| l.line < height) {
+            if let Ok(px) = super::messages::pixels_from_bytes(&l.pixels, width) {
+                film.set_line(l.line, &px);
+            }
+        }
+        film
+    }
 }
 
 /// Writes a job's checkpoint incrementally.

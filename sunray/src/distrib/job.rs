@@ -434,13 +434,11 @@ async fn run_plan(
         epoch: 0,
     });
     let result = handle.join().await.map_err(|e| match e {
-        ControllerError::Relay(e) if e.is_connection_lost() => {
-            JobError::LostRemd {
-                addr: cluster.addr.clone(),
-                reason: e.root_cause(),
-                job: plan.job.clone(),
-            }
-        }
+        ControllerError::Relay(e) if e.is_connection_lost() => JobError::LostRemd {
+            addr: cluster.addr.clone(),
+            reason: e.root_cause(),
+            job: plan.job.clone(),
+        },
         e => JobError::Controller(e),
     })?;
 
@@ -456,16 +454,35 @@ async fn run_plan(
         result.film.write(&plan.output)?;
     }
     let name = plan.loaded.source.display_name();
-    let mut totals = plan.settings.stats_header(&name, &plan.loaded.scene);
+    let header = plan.settings.stats_header(&name, &plan.loaded.scene);
+    let finished = result.finished;
+    let stats = job_stats(&plan.job, plan.strategy, plan.hosts, header, result);
+    Ok(JobOutcome {
+        job: plan.job,
+        output: plan.output,
+        finished,
+        stats,
+    })
+}
+
+/// The statistics of a controller's run of `job`: the per-node table, and `header` (the
+/// scene and image, from [`Settings::stats_header`]) with the counted totals of every line.
+pub(crate) fn job_stats(
+    job: &str,
+    strategy: Strategy,
+    hosts: u32,
+    mut totals: crate::stats::RenderStats,
+    result: controller::JobResult,
+) -> JobStats {
     totals.threads = result.nodes.iter().map(|n| n.threads as usize).sum();
     totals.time.render_s = result.elapsed_s;
     totals.time.cpu_s = result.nodes.iter().map(|n| n.cpu_s).sum();
     totals.set_counters(&result.counters);
     let (wait_share, tail_wait_share) = nodes::wait_shares(&result.nodes);
-    let stats = JobStats {
-        job: plan.job.clone(),
-        strategy: Some(plan.strategy),
-        hosts: plan.hosts,
+    JobStats {
+        job: job.to_string(),
+        strategy: Some(strategy),
+        hosts,
         lines: result.lines,
         elapsed_s: result.elapsed_s,
         totals,
@@ -473,13 +490,7 @@ async fn run_plan(
         wait_share,
         tail_wait_share,
         nodes: result.nodes,
-    };
-    Ok(JobOutcome {
-        job: plan.job,
-        output: plan.output,
-        finished: result.finished,
-        stats,
-    })
+    }
 }
 
 /// What the checkpoint remembers of the job, so `--resume` can continue it.

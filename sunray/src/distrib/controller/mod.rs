@@ -267,16 +267,15 @@ impl<L: WorkerLink> Controller<L> {
         restored: Option<Restored>,
         checkpointer: Checkpointer,
     ) -> Controller<L> {
-        let mut film = Film::new(cfg.width, cfg.height);
+        let film = match &restored {
+            Some(r) => r.film(cfg.width, cfg.height),
+            None => Film::new(cfg.width, cfg.height),
+        };
         let mut finished = vec![false; cfg.height as usize];
         let mut counters = Counters::default();
         for l in restored.iter().flat_map(|r| r.lines.values()) {
-            let Ok(px) = messages::pixels_from_bytes(&l.pixels, cfg.width) else {
-                continue;
-            };
             if let Some(f) = finished.get_mut(l.line as usize) {
                 *f = true;
-                film.set_line(l.line, &px);
                 counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
             }
         }

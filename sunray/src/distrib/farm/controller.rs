@@ -8,15 +8,15 @@
 //! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
 //! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
 
-use super::{scene_key, FarmError};
-use crate::distrib::checkpoint::{self, Checkpointer};
+use super::{scene_key, stats_key, FarmError};
+use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Store};
 use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
-use crate::distrib::job::worker_env;
+use crate::distrib::job::{self, worker_env};
 use crate::distrib::jobs;
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::nodes::{self, JobStats};
 use crate::distrib::strategy::Strategy;
 use crate::render::Settings;
+use crate::scene::Scene;
 use prost::Message;
 use rem::RemClient;
 use std::path::PathBuf;
@@ -98,6 +98,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         .map_err(|e| stored(&e.to_string()))?
         .ok_or_else(|| stored("its stored scene has no render settings"))?;
     let (width, height) = (settings.render.width, settings.render.height);
+    let model = scene.model.clone();
 
     record.state = "running".into();
     record.controller = me.to_string();
@@ -172,19 +173,27 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     if !result.finished {
         return Ok(ControllerEnd::Unfinished);
     }
-    let (wait_share, tail_wait_share) = nodes::wait_shares(&result.nodes);
-    let stats = JobStats {
-        job: job.clone(),
-        strategy: Some(strategy),
-        hosts: count,
-        lines: result.lines,
-        elapsed_s: result.elapsed_s,
-        totals: Default::default(),
-        controller: result.cost,
-        wait_share,
-        tail_wait_share,
-        nodes: result.nodes,
+    // The scene's part of the totals, as `sunray render` and the in-process job give it.
+    let header = match yari::modelfile::from_bytes(&model) {
+        Ok(world) => settings.stats_header(&jobs::from_record(&record).scene, &Scene::new(world)),
+        Err(_) => Default::default(),
     };
+    let stats = job::job_stats(&job, strategy, count, header, result);
+    let json = serde_json::to_vec_pretty(&stats).map_err(|e| stored(&e.to_string()))?;
+    Fenced {
+        client: &client,
+        epoch,
+        job: &job,
+    }
+    .put(&stats_key(&job), json)
+    .await
+    .map_err(|e| match e {
+        e if e.is_fenced() => FarmError::Superseded {
+            job: job.clone(),
+            reason: e.to_string(),
+        },
+        e => FarmError::Rem(e),
+    })?;
     let mut entry = jobs::from_record(&record);
     entry.summary = stats.summary();
     record.app = entry.encode_to_vec();

@@ -1,15 +1,15 @@
 //! Following a farm job from any host: `watch` (its state and lines until it ends, through
 //! controller moves), `fetch` (the finished image, from its last checkpoint) and `cancel`.
 
+use super::tail::ControllerTail;
 use super::FarmError;
 use crate::distrib::checkpoint;
 use crate::distrib::jobs;
-use crate::distrib::messages;
-use crate::film::{Film, Format};
+use crate::film::Format;
 use rem::job_store::is_ended;
 use rem::{JobRecord, RemClient};
 use serde_json::json;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// How often `watch` reads the job's record.
@@ -30,12 +30,17 @@ pub enum Ended {
 }
 
 /// How `watch` shows the job.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct WatchView {
     /// Draw a progress bar on stderr.
     pub bar: bool,
     /// Print JSON events on stderr (state, controller and progress changes).
     pub events: bool,
+    /// Show the controller's own output, as `submit` with the controller in-process does:
+    /// its JSON events (with `events`; they also move the bar) and its warnings.
+    pub controller_output: bool,
+    /// Rewrite the partial image (from the checkpoint) to this file every so often.
+    pub preview: Option<(PathBuf, Duration)>,
 }
 
 /// What changed between two records of the same job, as events.
@@ -67,23 +72,15 @@ pub async fn watch(
     view: WatchView,
 ) -> Result<Ended, FarmError> {
     let mut last: Option<JobRecord> = None;
-    let bar = view.bar.then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} lines {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b.set_prefix(job.to_string());
-        b
-    });
+    let mut shown = Shown::new(job, &view);
+    let mut tail = ControllerTail::default();
+    let mut preview = view.preview.clone().map(PreviewWriter::new);
     loop {
         let found = jobs::find(client, job)
             .await
             .map_err(|e| FarmError::from_rem(e, addr, job))?;
         let Some(now) = found else {
-            if let Some(b) = &bar {
-                b.abandon();
-            }
+            shown.abandon();
             // Seen, then gone: every host that kept it was lost with it.
             return match last {
                 Some(_) => Ok(Ended::Failed(
@@ -95,21 +92,22 @@ pub async fn watch(
         };
         for ev in changes(last.as_ref(), &now) {
             if view.events {
-                eprintln!("{ev}");
+                shown.line(&ev.to_string());
             }
         }
-        if let Some(b) = &bar {
-            b.set_length(now.progress_total);
-            b.set_position(now.progress_done);
-            b.set_message(format!(
-                "{} (epoch {}, {})",
-                now.state, now.epoch, now.controller_host
-            ));
+        if view.controller_output && !now.controller.is_empty() {
+            for line in tail.read(client, &now.controller).await {
+                shown.controller_line(&line);
+            }
         }
+        shown.record(&now);
         if is_ended(&now.state) {
-            if let Some(b) = &bar {
-                b.finish_and_clear();
+            if view.controller_output {
+                for line in tail.flush() {
+                    shown.controller_line(&line);
+                }
             }
+            shown.finish();
             return Ok(match now.state.as_str() {
                 "finished" => Ended::Finished {
                     summary: jobs::from_record(&now).summary,
@@ -118,9 +116,129 @@ pub async fn watch(
                 _ => Ended::Failed(now.message),
             });
         }
+        if let Some(p) = &mut preview {
+            p.maybe_write(client, job, now.progress_done).await;
+        }
         last = Some(now);
         tokio::time::sleep(POLL).await;
     }
+}
+
+/// What `watch` draws: the bar (moved by the record and the controller's line events) and
+/// lines printed above it.
+struct Shown {
+    bar: Option<indicatif::ProgressBar>,
+    events: bool,
+    done: u64,
+}
+
+impl Shown {
+    fn new(job: &str, view: &WatchView) -> Shown {
+        let bar = view.bar.then(|| {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{prefix} [{bar:40}] {pos}/{len} lines {msg}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b.set_prefix(job.to_string());
+            b
+        });
+        Shown {
+            bar,
+            events: view.events,
+            done: 0,
+        }
+    }
+
+    fn line(&self, text: &str) {
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{text}")),
+            None => eprintln!("{text}"),
+        }
+    }
+
+    /// A line of the controller's stderr: an event (shown with `--events`) or a warning.
+    fn controller_line(&mut self, text: &str) {
+        match serde_json::from_str::<serde_json::Value>(text) {
+            Ok(v) if v.get("event").is_some() => {
+                if v["event"] == "line" {
+                    self.done = self.done.max(v["done"].as_u64().unwrap_or(0));
+                    if let Some(b) = &self.bar {
+                        b.set_position(b.position().max(self.done));
+                    }
+                }
+                if self.events {
+                    self.line(text);
+                }
+            }
+            _ => self.line(text),
+        }
+    }
+
+    fn record(&mut self, now: &JobRecord) {
+        if let Some(b) = &self.bar {
+            b.set_length(now.progress_total);
+            b.set_position(now.progress_done.max(self.done));
+            b.set_message(format!(
+                "{} (epoch {}, {})",
+                now.state, now.epoch, now.controller_host
+            ));
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+
+    fn abandon(&self) {
+        if let Some(b) = &self.bar {
+            b.abandon();
+        }
+    }
+}
+
+/// `submit --preview` for a farm job: the partial image from the checkpoint, rewritten when
+/// the checkpoint has grown and the period has passed.
+struct PreviewWriter {
+    path: PathBuf,
+    every: Duration,
+    at: Option<tokio::time::Instant>,
+    lines: Option<u64>,
+}
+
+impl PreviewWriter {
+    fn new((path, every): (PathBuf, Duration)) -> PreviewWriter {
+        PreviewWriter {
+            path,
+            every,
+            at: None,
+            lines: None,
+        }
+    }
+
+    async fn maybe_write(&mut self, client: &RemClient, job: &str, lines: u64) {
+        let due = self.at.is_none_or(|t| t.elapsed() >= self.every);
+        if !due || self.lines == Some(lines) {
+            return;
+        }
+        self.at = Some(tokio::time::Instant::now());
+        self.lines = Some(lines);
+        if let Ok(Some(restored)) = checkpoint::load(client, job).await {
+            let (w, h) = restored.size();
+            if let Err(e) = restored.film(w, h).write(&self.path) {
+                eprintln!("sunray: warning: preview: {e}");
+            }
+        }
+    }
+}
+
+/// A finished job's statistics as `--stats-json` writes them, if its controller stored them.
+pub async fn stats_json(client: &RemClient, job: &str) -> Result<Option<Vec<u8>>, FarmError> {
+    Ok(client.get_checkpoint(&super::stats_key(job)).await?)
 }
 
 /// Writes job `job`'s finished image to `out` (.png, .ppm or .pfm, as `sunray render`).
@@ -132,14 +250,7 @@ pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), Farm
             job: job.to_string(),
             reason: "no host holds its image or checkpoint".into(),
         })?;
-    let settings = restored
-        .header
-        .spec
-        .as_ref()
-        .and_then(|s| s.settings.as_ref())
-        .map(|s| (s.width, s.height))
-        .unwrap_or_default();
-    let (width, height) = settings;
+    let (width, height) = restored.size();
     if (restored.lines.len() as u32) < height {
         return Err(FarmError::Stored {
             job: job.to_string(),
@@ -149,14 +260,7 @@ pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), Farm
             ),
         });
     }
-    let mut film = Film::new(width, height);
-    for l in restored.lines.values() {
-        let px = messages::pixels_from_bytes(&l.pixels, width).map_err(|e| FarmError::Stored {
-            job: job.to_string(),
-            reason: e.to_string(),
-        })?;
-        film.set_line(l.line, &px);
-    }
+    let film = restored.film(width, height);
     film.write(out)?;
     Ok(())
 }

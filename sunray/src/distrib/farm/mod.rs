@@ -7,15 +7,18 @@
 //! or cancels (`sunray cancel`).
 //!
 //! Keys in REM's store: `JOB` the checkpoint header and `JOB.sN` its segments (see
-//! [`checkpoint`](super::checkpoint)), `JOB.scene` the Scene message every worker gets. A
-//! finished job's image is its last checkpoint (every line in it).
+//! [`checkpoint`](super::checkpoint)), `JOB.scene` the Scene message every worker gets,
+//! `JOB.stats` a finished job's statistics (JSON, as `--stats-json` writes them). A finished
+//! job's image is its last checkpoint (every line in it).
 //!
 //! # Layout
 //! - [`controller`]: the controller process.
 //! - [`follow`]: `watch`, `fetch` and `cancel`.
+//! - [`tail`]: the controller's output, read through REM as it is written.
 
 pub mod controller;
 pub mod follow;
+pub mod tail;
 
 use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
 use super::connection::RemConnection;
@@ -28,6 +31,11 @@ use prost::Message;
 /// The key of a job's Scene message in REM's store.
 pub fn scene_key(job: &str) -> String {
     format!("{job}.scene")
+}
+
+/// The key of a finished job's statistics (`sunray submit --stats-json`) in REM's store.
+pub fn stats_key(job: &str) -> String {
+    format!("{job}.stats")
 }
 
 /// Why a farm job could not be submitted, followed or run.
@@ -121,13 +129,22 @@ pub struct ControllerFlags {
     pub worker_timeout_ms: Option<u64>,
 }
 
-/// Stores a new job of `loaded` in the farm and starts its controller; returns the job id.
+/// A job handed to the farm.
+#[derive(Clone, Debug)]
+pub struct Submitted {
+    /// Its id.
+    pub job: String,
+    /// Where the submitting user wants its image (`-o`, or the scene's name with .png).
+    pub output: std::path::PathBuf,
+}
+
+/// Stores a new job of `loaded` in the farm and starts its controller.
 pub async fn submit(
     cluster: &RemConnection,
     req: &JobRequest,
     loaded: LoadedScene,
     flags: &ControllerFlags,
-) -> Result<String, FarmError> {
+) -> Result<Submitted, FarmError> {
     if cluster.is_embedded() {
         return Err(FarmError::DetachNeedsCluster);
     }
@@ -210,5 +227,8 @@ pub async fn submit(
     let mut record = jobs::to_record(&entry, 1);
     record.controller_spawn = Some(spawn.to_proto());
     let stored = client.start_job(record).await?;
-    Ok(stored.id)
+    Ok(Submitted {
+        job: stored.id,
+        output: plan.output,
+    })
 }
