@@ -290,6 +290,8 @@ fn a_restarted_controller_host_resumes_from_the_checkpoint() {
     let mut run = SubmitRun::start(cluster.exec(
         "ws1",
         &submit_args(&[
+            // The thesis's way: the controller in the submitting process.
+            "--in-process",
             "--hosts",
             "6",
             "--resolution",
