@@ -254,7 +254,11 @@ impl Actor {
                     .await;
             }
         });
-        self.counter.fetch_add(1, Ordering::Relaxed);
+        // A job's controller coordinates rather than computes: its CPU use shows in the
+        // measured load, it is not counted ahead like a worker.
+        if spec.job_record.is_empty() {
+            self.counter.fetch_add(1, Ordering::Relaxed);
+        }
         let info = ProcessInfo {
             proc_id: id.to_string(),
             host: self.cfg.host.clone(),
@@ -332,7 +336,9 @@ impl Actor {
         e.info.state = "exited".into();
         e.info.exit_code = code;
         e.info.signal = signal;
-        self.counter.fetch_sub(1, Ordering::Relaxed);
+        if e.info.job_record.is_empty() {
+            self.counter.fetch_sub(1, Ordering::Relaxed);
+        }
         self.router.unregister(&id);
         tracing::info!(proc = %id, ?code, ?signal, "exited");
         if !e.info.owner.is_empty() {

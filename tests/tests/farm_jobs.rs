@@ -1,7 +1,7 @@
 //! Jobs owned by the farm (`sunray submit --detach`) on three real remd daemons: the
 //! controller is a REM process, and neither its death (kill -9), nor its host's (the remd and
 //! every process under it), nor its stopping (SIGSTOP past the lease, then SIGCONT) stops the
-//! job. Each time the job finishes by itself, `sunray watch` through another remd exits 0,
+//! job; the new controller takes over the workers that still run. Each time the job finishes by itself, `sunray watch` through another remd exits 0,
 //! and `sunray fetch` gives an image byte-identical to `sunray render`. A cancelled job ends
 //! its processes, is not restarted, and `sunray jobs` counts the lines of its checkpoint.
 //!
@@ -137,6 +137,32 @@ fn a_controller_killed_mid_job_is_replaced_and_the_job_finishes_by_itself() {
     signal(pid_of(&cluster, "a", "kill9.c1"), libc::SIGKILL);
     let r = check_finished(&cluster, "b", &job, dir.path());
     assert_eq!(r.epoch, 2, "one replacement: {r:?}");
+    // The new controller took both workers over: they finished the job (exit 0, not 3 for
+    // "controller gone") and none was started for epoch 2.
+    let first = exited_workers(&cluster, "b", "kill9.w1");
+    assert_eq!(first.len(), 2, "{first:#?}");
+    assert!(
+        first.iter().all(|p| p.exit_code == Some(0)),
+        "taken over, they finish the job: {first:#?}"
+    );
+    assert!(exited_workers(&cluster, "b", "kill9.w2").is_empty());
+}
+
+/// The processes of REM job `rem_job` once none of them runs (bounded wait).
+fn exited_workers(cluster: &LoopbackCluster, via: &str, rem_job: &str) -> Vec<rem::ProcessInfo> {
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        let procs: Vec<_> = cluster
+            .processes_via(via)
+            .into_iter()
+            .filter(|p| p.job == rem_job)
+            .collect();
+        if procs.iter().all(|p| p.state == "exited") {
+            return procs;
+        }
+        assert!(Instant::now() < end, "{rem_job} still runs: {procs:#?}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
 }
 
 #[test]
@@ -150,6 +176,16 @@ fn losing_the_controllers_host_moves_the_job_to_a_live_host() {
     let r = check_finished(&cluster, "c", &job, dir.path());
     assert_ne!(r.controller_host, "a", "{r:?}");
     assert!(r.epoch >= 2, "the controller was never replaced: {r:?}");
+    // The worker that was not on a was taken over and finished the job.
+    let survivors: Vec<_> = exited_workers(&cluster, "c", "hostloss.w1")
+        .into_iter()
+        .filter(|p| p.host != "a")
+        .collect();
+    assert!(!survivors.is_empty());
+    assert!(
+        survivors.iter().all(|p| p.exit_code == Some(0)),
+        "{survivors:#?}"
+    );
 }
 
 #[test]

@@ -89,6 +89,7 @@ fn refusal(job: &str, settings: proto::RenderSettings) -> Refusal {
             model,
             settings: Some(settings),
             job: job.to_string(),
+            epoch: 0,
         }));
         sender.send(&worker, scene).await.unwrap();
 

@@ -365,6 +365,8 @@ async fn run_plan(
         model: plan.model.clone(),
         settings: Some(plan.settings.to_proto()),
         job: plan.job.clone(),
+        // In-process: nobody takes this controller's workers over.
+        epoch: 0,
     }));
     let relay = cluster
         .client
@@ -422,6 +424,7 @@ async fn run_plan(
         events: req.events,
         finish_grace: Duration::from_secs(3),
         checkpointed: None,
+        adopt: None,
     };
     let handle = controller::spawn(Start {
         cfg,

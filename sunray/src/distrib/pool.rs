@@ -20,6 +20,9 @@ pub struct LineJob {
     pub grant: u64,
     /// A copy of a line outstanding elsewhere, handed out at the tail of the job.
     pub duplicate: bool,
+    /// Which of the job's controllers granted it (the worker counts takeovers): a line
+    /// granted by an earlier one is reported with grant 0.
+    pub generation: u32,
 }
 
 /// A rendered line.
@@ -258,6 +261,7 @@ mod tests {
             line: 0,
             grant: 1,
             duplicate: false,
+            generation: 0,
         };
         queue.state.lock().unwrap().jobs.extend([job; 4]);
         assert!(!queue.running_low());
@@ -277,6 +281,7 @@ mod tests {
                 line,
                 grant: u64::from(line) + 1,
                 duplicate: false,
+                generation: 0,
             }));
         }
         let back: Vec<u32> = pool.take_back(2).iter().map(|j| j.line).collect();
@@ -293,6 +298,7 @@ mod tests {
             line: 3,
             grant: 7,
             duplicate: false,
+            generation: 0,
         };
         queue.state.lock().unwrap().jobs.push_back(job);
         assert_eq!(queue.next(), Some((job, 0.0)), "queued: no wait");
@@ -321,6 +327,7 @@ mod tests {
                 line: y,
                 grant: 100 + u64::from(y),
                 duplicate: false,
+                generation: 0,
             }));
         }
         let mut got = Vec::new();

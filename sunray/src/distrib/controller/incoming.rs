@@ -107,7 +107,13 @@ impl<L: WorkerLink> Controller<L> {
         if n.outcome == Outcome::Silent {
             n.outcome = Outcome::Ok;
         }
-        match self.table.complete(i, d.grant, d.line) {
+        // Grant 0: a line granted by the job's previous controller to a worker taken over.
+        let completion = if d.grant == 0 {
+            self.table.complete_inherited(i, d.line)
+        } else {
+            self.table.complete(i, d.grant, d.line)
+        };
+        match completion {
             Completion::Accepted => {
                 let proto_counters = d.counters.unwrap_or_default();
                 let c = Counters::from(&proto_counters);

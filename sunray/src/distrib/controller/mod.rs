@@ -56,6 +56,9 @@ pub struct ControllerConfig {
     pub finish_grace: Duration,
     /// Set to the lines in the checkpoint after each save (for whoever reports progress).
     pub checkpointed: Option<std::sync::Arc<std::sync::atomic::AtomicU32>>,
+    /// The encoded Adopt message that workers taken over from a previous controller get
+    /// instead of the Scene (they have it).
+    pub adopt: Option<Vec<u8>>,
 }
 
 /// A spawned worker.
@@ -70,6 +73,8 @@ pub struct WorkerProc {
     /// The host's load per core as REM reported it when the job started (cgroup-aware);
     /// `None` leaves the column to the worker's own load average.
     pub load_at_start: Option<f64>,
+    /// Started by the job's previous controller and taken over: it gets Adopt, not Scene.
+    pub adopted: bool,
 }
 
 impl WorkerProc {
@@ -87,6 +92,7 @@ impl WorkerProc {
                     .find(|h| h.name == p.host)
                     .and_then(|h| h.load.as_ref())
                     .map(|l| l.load_per_core),
+                adopted: false,
             })
             .collect()
     }
@@ -257,6 +263,8 @@ struct Controller<L> {
     superseded: Option<String>,
     /// Nodes that got their first Assign (an `assign` event marks it).
     assigned_once: Vec<bool>,
+    /// Nodes taken over from the previous controller.
+    adopted: Vec<bool>,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -333,6 +341,7 @@ impl<L: WorkerLink> Controller<L> {
             all_silent_since: None,
             superseded: None,
             assigned_once: vec![false; workers.len()],
+            adopted: workers.iter().map(|w| w.adopted).collect(),
         }
     }
 
@@ -340,10 +349,14 @@ impl<L: WorkerLink> Controller<L> {
         for (i, w) in self.nodes.iter().enumerate() {
             self.view
                 .event(json!({"event": "spawned", "node": i + 1, "proc": w.proc_id,
-                "host": w.host, "pid": w.pid}));
+                "host": w.host, "pid": w.pid, "adopted": self.adopted[i]}));
         }
         for i in 0..self.procs.len() {
-            if let Err(e) = self.link.send(&self.procs[i], self.cfg.scene.clone()).await {
+            let first = match &self.cfg.adopt {
+                Some(adopt) if self.adopted[i] => adopt.clone(),
+                _ => self.cfg.scene.clone(),
+            };
+            if let Err(e) = self.link.send(&self.procs[i], first).await {
                 self.on_gone(i, format!("cannot send the scene: {e}"), false);
             }
         }

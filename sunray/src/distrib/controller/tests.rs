@@ -112,6 +112,7 @@ impl Job {
                 host: p.host().to_string(),
                 pid: 100,
                 load_at_start: None,
+                adopted: false,
             })
             .collect();
         let cfg = ControllerConfig {
@@ -128,6 +129,7 @@ impl Job {
             events: false,
             finish_grace: Duration::from_millis(200),
             checkpointed: None,
+            adopt: None,
         };
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);

@@ -1,7 +1,9 @@
 //! `sunray controller`: a farm job's controller, a process REM starts (and starts again, at a
 //! higher epoch, when it exits unfinished, stalls or loses its host). It reads the job from
-//! REM (its record, `JOB.scene` and the checkpoint), starts workers on the live hosts (never
-//! failing for too few: as many as there are, at least one), runs the controller actor
+//! REM (its record, `JOB.scene` and the checkpoint), takes over the workers of its
+//! predecessors that still run (an Adopt message; they keep rendering the lines they hold),
+//! starts more on the live hosts up to the count asked (never failing for too few: as many
+//! as there are, at least one), runs the controller actor
 //! unchanged in its rules, and keeps its record fresh (state, lines in the checkpoint, its
 //! own process and host) every [`LEASE_WRITE`]: REM restarts a controller that stops writing.
 //!
@@ -120,11 +122,17 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     } else {
         want.min(live.len().max(1) as u32)
     };
-    let workers = if all_in {
+    // The previous controllers' workers that still run are taken over (they keep their
+    // lines and their scene); new ones make up the rest.
+    let mut workers = if all_in {
         Vec::new()
     } else {
-        start_workers(&client, &opts, &spec, &job, epoch, count, &me, &live).await?
+        running_workers(&client, &job, epoch, &live).await
     };
+    let more = count.saturating_sub(workers.len() as u32);
+    if !all_in && more > 0 {
+        workers.extend(start_workers(&client, &opts, &spec, &job, epoch, more, &me, &live).await?);
+    }
     let checkpointed = Arc::new(AtomicU32::new(restored.lines.len() as u32));
     let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
     let cfg = ControllerConfig {
@@ -132,7 +140,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         strategy,
         width,
         height,
-        scene: messages::encode(Body::Scene(scene)),
+        scene: messages::encode(Body::Scene(proto::Scene { epoch, ..scene })),
         worker_timeout: opts.worker_timeout,
         checkpoint_every: opts.checkpoint_every,
         preview: None,
@@ -142,6 +150,10 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         events: true,
         finish_grace: Duration::from_secs(3),
         checkpointed: Some(checkpointed.clone()),
+        adopt: Some(messages::encode(Body::Adopt(proto::Adopt {
+            job: job.clone(),
+            epoch,
+        }))),
     };
     let checkpointer = Checkpointer::new(
         &job,
@@ -269,6 +281,42 @@ async fn keep_lease(
             Ok(()) => {}
         }
     }
+}
+
+/// The running workers of this job's earlier controllers (REM jobs `JOB.wE`, E < `epoch`).
+async fn running_workers(
+    client: &RemClient,
+    job: &str,
+    epoch: u64,
+    live: &[rem::HostInfo],
+) -> Vec<WorkerProc> {
+    let Ok(procs) = client.ps().await else {
+        return Vec::new();
+    };
+    let prefix = format!("{job}.w");
+    procs
+        .iter()
+        .filter(|p| p.state == "running")
+        .filter(|p| {
+            p.job
+                .strip_prefix(&prefix)
+                .and_then(|e| e.parse::<u64>().ok())
+                .is_some_and(|e| e < epoch)
+        })
+        .filter_map(|p| {
+            Some(WorkerProc {
+                proc_id: rem::ProcId::parse(&p.proc_id)?,
+                host: p.host.clone(),
+                pid: p.pid,
+                load_at_start: live
+                    .iter()
+                    .find(|h| h.name == p.host)
+                    .and_then(|h| h.load.as_ref())
+                    .map(|l| l.load_per_core),
+                adopted: true,
+            })
+        })
+        .collect()
 }
 
 /// Starts `count` workers owned by this controller (`me`).

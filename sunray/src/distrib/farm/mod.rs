@@ -178,6 +178,8 @@ pub async fn submit(
         model: plan.model.clone(),
         settings: Some(plan.settings.to_proto()),
         job: plan.job.clone(),
+        // The epoch is the controller's, set when it sends the scene.
+        epoch: 0,
     };
     let encoded = messages::encode(Body::Scene(scene_msg.clone()));
     let limit = client.options().max_message;

@@ -283,6 +283,23 @@ impl GrantTable {
         if g.live {
             self.retire(grant);
         }
+        self.finish(line)
+    }
+
+    /// `node` reports `line` finished under a grant of the job's previous controller (grant
+    /// 0: a worker this controller took over). Kept like any first completion.
+    pub fn complete_inherited(&mut self, node: usize, line: u32) -> Completion {
+        if line as usize >= self.lines.len() || node >= self.nodes.len() {
+            return Completion::Unknown;
+        }
+        if self.nodes[node].state == NodeState::Silent {
+            self.nodes[node].state = NodeState::Active;
+        }
+        self.finish(line)
+    }
+
+    /// The line is in: the first completion is kept, its other copies retired.
+    fn finish(&mut self, line: u32) -> Completion {
         match &mut self.lines[line as usize] {
             LineState::Done => {
                 self.counts.dropped += 1;

@@ -292,3 +292,32 @@ fn resume_skips_finished_lines() {
     let all = GrantTable::new(Strategy::Interleaved, 2, 2, &[true, true]);
     assert!(all.is_finished());
 }
+
+#[test]
+fn lines_granted_by_a_previous_controller_are_kept_once() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 2, &[]);
+    // Node 1, taken over, reports line 2 (never granted here) before asking for work.
+    assert_eq!(g.complete_inherited(1, 2), Completion::Accepted);
+    assert_eq!(g.done(), 1);
+    g.set_window(0, 4);
+    assert_eq!(
+        lines(&g.assign(t(0))),
+        vec![0, 1, 3],
+        "line 2 is not handed out"
+    );
+    // Line 0 is out on node 0; the inherited copy wins and node 0's is dropped.
+    assert_eq!(g.complete_inherited(1, 0), Completion::Accepted);
+    assert_eq!(g.complete(0, 1, 0), Completion::Duplicate);
+    assert_eq!(g.complete_inherited(1, 0), Completion::Duplicate);
+    assert_eq!(
+        g.complete_inherited(1, 9),
+        Completion::Unknown,
+        "beyond the image"
+    );
+    assert_eq!(
+        g.complete_inherited(5, 1),
+        Completion::Unknown,
+        "no such node"
+    );
+    assert_eq!(g.done(), 2);
+}

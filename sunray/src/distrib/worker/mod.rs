@@ -21,10 +21,17 @@ use crate::accel::Accel;
 use crate::render::Settings;
 use crate::scene::Scene;
 use crate::stats::process_cpu_seconds;
+use owner::{confirmed, Heard, Owner};
 use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
+
+mod owner;
+
+/// How long a farm job's worker waits for a new controller: longer than REM's lease (10 s)
+/// and its settling (1.5 s), plus a controller's start.
+pub const ADOPT_WAIT: Duration = Duration::from_secs(30);
 
 /// How a worker runs.
 #[derive(Clone, Debug)]
@@ -37,6 +44,8 @@ pub struct WorkerConfig {
     pub line_delay: Duration,
     /// Time to wait before saying Ready (test hook: a worker that hangs while starting).
     pub ready_delay: Duration,
+    /// How long a farm job's worker whose controller is gone waits for a successor's Adopt.
+    pub adopt_wait: Duration,
 }
 
 impl Default for WorkerConfig {
@@ -46,6 +55,7 @@ impl Default for WorkerConfig {
             idle_probe: Duration::from_secs(2),
             line_delay: Duration::ZERO,
             ready_delay: Duration::ZERO,
+            adopt_wait: ADOPT_WAIT,
         }
     }
 }
@@ -80,7 +90,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let me = relay.id().clone();
     let host = relay.host().to_string();
     let (sender, receiver) = relay.split();
-    let link = Link {
+    let mut link = Link {
         sender,
         owner: owner.clone(),
     };
@@ -88,14 +98,14 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads = cfg.threads.unwrap_or(cores).max(1);
     tokio::time::sleep(cfg.ready_delay).await;
-    link.send(Body::Ready(proto::Ready {
+    let ready = proto::Ready {
         host,
         cores: cores as u32,
         load_avg: load_average(),
         pid: std::process::id(),
         threads: threads as u32,
-    }))
-    .await?;
+    };
+    link.send(Body::Ready(ready.clone())).await?;
 
     let scene_msg = loop {
         match next_from_owner(&mut inbox, &owner).await? {
@@ -104,6 +114,8 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
             _ => {}
         }
     };
+    let mut owner = Owner::new(owner, &scene_msg);
+    let mut records: Option<RemClient> = None;
     let t_pre = Instant::now();
     let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg))
         .await
@@ -154,35 +166,76 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     first_check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
         tokio::select! {
-            body = next_from_owner(&mut inbox, &owner) => match body? {
-                Body::Assign(a) => {
-                    let now = clock();
-                    // Duplicates are not an answer to the worker's room but to an empty queue.
-                    if a.echo_s > 0.0 && a.lines.iter().any(|l| !l.duplicate) {
-                        window.delay(now, now - a.echo_s);
-                    }
-                    pool.set_queue_target(window.queued(now) as usize);
-                    first_lines_at.get_or_insert_with(Instant::now);
-                    for l in a.lines {
-                        let job = LineJob { line: l.line, grant: l.grant, duplicate: l.duplicate };
-                        if pool.submit(job) {
-                            held += 1;
+            item = inbox.recv() => {
+                let incoming = item.ok_or(WorkerError::Rem(rem::Error::Closed))??;
+                match owner.hear(incoming) {
+                    Heard::Body(Body::Assign(a)) => {
+                        let now = clock();
+                        // Duplicates are not an answer to the worker's room but to an empty queue.
+                        if a.echo_s > 0.0 && a.lines.iter().any(|l| !l.duplicate) {
+                            window.delay(now, now - a.echo_s);
+                        }
+                        pool.set_queue_target(window.queued(now) as usize);
+                        first_lines_at.get_or_insert_with(Instant::now);
+                        for l in a.lines {
+                            let job = LineJob {
+                                line: l.line,
+                                grant: l.grant,
+                                duplicate: l.duplicate,
+                                generation: owner.generation,
+                            };
+                            if pool.submit(job) {
+                                held += 1;
+                            }
                         }
                     }
+                    Heard::Body(Body::NoMoreWork(_)) => return Ok(()),
+                    Heard::Body(_) | Heard::Nothing => {}
+                    Heard::Gone if owner.succeedable() => {
+                        owner.orphaned.get_or_insert_with(tokio::time::Instant::now);
+                    }
+                    Heard::Gone => return Err(WorkerError::ControllerGone),
+                    Heard::Adopt(from, adopt) => {
+                        if !owner.newer_claim(&from, &adopt) {
+                            continue;
+                        }
+                        if records.is_none() {
+                            records = RemClient::from_env().await.ok();
+                        }
+                        let Some(r) = &records else { continue };
+                        if !confirmed(r, &from, &adopt).await {
+                            continue;
+                        }
+                        let kept = owner.take_over(from, adopt.epoch);
+                        link.owner = owner.id.clone();
+                        let again = proto::Ready {
+                            load_avg: load_average(),
+                            ..ready.clone()
+                        };
+                        link.send(Body::Ready(again)).await?;
+                        for done in kept {
+                            link.send(Body::Done(done)).await?;
+                        }
+                        link.send(Body::Request(proto::Request {
+                            window: window.lines(clock()),
+                            preprocess_s,
+                            stamp_s: clock(),
+                            released: Vec::new(),
+                        }))
+                        .await?;
+                    }
                 }
-                Body::NoMoreWork(_) => return Ok(()),
-                _ => {}
-            },
+            }
             r = results.recv() => {
                 let Some(r) = r else { return Err(WorkerError::BadScene("render threads stopped".into())) };
                 held = held.saturating_sub(1);
                 waits.add(&r);
                 window.line_done(r.cycle_s);
                 let now = clock();
-                let released = give_back(&pool, &window, now, &mut held);
+                let released = give_back(&pool, &window, now, &mut held, owner.generation);
                 let mut counters = proto::Counters::from(&r.counters);
                 counters.line_s = r.line_s;
-                link.send(Body::Done(proto::Done {
+                let done = proto::Done {
                     line: r.job.line,
                     grant: r.job.grant,
                     pixels: messages::pixels_to_bytes(&r.pixels),
@@ -199,14 +252,16 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                     }),
                     stamp_s: r.finished.saturating_duration_since(started).as_secs_f64(),
                     released,
-                }))
-                .await?;
+                };
+                if let Some(done) = owner.report(done, r.job.generation) {
+                    link.send(Body::Done(done)).await?;
+                }
             }
-            _ = first_check.tick(), if !window.has_line_time() => {
+            _ = first_check.tick(), if !window.has_line_time() && owner.orphaned.is_none() => {
                 if let Some(at) = first_lines_at {
                     window.first_lines_running(at.elapsed().as_secs_f64());
                     let now = clock();
-                    let released = give_back(&pool, &window, now, &mut held);
+                    let released = give_back(&pool, &window, now, &mut held, owner.generation);
                     if !released.is_empty() {
                         let request = proto::Request {
                             window: window.lines(now),
@@ -219,7 +274,11 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                 }
             }
             _ = probe.tick() => {
-                if held == 0 {
+                if let Some(since) = owner.orphaned {
+                    if since.elapsed() >= cfg.adopt_wait {
+                        return Err(WorkerError::ControllerGone);
+                    }
+                } else if held == 0 {
                     let request = proto::Request {
                         window: window.lines(clock()),
                         preprocess_s,
@@ -234,12 +293,22 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
 }
 
 /// Sets the pool's queue target from the window and takes back the queued lines beyond it
-/// ([`Window::excess`]); returns their grants, to report.
-fn give_back(pool: &RenderPool, window: &Window, now: f64, held: &mut usize) -> Vec<u64> {
+/// ([`Window::excess`]); returns the grants to report: those of the current controller (a
+/// line granted by an earlier one is simply dropped: its successor has it queued).
+fn give_back(
+    pool: &RenderPool,
+    window: &Window,
+    now: f64,
+    held: &mut usize,
+    generation: u32,
+) -> Vec<u64> {
     pool.set_queue_target(window.queued(now) as usize);
     let back = pool.take_back(window.excess(pool.queued(), now));
     *held = held.saturating_sub(back.len());
-    back.into_iter().map(|job| job.grant).collect()
+    back.into_iter()
+        .filter(|job| job.generation == generation)
+        .map(|job| job.grant)
+        .collect()
 }
 
 /// The render threads' waits for their next line, summed over threads, by what ended them.
@@ -397,6 +466,7 @@ mod tests {
                 line: 0,
                 grant: 1,
                 duplicate,
+                generation: 0,
             },
             pixels: Vec::new(),
             counters: Counters::default(),
