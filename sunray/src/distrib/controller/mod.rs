@@ -87,15 +87,19 @@ impl WorkerProc {
                 proc_id: p.proc_id.clone(),
                 host: p.host.clone(),
                 pid: p.pid,
-                load_at_start: live
-                    .iter()
-                    .find(|h| h.name == p.host)
-                    .and_then(|h| h.load.as_ref())
-                    .map(|l| l.load_per_core),
+                load_at_start: load_per_core(live, &p.host),
                 adopted: false,
             })
             .collect()
     }
+}
+
+/// REM's load per core of `host` among `live`, if it reported one.
+pub fn load_per_core(live: &[rem::HostInfo], host: &str) -> Option<f64> {
+    live.iter()
+        .find(|h| h.name == host)
+        .and_then(|h| h.load.as_ref())
+        .map(|l| l.load_per_core)
 }
 
 /// The end of a job.

@@ -308,11 +308,7 @@ async fn running_workers(
                 proc_id: rem::ProcId::parse(&p.proc_id)?,
                 host: p.host.clone(),
                 pid: p.pid,
-                load_at_start: live
-                    .iter()
-                    .find(|h| h.name == p.host)
-                    .and_then(|h| h.load.as_ref())
-                    .map(|l| l.load_per_core),
+                load_at_start: controller::load_per_core(live, &p.host),
                 adopted: true,
             })
         })

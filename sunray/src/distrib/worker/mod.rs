@@ -148,13 +148,17 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     .map_err(WorkerError::Threads)?;
     let mut window = Window::new(threads);
     let clock = || started.elapsed().as_secs_f64();
-    link.send(Body::Request(proto::Request {
-        window: window.lines(clock()),
-        preprocess_s,
-        stamp_s: clock(),
-        released: Vec::new(),
-    }))
-    .await?;
+    // A Request for work, stamped now, giving back `released`.
+    let request = |window: &mut Window, released: Vec<u64>| {
+        let now = clock();
+        Body::Request(proto::Request {
+            window: window.lines(now),
+            preprocess_s,
+            stamp_s: now,
+            released,
+        })
+    };
+    link.send(request(&mut window, Vec::new())).await?;
 
     let mut held = 0usize;
     let mut waits = Waits::default();
@@ -216,13 +220,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                         for done in kept {
                             link.send(Body::Done(done)).await?;
                         }
-                        link.send(Body::Request(proto::Request {
-                            window: window.lines(clock()),
-                            preprocess_s,
-                            stamp_s: clock(),
-                            released: Vec::new(),
-                        }))
-                        .await?;
+                        link.send(request(&mut window, Vec::new())).await?;
                     }
                 }
             }
@@ -263,13 +261,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                     let now = clock();
                     let released = give_back(&pool, &window, now, &mut held, owner.generation);
                     if !released.is_empty() {
-                        let request = proto::Request {
-                            window: window.lines(now),
-                            preprocess_s,
-                            stamp_s: now,
-                            released,
-                        };
-                        link.send(Body::Request(request)).await?;
+                        link.send(request(&mut window, released)).await?;
                     }
                 }
             }
@@ -279,13 +271,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
                         return Err(WorkerError::ControllerGone);
                     }
                 } else if held == 0 {
-                    let request = proto::Request {
-                        window: window.lines(clock()),
-                        preprocess_s,
-                        stamp_s: clock(),
-                        released: Vec::new(),
-                    };
-                    link.send(Body::Request(request)).await?;
+                    link.send(request(&mut window, Vec::new())).await?;
                 }
             }
         }
