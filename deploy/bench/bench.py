@@ -198,6 +198,7 @@ def detached(farm, name, kill_after=None):
         logs = farm.compose("exec", "-T", "ws2", "/bin/rem", "logs", ctl[0]["proc_id"],
                             capture_output=True, text=True)
         assigns = []
+        adopted = 0
         for line in (logs.stdout + logs.stderr).splitlines():
             try:
                 ev = json.loads(line)
@@ -205,6 +206,9 @@ def detached(farm, name, kill_after=None):
                 continue
             if isinstance(ev, dict) and ev.get("event") == "assign":
                 assigns.append(ev["unix_ms"] / 1000.0)
+            if isinstance(ev, dict) and ev.get("event") == "spawned" and ev.get("adopted"):
+                adopted += 1
+        out["workers_taken_over"] = adopted
         out["controller_started_at"] = ctl[0]["started_unix_ms"] / 1000.0
         out["first_assign_at"] = min(assigns)
         out["detect_s"] = out["lost_at"] - out["killed_at"]
@@ -212,6 +216,9 @@ def detached(farm, name, kill_after=None):
         out["kill_to_assign_s"] = out["first_assign_at"] - out["killed_at"]
     print(f"{name}: " + ", ".join(f"{k} {v:.2f}" for k, v in out.items()
                                    if k.endswith("_s")), flush=True)
+    if "workers_taken_over" in out:
+        print(f"{name}: the new controller took over {out['workers_taken_over']} workers",
+              flush=True)
     return out
 
 
@@ -230,7 +237,7 @@ def failover():
     print(f"failover: ws1 seen lost {k['detect_s']:.2f} s after the kill; the new controller's "
           f"first Assign {k['takeover_s']:.2f} s after that ({k['kill_to_assign_s']:.2f} s "
           f"after the kill); job {c['total_s']:.1f} s clean, {k['total_s']:.1f} s with the "
-          f"fault", flush=True)
+          f"fault; {k.get('workers_taken_over', 0)} workers taken over", flush=True)
     return runs
 
 

@@ -191,6 +191,9 @@ def failover_section(data, out):
     out.append(f"| job, no fault | {c['total_s']:.2f} |")
     out.append(f"| job, controller's host killed | {k['total_s']:.2f} |")
     out.append("")
+    if "workers_taken_over" in k:
+        out.append(f"The new controller took over {k['workers_taken_over']} running workers "
+                   "(Adopt) and started new ones only for the rest.\n")
 
 
 def main():

@@ -410,19 +410,50 @@ impl RemClient {
         Ok(r.into_inner().records)
     }
 
-    /// Stores a new job (epoch 1) and starts its controller, `record.controller_spawn`; the
-    /// daemons keep it running from then on. Returns the record as stored.
-    pub async fn start_job(&self, record: proto::JobRecord) -> Result<proto::JobRecord> {
+    /// Stores a new job (epoch 1) and starts its controller, `record.controller_spawn`, on
+    /// the host that spawn names, or else on the least-loaded live host when `anywhere`, or
+    /// else on this daemon's host; the daemons keep it running from then on. Returns the
+    /// record as stored.
+    pub async fn start_job(
+        &self,
+        record: proto::JobRecord,
+        anywhere: bool,
+    ) -> Result<proto::JobRecord> {
         let r = self
             .rpc
             .clone()
             .start_job(proto::StartJobRequest {
                 record: Some(record),
+                controller_anywhere: anywhere,
             })
             .await?;
         r.into_inner()
             .record
             .ok_or_else(|| Error::Invalid("the daemon sent no job record".into()))
+    }
+
+    /// Caches chunk `hash` (the SHA-256 of `data`, see [`crate::chunks::name_of`]) on
+    /// this daemon's host and on one more.
+    pub async fn put_chunk(&self, hash: &str, data: Vec<u8>) -> Result<proto::PutChunkReply> {
+        let req = proto::PutChunkRequest {
+            hash: hash.to_string(),
+            data,
+        };
+        Ok(self.rpc.clone().put_chunk(req).await?.into_inner())
+    }
+
+    /// Chunk `hash`, from this daemon's cache or through it from a peer (checked).
+    pub async fn get_chunk(&self, hash: &str) -> Result<proto::GetChunkReply> {
+        let req = proto::GetChunkRequest {
+            hash: hash.to_string(),
+        };
+        let reply = self.rpc.clone().get_chunk(req).await?.into_inner();
+        if crate::chunks::name_of(&reply.data) != hash {
+            return Err(Error::Invalid(format!(
+                "the daemon sent chunk {hash} with other bytes"
+            )));
+        }
+        Ok(reply)
     }
 
     /// Attaches to the relay as a new process (a job owner); `job` is informational.

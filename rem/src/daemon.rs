@@ -53,6 +53,7 @@ pub struct Daemon {
     pub processes: ProcessTable,
     pub jobs: Jobs,
     pub checkpoints: CheckpointStore,
+    pub chunks: crate::chunks::ChunkStore,
     pub job_store: JobStore,
     pub peers: PeerPool,
     pub accepting: Arc<AtomicBool>,
@@ -72,7 +73,7 @@ impl Daemon {
     }
 
     /// The other hosts alive now.
-    fn live_peers(&self) -> impl Iterator<Item = crate::proto::HostInfo> {
+    pub(crate) fn live_peers(&self) -> impl Iterator<Item = crate::proto::HostInfo> {
         self.membership
             .hosts()
             .into_iter()

@@ -85,18 +85,23 @@ pub fn supervisor(hosts: &[crate::proto::HostInfo]) -> Option<&str> {
 }
 
 impl Daemon {
-    /// Stores `who`'s new job and starts its controller on `controller_spawn.host`, or on this
-    /// host. A job id whose job has ended is taken up again at the next epoch (its
+    /// Stores `who`'s new job and starts its controller on `controller_spawn.host`, or else on
+    /// the least-loaded live host when `anywhere`, or else on this host. A job id whose job has ended is taken up again at the next epoch (its
     /// checkpoint is where the new controller starts from); one still active is refused.
-    pub async fn start_job(&self, who: &Identity, mut record: JobRecord) -> Result<JobRecord> {
+    pub async fn start_job(
+        &self,
+        who: &Identity,
+        mut record: JobRecord,
+        anywhere: bool,
+    ) -> Result<JobRecord> {
         let spawn = record
             .controller_spawn
             .as_ref()
             .ok_or_else(|| Error::Invalid("a job to start needs its controller_spawn".into()))?;
-        let host = if spawn.host.is_empty() {
-            self.name.clone()
-        } else {
-            spawn.host.clone()
+        let host = match (spawn.host.is_empty(), anywhere) {
+            (false, _) => Some(spawn.host.clone()),
+            (true, true) => None,
+            (true, false) => Some(self.name.clone()),
         };
         let existing = self
             .list_jobs(&Identity::user(who.user.clone()))
@@ -121,7 +126,7 @@ impl Daemon {
             record.created_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
         }
         self.put_job(who, record.clone()).await?;
-        match self.spawn_controller(who, &record, Some(host)).await {
+        match self.spawn_controller(who, &record, host).await {
             Ok((id, host)) => {
                 record.controller = id;
                 record.controller_host = host;

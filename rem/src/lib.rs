@@ -76,6 +76,9 @@
 //! - [`checkpoint`]: atomic checkpoint files; [`job_store`]: job records (epochs, retention);
 //!   [`job_control`]: jobs the farm keeps running (`StartJob`, the supervisor, restarts);
 //!   [`replicas`]: which peer keeps a key's second copy (rendezvous hashing).
+//! - [`chunks`]: the content-addressed chunk cache (scenes in pieces, checked by hash, LRU);
+//!   `chunk_sharing`: putting chunks on two hosts and fetching them from peers; [`blob`]:
+//!   large byte strings as lists of chunks.
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
 //! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
 //!   [`raise_fd_limit`].
@@ -86,10 +89,13 @@
 
 mod attach;
 pub mod auth;
+pub mod blob;
 mod budget;
 mod cgroup;
 mod checkpoint;
 mod child;
+mod chunk_sharing;
+pub mod chunks;
 pub mod cli;
 pub mod client;
 pub mod cluster_files;

@@ -1,7 +1,7 @@
 //! Hard limits of one daemon: how many processes a request and a host may have, how many
 //! bytes the relay may queue (per mailbox, per link, in all), how many bytes of checkpoints
 //! a job and the whole host may keep, how many bytes of output are kept, how many ended jobs
-//! and for how long. Every limit is a
+//! and for how long, how large a chunk may be and how many bytes of chunks are cached. Every limit is a
 //! setting (`DaemonSettings::limits`, flags and TOML keys of the same names); reaching one
 //! is answered with a gRPC status (`INVALID_ARGUMENT` for a request that can never be met,
 //! `RESOURCE_EXHAUSTED` for one that cannot be met now), never with an abort.
@@ -42,6 +42,10 @@ pub struct Limits {
     pub job_lease_ms: u64,
     /// Restarts of a job's controller before the job is failed.
     pub job_restarts: u64,
+    /// Bytes of one chunk (a piece of a scene, `PutChunk`).
+    pub chunk_bytes: usize,
+    /// Bytes of chunks this host caches (the least recently used go first).
+    pub chunk_cache_bytes: u64,
 }
 
 impl Default for Limits {
@@ -62,6 +66,8 @@ impl Default for Limits {
             kept_secs: 7 * 24 * 3600,
             job_lease_ms: 10_000,
             job_restarts: 10,
+            chunk_bytes: 4 << 20,
+            chunk_cache_bytes: 4 << 30,
         }
     }
 }
@@ -72,7 +78,7 @@ pub const ITEM_OVERHEAD: usize = 256;
 
 impl Limits {
     /// The names of the limits, as `--limit NAME=VALUE` and the `[limits]` table take them.
-    pub const NAMES: [&'static str; 15] = [
+    pub const NAMES: [&'static str; 17] = [
         "spawn_count",
         "host_processes",
         "mailbox_bytes",
@@ -88,6 +94,8 @@ impl Limits {
         "kept_secs",
         "job_lease_ms",
         "job_restarts",
+        "chunk_bytes",
+        "chunk_cache_bytes",
     ];
 
     /// Sets the limit `name` from `value`: a whole number, for bytes optionally followed by
@@ -116,6 +124,8 @@ impl Limits {
             "kept_secs" => self.kept_secs = n,
             "job_lease_ms" => self.job_lease_ms = n,
             "job_restarts" => self.job_restarts = n,
+            "chunk_bytes" => self.chunk_bytes = small(n)?,
+            "chunk_cache_bytes" => self.chunk_cache_bytes = n,
             _ => {
                 return Err(format!(
                     "unknown limit {name:?} (known: {})",

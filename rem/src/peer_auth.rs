@@ -62,6 +62,12 @@ pub mod method {
     pub const STORE_JOB: &str = "StoreJob";
     /// `Peer.ListJobsLocal`.
     pub const LIST_JOBS: &str = "ListJobsLocal";
+    /// `Peer.StoreChunk`.
+    pub const STORE_CHUNK: &str = "StoreChunk";
+    /// `Peer.HasChunks`.
+    pub const HAS_CHUNKS: &str = "HasChunks";
+    /// `Peer.FetchChunk`.
+    pub const FETCH_CHUNK: &str = "FetchChunk";
 }
 
 /// This daemon's key and name, and the nonces it has seen.

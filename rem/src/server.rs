@@ -126,6 +126,10 @@ pub async fn run(
         &settings.limits,
     )?;
     let records = CheckpointStore::open(&state_dir.join("jobs"), key, &settings.limits)?;
+    let chunks = crate::chunks::ChunkStore::open(
+        &state_dir.join("chunks"),
+        settings.limits.chunk_cache_bytes,
+    )?;
     let job_store = JobStore::new(records, checkpoints.clone());
     tokio::spawn(retention(
         job_store.clone(),
@@ -142,6 +146,7 @@ pub async fn run(
         processes: processes.clone(),
         jobs,
         checkpoints,
+        chunks,
         job_store,
         peers,
         accepting: accepting.clone(),

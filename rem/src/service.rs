@@ -136,14 +136,36 @@ impl Rem for Service {
         req: Request<proto::StartJobRequest>,
     ) -> Result<Response<proto::StartJobReply>, Status> {
         let who = self.user(&req)?;
+        let req = req.into_inner();
         let record = req
-            .into_inner()
             .record
             .ok_or_else(|| Status::invalid_argument("no job record"))?;
-        let record = self.0.start_job(&who, record).await?;
+        let record = self
+            .0
+            .start_job(&who, record, req.controller_anywhere)
+            .await?;
         Ok(Response::new(proto::StartJobReply {
             record: Some(record),
         }))
+    }
+
+    async fn put_chunk(
+        &self,
+        req: Request<proto::PutChunkRequest>,
+    ) -> Result<Response<proto::PutChunkReply>, Status> {
+        let who = self.user(&req)?;
+        Ok(Response::new(
+            self.0.put_chunk(&who, req.into_inner()).await?,
+        ))
+    }
+
+    async fn get_chunk(
+        &self,
+        req: Request<proto::GetChunkRequest>,
+    ) -> Result<Response<proto::GetChunkReply>, Status> {
+        let who = self.user(&req)?;
+        let hash = req.into_inner().hash;
+        Ok(Response::new(self.0.get_chunk(&who, hash).await?))
     }
 
     async fn list_jobs(
@@ -304,6 +326,42 @@ impl Peer for Service {
         self.peer(&req, method::STORE_JOB)?;
         self.0.job_store.put(req.get_ref()).await?;
         Ok(self.answer(&req, method::STORE_JOB, proto::StoreReplicaReply {}))
+    }
+
+    async fn store_chunk(
+        &self,
+        req: Request<proto::PutChunkRequest>,
+    ) -> Result<Response<proto::PutChunkReply>, Status> {
+        self.peer(&req, method::STORE_CHUNK)?;
+        self.0.store_chunk(req.get_ref().clone()).await?;
+        let reply = proto::PutChunkReply {
+            stored_on: vec![self.0.name.clone()],
+            bytes_sent: 0,
+        };
+        Ok(self.answer(&req, method::STORE_CHUNK, reply))
+    }
+
+    async fn has_chunks(
+        &self,
+        req: Request<proto::HasChunksRequest>,
+    ) -> Result<Response<proto::HasChunksReply>, Status> {
+        self.peer(&req, method::HAS_CHUNKS)?;
+        let has = self.0.has_chunks(&req.get_ref().hashes).await?;
+        Ok(self.answer(&req, method::HAS_CHUNKS, proto::HasChunksReply { has }))
+    }
+
+    async fn fetch_chunk(
+        &self,
+        req: Request<proto::GetChunkRequest>,
+    ) -> Result<Response<proto::GetChunkReply>, Status> {
+        self.peer(&req, method::FETCH_CHUNK)?;
+        let data = self.0.fetch_chunk(&req.get_ref().hash).await?;
+        let reply = proto::GetChunkReply {
+            data,
+            from_host: self.0.name.clone(),
+            cached: true,
+        };
+        Ok(self.answer(&req, method::FETCH_CHUNK, reply))
     }
 
     async fn list_jobs_local(

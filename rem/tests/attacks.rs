@@ -255,6 +255,27 @@ impl peer_server::Peer for FakePeer {
         self.record(&req);
         Err(Status::unimplemented(""))
     }
+    async fn store_chunk(
+        &self,
+        req: Request<proto::PutChunkRequest>,
+    ) -> Result<Response<proto::PutChunkReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn has_chunks(
+        &self,
+        req: Request<proto::HasChunksRequest>,
+    ) -> Result<Response<proto::HasChunksReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
+    async fn fetch_chunk(
+        &self,
+        req: Request<proto::GetChunkRequest>,
+    ) -> Result<Response<proto::GetChunkReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
     async fn list_jobs_local(
         &self,
         req: Request<proto::ListJobsLocalRequest>,

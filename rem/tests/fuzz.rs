@@ -514,6 +514,7 @@ impl Gen<'_> {
             Rpc::Spawn => self.spawn_request().encode_to_vec(),
             Rpc::StartJob => proto::StartJobRequest {
                 record: Some(self.job_record()),
+                controller_anywhere: self.rng.one_in(2),
             }
             .encode_to_vec(),
             Rpc::StartLocal => proto::StartLocalRequest {
@@ -642,6 +643,23 @@ impl Gen<'_> {
             }
             .encode_to_vec(),
             Rpc::ListJobs => proto::ListJobsRequest {}.encode_to_vec(),
+            Rpc::PutChunk | Rpc::StoreChunk => {
+                let data = self.string().into_bytes();
+                let hash = if self.rng.one_in(2) {
+                    rem::chunks::name_of(&data)
+                } else {
+                    self.string()
+                };
+                proto::PutChunkRequest { hash, data }.encode_to_vec()
+            }
+            Rpc::GetChunk | Rpc::FetchChunk => proto::GetChunkRequest {
+                hash: self.string(),
+            }
+            .encode_to_vec(),
+            Rpc::HasChunks => proto::HasChunksRequest {
+                hashes: self.strings(),
+            }
+            .encode_to_vec(),
             Rpc::ListJobsLocal => proto::ListJobsLocalRequest {
                 user: self.user(),
                 all: self.rng.one_in(2),
@@ -796,6 +814,8 @@ enum Rpc {
     PutJob,
     ListJobs,
     StartJob,
+    PutChunk,
+    GetChunk,
     Heartbeat,
     StartLocal,
     KillLocal,
@@ -806,9 +826,12 @@ enum Rpc {
     FetchReplica,
     StoreJob,
     ListJobsLocal,
+    StoreChunk,
+    HasChunks,
+    FetchChunk,
 }
 
-const RPCS: [Rpc; 21] = [
+const RPCS: [Rpc; 26] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -820,6 +843,8 @@ const RPCS: [Rpc; 21] = [
     Rpc::PutJob,
     Rpc::ListJobs,
     Rpc::StartJob,
+    Rpc::PutChunk,
+    Rpc::GetChunk,
     Rpc::Heartbeat,
     Rpc::StartLocal,
     Rpc::KillLocal,
@@ -830,6 +855,9 @@ const RPCS: [Rpc; 21] = [
     Rpc::FetchReplica,
     Rpc::StoreJob,
     Rpc::ListJobsLocal,
+    Rpc::StoreChunk,
+    Rpc::HasChunks,
+    Rpc::FetchChunk,
 ];
 
 impl Rpc {
@@ -857,6 +885,11 @@ impl Rpc {
             Rpc::StartJob => "StartJob",
             Rpc::StoreJob => "StoreJob",
             Rpc::ListJobsLocal => "ListJobsLocal",
+            Rpc::PutChunk => "PutChunk",
+            Rpc::GetChunk => "GetChunk",
+            Rpc::StoreChunk => "StoreChunk",
+            Rpc::HasChunks => "HasChunks",
+            Rpc::FetchChunk => "FetchChunk",
         }
     }
 
@@ -890,6 +923,9 @@ impl Rpc {
             Rpc::FetchReplica => canonical::<proto::FetchReplicaRequest>(body),
             Rpc::StoreJob => canonical::<proto::Checkpoint>(body),
             Rpc::ListJobsLocal => canonical::<proto::ListJobsLocalRequest>(body),
+            Rpc::StoreChunk => canonical::<proto::PutChunkRequest>(body),
+            Rpc::HasChunks => canonical::<proto::HasChunksRequest>(body),
+            Rpc::FetchChunk => canonical::<proto::GetChunkRequest>(body),
             _ => None,
         };
         sha256_hex(canon.as_deref().unwrap_or(body))

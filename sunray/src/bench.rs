@@ -7,10 +7,12 @@
 //! - [`hot_path`]: that hot path: the renderer's own kernels ([`crate::geometry::kernels`]) in f32 and f64.
 //! - [`features`]: unused feature paths cost nothing; `--accel auto` against the fastest.
 //! - [`plot`]: the log-log plot of the accuracy benchmark, drawn with `image`.
+//! - [`memory`]: peak memory of `sunray render` per triangle, old builds against new.
 
 pub mod accuracy;
 pub mod features;
 pub mod hot_path;
+pub mod memory;
 pub mod plot;
 pub mod precision;
 

@@ -20,8 +20,12 @@ pub fn bin_dir() -> PathBuf {
         .to_path_buf()
 }
 
-/// Builds `sunray` and `remd` once per test binary (a no-op when they are up to date;
-/// `cargo test --workspace` has built them already) and returns their folder.
+/// Builds `sunray` and `remd` once per test binary and returns their folder. It builds them
+/// as `cargo test --workspace` does, so after the README's test command it is a no-op:
+/// with the tests (dev-dependencies unify features, so a plain `cargo build` of the two
+/// packages compiles them again, differently), and without the variables cargo gave this
+/// test (build scripts such as ring's rerun when CARGO_PKG_NAME or CARGO_MANIFEST_DIR
+/// change, and everything above them is compiled again).
 pub fn ensure_built() -> &'static PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -29,10 +33,26 @@ pub fn ensure_built() -> &'static PathBuf {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| env!("CARGO").to_string());
         let target = dir.parent().expect("target root").to_path_buf();
         let mut cmd = Command::new(cargo);
-        cmd.args(["build", "--quiet", "-p", "sunray", "-p", "rem", "--bins"])
+        cmd.args(["build", "--quiet", "--workspace", "--bins", "--tests"])
             .arg("--target-dir")
             .arg(&target)
             .current_dir(workspace());
+        for (key, _) in std::env::vars_os() {
+            let k = key.to_string_lossy();
+            let per_crate = ["CARGO_PKG_", "CARGO_MANIFEST_", "CARGO_BIN_", "CARGO_CFG_"]
+                .iter()
+                .any(|p| k.starts_with(p))
+                || [
+                    "CARGO_CRATE_NAME",
+                    "CARGO_PRIMARY_PACKAGE",
+                    "CARGO_TARGET_TMPDIR",
+                    "OUT_DIR",
+                ]
+                .contains(&k.as_ref());
+            if per_crate {
+                cmd.env_remove(&key);
+            }
+        }
         if dir.file_name().is_some_and(|n| n == "release") {
             cmd.arg("--release");
         }

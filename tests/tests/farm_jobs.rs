@@ -189,6 +189,54 @@ fn losing_the_controllers_host_moves_the_job_to_a_live_host() {
 }
 
 #[test]
+fn controller_anywhere_starts_the_controller_on_the_least_loaded_host() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    // A job whose two workers make their hosts busier than the third (REM processes count).
+    let busy = submit(&cluster, "busy", 100);
+    wait_mid_job(&cluster, &busy);
+    let procs = cluster.processes_via("a");
+    let worker_hosts: Vec<String> = procs
+        .iter()
+        .filter(|p| p.job == "busy.w1" && p.state == "running")
+        .map(|p| p.host.clone())
+        .collect();
+    assert_eq!(worker_hosts.len(), 2, "{procs:#?}");
+    let idle = ["a", "b", "c"]
+        .into_iter()
+        .find(|h| !worker_hosts.iter().any(|w| w == h))
+        .unwrap();
+    // Submitted through a busy host, the controller goes to the idle one.
+    let via = worker_hosts[0].as_str();
+    let out = cluster
+        .sunray_via(via)
+        .args([
+            "submit",
+            "--detach",
+            "--controller-anywhere",
+            "--job",
+            "anywhere",
+        ])
+        .args(FLAGS)
+        .arg(spd("mount6"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r = cluster.wait_record(via, "anywhere", "got its controller", |r| {
+        !r.controller_host.is_empty()
+    });
+    assert_eq!(
+        r.controller_host, idle,
+        "{r:?} (workers of busy on {worker_hosts:?})"
+    );
+    check_finished(&cluster, via, "anywhere", dir.path());
+}
+
+#[test]
 fn a_stopped_controller_is_replaced_and_stands_down_when_it_wakes() {
     let cluster = LoopbackCluster::start(3);
     let dir = tempfile::tempdir().unwrap();
@@ -287,7 +335,7 @@ fn detach_refuses_the_embedded_default_and_a_running_job_id() {
         .unwrap();
     assert!(!out.status.success());
     let said = String::from_utf8_lossy(&out.stderr);
-    assert!(said.contains("--detach needs a cluster"), "{said}");
+    assert!(said.contains("need a cluster (--remd"), "{said}");
     assert_eq!(said.trim().lines().count(), 1, "{said}");
     let cluster = LoopbackCluster::start(2);
     let job = submit(&cluster, "twice", 150);

@@ -9,6 +9,7 @@
 use rem::{EventKind, Incoming, JobEvent, ProcId, RemClient, Secret, SpawnRequest};
 use std::time::Duration;
 use sunray::distrib::messages::{self, proto, Body};
+use sunray::distrib::model_chunks;
 use sunray::render::{Overrides, Settings};
 use sunray::scene::load::{load, SceneSource};
 use sunray_e2e::bins::sunray_bin;
@@ -85,12 +86,8 @@ fn refusal(job: &str, settings: proto::RenderSettings) -> Refusal {
             "the worker exited before its Scene: {events:?}"
         );
 
-        let scene = messages::encode(Body::Scene(proto::Scene {
-            model,
-            settings: Some(settings),
-            job: job.to_string(),
-            epoch: 0,
-        }));
+        let shipped = model_chunks::ship(&client, &model).await.unwrap();
+        let scene = messages::encode(Body::Scene(shipped.scene(settings, job, 0)));
         sender.send(&worker, scene).await.unwrap();
 
         // Its WorkerError and its exit, in whichever order remd delivers them.

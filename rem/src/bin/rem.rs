@@ -257,6 +257,12 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             }
             out.flush()?;
             if let Some(relay) = relay.as_mut() {
+                // The reply is the proof of the start: a quick process's Exited (sent by the
+                // host that ran it) may overtake the Started event (sent by the placing host).
+                for p in &spawned.processes {
+                    writeln!(out, "{} started on {}", p.proc_id, p.host)?;
+                }
+                out.flush()?;
                 return wait_for_exits(out, relay, spawned.processes.len()).await;
             }
         }
@@ -289,7 +295,7 @@ async fn wait_for_exits(
             Incoming::Event(ev) => {
                 let kind = EventKind::try_from(ev.kind).unwrap_or(EventKind::Unspecified);
                 match kind {
-                    EventKind::Started => writeln!(out, "{} started on {}", ev.proc_id, ev.host)?,
+                    EventKind::Started => {} // printed from the spawn reply
                     EventKind::Exited => {
                         left -= 1;
                         match (ev.exit_code, ev.signal) {

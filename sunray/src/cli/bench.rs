@@ -24,6 +24,9 @@ pub enum Which {
     Precision,
     /// Unused feature paths switched on vs off; `--accel auto` against the fastest.
     Features,
+    /// Peak memory of `sunray render` (2 threads) on tetra of --tetra-size, in bytes per
+    /// triangle; with --against OLD, that build too, alternately.
+    Memory,
 }
 
 /// The flags of `sunray bench`.
@@ -52,6 +55,15 @@ pub struct BenchArgs {
     /// accuracy: samples per pixel of the converged reference.
     #[arg(long, default_value_t = 16384)]
     pub reference_samples: u32,
+    /// memory: the tetra size (4^size triangles; 10 is 1,048,576).
+    #[arg(long, default_value_t = 10)]
+    pub tetra_size: u32,
+    /// memory: other `sunray` programs to measure alternately with this one.
+    #[arg(long)]
+    pub against: Vec<std::path::PathBuf>,
+    /// memory: rounds (each program's lowest peak is shown).
+    #[arg(long, default_value_t = 3)]
+    pub rounds: usize,
     /// accuracy: where to write accuracy.png and accuracy.md.
     #[arg(long, default_value = "bench/results")]
     pub out_dir: std::path::PathBuf,
@@ -94,6 +106,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         }
         Which::Precision => crate::bench::precision::run(),
         Which::Features => crate::bench::features::run(args.resolution)?,
+        Which::Memory => {
+            use crate::bench::memory;
+            let me = std::env::current_exe()?;
+            let dir = tempfile::tempdir()?;
+            let scene = memory::write_tetra(&me, dir.path(), args.tetra_size)?;
+            let mut programs = vec![me];
+            programs.extend(args.against.iter().cloned());
+            let peaks = memory::measure(&programs, &scene, args.rounds, dir.path())?;
+            memory::table(&peaks, 4u64.saturating_pow(args.tetra_size))
+        }
     };
     print!("{text}");
     Ok(ExitCode::SUCCESS)

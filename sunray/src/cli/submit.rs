@@ -65,6 +65,10 @@ pub struct SubmitArgs {
     /// it). Always so with the private remd of the default set-up, and with `--resume`.
     #[arg(long)]
     pub in_process: bool,
+    /// Start the job's controller on the least-loaded live host rather than on the host of
+    /// the remd it is submitted through (its restarts always go to the least-loaded).
+    #[arg(long, conflicts_with_all = ["resume", "in_process"])]
+    pub controller_anywhere: bool,
     /// Rewrite the partial image to FILE every few seconds.
     #[arg(long, value_name = "FILE")]
     pub preview: Option<PathBuf>,
@@ -120,7 +124,8 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     };
     let request = args.request(program);
     request.check()?;
-    if args.detach || (args.remd.is_some() && args.resume.is_none() && !args.in_process) {
+    let for_farm = args.detach || args.controller_anywhere;
+    if for_farm || (args.remd.is_some() && args.resume.is_none() && !args.in_process) {
         return in_farm(&args, &request);
     }
     // A new job's scene is compiled before anything else, so a bad scene starts nothing.
@@ -178,6 +183,7 @@ fn in_farm(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> 
     let flags = ControllerFlags {
         checkpoint_ms: args.checkpoint_ms.max(50),
         worker_timeout_ms: args.worker_timeout_ms,
+        anywhere: args.controller_anywhere,
     };
     super::farm::runtime()?.block_on(async {
         let cluster = RemConnection::open(

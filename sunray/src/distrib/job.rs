@@ -8,6 +8,7 @@ use super::connection::{ConnectionError, RemConnection};
 use super::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
 use super::jobs;
 use super::messages::{self, proto, Body, MessageError};
+use super::model_chunks;
 use super::nodes::{self, JobStats};
 use super::strategy::Strategy;
 use crate::film::{FilmError, Format};
@@ -95,14 +96,6 @@ pub enum JobError {
         asked: u32,
         /// The live hosts' names.
         live: Vec<String>,
-    },
-    /// The compiled model does not fit in one REM message.
-    #[error("the compiled model ({bytes} bytes) is larger than REM's message limit ({limit} bytes); raise remd --max-message")]
-    ModelTooLarge {
-        /// The Scene message's size.
-        bytes: usize,
-        /// REM's message limit.
-        limit: usize,
     },
     /// The model could not be encoded.
     #[error("cannot encode the model: {0}")]
@@ -361,25 +354,21 @@ async fn run_plan(
             live: live.iter().map(|h| h.name.clone()).collect(),
         });
     }
-    let scene_msg = messages::encode(Body::Scene(proto::Scene {
-        model: plan.model.clone(),
-        settings: Some(plan.settings.to_proto()),
-        job: plan.job.clone(),
-        // In-process: nobody takes this controller's workers over.
-        epoch: 0,
-    }));
+    // The model goes as REM chunks (no message limit; hosts that have them fetch nothing).
+    let shipped = model_chunks::ship(&cluster.client, &plan.model)
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
+    // In-process: nobody takes this controller's workers over (epoch 0).
+    let scene_msg = messages::encode(Body::Scene(shipped.scene(
+        plan.settings.to_proto(),
+        &plan.job,
+        0,
+    )));
     let relay = cluster
         .client
         .attach(Some(&plan.job))
         .await
         .map_err(|e| cluster.rpc_error(e))?;
-    let limit = relay.sender().max_message();
-    if scene_msg.len() > limit {
-        return Err(JobError::ModelTooLarge {
-            bytes: scene_msg.len(),
-            limit,
-        });
-    }
 
     let mut checkpointer = Checkpointer::new(
         &plan.job,

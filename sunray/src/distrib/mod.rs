@@ -22,6 +22,7 @@
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
 //! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
 //!   lines it holds.
+//! - [`model_chunks`]: the scene's model shipped as REM chunks and fetched by the workers.
 //! - [`connection`]: reaching REM; [`embedded`]: the private remd of the default set-up.
 //! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals).
 //! - [`farm`]: jobs owned by the farm (`submit --detach`, the controller process REM keeps
@@ -36,6 +37,7 @@ pub mod grants;
 pub mod job;
 pub mod jobs;
 pub mod messages;
+pub mod model_chunks;
 pub mod nodes;
 pub mod pool;
 pub mod progress;

@@ -62,8 +62,15 @@ pub struct NodeStats {
     pub cpu_s: f64,
     /// The worker's wall-clock seconds from start to its last report.
     pub elapsed_s: f64,
-    /// The worker's seconds to load the scene and build its accelerator.
+    /// The worker's seconds to decode the scene and build its accelerator.
     pub preprocess_s: f64,
+    /// Bytes of the scene's model the worker's host fetched from other hosts (0 when it had
+    /// every chunk cached).
+    pub scene_bytes_received: u64,
+    /// Whether the worker's host had the whole model cached.
+    pub scene_cached: bool,
+    /// The worker's seconds to get the model (through its host's remd).
+    pub scene_fetch_s: f64,
     /// The worker's render threads' wall-clock seconds spent rendering.
     pub render_s: f64,
     /// Render threads' time waiting for their next fresh line, summed over threads (after
@@ -201,10 +208,20 @@ pub fn thousands(n: u64) -> String {
     out
 }
 
+/// How a node got the scene's model: `cached` when its host had it, else the megabytes its
+/// host fetched from other hosts.
+fn scene_column(n: &NodeStats) -> String {
+    if n.scene_cached {
+        "cached".into()
+    } else {
+        format!("{:.1} MB", n.scene_bytes_received as f64 / 1e6)
+    }
+}
+
 /// The per-node table, with a total row.
 pub fn table(nodes: &[NodeStats]) -> String {
     let mut s = format!(
-        "{:>4}  {:<12} {:>5} {:>6} {:>9} {:>12} {:>12} {:>15} {:>9} {:>9} {:>9} {:>9}\n",
+        "{:>4}  {:<12} {:>5} {:>6} {:>9} {:>12} {:>12} {:>15} {:>9} {:>9} {:>9} {:>9} {:>9}\n",
         "node",
         "host",
         "cores",
@@ -216,7 +233,8 @@ pub fn table(nodes: &[NodeStats]) -> String {
         "cpu s",
         "elapsed s",
         "preproc s",
-        "render s"
+        "render s",
+        "scene"
     );
     let mut total = NodeStats::default();
     for n in nodes {
@@ -234,7 +252,7 @@ pub fn table(nodes: &[NodeStats]) -> String {
                 ""
             };
             s.push_str(&format!(
-                "{:>4}  {:<12} {:>5} {:>6.2} {:>9} {:>12} {:>12} {:>15} {:>9.2} {:>9.2} {:>9.2} {:>9.2}{}\n",
+                "{:>4}  {:<12} {:>5} {:>6.2} {:>9} {:>12} {:>12} {:>15} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9}{}\n",
                 n.node,
                 host,
                 n.cores,
@@ -247,6 +265,7 @@ pub fn table(nodes: &[NodeStats]) -> String {
                 n.elapsed_s,
                 n.preprocess_s,
                 n.render_s,
+                scene_column(n),
                 mark
             ));
         }
@@ -356,6 +375,9 @@ mod tests {
             "/cpu_s",
             "/elapsed_s",
             "/preprocess_s",
+            "/scene_bytes_received",
+            "/scene_cached",
+            "/scene_fetch_s",
             "/render_s",
             "/outcome",
         ] {

@@ -285,7 +285,25 @@ impl Settings {
     /// Counters, times, threads and accelerator cells are the caller's to fill in.
     pub fn stats_header(&self, name: &str, scene: &Scene) -> RenderStats {
         let bounded = scene.prims.iter().filter(|p| p.bounds().is_some()).count();
-        let kind = self.accel.kind.resolve(bounded);
+        self.stats_header_of(
+            name,
+            scene.world.objects.len(),
+            scene.prims.len(),
+            scene.prims.len() - bounded,
+        )
+    }
+
+    /// [`Settings::stats_header`] from the scene's counts alone (a job whose model is not
+    /// decoded here).
+    pub fn stats_header_of(
+        &self,
+        name: &str,
+        objects: usize,
+        primitives: usize,
+        unbounded: usize,
+    ) -> RenderStats {
+        let unbounded = unbounded.min(primitives);
+        let kind = self.accel.kind.resolve(primitives - unbounded);
         RenderStats {
             scene: name.to_string(),
             width: self.render.width,
@@ -293,9 +311,9 @@ impl Settings {
             samples: self.render.samples,
             accel: kind.name().to_string(),
             mailbox: self.mailbox && kind == AccelKind::Octree,
-            objects: scene.world.objects.len(),
-            primitives: scene.prims.len(),
-            unbounded: scene.prims.len() - bounded,
+            objects,
+            primitives,
+            unbounded,
             ..RenderStats::default()
         }
     }

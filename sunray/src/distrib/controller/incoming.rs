@@ -71,6 +71,10 @@ impl<L: WorkerLink> Controller<L> {
             }
             Body::Request(r) => {
                 n.preprocess_s = r.preprocess_s;
+                if let Some(f) = &r.scene {
+                    (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
+                        (f.bytes_received, f.cached, f.fetch_s);
+                }
                 self.table.release(i, &r.released);
                 self.stamps_to_echo[i] = Some(r.stamp_s);
                 self.table.set_window(i, r.window);

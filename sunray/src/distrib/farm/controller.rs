@@ -18,7 +18,6 @@ use crate::distrib::jobs;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::strategy::Strategy;
 use crate::render::Settings;
-use crate::scene::Scene;
 use prost::Message;
 use rem::RemClient;
 use std::path::PathBuf;
@@ -88,7 +87,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let restored = checkpoint::load(&client, &job)
         .await?
         .ok_or_else(|| stored("it has no checkpoint"))?;
-    if messages::fnv1a(&scene.model) != restored.header.model_hash {
+    if scene.model_hash != restored.header.model_hash {
         return Err(stored("its stored scene is not the checkpoint's"));
     }
     let spec = restored.header.spec.clone().unwrap_or_default();
@@ -100,7 +99,6 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         .map_err(|e| stored(&e.to_string()))?
         .ok_or_else(|| stored("its stored scene has no render settings"))?;
     let (width, height) = (settings.render.width, settings.render.height);
-    let model = scene.model.clone();
 
     record.state = "running".into();
     record.controller = me.to_string();
@@ -140,7 +138,10 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         strategy,
         width,
         height,
-        scene: messages::encode(Body::Scene(proto::Scene { epoch, ..scene })),
+        scene: messages::encode(Body::Scene(proto::Scene {
+            epoch,
+            ..scene.clone()
+        })),
         worker_timeout: opts.worker_timeout,
         checkpoint_every: opts.checkpoint_every,
         preview: None,
@@ -185,11 +186,15 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     if !result.finished {
         return Ok(ControllerEnd::Unfinished);
     }
-    // The scene's part of the totals, as `sunray render` and the in-process job give it.
-    let header = match yari::modelfile::from_bytes(&model) {
-        Ok(world) => settings.stats_header(&jobs::from_record(&record).scene, &Scene::new(world)),
-        Err(_) => Default::default(),
-    };
+    // The scene's part of the totals, as `sunray render` and the in-process job give it,
+    // from the counts `submit` stored (the model is not decoded here).
+    let entry = jobs::from_record(&record);
+    let header = settings.stats_header_of(
+        &entry.scene,
+        entry.scene_objects as usize,
+        entry.scene_primitives as usize,
+        entry.scene_unbounded as usize,
+    );
     let stats = job::job_stats(&job, strategy, count, header, result);
     let json = serde_json::to_vec_pretty(&stats).map_err(|e| stored(&e.to_string()))?;
     Fenced {
@@ -206,7 +211,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         },
         e => FarmError::Rem(e),
     })?;
-    let mut entry = jobs::from_record(&record);
+    let mut entry = entry;
     entry.summary = stats.summary();
     record.app = entry.encode_to_vec();
     record.state = "finished".into();

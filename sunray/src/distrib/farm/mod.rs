@@ -24,7 +24,8 @@ use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
 use super::connection::RemConnection;
 use super::job::{self, JobError, JobRequest};
 use super::jobs;
-use super::messages::{self, proto, Body};
+use super::messages::{self, proto};
+use super::model_chunks;
 use crate::scene::load::LoadedScene;
 use prost::Message;
 
@@ -88,8 +89,9 @@ pub enum FarmError {
         /// REM's refusal.
         reason: String,
     },
-    /// `--detach` on the private embedded remd, which ends with the command.
-    #[error("--detach needs a cluster (--remd or REM_ADDR): the private remd of the default set-up ends with this command")]
+    /// A job for the farm (`--detach`, `--controller-anywhere`) on the private embedded
+    /// remd, which ends with the command.
+    #[error("--detach and --controller-anywhere need a cluster (--remd or REM_ADDR): the private remd of the default set-up ends with this command")]
     DetachNeedsCluster,
     /// The image could not be written.
     #[error(transparent)]
@@ -127,6 +129,9 @@ pub struct ControllerFlags {
     pub checkpoint_ms: u64,
     /// A worker holding a line longer than this is silent (milliseconds).
     pub worker_timeout_ms: Option<u64>,
+    /// Start the first controller on the least-loaded live host rather than on the host of
+    /// the remd the job is submitted through (restarts always go to the least-loaded).
+    pub anywhere: bool,
 }
 
 /// A job handed to the farm.
@@ -174,22 +179,10 @@ pub async fn submit(
         epoch: existing.map_or(1, |r| r.epoch + 1),
         job: &plan.job,
     };
-    let scene_msg = proto::Scene {
-        model: plan.model.clone(),
-        settings: Some(plan.settings.to_proto()),
-        job: plan.job.clone(),
-        // The epoch is the controller's, set when it sends the scene.
-        epoch: 0,
-    };
-    let encoded = messages::encode(Body::Scene(scene_msg.clone()));
-    let limit = client.options().max_message;
-    if encoded.len() > limit {
-        return Err(JobError::ModelTooLarge {
-            bytes: encoded.len(),
-            limit,
-        }
-        .into());
-    }
+    // The model goes as REM chunks; the stored Scene names them (the controller's epoch is
+    // set when it sends the scene).
+    let shipped = model_chunks::ship(client, &plan.model).await?;
+    let scene_msg = shipped.scene(plan.settings.to_proto(), &plan.job, 0);
     store
         .put(&scene_key(&plan.job), scene_msg.encode_to_vec())
         .await?;
@@ -208,6 +201,15 @@ pub async fn submit(
         hosts: plan.hosts,
         started_unix_ms: checkpoint::unix_ms(),
         output: plan.output.display().to_string(),
+        scene_objects: plan.loaded.scene.world.objects.len() as u64,
+        scene_primitives: plan.loaded.scene.prims.len() as u64,
+        scene_unbounded: plan
+            .loaded
+            .scene
+            .prims
+            .iter()
+            .filter(|p| p.bounds().is_none())
+            .count() as u64,
         ..Default::default()
     };
     let mut args = vec![
@@ -228,7 +230,7 @@ pub async fn submit(
     };
     let mut record = jobs::to_record(&entry, 1);
     record.controller_spawn = Some(spawn.to_proto());
-    let stored = client.start_job(record).await?;
+    let stored = client.start_job(record, flags.anywhere).await?;
     Ok(Submitted {
         job: stored.id,
         output: plan.output,

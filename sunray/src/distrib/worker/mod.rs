@@ -15,6 +15,7 @@
 //! with an error.
 
 use super::messages::{self, proto, Body};
+use super::model_chunks;
 use super::pool::{LineJob, PoolScene, RenderPool, Rendered};
 use super::window::{Window, MIN_COVER_S};
 use crate::accel::Accel;
@@ -116,8 +117,27 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     };
     let mut owner = Owner::new(owner, &scene_msg);
     let mut records: Option<RemClient> = None;
+    // Settings out of bounds are refused before anything is fetched or allocated for them.
+    if let Err(e) = settings_of(&scene_msg) {
+        report(&link, &me, &mut inbox, &e).await;
+        return Err(e);
+    }
+    // The model, through this host's remd (cached there for the next worker or job).
+    let fetched = match RemClient::from_env().await {
+        Ok(client) => model_chunks::fetch(&client, &scene_msg)
+            .await
+            .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}"))),
+        Err(e) => Err(WorkerError::Rem(e)),
+    };
+    let (model, scene_fetch) = match fetched {
+        Ok(f) => f,
+        Err(e) => {
+            report(&link, &me, &mut inbox, &e).await;
+            return Err(e);
+        }
+    };
     let t_pre = Instant::now();
-    let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg))
+    let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg, &model))
         .await
         .unwrap_or_else(|e| {
             Err(WorkerError::BadScene(format!(
@@ -156,6 +176,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
             preprocess_s,
             stamp_s: now,
             released,
+            scene: Some(scene_fetch),
         })
     };
     link.send(request(&mut window, Vec::new())).await?;
@@ -361,17 +382,24 @@ async fn report(
     let _ = tokio::time::timeout(REPORT_WAIT, flushed).await;
 }
 
+/// The Scene's render settings, checked against their bounds.
+fn settings_of(msg: &proto::Scene) -> Result<Settings, WorkerError> {
+    msg.settings
+        .as_ref()
+        .ok_or_else(|| WorkerError::BadScene("no render settings".into()))
+        .and_then(|s| Settings::from_proto(s).map_err(|e| WorkerError::BadScene(e.to_string())))
+}
+
 /// Decodes the model and settings and builds the accelerator. The settings are checked
 /// against their bounds first (`Settings::from_proto`), so settings out of bounds are refused
 /// before the model is decoded or anything is allocated for them.
-fn prepare(msg: proto::Scene) -> Result<(Arc<Scene>, Arc<Accel>, Settings), WorkerError> {
-    let settings = msg
-        .settings
-        .as_ref()
-        .ok_or_else(|| WorkerError::BadScene("no render settings".into()))
-        .and_then(|s| Settings::from_proto(s).map_err(|e| WorkerError::BadScene(e.to_string())))?;
-    let world = yari::modelfile::from_bytes(&msg.model)
-        .map_err(|e| WorkerError::BadScene(e.to_string()))?;
+fn prepare(
+    msg: proto::Scene,
+    model: &[u8],
+) -> Result<(Arc<Scene>, Arc<Accel>, Settings), WorkerError> {
+    let settings = settings_of(&msg)?;
+    let world =
+        yari::modelfile::from_bytes(model).map_err(|e| WorkerError::BadScene(e.to_string()))?;
     let scene = Scene::new(world);
     let accel = Accel::build(&scene.prims, &settings.accel);
     Ok((Arc::new(scene), Arc::new(accel), settings))

@@ -1,0 +1,95 @@
+//! Blobs as lists of chunks: a large byte string (a scene's model) cut into chunks of at
+//! most `chunk_bytes`, put through the local daemon, and read back by any process of the
+//! cluster from the list of names alone. No message carries more than one chunk, so a blob
+//! is bounded by memory and disk, not by the message limit.
+
+use crate::chunks::name_of;
+use crate::client::RemClient;
+use crate::error::{Error, Result};
+
+/// The default size of a chunk (the daemons' default `chunk_bytes` limit).
+pub const CHUNK_BYTES: usize = 4 << 20;
+
+/// Most chunks one blob may have (64 GiB at the default size).
+pub const MAX_CHUNKS: usize = 16_384;
+
+/// What putting a blob cost.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Put {
+    /// The chunks' names, in order.
+    pub chunks: Vec<String>,
+    /// Bytes the local daemon sent to peers (0 when they had every chunk).
+    pub bytes_sent: u64,
+}
+
+/// What reading a blob cost.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Got {
+    /// The blob.
+    pub data: Vec<u8>,
+    /// Bytes the local daemon fetched from peers for it.
+    pub bytes_fetched: u64,
+    /// Whether the local daemon had every chunk already.
+    pub cached: bool,
+}
+
+/// The names of `data`'s chunks of `chunk_bytes`, as [`put`] cuts it.
+pub fn chunk_names(data: &[u8], chunk_bytes: usize) -> Vec<String> {
+    data.chunks(chunk_bytes.max(1)).map(name_of).collect()
+}
+
+/// Puts `data` in chunks of `chunk_bytes` through `client`'s daemon.
+pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<Put> {
+    let chunk_bytes = chunk_bytes.max(1);
+    let count = data.len().div_ceil(chunk_bytes);
+    if count > MAX_CHUNKS {
+        return Err(Error::TooLarge {
+            size: data.len(),
+            limit: MAX_CHUNKS * chunk_bytes,
+        });
+    }
+    let mut out = Put::default();
+    for piece in data.chunks(chunk_bytes) {
+        let hash = name_of(piece);
+        let reply = client.put_chunk(&hash, piece.to_vec()).await?;
+        out.bytes_sent += reply.bytes_sent;
+        out.chunks.push(hash);
+    }
+    Ok(out)
+}
+
+/// Reads the blob of `chunks` through `client`'s daemon; `size` is its length (checked).
+pub async fn get(client: &RemClient, chunks: &[String], size: u64) -> Result<Got> {
+    if chunks.len() > MAX_CHUNKS {
+        return Err(Error::Invalid(format!(
+            "a blob of {} chunks (at most {MAX_CHUNKS})",
+            chunks.len()
+        )));
+    }
+    let size = usize::try_from(size).map_err(|_| Error::Invalid("blob too large".into()))?;
+    let mut out = Got {
+        data: Vec::with_capacity(size.min(MAX_CHUNKS * CHUNK_BYTES)),
+        bytes_fetched: 0,
+        cached: true,
+    };
+    for hash in chunks {
+        let reply = client.get_chunk(hash).await?;
+        if !reply.cached {
+            out.cached = false;
+            out.bytes_fetched += reply.data.len() as u64;
+        }
+        if out.data.len() + reply.data.len() > size {
+            return Err(Error::Invalid(format!(
+                "the blob's chunks hold more than its {size} bytes"
+            )));
+        }
+        out.data.extend_from_slice(&reply.data);
+    }
+    if out.data.len() != size {
+        return Err(Error::Invalid(format!(
+            "the blob's chunks hold {} bytes, not {size}",
+            out.data.len()
+        )));
+    }
+    Ok(out)
+}

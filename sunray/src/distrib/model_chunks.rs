@@ -1,0 +1,71 @@
+//! The scene's model on its way to the workers: cut into REM chunks named by their hash
+//! (`rem::blob`), put once through the submitting host's remd (which keeps a second copy on
+//! a peer), and fetched by each worker through its own host's remd, which caches them. No
+//! message carries the whole model, so its size is bounded by memory and disk only, and a
+//! host that has the scene (a second worker, a second job of the same scene) fetches
+//! nothing.
+
+use std::time::Instant;
+
+use crate::distrib::messages;
+use crate::distrib::messages::proto;
+use rem::RemClient;
+
+/// A model put into REM, as the Scene message names it.
+#[derive(Clone, Debug, Default)]
+pub struct ShippedModel {
+    /// The chunks' names, in order.
+    pub chunks: Vec<String>,
+    /// The model's length in bytes.
+    pub size: u64,
+    /// FNV-1a 64 of the model (the checkpoint's `model_hash`).
+    pub hash: u64,
+    /// Bytes the submitting host's remd sent to its peers.
+    pub bytes_sent: u64,
+}
+
+impl ShippedModel {
+    /// The Scene message of this model with `settings`, for `job`, at `epoch`.
+    pub fn scene(&self, settings: proto::RenderSettings, job: &str, epoch: u64) -> proto::Scene {
+        proto::Scene {
+            model_chunks: self.chunks.clone(),
+            model_size: self.size,
+            model_hash: self.hash,
+            settings: Some(settings),
+            job: job.to_string(),
+            epoch,
+        }
+    }
+}
+
+/// Puts `model` into REM through `client`'s daemon.
+pub async fn ship(client: &RemClient, model: &[u8]) -> rem::Result<ShippedModel> {
+    let put = rem::blob::put(client, model, rem::blob::CHUNK_BYTES).await?;
+    Ok(ShippedModel {
+        chunks: put.chunks,
+        size: model.len() as u64,
+        hash: messages::fnv1a(model),
+        bytes_sent: put.bytes_sent,
+    })
+}
+
+/// Fetches the model a Scene names through `client`'s daemon; how it went is the
+/// SceneFetch a worker reports.
+pub async fn fetch(
+    client: &RemClient,
+    scene: &proto::Scene,
+) -> rem::Result<(Vec<u8>, proto::SceneFetch)> {
+    let t0 = Instant::now();
+    let got = rem::blob::get(client, &scene.model_chunks, scene.model_size).await?;
+    if messages::fnv1a(&got.data) != scene.model_hash {
+        return Err(rem::Error::Invalid(
+            "the model's chunks are not the scene's model (hash differs)".into(),
+        ));
+    }
+    let report = proto::SceneFetch {
+        bytes_received: got.bytes_fetched,
+        cached: got.cached,
+        fetch_s: t0.elapsed().as_secs_f64(),
+    };
+    Ok((got.data, report))
+}
