@@ -12,6 +12,11 @@ failover   a detached job (`submit --detach`) on the six workstations, its contr
            container (ws1) killed once a quarter of the image is in: the time from the kill
            to ws1 being seen lost, and from then to the new controller's first Assign; the
            job's total time with and without the fault.
+bigscene   tetra of 1,048,576 and 4,194,304 triangles (sizes 10 and 11; BENCH_BIG_SIZES) on
+           the six workstations, submitted twice each from ws1: time to the first finished
+           line, total time, bytes the submitting host sent, per node the bytes fetched and
+           whether the scene and the BVH were cached; the second job finds both on every
+           host.
 
 Raw outputs go to deploy/bench/work/ (ignored by git); the report and plots to
 deploy/bench/results/. Every figure in the report is computed from the saved JSON.
@@ -92,10 +97,11 @@ def render_flags():
     return f
 
 
-def submit(farm, via, name, hosts, extra=(), kill=None):
+def submit(farm, via, name, hosts, extra=(), kill=None, scene="/scenes/mount6.nff",
+           flags=None):
     """Runs one submit with --events; returns (wall seconds, stats, events, kill time)."""
-    argv = ["/bin/sunray", "submit", "--hosts", str(hosts), *render_flags(), *extra,
-            "--events", "/scenes/mount6.nff", "-o", f"/out/{name}.png",
+    argv = ["/bin/sunray", "submit", "--hosts", str(hosts), *(flags or render_flags()),
+            *extra, "--events", scene, "-o", f"/out/{name}.png",
             "--stats-json", f"/out/{name}.json"]
     t0 = time.time()
     p = subprocess.Popen(farm.exec_argv(via, argv), env=farm.env, stdout=subprocess.DEVNULL,
@@ -129,8 +135,9 @@ def submit(farm, via, name, hosts, extra=(), kill=None):
     with open(os.path.join(WORK, f"{name}.events.json"), "w") as f:
         json.dump(events, f)
     print(f"{name}: {wall:.2f} s wall, {stats['elapsed_s']:.2f} s job", flush=True)
+    first_line = min((e["t"] for e in events if e["event"] == "line"), default=None)
     return {"wall_s": wall, "stats": stats, "killed_at_s": killed_at,
-            "table": "".join(text)}
+            "first_line_s": first_line, "table": "".join(text)}
 
 
 def bench_farm():
@@ -241,6 +248,41 @@ def failover():
     return runs
 
 
+def bigscene():
+    sizes = [int(n) for n in os.environ.get("BENCH_BIG_SIZES", "10 11").split()]
+    scenes = os.environ["SUNRAY_SCENES"]
+    sunray = os.path.join(os.environ.get("CARGO_TARGET_DIR", "target"), "release", "sunray")
+    for size in sizes:
+        path = os.path.join(scenes, f"tetra{size}.nff")
+        if not os.path.exists(path):
+            subprocess.run([sunray, "spd", "tetra", "--size", str(size), "-o", path], check=True)
+    farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"),
+                {"SUNRAY_SCENES": scenes})
+    flags = ["--resolution", os.environ.get("BENCH_BIG_RES", "256x256")]
+    runs = {"settings": {"resolution": flags[1], "sizes": sizes}}
+    try:
+        farm.up(6, "ws1")
+        for size in sizes:
+            for run in ["first", "second"]:
+                r = submit(farm, "ws1", f"big{size}-{run}", 6, scene=f"/scenes/tetra{size}.nff",
+                           flags=flags)
+                st = r["stats"]
+                r["summary"] = {
+                    "triangles": st["totals"]["primitives"],
+                    "first_line_s": r["first_line_s"],
+                    "total_s": r["wall_s"],
+                    "scene_bytes_sent": st["scene_bytes_sent"],
+                    "nodes": [{k: n[k] for k in ["host", "scene_bytes_received", "scene_cached",
+                                                 "scene_fetch_s", "accel_cached", "preprocess_s"]}
+                              for n in st["nodes"]],
+                }
+                print(f"big{size}-{run}: {json.dumps(r['summary'])}", flush=True)
+                runs[f"{size}-{run}"] = r
+    finally:
+        farm.down()
+    return runs
+
+
 def hetero():
     scale = {"WS_CPUS_FAST": "0.5", "WS_CPUS_MEDIUM": "0.25", "WS_CPUS_SLOW": "0.125",
              "SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]}
@@ -282,7 +324,7 @@ def main():
                        f"{os.getloadavg()[0]:.1f} when the run started")
     for name in which:
         data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault,
-                      "failover": failover}[name]()
+                      "failover": failover, "bigscene": bigscene}[name]()
         with open(path, "w") as f:
             json.dump(data, f, indent=1, default=str)
     print(f"raw results in {path}")

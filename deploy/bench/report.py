@@ -196,6 +196,33 @@ def failover_section(data, out):
                    "(Adopt) and started new ones only for the rest.\n")
 
 
+def bigscene_section(data, out):
+    out.append("## Production-size scenes (chunked, cached, compact)\n")
+    out.append(f"tetra at {', '.join(str(4 ** s) for s in data['settings']['sizes'])} "
+               f"triangles on the six workstations, {data['settings']['resolution']}, "
+               "each submitted twice from ws1 (`deploy/bench/run.sh bigscene`). "
+               "First line: from the start of `sunray submit` to the first finished line; "
+               "sent: what the submitting host's remd sent of the model.\n")
+    out.append("| triangles | job | first line s | total s | sent MB | hosts that fetched | "
+               "fetched MB (all hosts) | scene cached | BVH cached |")
+    out.append("|---|---|---|---|---|---|---|---|---|")
+    for size in data["settings"]["sizes"]:
+        for run in ["first", "second"]:
+            r = data.get(f"{size}-{run}")
+            if not r:
+                continue
+            s = r["summary"]
+            nodes = s["nodes"]
+            fetched = sum(n["scene_bytes_received"] for n in nodes)
+            out.append(f"| {s['triangles']:,} | {run} | {s['first_line_s']:.1f} | "
+                       f"{s['total_s']:.1f} | {s['scene_bytes_sent'] / 1e6:.1f} | "
+                       f"{sum(1 for n in nodes if n['scene_bytes_received'] > 0)} | "
+                       f"{fetched / 1e6:.1f} | "
+                       f"{sum(1 for n in nodes if n['scene_cached'])}/{len(nodes)} | "
+                       f"{sum(1 for n in nodes if n['accel_cached'])}/{len(nodes)} |")
+    out.append("")
+
+
 def main():
     with open(os.path.join(WORK, "bench.json")) as f:
         data = json.load(f)
@@ -213,6 +240,8 @@ def main():
         fault_section(data["fault"], out)
     if "failover" in data:
         failover_section(data["failover"], out)
+    if "bigscene" in data:
+        bigscene_section(data["bigscene"], out)
     with open(os.path.join(RESULTS, "report.md"), "w") as f:
         f.write("\n".join(out) + "\n")
     shutil.copy(os.path.join(WORK, "bench.json"), os.path.join(RESULTS, "bench.json"))

@@ -60,35 +60,60 @@ pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<
 
 /// Reads the blob of `chunks` through `client`'s daemon; `size` is its length (checked).
 pub async fn get(client: &RemClient, chunks: &[String], size: u64) -> Result<Got> {
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<Vec<u8>>(2);
+    // The size is the sender's word: room for it is made as the bytes arrive, not before.
+    let cap = usize::try_from(size).unwrap_or(0).min(16 * CHUNK_BYTES);
+    let gather = async move {
+        let mut data = Vec::with_capacity(cap);
+        while let Some(piece) = rx.recv().await {
+            data.extend_from_slice(&piece);
+        }
+        data
+    };
+    let (got, data) = tokio::join!(get_each(client, chunks, size, tx), gather);
+    Ok(Got { data, ..got? })
+}
+
+/// Reads the blob of `chunks` through `client`'s daemon one chunk at a time, sending each
+/// into `pieces` in order (so that a reader decodes it as it arrives and never holds it
+/// whole); `size` is its length, checked before a chunk past it is sent. The answer's `data`
+/// is empty. A reader that stops early (drops its receiver) ends the reading with
+/// [`Error::Closed`].
+pub async fn get_each(
+    client: &RemClient,
+    chunks: &[String],
+    size: u64,
+    pieces: tokio::sync::mpsc::Sender<Vec<u8>>,
+) -> Result<Got> {
     if chunks.len() > MAX_CHUNKS {
         return Err(Error::Invalid(format!(
             "a blob of {} chunks (at most {MAX_CHUNKS})",
             chunks.len()
         )));
     }
-    let size = usize::try_from(size).map_err(|_| Error::Invalid("blob too large".into()))?;
     let mut out = Got {
-        data: Vec::with_capacity(size.min(MAX_CHUNKS * CHUNK_BYTES)),
+        data: Vec::new(),
         bytes_fetched: 0,
         cached: true,
     };
+    let mut read = 0u64;
     for hash in chunks {
         let reply = client.get_chunk(hash).await?;
         if !reply.cached {
             out.cached = false;
             out.bytes_fetched += reply.data.len() as u64;
         }
-        if out.data.len() + reply.data.len() > size {
+        read += reply.data.len() as u64;
+        if read > size {
             return Err(Error::Invalid(format!(
                 "the blob's chunks hold more than its {size} bytes"
             )));
         }
-        out.data.extend_from_slice(&reply.data);
+        pieces.send(reply.data).await.map_err(|_| Error::Closed)?;
     }
-    if out.data.len() != size {
+    if read != size {
         return Err(Error::Invalid(format!(
-            "the blob's chunks hold {} bytes, not {size}",
-            out.data.len()
+            "the blob's chunks hold {read} bytes, not {size}"
         )));
     }
     Ok(out)

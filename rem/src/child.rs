@@ -60,6 +60,8 @@ pub struct ProcessConfig {
     pub kill_grace: Duration,
     /// The user children run as (`None`: remd's own).
     pub run_as: Option<RunAs>,
+    /// The host's process cache, given to every child (`REM_CACHE_DIR`).
+    pub cache_dir: Option<std::path::PathBuf>,
 }
 
 /// One start request, already placed on this host.
@@ -103,6 +105,9 @@ pub fn command(
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .process_group(0);
+    if let Some(dir) = &cfg.cache_dir {
+        cmd.env(env::CACHE_DIR, dir);
+    }
     if !spec.job_record.is_empty() {
         cmd.env(env::JOB_RECORD, &spec.job_record)
             .env(env::JOB_EPOCH, spec.job_epoch.to_string());

@@ -78,7 +78,8 @@
 //!   [`replicas`]: which peer keeps a key's second copy (rendezvous hashing).
 //! - [`chunks`]: the content-addressed chunk cache (scenes in pieces, checked by hash, LRU);
 //!   `chunk_sharing`: putting chunks on two hosts and fetching them from peers; [`blob`]:
-//!   large byte strings as lists of chunks.
+//!   large byte strings as lists of chunks; [`process_cache`]: the folder where processes
+//!   keep what they can rebuild (`REM_CACHE_DIR`), bounded, its contents untrusted.
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
 //! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
 //!   [`raise_fd_limit`].
@@ -118,6 +119,7 @@ mod peers;
 mod placement;
 pub mod policy;
 mod process;
+pub mod process_cache;
 mod relay;
 pub mod relay_client;
 pub mod replicas;

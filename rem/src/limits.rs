@@ -1,7 +1,8 @@
 //! Hard limits of one daemon: how many processes a request and a host may have, how many
 //! bytes the relay may queue (per mailbox, per link, in all), how many bytes of checkpoints
 //! a job and the whole host may keep, how many bytes of output are kept, how many ended jobs
-//! and for how long, how large a chunk may be and how many bytes of chunks are cached. Every limit is a
+//! and for how long, how large a chunk may be and how many bytes of chunks and of the process
+//! cache are kept. Every limit is a
 //! setting (`DaemonSettings::limits`, flags and TOML keys of the same names); reaching one
 //! is answered with a gRPC status (`INVALID_ARGUMENT` for a request that can never be met,
 //! `RESOURCE_EXHAUSTED` for one that cannot be met now), never with an abort.
@@ -46,6 +47,9 @@ pub struct Limits {
     pub chunk_bytes: usize,
     /// Bytes of chunks this host caches (the least recently used go first).
     pub chunk_cache_bytes: u64,
+    /// Bytes the host's process cache (`REM_CACHE_DIR`: what processes can rebuild, such as
+    /// SunRay's accelerators) may hold; the least recently used files go first.
+    pub process_cache_bytes: u64,
 }
 
 impl Default for Limits {
@@ -68,6 +72,7 @@ impl Default for Limits {
             job_restarts: 10,
             chunk_bytes: 4 << 20,
             chunk_cache_bytes: 4 << 30,
+            process_cache_bytes: 2 << 30,
         }
     }
 }
@@ -78,7 +83,7 @@ pub const ITEM_OVERHEAD: usize = 256;
 
 impl Limits {
     /// The names of the limits, as `--limit NAME=VALUE` and the `[limits]` table take them.
-    pub const NAMES: [&'static str; 17] = [
+    pub const NAMES: [&'static str; 18] = [
         "spawn_count",
         "host_processes",
         "mailbox_bytes",
@@ -96,6 +101,7 @@ impl Limits {
         "job_restarts",
         "chunk_bytes",
         "chunk_cache_bytes",
+        "process_cache_bytes",
     ];
 
     /// Sets the limit `name` from `value`: a whole number, for bytes optionally followed by
@@ -126,6 +132,7 @@ impl Limits {
             "job_restarts" => self.job_restarts = n,
             "chunk_bytes" => self.chunk_bytes = small(n)?,
             "chunk_cache_bytes" => self.chunk_cache_bytes = n,
+            "process_cache_bytes" => self.process_cache_bytes = n,
             _ => {
                 return Err(format!(
                     "unknown limit {name:?} (known: {})",

@@ -105,6 +105,17 @@ pub async fn run(
         .duration_since(UNIX_EPOCH)
         .map_or(1, |d| d.as_millis() as u64);
     let seq = Arc::new(AtomicU64::new(start_ms));
+    let owner = settings.run_as.map(|u| (u.uid, u.gid));
+    let process_cache = crate::process_cache::ProcessCache::open(
+        &state_dir.join("cache"),
+        settings.limits.process_cache_bytes,
+        owner,
+    )
+    .map_err(|e| {
+        tracing::warn!("no process cache for this host's processes: {e}");
+        e
+    })
+    .ok();
     let processes = ProcessTable::start(
         ProcessConfig {
             host: settings.name.clone(),
@@ -114,6 +125,7 @@ pub async fn run(
             base_env: child_env(&settings),
             kill_grace: settings.kill_grace,
             run_as: settings.run_as,
+            cache_dir: process_cache.as_ref().map(|c| c.dir().to_path_buf()),
         },
         router.clone(),
         gauge.rem_processes().clone(),
@@ -133,6 +145,7 @@ pub async fn run(
     let job_store = JobStore::new(records, checkpoints.clone());
     tokio::spawn(retention(
         job_store.clone(),
+        process_cache,
         settings.limits.clone(),
         stop.clone(),
     ));
@@ -225,9 +238,24 @@ pub async fn run(
 /// How often the retention of ended jobs and old checkpoints runs.
 const RETENTION_EVERY: Duration = Duration::from_secs(60);
 
-/// Applies the job store's retention now and then, until `stop`.
-async fn retention(store: JobStore, limits: crate::limits::Limits, stop: CancellationToken) {
+/// Applies the job store's retention now and then, and keeps the process cache within its
+/// limit, until `stop`.
+async fn retention(
+    store: JobStore,
+    cache: Option<crate::process_cache::ProcessCache>,
+    limits: crate::limits::Limits,
+    stop: CancellationToken,
+) {
     loop {
+        if let Some(cache) = &cache {
+            let c = cache.clone();
+            match tokio::task::spawn_blocking(move || c.trim()).await {
+                Ok(Ok((0, _))) => {}
+                Ok(Ok((files, bytes))) => tracing::info!(files, bytes, "process cache trimmed"),
+                Ok(Err(e)) => tracing::warn!("process cache: {e}"),
+                Err(_) => {}
+            }
+        }
         match store
             .expire(SystemTime::now(), limits.kept_jobs, limits.kept_secs)
             .await

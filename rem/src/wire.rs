@@ -47,6 +47,9 @@ pub mod env {
     pub const JOB_EPOCH: &str = "REM_JOB_EPOCH";
     /// Largest relay payload in bytes.
     pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
+    /// The host's process cache: a folder for what a process can rebuild (see
+    /// `process_cache`); its contents are not to be trusted.
+    pub const CACHE_DIR: &str = "REM_CACHE_DIR";
     /// A file holding the cluster secret.
     pub const SECRET_FILE: &str = "REM_SECRET_FILE";
     /// The cluster secret itself (when no file is given).

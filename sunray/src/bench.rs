@@ -72,8 +72,8 @@ pub fn measure(
 ) -> Run {
     let cpu0 = process_cpu_seconds();
     let t0 = Instant::now();
-    let scene = Scene::new(world.clone());
-    let built = Accel::build(&scene.prims, accel);
+    let mut scene = Scene::new(world.clone());
+    let built = Accel::build(&mut scene.prims, accel);
     let preprocess_s = t0.elapsed().as_secs_f64();
     let mut opts = RenderOptions::for_scene(&scene);
     (opts.width, opts.height, opts.samples) = (size, size, 1);
@@ -184,6 +184,46 @@ pub fn throughput(resolution: u32, threads: usize) -> Result<String, BenchError>
 
 /// Builds the accelerator over a grid of `n` small triangles; returns (primitives, seconds).
 pub fn build_big(n: usize, kind: AccelKind) -> (usize, f64) {
+    let t = Instant::now();
+    let mut scene = Scene::new(big_world(n));
+    let accel = Accel::build(&mut scene.prims, &opts(kind));
+    let s = t.elapsed().as_secs_f64();
+    std::hint::black_box(&accel);
+    (scene.prims.len(), s)
+}
+
+/// What keeping the BVH of [`build_big`]'s scene costs against building it: (seconds to
+/// build it and write it to a host cache folder, seconds to read it back and check it,
+/// bytes of the file).
+pub fn bvh_cache_big(n: usize) -> std::io::Result<(f64, f64, u64)> {
+    let dir = tempfile::tempdir()?;
+    let world = big_world(n);
+    let timed = || {
+        let mut scene = Scene::new(world.clone());
+        let t = Instant::now();
+        let got = crate::accel::cache::build_or_load(
+            &mut scene.prims,
+            &opts(AccelKind::Bvh),
+            1,
+            Some(dir.path()),
+        );
+        (t.elapsed().as_secs_f64(), got.1.cached)
+    };
+    let (built, _) = timed();
+    let (read, cached) = timed();
+    let bytes = std::fs::read_dir(dir.path())?
+        .flatten()
+        .filter_map(|e| e.metadata().ok())
+        .map(|m| m.len())
+        .sum();
+    if !cached {
+        return Err(std::io::Error::other("the BVH written was not read back"));
+    }
+    Ok((built, read, bytes))
+}
+
+/// A grid of `n` small triangles on a wavy surface.
+fn big_world(n: usize) -> World {
     let side = (n as f64 / 2.0).sqrt().ceil() as usize;
     let mut objects = Vec::with_capacity(n);
     for i in 0..side {
@@ -208,7 +248,7 @@ pub fn build_big(n: usize, kind: AccelKind) -> (usize, f64) {
             }
         }
     }
-    let world = World {
+    World {
         resolution: [1, 1],
         background: glam::DVec3::ZERO,
         ambient: glam::DVec3::ZERO,
@@ -225,11 +265,5 @@ pub fn build_big(n: usize, kind: AccelKind) -> (usize, f64) {
         surfaces: vec![yari::model::Surface::default()],
         objects,
         features: Default::default(),
-    };
-    let t = Instant::now();
-    let scene = Scene::new(world);
-    let accel = Accel::build(&scene.prims, &opts(kind));
-    let s = t.elapsed().as_secs_f64();
-    std::hint::black_box(&accel);
-    (scene.prims.len(), s)
+    }
 }

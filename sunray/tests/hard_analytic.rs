@@ -73,8 +73,8 @@ struct Probe {
 
 impl Probe {
     fn new(text: &str) -> Probe {
-        let scene = Scene::new(world(text));
-        let accel = Accel::build(&scene.prims, &AccelOptions::default());
+        let mut scene = Scene::new(world(text));
+        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
         Probe { scene, accel }
     }
     fn trace(&self, ray: Ray, max_depth: u32) -> DVec3 {

@@ -190,10 +190,10 @@ fn spd_tetra_is_watertight_through_vertices_edges_and_axes() {
         })
         .collect();
     assert_eq!(tris.len(), 4 * 64, "tetra 4 has 64 tetrahedra of 4 faces");
-    let scene = Scene::new(world.clone());
+    let mut scene = Scene::new(world.clone());
     for kind in KINDS {
         let accel = Accel::build(
-            &scene.prims,
+            &mut scene.prims,
             &AccelOptions {
                 kind,
                 ..AccelOptions::default()

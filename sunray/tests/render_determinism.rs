@@ -21,9 +21,9 @@ fn render(
     mailbox: bool,
     res: u32,
 ) -> (Film, Counters) {
-    let scene = Scene::new(world.clone());
+    let mut scene = Scene::new(world.clone());
     let accel = Accel::build(
-        &scene.prims,
+        &mut scene.prims,
         &AccelOptions {
             kind,
             ..Default::default()

@@ -19,8 +19,8 @@ fn check(scene_path: PathBuf, golden: &str, width: u32, height: u32, samples: Op
     let world = yari::load::load_path(&scene_path, &yari::colour::ColourTable::builtin())
         .unwrap()
         .world;
-    let scene = Scene::new(world);
-    let accel = Accel::build(&scene.prims, &AccelOptions::default());
+    let mut scene = Scene::new(world);
+    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
     let mut opts = RenderOptions::for_scene(&scene);
     (opts.width, opts.height) = (width, height);
     if let Some(s) = samples {

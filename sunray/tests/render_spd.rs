@@ -14,9 +14,9 @@ fn spd(name: &str) -> Counters {
     let world = yari::load::load_path(&path, &yari::colour::ColourTable::builtin())
         .unwrap()
         .world;
-    let scene = Scene::new(world);
+    let mut scene = Scene::new(world);
     let accel = Accel::build(
-        &scene.prims,
+        &mut scene.prims,
         &AccelOptions {
             kind: AccelKind::Bvh,
             ..Default::default()

@@ -72,8 +72,8 @@ fn world() -> World {
 }
 
 fn render(w: &World) -> Film {
-    let scene = Scene::new(w.clone());
-    let accel = Accel::build(&scene.prims, &AccelOptions::default());
+    let mut scene = Scene::new(w.clone());
+    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
     let film = render_image(
         &scene,
         &accel,

@@ -22,6 +22,19 @@ pub fn spd(name: &str) -> PathBuf {
     spd_dir().join(format!("{name}.nff"))
 }
 
+/// Haines's tetra at `size` (4^size triangles) as `tetraSIZE.nff` beside [`spd`]'s files
+/// (so the compose cluster sees it at `/scenes`), written once per run.
+pub fn spd_tetra(size: u32) -> PathBuf {
+    let path = spd_dir().join(format!("tetra{size}.nff"));
+    if !path.exists() {
+        let scene = yari::spd::generate(yari::spd::Database::Tetra, size).unwrap();
+        let tmp = path.with_extension(format!("tmp-{}", std::process::id()));
+        std::fs::write(&tmp, yari::nff::write::write(&scene)).unwrap();
+        std::fs::rename(&tmp, &path).unwrap();
+    }
+    path
+}
+
 /// The built-in example scene's source.
 pub fn default_scene() -> PathBuf {
     super::bins::workspace().join("sunray/src/scene/default_scene.yari")

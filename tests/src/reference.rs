@@ -40,3 +40,32 @@ pub fn output(cmd: &mut Command) -> Output {
     }
     out
 }
+
+/// Per node of a job's statistics: its host and what `f` takes of the node.
+fn per_node<T>(stats: &serde_json::Value, f: impl Fn(&serde_json::Value) -> T) -> Vec<(String, T)> {
+    let nodes = stats["nodes"].as_array().unwrap();
+    nodes
+        .iter()
+        .map(|n| (n["host"].as_str().unwrap().to_string(), f(n)))
+        .collect()
+}
+
+/// Per node of a job's statistics: its host, the bytes of the scene it received and
+/// whether its host had the whole scene cached.
+pub fn scene_figures(stats: &serde_json::Value) -> Vec<(String, u64, bool)> {
+    per_node(stats, |n| {
+        (
+            n["scene_bytes_received"].as_u64().unwrap(),
+            n["scene_cached"].as_bool().unwrap(),
+        )
+    })
+    .into_iter()
+    .map(|(host, (bytes, cached))| (host, bytes, cached))
+    .collect()
+}
+
+/// Per node of a job's statistics: its host and whether it read its accelerator from its
+/// host's cache instead of building it.
+pub fn accel_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
+    per_node(stats, |n| n["accel_cached"].as_bool().unwrap())
+}

@@ -5,7 +5,7 @@
 use super::bins::{remd_bin, sunray, sunray_bin};
 use rem::wire::listening_addr;
 use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -46,6 +46,12 @@ pub struct LoopbackCluster {
 
 impl LoopbackCluster {
     pub fn start(n: usize) -> LoopbackCluster {
+        LoopbackCluster::start_with(n, |_, _| {})
+    }
+
+    /// [`LoopbackCluster::start`], calling `prepare(name, state_dir)` before each daemon
+    /// starts (to mount a file system at a part of its state directory, say).
+    pub fn start_with(n: usize, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
         rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
@@ -57,6 +63,7 @@ impl LoopbackCluster {
         for i in 0..n {
             let name = ((b'a' + i as u8) as char).to_string();
             let join = c.daemons.first().map(|d| d.addr.clone());
+            prepare(&name, &c.state_dir(&name));
             let d = c.start_daemon(&name, join.as_deref());
             c.daemons.push(d);
         }
@@ -64,7 +71,23 @@ impl LoopbackCluster {
         c
     }
 
+    /// Daemon `name`'s state directory.
+    pub fn state_dir(&self, name: &str) -> PathBuf {
+        self.dir.path().join(format!("state-{name}"))
+    }
+
+    /// What daemon `name` has logged (its stderr, warnings and errors).
+    pub fn log(&self, name: &str) -> String {
+        std::fs::read_to_string(self.dir.path().join(format!("remd-{name}.log")))
+            .unwrap_or_default()
+    }
+
     fn start_daemon(&self, name: &str, join: Option<&str>) -> Remd {
+        let log = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(self.dir.path().join(format!("remd-{name}.log")))
+            .unwrap();
         let mut cmd = Command::new(remd_bin());
         cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
             .args(["--heartbeat-ms", "150", "--lost-after-ms", "900"])
@@ -75,12 +98,12 @@ impl LoopbackCluster {
             .arg("--secret-file")
             .arg(&self.secret_file)
             .arg("--state-dir")
-            .arg(self.dir.path().join(format!("state-{name}")))
+            .arg(self.state_dir(name))
             .env_remove("REM_SECRET")
             .env_remove("REM_SECRET_FILE")
             .env("RUST_LOG", "warn")
             .stdout(Stdio::piped())
-            .stderr(Stdio::null());
+            .stderr(log);
         if let Some(j) = join {
             cmd.args(["--join", j]);
         }

@@ -1,15 +1,49 @@
 //! Scenes larger than a REM message through the farm: the model travels as REM chunks
 //! named by their hash, each host caches what it fetched, and a second job of the same
 //! scene ships nothing. tetra at size 9 (262,144 triangles) compiles to about 26 MB, over
-//! REM's 16 MiB message limit, on three real remd daemons.
+//! REM's 16 MiB message limit, and at size 10 (1,048,576 triangles) to about 104 MB; both go
+//! through real remd daemons at their default settings, and the 1M one through the embedded
+//! default too. A host whose chunk cache sits on a full file system still renders the same
+//! image. The tests of this file take turns ([`heavy`]): each starts workers that hold a
+//! million triangles, and the machine may have two cores.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, OnceLock};
 use sunray_e2e::bins::sunray;
-use sunray_e2e::reference::reference;
+use sunray_e2e::reference::{accel_figures, reference, scene_figures};
 use sunray_e2e::remd::LoopbackCluster;
 
 const FLAGS: [&str; 2] = ["--resolution", "48x32"];
+
+/// The image of the 1M-triangle tests: small, as the cost is in the scene, not the pixels.
+const FLAGS_1M: [&str; 2] = ["--resolution", "64x64"];
+
+/// One test of this file at a time.
+fn heavy() -> MutexGuard<'static, ()> {
+    static TURN: Mutex<()> = Mutex::new(());
+    TURN.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `sunray spd tetra --size 10` (1,048,576 triangles) and its `sunray render` at
+/// [`FLAGS_1M`], made once per run of this file in cargo's temporary folder for tests.
+fn tetra10() -> &'static (PathBuf, Vec<u8>) {
+    static MADE: OnceLock<(PathBuf, Vec<u8>)> = OnceLock::new();
+    MADE.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("big_scenes");
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("tetra10.nff");
+        let st = sunray()
+            .args(["spd", "tetra", "--size", "10", "-o"])
+            .arg(&path)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        let (want, stats) = reference(&dir, &path, &FLAGS_1M);
+        assert_eq!(stats["primitives"], 1_048_576, "{stats}");
+        (path, want)
+    })
+}
 
 /// `sunray spd tetra --size 9` into `dir`.
 fn tetra9(dir: &Path) -> std::path::PathBuf {
@@ -25,14 +59,26 @@ fn tetra9(dir: &Path) -> std::path::PathBuf {
 
 /// Submits `scene` on three hosts through daemon a, following it; its statistics.
 fn submit(cluster: &LoopbackCluster, scene: &Path, out: &Path) -> serde_json::Value {
+    submit_with(cluster.submit(), &["--hosts", "3"], &FLAGS, scene, out)
+}
+
+/// Runs `submit` (a `sunray submit` command) with `args` and `flags` on `scene` into `out`,
+/// following the job; its statistics.
+fn submit_with(
+    mut submit: std::process::Command,
+    args: &[&str],
+    flags: &[&str],
+    scene: &Path,
+    out: &Path,
+) -> serde_json::Value {
     let json = out.with_extension("json");
-    let run = cluster
-        .submit()
-        .args(["--hosts", "3", "-q", "-o"])
+    let run = submit
+        .args(args)
+        .args(["-q", "-o"])
         .arg(out)
         .arg("--stats-json")
         .arg(&json)
-        .args(FLAGS)
+        .args(flags)
         .arg(scene)
         .output()
         .unwrap();
@@ -44,24 +90,9 @@ fn submit(cluster: &LoopbackCluster, scene: &Path, out: &Path) -> serde_json::Va
     serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
 }
 
-/// (host, bytes received, cached) of each node that started.
-fn scene_figures(stats: &serde_json::Value) -> Vec<(String, u64, bool)> {
-    stats["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| {
-            (
-                n["host"].as_str().unwrap().to_string(),
-                n["scene_bytes_received"].as_u64().unwrap(),
-                n["scene_cached"].as_bool().unwrap(),
-            )
-        })
-        .collect()
-}
-
 #[test]
 fn a_scene_over_the_message_limit_renders_and_a_second_job_ships_nothing() {
+    let _turn = heavy();
     let cluster = LoopbackCluster::start(3);
     let dir = tempfile::tempdir().unwrap();
     let scene = tetra9(dir.path());
@@ -118,4 +149,220 @@ fn a_scene_over_the_message_limit_renders_and_a_second_job_ships_nothing() {
         b.iter().all(|f| !f.2 && f.1 > 0),
         "b fetched its corrupted chunks again: {b:?}"
     );
+}
+
+#[test]
+fn a_million_triangles_through_the_embedded_default_twice() {
+    let _turn = heavy();
+    let (scene, want) = tetra10();
+    let dir = tempfile::tempdir().unwrap();
+    // The embedded default keeps its state (the chunk cache with it) in $SUNRAY_STATE_DIR,
+    // which outlives each `sunray submit`; here a folder of this test's own. Its only host is
+    // the submitting one, which put the model into its own cache: so even the first job
+    // finds it there, and the second ships nothing and fetches nothing either.
+    let embedded = || {
+        let mut c = sunray();
+        c.arg("submit")
+            .env("SUNRAY_STATE_DIR", dir.path().join("state"));
+        c
+    };
+    for run in ["first", "second"] {
+        let out = dir.path().join(format!("{run}.png"));
+        let stats = submit_with(embedded(), &["--hosts", "2"], &FLAGS_1M, scene, &out);
+        assert!(
+            std::fs::read(&out).unwrap() == *want,
+            "the {run} job differs from sunray render"
+        );
+        let figures = scene_figures(&stats);
+        assert_eq!(figures.len(), 2, "{figures:?}");
+        assert!(
+            figures.iter().all(|f| f.1 == 0 && f.2),
+            "{run} job: the host had the scene cached: {figures:?}"
+        );
+        assert_eq!(stats["scene_bytes_sent"], 0, "one host: nobody to send to");
+        if run == "second" {
+            let accel = accel_figures(&stats);
+            assert!(
+                accel.iter().all(|a| a.1),
+                "the host kept the BVH the first job built: {accel:?}"
+            );
+        }
+    }
+    let cached = cache_files(&dir.path().join("state").join("chunks"));
+    assert!(
+        cached.len() >= 25,
+        "the model (about 104 MB) is in 4 MiB chunks in the cache: {}",
+        cached.len()
+    );
+}
+
+#[test]
+fn a_million_triangles_on_three_daemons_and_a_second_job_ships_nothing() {
+    let _turn = heavy();
+    let (scene, want) = tetra10();
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--hosts", "3"];
+
+    let first = dir.path().join("first.png");
+    let stats = submit_with(cluster.submit(), &args, &FLAGS_1M, scene, &first);
+    assert!(
+        std::fs::read(&first).unwrap() == *want,
+        "differs from sunray render"
+    );
+    let figures = scene_figures(&stats);
+    assert_eq!(figures.len(), 3, "{figures:?}");
+    for f in &figures {
+        if f.0 == "a" {
+            assert!(f.2 && f.1 == 0, "the submitting host had the model: {f:?}");
+        } else {
+            // a put each chunk on one peer: b and c each fetched what the other holds.
+            assert!(!f.2 && f.1 > 0, "{figures:?}");
+        }
+    }
+    // One worker a host: each host built its BVH.
+    let accel = accel_figures(&stats);
+    assert!(accel.iter().all(|a| !a.1), "{accel:?}");
+    // About one copy of the model left the submitting host, not one per host.
+    let sent = stats["scene_bytes_sent"].as_u64().unwrap();
+    let fetched: u64 = figures.iter().map(|f| f.1).sum();
+    assert!(
+        (90_000_000..=120_000_000).contains(&sent),
+        "one copy of the 104 MB model: {sent} (the peers fetched {fetched} in all)"
+    );
+
+    let second = dir.path().join("second.png");
+    let stats = submit_with(cluster.submit(), &args, &FLAGS_1M, scene, &second);
+    assert!(
+        std::fs::read(&second).unwrap() == *want,
+        "the second job differs from sunray render"
+    );
+    let figures = scene_figures(&stats);
+    assert_eq!(figures.len(), 3, "{figures:?}");
+    assert!(
+        figures.iter().all(|f| f.1 == 0 && f.2),
+        "every host had the scene cached: {figures:?}"
+    );
+    assert_eq!(stats["scene_bytes_sent"], 0, "the peers had every chunk");
+    let accel = accel_figures(&stats);
+    assert!(
+        accel.iter().all(|a| a.1),
+        "every host kept the BVH it built: {accel:?}"
+    );
+}
+
+/// The files under a chunk cache folder (`DIR/xx/NAME`), by name.
+fn cache_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    for sub in std::fs::read_dir(dir).unwrap().flatten() {
+        if !sub.path().is_dir() {
+            continue;
+        }
+        for f in std::fs::read_dir(sub.path()).unwrap().flatten() {
+            let name = f.file_name().to_string_lossy().to_string();
+            files.push((name, std::fs::read(f.path()).unwrap()));
+        }
+    }
+    files.sort();
+    files
+}
+
+/// A small tmpfs mounted on a folder of its own, unmounted when dropped.
+struct SmallFs {
+    dir: tempfile::TempDir,
+}
+
+impl SmallFs {
+    /// Mounts a tmpfs of `size` (as mount(8) says it: "10m") or says why it cannot.
+    fn mount(size: &str) -> Result<SmallFs, String> {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        let dir = tempfile::tempdir().unwrap();
+        let target = CString::new(dir.path().as_os_str().as_bytes()).unwrap();
+        let tmpfs = CString::new("tmpfs").unwrap();
+        let data = CString::new(format!("size={size},mode=0755")).unwrap();
+        // SAFETY: every pointer is a NUL-terminated string that outlives the call.
+        let rc = unsafe {
+            libc::mount(
+                tmpfs.as_ptr(),
+                target.as_ptr(),
+                tmpfs.as_ptr(),
+                0,
+                data.as_ptr().cast(),
+            )
+        };
+        if rc != 0 {
+            return Err(std::io::Error::last_os_error().to_string());
+        }
+        Ok(SmallFs { dir })
+    }
+
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+impl Drop for SmallFs {
+    fn drop(&mut self) {
+        let target = std::ffi::CString::new(self.dir.path().to_string_lossy().as_bytes()).unwrap();
+        // SAFETY: a NUL-terminated path; a lazy unmount has no other precondition.
+        unsafe {
+            libc::umount2(target.as_ptr(), libc::MNT_DETACH);
+        }
+    }
+}
+
+#[test]
+fn a_chunk_cache_on_a_full_file_system_still_gives_the_same_image() {
+    let _turn = heavy();
+    // Host b's chunk cache is a 10 MiB tmpfs: two of tetra9's seven 4 MiB chunks fit, the
+    // third write runs out of space half way.
+    let fs = match SmallFs::mount("10m") {
+        Ok(fs) => fs,
+        // SAFETY: geteuid(2) has no preconditions.
+        Err(why) if unsafe { libc::geteuid() } != 0 => {
+            eprintln!("skipped: not root, so no small tmpfs can be mounted here ({why})");
+            return;
+        }
+        Err(why) => panic!("as root, mounting a 10 MiB tmpfs failed: {why}"),
+    };
+    let cluster = LoopbackCluster::start_with(3, |name, state| {
+        if name == "b" {
+            std::fs::create_dir_all(state).unwrap();
+            std::os::unix::fs::symlink(fs.path(), state.join("chunks")).unwrap();
+        }
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tetra9(dir.path());
+    let (want, _) = reference(dir.path(), &scene, &FLAGS);
+
+    let out = dir.path().join("full.png");
+    let stats = submit(&cluster, &scene, &out);
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "a full disk changed the image"
+    );
+    let b: Vec<_> = scene_figures(&stats)
+        .into_iter()
+        .filter(|f| f.0 == "b")
+        .collect();
+    assert!(b.iter().all(|f| !f.2 && f.1 > 0), "{b:?}");
+    let log = cluster.log("b");
+    assert!(
+        log.contains("WARN") && log.contains("serving it from memory"),
+        "b said nothing of its full disk: {log}"
+    );
+    // What b kept is whole chunks only: no write cut short by the full disk is left behind.
+    let kept = cache_files(fs.path());
+    assert!(!kept.is_empty(), "the first chunks fitted");
+    for (name, bytes) in &kept {
+        assert!(
+            rem::chunks::is_chunk_name(name) && rem::chunks::name_of(bytes) == *name,
+            "{name}: not a whole chunk ({} bytes)",
+            bytes.len()
+        );
+    }
+    let total: usize = kept.iter().map(|k| k.1.len()).sum();
+    assert!(total <= 10 << 20, "{total}");
+    drop(cluster);
 }

@@ -10,8 +10,8 @@
 use std::process::Command;
 use std::time::Duration;
 use sunray_e2e::compose::*;
-use sunray_e2e::fixtures::spd;
-use sunray_e2e::reference::{output, read_json, reference};
+use sunray_e2e::fixtures::{spd, spd_tetra};
+use sunray_e2e::reference::{accel_figures, output, read_json, reference, scene_figures};
 use sunray_e2e::submit_run::SubmitRun;
 
 /// Quick: the byte-identity check.
@@ -135,6 +135,60 @@ fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
         table.contains("scanlines") && table.contains("ws6"),
         "{table}"
     );
+    a_quarter_million_triangles_on_six_hosts(&cluster);
+}
+
+/// tetra at size 9 (262,144 triangles, a 26 MB model: more than one REM message) on the six
+/// hosts with no flags but the image size: identical to `sunray render`; a second job of the
+/// same scene finds it on every host and ships nothing.
+fn a_quarter_million_triangles_on_six_hosts(cluster: &ComposeCluster) {
+    let scene = spd_tetra(9);
+    let flags = ["--resolution", "96x64"];
+    let want = reference(cluster.dir.path(), &scene, &flags).0;
+    for (run, first) in [("tetra9-a", true), ("tetra9-b", false)] {
+        let png = format!("/out/{run}.png");
+        let json = format!("/out/{run}.json");
+        let o = output(&mut cluster.exec(
+            "ws1",
+            &submit_args(&[
+                "--hosts",
+                "6",
+                "-q",
+                flags[0],
+                flags[1],
+                "/scenes/tetra9.nff",
+                "-o",
+                &png,
+                "--stats-json",
+                &json,
+            ]),
+        ));
+        assert!(o.status.success(), "{run}: submit failed");
+        assert!(
+            std::fs::read(cluster.out(&format!("{run}.png"))).unwrap() == want,
+            "{run}: the cluster's image of tetra9 differs from sunray render"
+        );
+        let stats = read_json(&cluster.out(&format!("{run}.json")));
+        assert_eq!(stats["totals"]["primitives"], 262_144, "{stats}");
+        let figures = scene_figures(&stats);
+        assert_eq!(figures.len(), 6, "{figures:?}");
+        if first {
+            // The submitting host had the model; most others fetched some of it.
+            let fetched = figures.iter().filter(|f| f.1 > 0).count();
+            assert!(fetched >= 4, "{figures:?}");
+        } else {
+            assert!(
+                figures.iter().all(|f| f.2 && f.1 == 0),
+                "{run}: every host had the scene: {figures:?}"
+            );
+            assert_eq!(stats["scene_bytes_sent"], 0, "{run}");
+            let accel = accel_figures(&stats);
+            assert!(
+                accel.iter().all(|a| a.1),
+                "{run}: every host kept the BVH it built: {accel:?}"
+            );
+        }
+    }
 }
 
 #[test]
@@ -234,22 +288,19 @@ fn a_hung_host_and_a_partitioned_host_are_detected_and_rejoin() {
             })
         }
     };
-    // Hung, not dead: every process of ws2 is frozen.
+    // Hung, not dead: every process of ws2 is frozen; and a partition: ws3 is cut off the
+    // network. Both at once, while most of the image is still to do: one after the other,
+    // the job could end before the second was noticed.
     cluster.freeze("ws2");
-    let run_hosts = run.hosts();
-    let is_gone = gone("ws2");
-    run.wait_until(Duration::from_secs(30), |seen| {
-        is_gone(seen, &run_hosts).then_some(())
-    });
-    // A partition: ws3 is cut off the network.
     let ws3 = cluster.container("ws3");
     let net = cluster.network();
     let o =
         output(std::process::Command::new("docker").args(["network", "disconnect", &net, &ws3]));
     assert!(o.status.success());
-    let is_gone = gone("ws3");
+    let run_hosts = run.hosts();
+    let (ws2_gone, ws3_gone) = (gone("ws2"), gone("ws3"));
     run.wait_until(Duration::from_secs(30), |seen| {
-        is_gone(seen, &run_hosts).then_some(())
+        (ws2_gone(seen, &run_hosts) && ws3_gone(seen, &run_hosts)).then_some(())
     });
     let st = run.wait(Duration::from_secs(300));
     assert!(st.success(), "submit failed:\n{}", run.text());

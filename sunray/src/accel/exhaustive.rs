@@ -1,13 +1,13 @@
 //! Exhaustive search: test every primitive of a list.
 
 use super::Hit;
-use crate::geometry::{Primitive, RayPre, Real};
+use crate::geometry::{Primitives, RayPre, Real};
 use crate::stats::Counters;
 
 /// The closest hit among `list` in `(0, t_max)`, improving on `best`.
 #[inline]
 pub fn closest_in(
-    prims: &[Primitive],
+    prims: &Primitives,
     list: &[u32],
     r: &RayPre,
     t_max: Real,
@@ -16,7 +16,7 @@ pub fn closest_in(
 ) -> Option<Hit> {
     c.intersection_tests += list.len() as u64;
     for &i in list {
-        if let Some(t) = prims[i as usize].intersect(r, 0.0, t_max) {
+        if let Some(t) = prims.intersect(i, r, 0.0, t_max) {
             if Hit::improves(t, i, &best) {
                 best = Some(Hit { t, prim: i });
             }
@@ -28,7 +28,7 @@ pub fn closest_in(
 /// The first hit found among `list` in `(0, t_max)` that `accept` takes.
 #[inline]
 pub fn any_in(
-    prims: &[Primitive],
+    prims: &Primitives,
     list: &[u32],
     r: &RayPre,
     t_max: Real,
@@ -37,7 +37,7 @@ pub fn any_in(
 ) -> Option<Hit> {
     for &i in list {
         c.intersection_tests += 1;
-        if let Some(t) = prims[i as usize].intersect(r, 0.0, t_max) {
+        if let Some(t) = prims.intersect(i, r, 0.0, t_max) {
             if accept(i) {
                 return Some(Hit { t, prim: i });
             }

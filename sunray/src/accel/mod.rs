@@ -3,6 +3,7 @@
 //! - [`exhaustive`]: every primitive, in index order (the thesis's exhaustive mode).
 //! - [`octree`]: Glassner's adaptive octree with voxel-by-voxel traversal (thesis 4.2.1).
 //! - [`bvh`]: a binned-SAH bounding volume hierarchy, collapsed to 4 children per node.
+//! - [`cache`]: built BVHs kept on the host, so each host builds one per scene once.
 //!
 //! All of them return the same closest hit: the smallest `t`, ties broken by the lower
 //! primitive index, and every primitive's `t` comes from the same function; so the images of
@@ -10,11 +11,12 @@
 //! kept in a separate list that every query tests.
 
 pub mod bvh;
+pub mod cache;
 pub mod exhaustive;
 pub mod mailbox;
 pub mod octree;
 
-use crate::geometry::{Primitive, RayPre, Real};
+use crate::geometry::{Primitives, RayPre, Real};
 use crate::stats::Counters;
 pub use mailbox::Mailbox;
 
@@ -111,6 +113,11 @@ enum Structure {
     Bvh(bvh::Bvh),
 }
 
+/// The primitives of `prims` that have bounds, with their bounds.
+pub fn bounded(prims: &Primitives) -> impl Iterator<Item = (u32, crate::geometry::Aabb)> + '_ {
+    (0..prims.len() as u32).filter_map(|i| prims.bounds(i).map(|b| (i, b)))
+}
+
 /// Per-thread scratch state of queries (the mailbox). It only saves work: results never
 /// depend on it.
 #[derive(Clone, Debug)]
@@ -131,24 +138,18 @@ impl Scratch {
 impl Accel {
     /// Builds the chosen structure over the bounded primitives; the unbounded ones are kept in
     /// a list every query tests.
-    pub fn build(prims: &[Primitive], opts: &AccelOptions) -> Accel {
-        let mut bounded = Vec::new();
-        let mut unbounded = Vec::new();
-        for (i, p) in prims.iter().enumerate() {
-            match p.bounds() {
-                Some(b) => bounded.push((i as u32, b)),
-                None => unbounded.push(i as u32),
-            }
-        }
-        let kind = opts.kind.resolve(bounded.len());
+    pub fn build(prims: &mut Primitives, opts: &AccelOptions) -> Accel {
+        let n = prims.len() as u32;
+        let unbounded: Vec<u32> = (0..n).filter(|&i| prims.bounds(i).is_none()).collect();
+        let kind = opts.kind.resolve(prims.len() - unbounded.len());
         let structure = match kind {
             AccelKind::Octree => {
-                let overlaps =
-                    |i: u32, b: &crate::geometry::Aabb| prims[i as usize].overlaps_box(b);
+                let overlaps = |i: u32, b: &crate::geometry::Aabb| prims.overlaps_box(i, b);
+                let bounded: Vec<_> = bounded(prims).collect();
                 Structure::Octree(octree::Octree::build(&bounded, &overlaps, opts))
             }
-            AccelKind::Bvh => Structure::Bvh(bvh::Bvh::build(prims, &bounded)),
-            _ => Structure::Exhaustive(bounded.iter().map(|(i, _)| *i).collect()),
+            AccelKind::Bvh => Structure::Bvh(bvh::Bvh::build(prims)),
+            _ => Structure::Exhaustive(bounded(prims).map(|(i, _)| i).collect()),
         };
         Accel {
             kind,
@@ -174,7 +175,7 @@ impl Accel {
     /// The closest hit in `(0, t_max)`.
     pub fn closest(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         scratch: &mut Scratch,
@@ -202,7 +203,7 @@ impl Accel {
     /// occluder), or None.
     pub fn any(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         accept: &dyn Fn(u32) -> bool,

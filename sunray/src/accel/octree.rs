@@ -4,7 +4,7 @@
 //! voxel being visited (`t <= exit`), so nothing behind it is ever tested.
 
 use super::{AccelOptions, Hit, Mailbox};
-use crate::geometry::{Aabb, Primitive, RayPre, Real, Vec3};
+use crate::geometry::{Aabb, Primitives, RayPre, Real, Vec3};
 use crate::stats::Counters;
 
 /// A hard cap on `--max-depth`, whatever is asked: deeper voxels only cost memory.
@@ -131,7 +131,7 @@ impl Octree {
     /// Closest hit, improving on `best` (from the unbounded list).
     pub fn closest(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         mut best: Option<Hit>,
@@ -161,7 +161,7 @@ impl Octree {
     /// Any hit that `accept` takes.
     pub fn any(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         accept: &dyn Fn(u32) -> bool,
@@ -246,7 +246,7 @@ impl Octree {
 /// One primitive test through the mailbox.
 #[inline]
 fn test(
-    prims: &[Primitive],
+    prims: &Primitives,
     i: u32,
     r: &RayPre,
     t_max: Real,
@@ -261,7 +261,7 @@ fn test(
         }
     }
     c.intersection_tests += 1;
-    let t = prims[i as usize].intersect(r, 0.0, t_max);
+    let t = prims.intersect(i, r, 0.0, t_max);
     mb.put(i, t);
     t
 }

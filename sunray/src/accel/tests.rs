@@ -89,11 +89,10 @@ fn random_world(n: usize, seed: u64) -> World {
 #[test]
 fn octree_and_bvh_agree_with_exhaustive() {
     let world = random_world(300, 42);
-    let scene = crate::scene::Scene::new(world);
-    let prims = &scene.prims;
-    let build = |kind, max_per_voxel| {
+    let mut scene = crate::scene::Scene::new(world);
+    let mut build = |kind, max_per_voxel| {
         Accel::build(
-            prims,
+            &mut scene.prims,
             &AccelOptions {
                 kind,
                 max_per_voxel,
@@ -107,6 +106,7 @@ fn octree_and_bvh_agree_with_exhaustive() {
         build(AccelKind::Octree, 2),
         build(AccelKind::Bvh, 10),
     ];
+    let prims = &scene.prims;
     assert_eq!(ex.unbounded_count(), 1);
     let mut s = 7u64;
     let mut scratch = Scratch::new(prims.len(), true);
@@ -140,9 +140,9 @@ fn octree_and_bvh_agree_with_exhaustive() {
 #[test]
 fn octree_splits_until_voxels_are_small() {
     let world = random_world(500, 3);
-    let scene = crate::scene::Scene::new(world);
+    let mut scene = crate::scene::Scene::new(world);
     let a = Accel::build(
-        &scene.prims,
+        &mut scene.prims,
         &AccelOptions {
             kind: AccelKind::Octree,
             max_per_voxel: 10,

@@ -233,8 +233,8 @@ pub fn run(
     );
     let mut slopes = String::from("\n| scene | RMSE slope vs samples | vs seconds | 1/sqrt bound (-0.5) |\n|---|---:|---:|---|\n");
     for (name, colour, body) in cases() {
-        let scene = scene(name, body, size)?;
-        let accel = Accel::build(&scene.prims, &AccelOptions::default());
+        let mut scene = scene(name, body, size)?;
+        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
         let t = Instant::now();
         let reference = render_streams(
             &scene,
@@ -321,8 +321,8 @@ mod tests {
     /// measured error of the reference against itself is zero.
     #[test]
     fn error_falls_with_samples() {
-        let s = scene("penumbra", PENUMBRA, 12).unwrap();
-        let accel = Accel::build(&s.prims, &AccelOptions::default());
+        let mut s = scene("penumbra", PENUMBRA, 12).unwrap();
+        let accel = Accel::build(&mut s.prims, &AccelOptions::default());
         let reference = render_streams(&s, &accel, 256, REFERENCE_STREAMS, 2);
         assert_eq!(errors(&reference, &reference), (0.0, 0.0));
         let e1 = errors(&render_streams(&s, &accel, 1, 0, 2), &reference).0;

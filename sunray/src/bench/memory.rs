@@ -1,17 +1,20 @@
 //! Peak memory of `sunray render` per triangle (issue "Production-size scenes"): writes
-//! tetra at the given size (4^size triangles) with `sunray spd`, renders it with 2 threads
-//! at a small resolution in a child process, and reads the child's peak resident set size
-//! (`wait4`'s `ru_maxrss`). With other programs (an older build) they are run alternately,
-//! round by round, so that a noisy machine affects them alike.
+//! tetra at the given size (4^size triangles) with `sunray spd` and compiles it into a model
+//! file (what workers receive) with `sunray compile`, renders each with 2 threads at a small
+//! resolution in a child process, and reads the child's peak resident set size (`wait4`'s
+//! `ru_maxrss`). With other programs (an older build) they are run alternately, round by
+//! round, so that a noisy machine affects them alike.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// One program's peak resident memory in one round.
+/// One program's peak resident memory on one scene in one round.
 #[derive(Clone, Debug)]
 pub struct Peak {
     /// The program measured.
     pub program: PathBuf,
+    /// The scene it rendered.
+    pub scene: PathBuf,
     /// Its peak resident set size, bytes.
     pub bytes: u64,
 }
@@ -66,27 +69,40 @@ fn peak_of(mut cmd: Command, what: &'static str) -> Result<u64, MemoryBenchError
     Ok(usage.ru_maxrss as u64 * 1024)
 }
 
-/// Writes tetra at `size` into `dir` with `program spd`; its path.
-pub fn write_tetra(program: &Path, dir: &Path, size: u32) -> Result<PathBuf, MemoryBenchError> {
-    let path = dir.join(format!("tetra{size}.nff"));
+/// Writes tetra at `size` into `dir` with `program spd`, and its compiled model with
+/// `program compile`; the model's path and the NFF file's.
+pub fn write_tetra(
+    program: &Path,
+    dir: &Path,
+    size: u32,
+) -> Result<[PathBuf; 2], MemoryBenchError> {
+    let nff = dir.join(format!("tetra{size}.nff"));
     let mut cmd = Command::new(program);
     cmd.args(["spd", "tetra", "--size", &size.to_string(), "-o"])
-        .arg(&path);
+        .arg(&nff);
     peak_of(cmd, "spd")?;
-    Ok(path)
+    let model = nff.with_extension(yari::modelfile::EXTENSION);
+    let mut cmd = Command::new(program);
+    cmd.arg("compile").arg(&nff).arg("-o").arg(&model);
+    cmd.stdout(std::process::Stdio::null());
+    peak_of(cmd, "compile")?;
+    Ok([model, nff])
 }
 
-/// Each program's peak memory rendering `scene` (2 threads, 64x64), `rounds` times,
-/// alternately.
+/// Each program's peak memory rendering each of `scenes` (2 threads, 64x64), `rounds`
+/// times, alternately.
 pub fn measure(
     programs: &[PathBuf],
-    scene: &Path,
+    scenes: &[PathBuf],
     rounds: usize,
     dir: &Path,
 ) -> Result<Vec<Peak>, MemoryBenchError> {
     let mut peaks = Vec::new();
     for _ in 0..rounds.max(1) {
-        for p in programs {
+        for (p, scene) in programs
+            .iter()
+            .flat_map(|p| scenes.iter().map(move |s| (p, s)))
+        {
             let mut cmd = Command::new(p);
             cmd.args([
                 "render",
@@ -101,6 +117,7 @@ pub fn measure(
             .arg(scene);
             peaks.push(Peak {
                 program: p.clone(),
+                scene: scene.clone(),
                 bytes: peak_of(cmd, "render")?,
             });
         }
@@ -108,30 +125,35 @@ pub fn measure(
     Ok(peaks)
 }
 
-/// The table `sunray bench memory` prints: each program's lowest peak over the rounds, in
-/// MiB and bytes per triangle.
+/// The table `sunray bench memory` prints: each program's lowest peak over the rounds on
+/// each scene, in MiB and bytes per triangle.
 pub fn table(peaks: &[Peak], triangles: u64) -> String {
-    let mut programs: Vec<&PathBuf> = Vec::new();
+    let mut rows: Vec<(&PathBuf, &PathBuf)> = Vec::new();
     for p in peaks {
-        if !programs.contains(&&p.program) {
-            programs.push(&p.program);
+        if !rows.contains(&(&p.program, &p.scene)) {
+            rows.push((&p.program, &p.scene));
         }
     }
     let mut s = format!(
         "peak resident memory of sunray render (2 threads, 64x64), tetra: {triangles} triangles\n"
     );
-    s += &format!("{:>12} {:>12}  program\n", "MiB", "B/triangle");
-    for prog in programs {
+    s += &format!(
+        "{:>12} {:>12}  {:<14} program\n",
+        "MiB", "B/triangle", "scene"
+    );
+    for (prog, scene) in rows {
         let best = peaks
             .iter()
-            .filter(|p| &p.program == prog)
+            .filter(|p| &p.program == prog && &p.scene == scene)
             .map(|p| p.bytes)
             .min()
             .unwrap_or(0);
+        let name = scene.file_name().unwrap_or_default().to_string_lossy();
         s += &format!(
-            "{:>12.1} {:>12.1}  {}\n",
+            "{:>12.1} {:>12.1}  {:<14} {}\n",
             best as f64 / (1u64 << 20) as f64,
             best as f64 / triangles.max(1) as f64,
+            name,
             prog.display()
         );
     }

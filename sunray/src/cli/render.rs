@@ -115,7 +115,16 @@ impl RenderArgs {
 
     /// Loads the scene, printing its warnings.
     pub fn load(&self) -> anyhow::Result<LoadedScene> {
-        let loaded = load::load(&self.source(), self.colours.colors.as_deref())?;
+        self.print_warnings(load::load(&self.source(), self.colours.colors.as_deref())?)
+    }
+
+    /// [`RenderArgs::load`], keeping the compiled model to ship to workers.
+    pub fn load_for_job(&self) -> anyhow::Result<LoadedScene> {
+        let colours = self.colours.colors.as_deref();
+        self.print_warnings(load::load_with_model(&self.source(), colours)?)
+    }
+
+    fn print_warnings(&self, loaded: LoadedScene) -> anyhow::Result<LoadedScene> {
         for w in &loaded.warnings {
             eprintln!("{w}");
         }
@@ -132,12 +141,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| source.default_output());
     crate::film::Format::from_path(&out)?;
     let loaded = args.load()?;
-    let scene = loaded.scene;
+    let mut scene = loaded.scene;
     let cpu0 = process_cpu_seconds();
 
     let t_accel = Instant::now();
     let settings = args.overrides().settings(&scene)?;
-    let accel = Accel::build(&scene.prims, &settings.accel);
+    let accel = Accel::build(&mut scene.prims, &settings.accel);
     let preprocess_s = loaded.prepare_s + t_accel.elapsed().as_secs_f64();
 
     let threads = args

@@ -131,7 +131,7 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     // A new job's scene is compiled before anything else, so a bad scene starts nothing.
     let scene = match &args.resume {
         None => {
-            let loaded = args.render.load()?;
+            let loaded = args.render.load_for_job()?;
             // Settings out of bounds are refused before a remd or a worker is started.
             request.overrides.settings(&loaded.scene)?;
             JobScene::New(loaded)
@@ -178,7 +178,7 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
 /// Hands the job to the farm; with `--detach` prints its id, else follows it to its end
 /// and writes its image and statistics here.
 fn in_farm(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> {
-    let loaded = args.render.load()?;
+    let loaded = args.render.load_for_job()?;
     request.overrides.settings(&loaded.scene)?;
     let flags = ControllerFlags {
         checkpoint_ms: args.checkpoint_ms.max(50),

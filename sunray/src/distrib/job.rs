@@ -235,7 +235,7 @@ pub async fn run(
     run_plan(cluster, req, plan).await
 }
 
-pub(crate) fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, JobError> {
+pub(crate) fn new_plan(req: &JobRequest, mut loaded: LoadedScene) -> Result<Plan, JobError> {
     let settings = req.overrides.settings(&loaded.scene)?;
     let output = req
         .output
@@ -251,7 +251,7 @@ pub(crate) fn new_plan(req: &JobRequest, loaded: LoadedScene) -> Result<Plan, Jo
     });
     Ok(Plan {
         job,
-        model: loaded.model_bytes()?,
+        model: loaded.take_model()?,
         settings,
         output,
         colours: req.colours.clone(),
@@ -287,8 +287,8 @@ async fn resume_plan(
         None => SceneSource::from_remembered(&spec.scene),
     };
     let colours = (!spec.colours.is_empty()).then(|| PathBuf::from(&spec.colours));
-    let loaded = load::load(&source, colours.as_deref())?;
-    let model = loaded.model_bytes()?;
+    let mut loaded = load::load_with_model(&source, colours.as_deref())?;
+    let model = loaded.take_model()?;
     if messages::fnv1a(&model) != restored.header.model_hash {
         return Err(JobError::SceneChanged(job));
     }
@@ -448,7 +448,14 @@ async fn run_plan(
     let name = plan.loaded.source.display_name();
     let header = plan.settings.stats_header(&name, &plan.loaded.scene);
     let finished = result.finished;
-    let stats = job_stats(&plan.job, plan.strategy, plan.hosts, header, result);
+    let stats = job_stats(
+        &plan.job,
+        plan.strategy,
+        plan.hosts,
+        header,
+        result,
+        shipped.bytes_sent,
+    );
     Ok(JobOutcome {
         job: plan.job,
         output: plan.output,
@@ -458,13 +465,15 @@ async fn run_plan(
 }
 
 /// The statistics of a controller's run of `job`: the per-node table, and `header` (the
-/// scene and image, from [`Settings::stats_header`]) with the counted totals of every line.
+/// scene and image, from [`Settings::stats_header`]) with the counted totals of every line;
+/// `scene_bytes_sent` is what the submitting host's remd sent of the model.
 pub(crate) fn job_stats(
     job: &str,
     strategy: Strategy,
     hosts: u32,
     mut totals: crate::stats::RenderStats,
     result: controller::JobResult,
+    scene_bytes_sent: u64,
 ) -> JobStats {
     totals.threads = result.nodes.iter().map(|n| n.threads as usize).sum();
     totals.time.render_s = result.elapsed_s;
@@ -479,6 +488,7 @@ pub(crate) fn job_stats(
         elapsed_s: result.elapsed_s,
         totals,
         controller: result.cost,
+        scene_bytes_sent,
         wait_share,
         tail_wait_share,
         nodes: result.nodes,

@@ -164,12 +164,7 @@ impl Settings {
 
 /// FNV-1a, 64 bits: the model hash a resumed job is checked against.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= u64::from(*b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
+    yari::modelfile::fnv1a(bytes)
 }
 
 #[cfg(test)]

@@ -3,12 +3,14 @@
 //! a peer), and fetched by each worker through its own host's remd, which caches them. No
 //! message carries the whole model, so its size is bounded by memory and disk only, and a
 //! host that has the scene (a second worker, a second job of the same scene) fetches
-//! nothing.
+//! nothing. A worker decodes the model as its chunks arrive, straight into the scene's
+//! compact primitives ([`SceneStream`]), and never holds it whole.
 
 use std::time::Instant;
 
 use crate::distrib::messages;
 use crate::distrib::messages::proto;
+use crate::scene::{Scene, SceneStream};
 use rem::RemClient;
 
 /// A model put into REM, as the Scene message names it.
@@ -49,15 +51,39 @@ pub async fn ship(client: &RemClient, model: &[u8]) -> rem::Result<ShippedModel>
     })
 }
 
-/// Fetches the model a Scene names through `client`'s daemon; how it went is the
-/// SceneFetch a worker reports.
-pub async fn fetch(
+/// Fetches the model a Scene names through `client`'s daemon and builds the scene from it
+/// as its chunks arrive (decoded on a blocking thread, at most a few chunks in flight), so
+/// the worker never holds the whole model; how the fetch went is the SceneFetch a worker
+/// reports. A model that is not the Scene's (its hash) or does not decode is an error.
+pub async fn fetch_scene(
     client: &RemClient,
     scene: &proto::Scene,
-) -> rem::Result<(Vec<u8>, proto::SceneFetch)> {
+) -> rem::Result<(Scene, proto::SceneFetch)> {
     let t0 = Instant::now();
-    let got = rem::blob::get(client, &scene.model_chunks, scene.model_size).await?;
-    if messages::fnv1a(&got.data) != scene.model_hash {
+    let (tx, mut rx) = tokio::sync::mpsc::channel::<Vec<u8>>(2);
+    let decode = tokio::task::spawn_blocking(move || {
+        let mut stream = SceneStream::new();
+        let mut hash = yari::modelfile::FNV_OFFSET;
+        let mut failed = None;
+        while let Some(piece) = rx.blocking_recv() {
+            hash = yari::modelfile::fnv1a_update(hash, &piece);
+            if let Err(e) = stream.feed(&piece) {
+                failed = Some(e);
+                break;
+            }
+        }
+        match failed {
+            Some(e) => Err(e),
+            None => stream.finish().map(|scene| (scene, hash)),
+        }
+    });
+    let got = rem::blob::get_each(client, &scene.model_chunks, scene.model_size, tx).await;
+    let decoded = decode
+        .await
+        .map_err(|e| rem::Error::Invalid(format!("decoding the model failed: {e}")))?;
+    let got = got?;
+    let (built, hash) = decoded.map_err(|e| rem::Error::Invalid(e.to_string()))?;
+    if hash != scene.model_hash {
         return Err(rem::Error::Invalid(
             "the model's chunks are not the scene's model (hash differs)".into(),
         ));
@@ -66,6 +92,7 @@ pub async fn fetch(
         bytes_received: got.bytes_fetched,
         cached: got.cached,
         fetch_s: t0.elapsed().as_secs_f64(),
+        accel_cached: false,
     };
-    Ok((got.data, report))
+    Ok((built, report))
 }

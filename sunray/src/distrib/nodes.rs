@@ -62,15 +62,17 @@ pub struct NodeStats {
     pub cpu_s: f64,
     /// The worker's wall-clock seconds from start to its last report.
     pub elapsed_s: f64,
-    /// The worker's seconds to decode the scene and build its accelerator.
+    /// The worker's seconds to build its accelerator (or read it from its host's cache).
     pub preprocess_s: f64,
     /// Bytes of the scene's model the worker's host fetched from other hosts (0 when it had
     /// every chunk cached).
     pub scene_bytes_received: u64,
     /// Whether the worker's host had the whole model cached.
     pub scene_cached: bool,
-    /// The worker's seconds to get the model (through its host's remd).
+    /// The worker's seconds to get the model (through its host's remd) and decode it.
     pub scene_fetch_s: f64,
+    /// Whether the worker read its accelerator from its host's cache instead of building it.
+    pub accel_cached: bool,
     /// The worker's render threads' wall-clock seconds spent rendering.
     pub render_s: f64,
     /// Render threads' time waiting for their next fresh line, summed over threads (after
@@ -147,6 +149,9 @@ pub struct JobStats {
     pub totals: RenderStats,
     /// The controller's own CPU time and message counts.
     pub controller: ControllerCost,
+    /// Bytes of the scene's model the submitting host's remd sent to other hosts when the
+    /// job was submitted (0 when they had every chunk: a second job of the same scene).
+    pub scene_bytes_sent: u64,
     /// Render threads' time waiting for work over their render time, all nodes (0..1): the
     /// waits that ended with a fresh line. Neither the start-up wait for the first line nor
     /// the tail (waits for duplicates of stragglers, when no fresh line is left) is included.
@@ -180,12 +185,14 @@ impl JobStats {
         let c = &self.controller;
         format!(
             "SunRay III job {} ({strategy} strategy, {} worker(s)): {:.2} s\n{}\
+             scene: {:.1} MB sent by the submitting host\n\
              lines: {} ({} from the checkpoint, {} rendered; {} given back, {} handed back unstarted, {} duplicated, {} dropped)\n\
              controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time for work ({:.2}% at the tail for copies of stragglers)\n",
             self.job,
             self.hosts,
             self.elapsed_s,
             table(&self.nodes),
+            self.scene_bytes_sent as f64 / 1e6,
             l.total, l.resumed, l.rendered, l.requeued, l.released, l.duplicated, l.dropped,
             c.cpu_ms_per_line,
             c.messages_per_line,
@@ -221,7 +228,7 @@ fn scene_column(n: &NodeStats) -> String {
 /// The per-node table, with a total row.
 pub fn table(nodes: &[NodeStats]) -> String {
     let mut s = format!(
-        "{:>4}  {:<12} {:>5} {:>6} {:>9} {:>12} {:>12} {:>15} {:>9} {:>9} {:>9} {:>9} {:>9}\n",
+        "{:>4}  {:<12} {:>5} {:>6} {:>9} {:>12} {:>12} {:>15} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6}\n",
         "node",
         "host",
         "cores",
@@ -234,7 +241,8 @@ pub fn table(nodes: &[NodeStats]) -> String {
         "elapsed s",
         "preproc s",
         "render s",
-        "scene"
+        "scene",
+        "accel"
     );
     let mut total = NodeStats::default();
     for n in nodes {
@@ -252,7 +260,7 @@ pub fn table(nodes: &[NodeStats]) -> String {
                 ""
             };
             s.push_str(&format!(
-                "{:>4}  {:<12} {:>5} {:>6.2} {:>9} {:>12} {:>12} {:>15} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9}{}\n",
+                "{:>4}  {:<12} {:>5} {:>6.2} {:>9} {:>12} {:>12} {:>15} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9} {:>6}{}\n",
                 n.node,
                 host,
                 n.cores,
@@ -266,6 +274,7 @@ pub fn table(nodes: &[NodeStats]) -> String {
                 n.preprocess_s,
                 n.render_s,
                 scene_column(n),
+                if n.accel_cached { "cached" } else { "built" },
                 mark
             ));
         }
@@ -360,6 +369,25 @@ mod tests {
     }
 
     #[test]
+    fn the_bytes_the_submitting_host_sent_are_in_the_summary_and_the_json() {
+        let stats = JobStats {
+            job: "j".into(),
+            scene_bytes_sent: 26_500_000,
+            nodes: vec![node(1, 2)],
+            ..Default::default()
+        };
+        assert!(
+            stats
+                .summary()
+                .contains("scene: 26.5 MB sent by the submitting host"),
+            "{}",
+            stats.summary()
+        );
+        let v = serde_json::to_value(&stats).unwrap();
+        assert_eq!(v["scene_bytes_sent"], 26_500_000);
+    }
+
+    #[test]
     fn secondary_rays_are_all_but_eye_rays() {
         let n = node(1, 2);
         assert_eq!((n.eye_rays, n.secondary_rays), (200, 100));
@@ -378,6 +406,7 @@ mod tests {
             "/scene_bytes_received",
             "/scene_cached",
             "/scene_fetch_s",
+            "/accel_cached",
             "/render_s",
             "/outcome",
         ] {

@@ -245,8 +245,8 @@ mod tests {
             &table,
         )
         .unwrap();
-        let scene = Scene::new(loaded.world);
-        let accel = Accel::build(&scene.prims, &AccelOptions::default());
+        let mut scene = Scene::new(loaded.world);
+        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
         let mut opts = RenderOptions::for_scene(&scene);
         (opts.width, opts.height) = (24, 16);
         (Arc::new(scene), Arc::new(accel), opts)

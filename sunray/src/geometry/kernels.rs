@@ -52,7 +52,7 @@ macro_rules! kernels {
             /// Watertight ray / triangle (Woop, Benthin and Wald, JCGT 2013): the nearest `t`
             /// in `(t_min, t_max)` where the ray from `o` sheared by `(k, s)` ([`shear`])
             /// crosses triangle `v`.
-            #[inline]
+            #[inline(always)]
             pub fn triangle(
                 o: V,
                 k: [usize; 3],
@@ -130,7 +130,7 @@ macro_rules! kernels {
             }
 
             /// Ray `o + t d` / sphere: the nearest `t` in `(t_min, t_max)`.
-            #[inline]
+            #[inline(always)]
             pub fn sphere(o: V, d: V, centre: V, radius: R, t_min: R, t_max: R) -> Option<R> {
                 let oc = o - centre;
                 let a = d.length_squared();

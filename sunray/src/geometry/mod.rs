@@ -1,8 +1,10 @@
 //! Geometry: rays, bounding boxes and the primitives the renderer intersects.
 //!
-//! The compiled [`yari::model::World`] is turned into a flat list of [`Primitive`]s: spheres,
+//! The compiled [`yari::model::World`] is turned into the scene's [`Primitives`]: spheres,
 //! ellipsoids, triangles (polygons are triangulated, see [`polygon`]; faces of closed
-//! transparent meshes bound a volume, see [`solid`]) and clipped quadrics.
+//! transparent meshes bound a volume, see [`solid`]) and clipped quadrics, with static
+//! triangles in an indexed mesh and static spheres in a table of their own
+//! ([`primitives`]); anything else is a plain [`Primitive`].
 //! Intersection returns only the ray parameter `t`; the normal is computed afterwards for the
 //! closest hit alone.
 //!
@@ -15,6 +17,7 @@ pub mod kernels;
 pub mod overlap;
 pub mod polygon;
 pub mod primitive;
+pub mod primitives;
 pub mod quadric;
 pub mod solid;
 pub mod sphere;
@@ -22,6 +25,7 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use primitive::{Primitive, PrimitiveKind};
+pub use primitives::Primitives;
 
 /// The scalar type of the hot path.
 pub type Real = f64;

@@ -75,6 +75,16 @@ pub fn triangulate(vertices: &[Vec3]) -> Result<Triangulated, Degenerate> {
     Ok(Triangulated { triangles, normal })
 }
 
+/// The unit normal of the plane through `v` by Newell's method, computed exactly as
+/// [`triangulate`] computes [`Triangulated::normal`] (so the normal of a triangle can be
+/// recomputed from its corners, to the bit, instead of stored).
+#[inline]
+pub fn plane_normal(v: &[Vec3]) -> Vec3 {
+    let newell = newell_normal(v);
+    let area2 = newell.length();
+    newell / area2
+}
+
 fn newell_normal(v: &[Vec3]) -> Vec3 {
     let mut n = Vec3::ZERO;
     for (idx, a) in v.iter().enumerate() {

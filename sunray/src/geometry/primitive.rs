@@ -1,13 +1,13 @@
-//! The renderer's primitives, built from the model's objects.
+//! A primitive as a plain value: the shape of anything the compact tables of
+//! [`super::primitives`] do not hold (ellipsoids, quadrics, moving shapes), and the form
+//! tests and queries off the hot path use.
 
-use super::polygon::{triangulate, Degenerate};
 use super::quadric::{intersect_quadric, quadric_bounds, quadric_normal};
-use super::solid::{closed_faces, Face};
 use super::sphere::{ellipsoid_normal, intersect_ellipsoid, intersect_sphere};
 use super::triangle::intersect_triangle;
 use super::{Aabb, RayPre, Real, Vec3};
 use glam::DAffine3;
-use yari::model::{Quadric, Shape, World};
+use yari::model::Quadric;
 
 /// The shape of a primitive, in world coordinates.
 #[derive(Clone, Debug)]
@@ -62,78 +62,6 @@ pub struct Dropped {
 }
 
 impl Primitive {
-    /// Flattens the model's objects into primitives (polygons become triangles). Degenerate
-    /// input is dropped and reported, never turned into NaNs.
-    pub fn build_all(world: &World) -> (Vec<Primitive>, Vec<Dropped>) {
-        let mut prims = Vec::with_capacity(world.objects.len());
-        let mut dropped = Vec::new();
-        let faces = closed_faces(world);
-        for (index, obj) in world.objects.iter().enumerate() {
-            let mk = |kind| Primitive {
-                kind,
-                object: index as u32,
-                surface: obj.surface,
-                motion: if obj.motion.is_finite() {
-                    obj.motion
-                } else {
-                    Vec3::ZERO
-                },
-            };
-            let mut drop = |reason: &str| {
-                dropped.push(Dropped {
-                    object: index,
-                    reason: reason.to_string(),
-                })
-            };
-            match &obj.shape {
-                Shape::Sphere { center, radius } => {
-                    if center.is_finite() && radius.is_finite() && *radius > 0.0 {
-                        prims.push(mk(PrimitiveKind::Sphere {
-                            centre: *center,
-                            radius: *radius,
-                        }));
-                    } else {
-                        drop("sphere with a non-positive or non-finite radius");
-                    }
-                }
-                Shape::Ellipsoid { to_world } => {
-                    let det = to_world.matrix3.determinant();
-                    if det.is_finite() && det.abs() > 1e-300 && to_world.translation.is_finite() {
-                        prims.push(mk(PrimitiveKind::Ellipsoid {
-                            to_local: to_world.inverse(),
-                        }));
-                    } else {
-                        drop("ellipsoid with a singular transformation");
-                    }
-                }
-                Shape::Polygon { vertices } => match triangulate(vertices) {
-                    Ok(t) => {
-                        let (solid, normal) = match faces[index] {
-                            Face::Open => (false, t.normal),
-                            Face::Outward => (true, t.normal),
-                            Face::Inward => (true, -t.normal),
-                        };
-                        for v in t.triangles {
-                            prims.push(mk(PrimitiveKind::Triangle { v, normal, solid }));
-                        }
-                    }
-                    Err(Degenerate::TooFewVertices) => {
-                        drop("polygon with fewer than 3 distinct vertices")
-                    }
-                    Err(Degenerate::ZeroArea) => drop("polygon with zero area"),
-                },
-                Shape::Quadric(q) => {
-                    if q.q.iter().all(|c| c.is_finite()) && q.q.iter().any(|c| *c != 0.0) {
-                        prims.push(mk(PrimitiveKind::Quadric(q.clone())));
-                    } else {
-                        drop("quadric with no or non-finite coefficients");
-                    }
-                }
-            }
-        }
-        (prims, dropped)
-    }
-
     /// World-space bounds over the whole shutter interval, or None if unbounded.
     pub fn bounds(&self) -> Option<Aabb> {
         let b = match &self.kind {
@@ -301,6 +229,7 @@ mod tests {
 
     #[test]
     fn degenerate_objects_are_dropped_not_nan() {
+        use yari::model::Shape;
         let mut w = crate::bench::spd_world(yari::spd::Database::Tetra, 1).unwrap();
         let n = w.objects.len();
         w.objects.push(yari::model::Object {
@@ -318,7 +247,11 @@ mod tests {
             surface: 0,
             motion: Vec3::ZERO,
         });
-        let (prims, dropped) = Primitive::build_all(&w);
+        let mut b = crate::geometry::primitives::PrimitivesBuilder::new();
+        for o in &w.objects {
+            b.add(&w.surfaces, o);
+        }
+        let (prims, dropped) = b.finish();
         assert_eq!(prims.len(), n);
         assert_eq!(
             dropped.iter().map(|d| d.object).collect::<Vec<_>>(),

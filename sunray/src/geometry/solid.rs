@@ -22,23 +22,58 @@ pub enum Face {
     Inward,
 }
 
+/// A transparent static polygon: a candidate face of a closed mesh.
+#[derive(Clone, Debug)]
+pub struct Polygon {
+    /// The object it is.
+    pub object: usize,
+    /// Its vertices in order.
+    pub vertices: Vec<Vec3>,
+}
+
+impl Polygon {
+    /// Object `object`, a polygon with `vertices`.
+    pub fn new(object: usize, vertices: &[Vec3]) -> Polygon {
+        Polygon {
+            object,
+            vertices: vertices.to_vec(),
+        }
+    }
+}
+
 /// Per object of `world`, how it takes part in a closed transparent mesh.
 pub fn closed_faces(world: &World) -> Vec<Face> {
+    let candidates: Vec<Polygon> = world
+        .objects
+        .iter()
+        .enumerate()
+        .filter_map(|(i, obj)| {
+            let Shape::Polygon { vertices } = &obj.shape else {
+                return None;
+            };
+            let transparent = world
+                .surfaces
+                .get(obj.surface as usize)
+                .is_some_and(|s| s.kst() > 0.0);
+            (transparent && obj.motion == Vec3::ZERO).then(|| Polygon::new(i, vertices))
+        })
+        .collect();
     let mut faces = vec![Face::Open; world.objects.len()];
+    let refs: Vec<&Polygon> = candidates.iter().collect();
+    for (p, face) in candidates.iter().zip(closed_faces_of(&refs)) {
+        faces[p.object] = face;
+    }
+    faces
+}
+
+/// How each of `candidates` (transparent static polygons) takes part in a closed mesh.
+pub fn closed_faces_of(candidates: &[&Polygon]) -> Vec<Face> {
+    let mut faces = vec![Face::Open; candidates.len()];
     let mut vertex_ids: HashMap<[u64; 3], u32> = HashMap::new();
-    // Candidate polygons: (object index, vertex ids in order, positions).
+    // Candidate polygons: (index in `candidates`, vertex ids in order, positions).
     let mut polys: Vec<(usize, Vec<u32>, Vec<Vec3>)> = Vec::new();
-    for (i, obj) in world.objects.iter().enumerate() {
-        let Shape::Polygon { vertices } = &obj.shape else {
-            continue;
-        };
-        let transparent = world
-            .surfaces
-            .get(obj.surface as usize)
-            .is_some_and(|s| s.kst() > 0.0);
-        if !transparent || obj.motion != Vec3::ZERO {
-            continue;
-        }
+    for (i, candidate) in candidates.iter().enumerate() {
+        let vertices = &candidate.vertices;
         let mut ids: Vec<u32> = Vec::with_capacity(vertices.len());
         let mut points = Vec::with_capacity(vertices.len());
         for &p in vertices {
@@ -131,7 +166,7 @@ fn union(parent: &mut [usize], a: usize, b: usize) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use yari::model::{Object, Surface};
 

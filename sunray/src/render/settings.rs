@@ -284,12 +284,11 @@ impl Settings {
     /// accelerator (as [`crate::accel::Accel::build`] resolves it), objects and primitives.
     /// Counters, times, threads and accelerator cells are the caller's to fill in.
     pub fn stats_header(&self, name: &str, scene: &Scene) -> RenderStats {
-        let bounded = scene.prims.iter().filter(|p| p.bounds().is_some()).count();
         self.stats_header_of(
             name,
-            scene.world.objects.len(),
+            scene.objects,
             scene.prims.len(),
-            scene.prims.len() - bounded,
+            scene.prims.unbounded_count(),
         )
     }
 

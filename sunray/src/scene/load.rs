@@ -3,6 +3,7 @@
 //! dropped as degenerate) collected for the caller to print.
 
 use super::Scene;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use yari::colour::{ColourFileError, ColourTable};
@@ -101,6 +102,9 @@ pub struct LoadedScene {
     pub source: SceneSource,
     /// The model and its primitives.
     pub scene: Scene,
+    /// The compiled model file's bytes, as shipped to SunRay III workers, when asked for
+    /// ([`load_with_model`]).
+    pub model: Option<Vec<u8>>,
     /// The compiler's warnings (with carets) and one line per dropped object, ready to print.
     pub warnings: Vec<String>,
     /// Seconds spent reading and compiling.
@@ -110,10 +114,31 @@ pub struct LoadedScene {
 }
 
 /// Loads a scene, with the colour names of `colours` (else `$YARI_COLORS`) added to the
-/// built-in table.
+/// built-in table. A compiled model file is read as a stream, each object becoming
+/// primitives as it is decoded.
 pub fn load(source: &SceneSource, colours: Option<&Path>) -> Result<LoadedScene, SceneLoadError> {
+    load_as(source, colours, false)
+}
+
+/// [`load`], keeping the compiled model's bytes too ([`LoadedScene::model`]), for a job
+/// that ships it.
+pub fn load_with_model(
+    source: &SceneSource,
+    colours: Option<&Path>,
+) -> Result<LoadedScene, SceneLoadError> {
+    load_as(source, colours, true)
+}
+
+fn load_as(
+    source: &SceneSource,
+    colours: Option<&Path>,
+    keep_model: bool,
+) -> Result<LoadedScene, SceneLoadError> {
     let t_load = Instant::now();
     let table = ColourTable::for_run(colours)?;
+    if let Some(path) = source.path().filter(|p| is_model_file(p)) {
+        return load_model_file(source, path, keep_model, t_load);
+    }
     let loaded = match source {
         SceneSource::File(p) => yari::load::load_path(p, &table)?,
         SceneSource::Builtin => {
@@ -125,9 +150,77 @@ pub fn load(source: &SceneSource, colours: Option<&Path>) -> Result<LoadedScene,
     if !compiler.trim().is_empty() {
         warnings.push(compiler.trim_end().to_string());
     }
+    let model = match keep_model {
+        true => Some(
+            yari::modelfile::to_bytes(&loaded.world)
+                .map_err(|source| model_error(source, "the compiled scene"))?,
+        ),
+        false => None,
+    };
     let load_s = t_load.elapsed().as_secs_f64();
     let t_prepare = Instant::now();
     let scene = Scene::new(loaded.world);
+    Ok(finish(source, scene, model, warnings, load_s, t_prepare))
+}
+
+/// True when the file at `path` starts like a compiled model (whatever its name).
+fn is_model_file(path: &Path) -> bool {
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok_and(|_| yari::modelfile::has_magic(&magic))
+}
+
+fn model_error(source: yari::modelfile::ModelFileError, path: &str) -> SceneLoadError {
+    SceneLoadError::Scene(LoadError::Model {
+        path: PathBuf::from(path),
+        source,
+    })
+}
+
+/// A compiled model file, decoded as a stream into the scene's primitives (and kept whole
+/// only when `keep_model`).
+fn load_model_file(
+    source: &SceneSource,
+    path: &Path,
+    keep_model: bool,
+    t_load: Instant,
+) -> Result<LoadedScene, SceneLoadError> {
+    let io = |e: std::io::Error| {
+        SceneLoadError::Scene(LoadError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })
+    };
+    let (scene, model) = if keep_model {
+        let bytes = std::fs::read(path).map_err(io)?;
+        let scene = Scene::read_model(&mut &bytes[..]);
+        (scene, Some(bytes))
+    } else {
+        let mut file = std::io::BufReader::new(std::fs::File::open(path).map_err(io)?);
+        (Scene::read_model(&mut file), None)
+    };
+    let scene = scene.map_err(|e| model_error(e, &path.display().to_string()))?;
+    // Decoding and building the primitives go together: all of it counts as loading.
+    let load_s = t_load.elapsed().as_secs_f64();
+    Ok(finish(
+        source,
+        scene,
+        model,
+        Vec::new(),
+        load_s,
+        Instant::now(),
+    ))
+}
+
+fn finish(
+    source: &SceneSource,
+    scene: Scene,
+    model: Option<Vec<u8>>,
+    mut warnings: Vec<String>,
+    load_s: f64,
+    t_prepare: Instant,
+) -> LoadedScene {
     let prepare_s = t_prepare.elapsed().as_secs_f64();
     let name = source.display_name();
     warnings.extend(scene.dropped.iter().map(|d| {
@@ -136,19 +229,24 @@ pub fn load(source: &SceneSource, colours: Option<&Path>) -> Result<LoadedScene,
             d.object, d.reason
         )
     }));
-    Ok(LoadedScene {
+    LoadedScene {
         source: source.clone(),
         scene,
+        model,
         warnings,
         load_s,
         prepare_s,
-    })
+    }
 }
 
 impl LoadedScene {
-    /// The compiled model as shipped to SunRay III workers.
-    pub fn model_bytes(&self) -> Result<Vec<u8>, yari::modelfile::ModelFileError> {
-        yari::modelfile::to_bytes(&self.scene.world)
+    /// The compiled model as shipped to SunRay III workers (kept by [`load_with_model`]).
+    pub fn take_model(&mut self) -> Result<Vec<u8>, yari::modelfile::ModelFileError> {
+        self.model.take().ok_or_else(|| {
+            yari::modelfile::ModelFileError::Corrupt(
+                "the scene was loaded without its model".into(),
+            )
+        })
     }
 }
 

@@ -151,7 +151,7 @@ impl Tracer<'_> {
                 return Vec3::ZERO;
             }
             let q = from.ray.at(h.t);
-            let n = scene.prims[h.prim as usize].normal(q, time);
+            let n = scene.prims.normal(h.prim, q, time);
             let push = if n.dot(l) >= 0.0 { n } else { -n };
             let o = offset_from(q, push, from.ray.origin);
             remaining -= (o - from.ray.origin).dot(l);

@@ -148,10 +148,10 @@ impl<'a> Tracer<'a> {
     /// viewer, and the transparent volumes on either side of the surface (media tracking).
     fn surface_point(&self, ray: &Ray, t: Real, prim_index: u32, media: Media) -> SurfacePoint<'a> {
         let scene = self.scene;
-        let prim = &scene.prims[prim_index as usize];
+        let prims = &scene.prims;
         let surf = scene.surface(prim_index);
         let p = ray.at(t);
-        let mut n = prim.normal(p, ray.time);
+        let mut n = prims.normal(prim_index, p, ray.time);
         if n == Vec3::ZERO || !n.is_finite() {
             n = -ray.dir;
         }
@@ -159,17 +159,19 @@ impl<'a> Tracer<'a> {
         let mut colour = surf.color;
         if let Some(tex) = &surf.texture {
             // Textures stick to moving objects: look up at the object's rest position.
-            let (c, tn) = texture::apply(tex, surf.color, p - prim.motion * ray.time, n);
+            let motion = prims.motion(prim_index);
+            let (c, tn) = texture::apply(tex, surf.color, p - motion * ray.time, n);
             colour = c;
             n = tn;
         }
         // N faces the viewer; geometric side decides entering/leaving.
         let nf = if ray.dir.dot(n) < 0.0 { n } else { -n };
-        let closed = prim.is_closed();
+        let closed = prims.is_closed(prim_index);
+        let surface = prims.surface(prim_index);
         // The volumes on the viewer's side and on the far side, and their refractive indices.
         // A thin sheet (an open polygon, a quadric) has air on both sides and bends nothing.
         let own = Medium {
-            surface: prim.surface,
+            surface,
             refract: surf.refract,
             transmissivity: surf.transmissivity,
         };
@@ -177,12 +179,12 @@ impl<'a> Tracer<'a> {
             (true, true) => (media, media.entering(own), media.index(), surf.refract),
             (true, false) => {
                 // Leaving: inside this volume, even if the ray was not known to be.
-                let view = if media.contains(prim.surface) {
+                let view = if media.contains(surface) {
                     media
                 } else {
                     media.entering(own)
                 };
-                let far = view.leaving(prim.surface);
+                let far = view.leaving(surface);
                 (view, far, surf.refract, far.index())
             }
             (false, _) => (media, media, 1.0, surf.refract),

@@ -43,8 +43,8 @@ fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World {
 
 /// Traces one ray from (0, 0, 5) towards -z; returns the colour and the counters.
 fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
-    let scene = Scene::new(w);
-    let accel = Accel::build(&scene.prims, &AccelOptions::default());
+    let mut scene = Scene::new(w);
+    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
     let mut scratch = Scratch::new(scene.prims.len(), true);
     let mut counters = Counters::default();
     let mut tracer = Tracer {
@@ -291,8 +291,8 @@ fn shadows_block_and_transparent_occluders_filter() {
         w
     };
     let shade = |w: World| {
-        let scene = Scene::new(w);
-        let accel = Accel::build(&scene.prims, &AccelOptions::default());
+        let mut scene = Scene::new(w);
+        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
         let mut scratch = Scratch::new(scene.prims.len(), true);
         let mut counters = Counters::default();
         let mut t = Tracer {
@@ -332,8 +332,8 @@ fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
     // Start between the mirrors.
     w2.camera.position = Vec3::new(0.0, 0.0, 2.0);
     let run = |w: &World, opts: TraceOptions| {
-        let scene = Scene::new(w.clone());
-        let accel = Accel::build(&scene.prims, &AccelOptions::default());
+        let mut scene = Scene::new(w.clone());
+        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
         let mut scratch = Scratch::new(scene.prims.len(), true);
         let mut counters = Counters::default();
         let mut t = Tracer {
@@ -411,8 +411,8 @@ fn the_ray_tree_never_goes_past_max_depth_whatever_it_is_asked() {
         vec![],
     );
     w.camera.position = Vec3::new(0.0, 0.0, 2.0);
-    let scene = Scene::new(w);
-    let accel = Accel::build(&scene.prims, &AccelOptions::default());
+    let mut scene = Scene::new(w);
+    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
     for opts in [
         TraceOptions {
             max_depth: u32::MAX,

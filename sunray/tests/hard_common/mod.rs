@@ -25,9 +25,9 @@ pub fn world(text: &str) -> World {
 /// Renders `world` at its own resolution and samples with accelerator `kind`, and checks the
 /// invariant: every channel of every pixel is finite.
 pub fn render_with(world: &World, kind: AccelKind) -> Film {
-    let scene = Scene::new(world.clone());
+    let mut scene = Scene::new(world.clone());
     let accel = Accel::build(
-        &scene.prims,
+        &mut scene.prims,
         &AccelOptions {
             kind,
             ..AccelOptions::default()

@@ -29,23 +29,63 @@ pub struct BinaryBvh {
     pub items: Vec<u32>,
 }
 
+/// One primitive while the tree is built, in 40 bytes: its box rounded outwards to `f32`
+/// (a box only has to contain its primitive; the hits never depend on the tree) and its
+/// centre, so that a scene of millions of triangles is built in little memory.
 struct BuildItem {
     prim: u32,
-    bounds: Aabb,
-    centre: Vec3,
+    lo: [f32; 3],
+    hi: [f32; 3],
+    centre: [f32; 3],
+}
+
+impl BuildItem {
+    fn new(prim: u32, b: Aabb) -> BuildItem {
+        let c = b.centre();
+        BuildItem {
+            prim,
+            lo: b.min.to_array().map(round_down),
+            hi: b.max.to_array().map(round_up),
+            centre: [c.x as f32, c.y as f32, c.z as f32],
+        }
+    }
+
+    #[inline]
+    fn bounds(&self) -> Aabb {
+        let v = |a: [f32; 3]| Vec3::new(a[0].into(), a[1].into(), a[2].into());
+        Aabb::new(v(self.lo), v(self.hi))
+    }
+
+    #[inline]
+    fn centre(&self, axis: usize) -> Real {
+        self.centre[axis].into()
+    }
+}
+
+/// The largest `f32` at most `x`.
+fn round_down(x: Real) -> f32 {
+    let f = x as f32;
+    if Real::from(f) > x {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
+/// The smallest `f32` at least `x`.
+fn round_up(x: Real) -> f32 {
+    let f = x as f32;
+    if Real::from(f) < x {
+        f.next_up()
+    } else {
+        f
+    }
 }
 
 impl BinaryBvh {
     /// Builds over `(primitive index, bounds)` pairs.
-    pub fn build(bounded: &[(u32, Aabb)]) -> BinaryBvh {
-        let mut items: Vec<BuildItem> = bounded
-            .iter()
-            .map(|(p, b)| BuildItem {
-                prim: *p,
-                bounds: *b,
-                centre: b.centre(),
-            })
-            .collect();
+    pub fn build(bounded: impl Iterator<Item = (u32, Aabb)>) -> BinaryBvh {
+        let mut items: Vec<BuildItem> = bounded.map(|(p, b)| BuildItem::new(p, b)).collect();
         let mut bvh = BinaryBvh {
             nodes: Vec::with_capacity(2 * items.len() / MAX_LEAF + 1),
             items: Vec::new(),
@@ -61,7 +101,7 @@ impl BinaryBvh {
     fn build_node(&mut self, items: &mut [BuildItem], start: usize, end: usize) -> usize {
         let node = self.nodes.len();
         let slice = &mut items[start..end];
-        let bounds = slice.iter().fold(Aabb::EMPTY, |b, i| b.union(i.bounds));
+        let bounds = slice.iter().fold(Aabb::EMPTY, |b, i| b.union(i.bounds()));
         self.nodes.push(Node {
             bounds,
             index: start as u32,
@@ -81,7 +121,7 @@ impl BinaryBvh {
             return node;
         };
         let range = centre_range(slice, axis);
-        let mid = start + partition(slice, |i| bin_of(i.centre[axis], &range) < split);
+        let mid = start + partition(slice, |i| bin_of(i.centre(axis), &range) < split);
         let mid = if mid == start || mid == end {
             start + (end - start) / 2
         } else {
@@ -111,7 +151,7 @@ fn centre_range(items: &[BuildItem], axis: usize) -> (Real, Real) {
     items
         .iter()
         .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), i| {
-            (lo.min(i.centre[axis]), hi.max(i.centre[axis]))
+            (lo.min(i.centre(axis)), hi.max(i.centre(axis)))
         })
 }
 
@@ -133,8 +173,8 @@ fn best_split(items: &[BuildItem], bounds: &Aabb) -> Option<(usize, usize)> {
         let mut boxes = [Aabb::EMPTY; BINS];
         let mut counts = [0usize; BINS];
         for i in items {
-            let b = bin_of(i.centre[axis], &range);
-            boxes[b] = boxes[b].union(i.bounds);
+            let b = bin_of(i.centre(axis), &range);
+            boxes[b] = boxes[b].union(i.bounds());
             counts[b] += 1;
         }
         // Sweep from the right to get suffix areas, then from the left.
@@ -180,4 +220,26 @@ fn partition(items: &mut [BuildItem], left: impl Fn(&BuildItem) -> bool) -> usiz
         }
     }
     k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_box_rounded_to_f32_contains_the_f64_box() {
+        for x in [
+            0.1, -0.1, 1e-40, -1e-40, 3.0, 1e39, -1e39, 123456.789, -7.25,
+        ] {
+            assert!(Real::from(round_down(x)) <= x, "{x}");
+            assert!(Real::from(round_up(x)) >= x, "{x}");
+        }
+        let b = Aabb::new(Vec3::new(-0.1, 0.3, 1e-7), Vec3::new(0.7, 1.1, 2.0 / 3.0));
+        let r = BuildItem::new(0, b).bounds();
+        assert!(
+            r.min.cmple(b.min).all() && r.max.cmpge(b.max).all(),
+            "{r:?}"
+        );
+        assert_eq!(std::mem::size_of::<BuildItem>(), 40);
+    }
 }

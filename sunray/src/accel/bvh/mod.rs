@@ -1,17 +1,20 @@
 //! A bounding volume hierarchy: built as a binary tree with the binned surface area heuristic
-//! ([`binary`]), then collapsed into a 4-wide tree ([`wide`]) whose leaves point into a
-//! compact copy of their primitives ([`items`]).
+//! ([`binary`]), then collapsed into a 4-wide tree ([`wide`]) whose leaves list their
+//! primitives' slots in the scene's compact tables ([`items`]), which take the leaves' order.
+//!
+//! A built tree can be written and read back, checked ([`file`]).
 //!
 //! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
 //! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
 //! accepted hit. Ties between equal `t` go to the lower primitive index, as everywhere.
 
 pub mod binary;
+pub mod file;
 pub mod items;
 pub mod wide;
 
 use super::Hit;
-use crate::geometry::{Aabb, Primitive, RayPre, Real};
+use crate::geometry::{Primitives, RayPre, Real};
 use crate::stats::Counters;
 use arrayvec::ArrayVec;
 use binary::BinaryBvh;
@@ -38,13 +41,14 @@ struct Pending {
 const STACK: usize = 128;
 
 impl Bvh {
-    /// Builds over `(primitive index, bounds)` pairs of `prims`.
-    pub fn build(prims: &[Primitive], bounded: &[(u32, Aabb)]) -> Bvh {
-        let bin = BinaryBvh::build(bounded);
-        Bvh {
-            nodes: wide::collapse(&bin),
-            items: LeafItems::new(prims, &bin.items),
-        }
+    /// Builds over the primitives of `prims` that have bounds, and has `prims` adopt the
+    /// leaves' order ([`Primitives::adopt_order`]; the first accelerator built does).
+    pub fn build(prims: &mut Primitives) -> Bvh {
+        let bin = BinaryBvh::build(super::bounded(prims));
+        prims.adopt_order(&bin.items);
+        let nodes = wide::collapse(&bin);
+        let items = LeafItems::new(prims, &bin.items);
+        Bvh { nodes, items }
     }
 
     /// Nodes of the 4-wide tree.
@@ -56,7 +60,7 @@ impl Bvh {
     /// when the CPU has it.
     pub fn closest(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         best: Option<Hit>,
@@ -76,7 +80,7 @@ impl Bvh {
     #[target_feature(enable = "avx2")]
     fn closest_avx2(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         best: Option<Hit>,
@@ -88,7 +92,7 @@ impl Bvh {
     #[inline(always)]
     fn closest_impl(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         mut best: Option<Hit>,
@@ -164,7 +168,7 @@ impl Bvh {
     #[inline(always)]
     fn closest_in_leaf(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         leaf: Child,
         r: &RayPre,
         t_max: Real,
@@ -175,7 +179,7 @@ impl Bvh {
         for k in first..first + leaf.count as usize {
             c.intersection_tests += 1;
             if let Some(t) = self.items.intersect(prims, k, r, t_max) {
-                let i = self.items.prim(k);
+                let i = self.items.prim(prims, k);
                 if Hit::improves(t, i, &best) {
                     best = Some(Hit { t, prim: i });
                 }
@@ -187,7 +191,7 @@ impl Bvh {
     /// Every primitive of a subtree (the fallback for trees deeper than the stack).
     fn closest_subtree(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         child: Child,
         r: &RayPre,
         t_max: Real,
@@ -209,7 +213,7 @@ impl Bvh {
     /// Some hit in `(0, t_max)` that `accept` takes, or None.
     pub fn any(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         accept: &dyn Fn(u32) -> bool,
@@ -229,7 +233,7 @@ impl Bvh {
     #[target_feature(enable = "avx2")]
     fn any_avx2(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         accept: &dyn Fn(u32) -> bool,
@@ -241,7 +245,7 @@ impl Bvh {
     #[inline(always)]
     fn any_impl(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         r: &RayPre,
         t_max: Real,
         accept: &dyn Fn(u32) -> bool,
@@ -280,7 +284,7 @@ impl Bvh {
     #[inline(always)]
     fn any_in_leaf(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         leaf: Child,
         r: &RayPre,
         t_max: Real,
@@ -291,7 +295,7 @@ impl Bvh {
         for k in first..first + leaf.count as usize {
             c.intersection_tests += 1;
             if let Some(t) = self.items.intersect(prims, k, r, t_max) {
-                let i = self.items.prim(k);
+                let i = self.items.prim(prims, k);
                 if accept(i) {
                     return Some(Hit { t, prim: i });
                 }
@@ -302,7 +306,7 @@ impl Bvh {
 
     fn any_subtree(
         &self,
-        prims: &[Primitive],
+        prims: &Primitives,
         child: Child,
         r: &RayPre,
         t_max: Real,
@@ -324,7 +328,7 @@ impl Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{PrimitiveKind, Ray, Vec3};
+    use crate::geometry::{Primitive, PrimitiveKind, Ray, Vec3};
     use crate::sampler::splitmix64;
 
     fn rand(s: &mut u64) -> f64 {
@@ -340,34 +344,30 @@ mod tests {
         }
     }
 
-    fn bvh_of(prims: &[Primitive]) -> Bvh {
-        let bounded: Vec<(u32, Aabb)> = prims
-            .iter()
-            .enumerate()
-            .filter_map(|(i, p)| p.bounds().map(|b| (i as u32, b)))
-            .collect();
-        Bvh::build(prims, &bounded)
+    fn bvh_of(prims: &mut Primitives) -> Bvh {
+        Bvh::build(prims)
     }
 
-    fn brute_force(prims: &[Primitive], r: &RayPre, t_max: Real) -> Option<Hit> {
+    fn brute_force(prims: &Primitives, r: &RayPre, t_max: Real) -> Option<Hit> {
         let mut best = None;
-        for (i, p) in prims.iter().enumerate() {
-            if let Some(t) = p.intersect(r, 0.0, t_max) {
-                if Hit::improves(t, i as u32, &best) {
-                    best = Some(Hit { t, prim: i as u32 });
+        for i in 0..prims.len() as u32 {
+            if let Some(t) = prims.intersect(i, r, 0.0, t_max) {
+                if Hit::improves(t, i, &best) {
+                    best = Some(Hit { t, prim: i });
                 }
             }
         }
         best
     }
 
-    /// Spheres along the x axis, each twice as far out and twice as big as the one before:
+    /// Spheres along the x axis, each 1.1 times as far out and as big as the one before:
     /// the surface area heuristic peels them off one by one, so the tree is as deep as the
-    /// list is long, deeper than the traversal stack.
+    /// list is long, deeper than the traversal stack. (The tree is built with boxes in
+    /// `f32`, so the farthest stays below 1.1^930, `f32`'s largest.)
     fn deep_scene(n: usize) -> Vec<Primitive> {
         (0..n)
             .map(|i| {
-                let x = 1.3f64.powi(i as i32);
+                let x = 1.1f64.powi(i as i32);
                 sphere(Vec3::new(x, 0.0, 0.0), x * 0.1, i as u32)
             })
             .collect()
@@ -375,8 +375,8 @@ mod tests {
 
     #[test]
     fn a_tree_deeper_than_the_stack_still_finds_every_hit() {
-        let prims = deep_scene(400);
-        let bvh = bvh_of(&prims);
+        let mut prims = Primitives::from_list(deep_scene(900));
+        let bvh = bvh_of(&mut prims);
         let depth = |bvh: &Bvh| {
             let mut deepest = 0;
             let mut stack = vec![(0usize, 1)];
@@ -396,7 +396,7 @@ mod tests {
         let mut hits = 0;
         for _ in 0..300 {
             // From beyond the far end back along the axis: every box is on the way.
-            let o = Vec3::new(1.3f64.powi(401), rand(&mut s) - 0.5, rand(&mut s) - 0.5);
+            let o = Vec3::new(1.1f64.powi(901), rand(&mut s) - 0.5, rand(&mut s) - 0.5);
             let d = Vec3::new(-1.0, (rand(&mut s) - 0.5) * 1e-3, 0.0);
             let r = RayPre::new(Ray::new(o, d));
             let want = brute_force(&prims, &r, Real::INFINITY);
@@ -414,13 +414,15 @@ mod tests {
     #[test]
     fn the_plain_and_the_vector_builds_agree() {
         let mut s = 11u64;
-        let prims: Vec<Primitive> = (0..500)
-            .map(|i| {
-                let c = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) * 20.0 - 10.0;
-                sphere(c, 0.1 + rand(&mut s), i)
-            })
-            .collect();
-        let bvh = bvh_of(&prims);
+        let mut prims = Primitives::from_list(
+            (0..500)
+                .map(|i| {
+                    let c = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) * 20.0 - 10.0;
+                    sphere(c, 0.1 + rand(&mut s), i)
+                })
+                .collect(),
+        );
+        let bvh = bvh_of(&mut prims);
         let mut c = Counters::default();
         for _ in 0..2000 {
             let o = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) * 30.0 - 15.0;

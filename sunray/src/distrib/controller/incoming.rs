@@ -74,6 +74,7 @@ impl<L: WorkerLink> Controller<L> {
                 if let Some(f) = &r.scene {
                     (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
                         (f.bytes_received, f.cached, f.fetch_s);
+                    n.accel_cached = f.accel_cached;
                 }
                 self.table.release(i, &r.released);
                 self.stamps_to_echo[i] = Some(r.stamp_s);

@@ -195,7 +195,14 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         entry.scene_primitives as usize,
         entry.scene_unbounded as usize,
     );
-    let stats = job::job_stats(&job, strategy, count, header, result);
+    let stats = job::job_stats(
+        &job,
+        strategy,
+        count,
+        header,
+        result,
+        entry.scene_bytes_sent,
+    );
     let json = serde_json::to_vec_pretty(&stats).map_err(|e| stored(&e.to_string()))?;
     Fenced {
         client: &client,

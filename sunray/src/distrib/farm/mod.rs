@@ -201,15 +201,10 @@ pub async fn submit(
         hosts: plan.hosts,
         started_unix_ms: checkpoint::unix_ms(),
         output: plan.output.display().to_string(),
-        scene_objects: plan.loaded.scene.world.objects.len() as u64,
+        scene_objects: plan.loaded.scene.objects as u64,
         scene_primitives: plan.loaded.scene.prims.len() as u64,
-        scene_unbounded: plan
-            .loaded
-            .scene
-            .prims
-            .iter()
-            .filter(|p| p.bounds().is_none())
-            .count() as u64,
+        scene_unbounded: plan.loaded.scene.prims.unbounded_count() as u64,
+        scene_bytes_sent: shipped.bytes_sent,
         ..Default::default()
     };
     let mut args = vec![

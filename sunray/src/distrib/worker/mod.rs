@@ -124,12 +124,12 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     }
     // The model, through this host's remd (cached there for the next worker or job).
     let fetched = match RemClient::from_env().await {
-        Ok(client) => model_chunks::fetch(&client, &scene_msg)
+        Ok(client) => model_chunks::fetch_scene(&client, &scene_msg)
             .await
             .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}"))),
         Err(e) => Err(WorkerError::Rem(e)),
     };
-    let (model, scene_fetch) = match fetched {
+    let (scene, mut scene_fetch) = match fetched {
         Ok(f) => f,
         Err(e) => {
             report(&link, &me, &mut inbox, &e).await;
@@ -137,20 +137,21 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
         }
     };
     let t_pre = Instant::now();
-    let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg, &model))
+    let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
         .await
         .unwrap_or_else(|e| {
             Err(WorkerError::BadScene(format!(
                 "preparing the scene panicked: {e}"
             )))
         });
-    let (scene, accel, settings) = match prepared {
+    let (scene, accel, settings, accel_cached) = match prepared {
         Ok(p) => p,
         Err(e) => {
             report(&link, &me, &mut inbox, &e).await;
             return Err(e);
         }
     };
+    scene_fetch.accel_cached = accel_cached;
     let preprocess_s = t_pre.elapsed().as_secs_f64();
     let render_start = Instant::now();
     let (results_tx, mut results) = mpsc::unbounded_channel::<Rendered>();
@@ -390,19 +391,30 @@ fn settings_of(msg: &proto::Scene) -> Result<Settings, WorkerError> {
         .and_then(|s| Settings::from_proto(s).map_err(|e| WorkerError::BadScene(e.to_string())))
 }
 
-/// Decodes the model and settings and builds the accelerator. The settings are checked
-/// against their bounds first (`Settings::from_proto`), so settings out of bounds are refused
-/// before the model is decoded or anything is allocated for them.
+/// Builds the accelerator of the decoded scene with the Scene's settings (checked against
+/// their bounds before the model was fetched), or reads the one a worker before built on
+/// this host (from REM's process cache, `REM_CACHE_DIR`); whether it was read.
 fn prepare(
     msg: proto::Scene,
-    model: &[u8],
-) -> Result<(Arc<Scene>, Arc<Accel>, Settings), WorkerError> {
+    mut scene: Scene,
+) -> Result<(Arc<Scene>, Arc<Accel>, Settings, bool), WorkerError> {
     let settings = settings_of(&msg)?;
-    let world =
-        yari::modelfile::from_bytes(model).map_err(|e| WorkerError::BadScene(e.to_string()))?;
-    let scene = Scene::new(world);
-    let accel = Accel::build(&scene.prims, &settings.accel);
-    Ok((Arc::new(scene), Arc::new(accel), settings))
+    let dir = std::env::var_os(rem::wire::env::CACHE_DIR).map(std::path::PathBuf::from);
+    let (accel, provenance) = crate::accel::cache::build_or_load(
+        &mut scene.prims,
+        &settings.accel,
+        msg.model_hash,
+        dir.as_deref(),
+    );
+    if let Some(w) = provenance.warning {
+        eprintln!("sunray worker: warning: {w}");
+    }
+    Ok((
+        Arc::new(scene),
+        Arc::new(accel),
+        settings,
+        provenance.cached,
+    ))
 }
 
 /// The sending side, addressed to the owner.

@@ -15,10 +15,16 @@
 //! A wrong magic, another version, a short file, a hash mismatch, a payload that does not
 //! decode to exactly one World, or a World that breaks the compiler's guarantees
 //! ([`validate`]) each give their own [`ModelFileError`].
+//!
+//! [`stream`] decodes a file as its bytes arrive and hands over one object at a time; every
+//! read here goes through it.
 
-use crate::model::World;
+pub mod stream;
+
+use crate::model::{Object, World};
 use std::io::{Read, Write};
 use std::path::Path;
+pub use stream::{read_stream, ModelStream};
 
 /// The first 8 bytes of every model file.
 pub const MAGIC: &[u8; 8] = b"SUNRAYW1";
@@ -65,14 +71,22 @@ pub enum ModelFileError {
     Invalid(String),
 }
 
-/// FNV-1a, 64 bits.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+/// FNV-1a's starting state, 64 bits.
+pub const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// FNV-1a, 64 bits, continued from state `h` over `bytes` (from [`FNV_OFFSET`]: a hash
+/// computed piece by piece).
+pub fn fnv1a_update(mut h: u64, bytes: &[u8]) -> u64 {
     for b in bytes {
         h ^= u64::from(*b);
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }
     h
+}
+
+/// FNV-1a, 64 bits.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    fnv1a_update(FNV_OFFSET, bytes)
 }
 
 /// The whole file as bytes.
@@ -95,43 +109,9 @@ pub fn write(world: &World, out: &mut impl Write) -> Result<(), ModelFileError> 
 
 /// Reads a model file from `input`.
 pub fn read(input: &mut impl Read) -> Result<World, ModelFileError> {
-    let mut header = Vec::with_capacity(HEADER_LEN);
-    input.take(HEADER_LEN as u64).read_to_end(&mut header)?;
-    if header.len() < MAGIC.len() || &header[..8] != MAGIC {
-        return Err(ModelFileError::BadMagic);
-    }
-    if header.len() < HEADER_LEN {
-        return Err(ModelFileError::Truncated {
-            expected: HEADER_LEN as u64,
-            found: header.len() as u64,
-        });
-    }
-    let word = |at: usize| u64::from_le_bytes(header[at..at + 8].try_into().unwrap_or([0; 8]));
-    let version = u32::from_le_bytes(header[8..12].try_into().unwrap_or([0; 4]));
-    if version != VERSION {
-        return Err(ModelFileError::UnsupportedVersion { found: version });
-    }
-    let (len, hash) = (word(12), word(20));
-    let mut payload = Vec::new();
-    input.take(len).read_to_end(&mut payload)?;
-    if (payload.len() as u64) < len {
-        return Err(ModelFileError::Truncated {
-            expected: len,
-            found: payload.len() as u64,
-        });
-    }
-    if fnv1a(&payload) != hash {
-        return Err(ModelFileError::Checksum);
-    }
-    let (world, rest) = postcard::take_from_bytes::<World>(&payload)
-        .map_err(|e| ModelFileError::Corrupt(e.to_string()))?;
-    if !rest.is_empty() {
-        return Err(ModelFileError::Corrupt(format!(
-            "{} bytes after the model",
-            rest.len()
-        )));
-    }
-    validate(&world).map_err(ModelFileError::Invalid)?;
+    let mut objects = Vec::new();
+    let mut world = read_stream(input, &mut |_, _, o| objects.push(o))?;
+    world.objects = objects;
     Ok(world)
 }
 
@@ -139,7 +119,15 @@ pub fn read(input: &mut impl Read) -> Result<World, ModelFileError> {
 /// sample count, surface indices in range, polygons of 3 or more vertices, spheres with a
 /// positive radius, and finite numbers throughout.
 pub fn validate(world: &World) -> Result<(), String> {
-    use crate::model::Shape;
+    validate_head(world)?;
+    for (i, o) in world.objects.iter().enumerate() {
+        validate_object(i, o, world.surfaces.len())?;
+    }
+    Ok(())
+}
+
+/// [`validate`] of everything but the objects.
+fn validate_head(world: &World) -> Result<(), String> {
     let finite = |v: glam::DVec3| v.is_finite();
     if world.resolution.contains(&0) || world.samples == 0 {
         return Err("zero resolution or sample count".into());
@@ -179,35 +167,37 @@ pub fn validate(world: &World) -> Result<(), String> {
             return Err("a surface is not finite".into());
         }
     }
-    for (i, o) in world.objects.iter().enumerate() {
-        if o.surface as usize >= world.surfaces.len() {
-            return Err(format!(
-                "object {i} refers to surface {} of {}",
-                o.surface,
-                world.surfaces.len()
-            ));
-        }
-        let ok = finite(o.motion)
-            && match &o.shape {
-                Shape::Sphere { center, radius } => {
-                    finite(*center) && radius.is_finite() && *radius > 0.0
-                }
-                Shape::Ellipsoid { to_world } => {
-                    to_world.is_finite() && to_world.inverse().is_finite()
-                }
-                Shape::Polygon { vertices } => {
-                    vertices.len() >= 3 && vertices.iter().all(|v| finite(*v))
-                }
-                Shape::Quadric(q) => {
-                    q.q.iter().all(|v| v.is_finite())
-                        && q.clip
-                            .iter()
-                            .all(|h| finite(h.normal) && h.offset.is_finite())
-                }
-            };
-        if !ok {
-            return Err(format!("object {i} is degenerate or not finite"));
-        }
+    Ok(())
+}
+
+/// [`validate`] of object `i`, in a world of `surfaces` surfaces.
+fn validate_object(i: usize, o: &Object, surfaces: usize) -> Result<(), String> {
+    use crate::model::Shape;
+    let finite = |v: glam::DVec3| v.is_finite();
+    if o.surface as usize >= surfaces {
+        return Err(format!(
+            "object {i} refers to surface {} of {surfaces}",
+            o.surface
+        ));
+    }
+    let ok = finite(o.motion)
+        && match &o.shape {
+            Shape::Sphere { center, radius } => {
+                finite(*center) && radius.is_finite() && *radius > 0.0
+            }
+            Shape::Ellipsoid { to_world } => to_world.is_finite() && to_world.inverse().is_finite(),
+            Shape::Polygon { vertices } => {
+                vertices.len() >= 3 && vertices.iter().all(|v| finite(*v))
+            }
+            Shape::Quadric(q) => {
+                q.q.iter().all(|v| v.is_finite())
+                    && q.clip
+                        .iter()
+                        .all(|h| finite(h.normal) && h.offset.is_finite())
+            }
+        };
+    if !ok {
+        return Err(format!("object {i} is degenerate or not finite"));
     }
     Ok(())
 }

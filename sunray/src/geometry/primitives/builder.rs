@@ -1,0 +1,205 @@
+//! Objects to primitives, one object at a time (so a model is decoded as a stream and never
+//! held whole beside its primitives). Polygons are triangulated into the mesh, static
+//! spheres go to their table, the rest stay [`Primitive`]s; degenerate objects are dropped
+//! and listed, never turned into NaNs. Transparent static polygons are remembered until
+//! [`PrimitivesBuilder::finish`], which finds the closed meshes among them
+//! ([`crate::geometry::solid`]) and makes their triangles solid faces.
+
+use super::super::polygon::{triangulate, Degenerate};
+use super::super::primitive::Dropped;
+use super::super::solid::{closed_faces_of, Face, Polygon};
+use super::super::{Aabb, Primitive, PrimitiveKind, Vec3};
+use super::mesh::morton;
+use super::{Primitives, StaticSphere, MAX_PER_KIND, OTHER, SPHERE, TRIANGLE};
+use yari::model::{Object, Shape, Surface};
+
+/// A transparent static polygon, a candidate face of a closed mesh.
+struct Candidate {
+    polygon: Polygon,
+    triangles: std::ops::Range<usize>,
+}
+
+/// Builds [`Primitives`] object by object.
+pub struct PrimitivesBuilder {
+    out: Primitives,
+    dropped: Vec<Dropped>,
+    candidates: Vec<Candidate>,
+    objects: usize,
+}
+
+impl Default for PrimitivesBuilder {
+    fn default() -> PrimitivesBuilder {
+        PrimitivesBuilder::new()
+    }
+}
+
+impl PrimitivesBuilder {
+    /// An empty builder.
+    pub fn new() -> PrimitivesBuilder {
+        PrimitivesBuilder {
+            out: Primitives::default(),
+            dropped: Vec::new(),
+            candidates: Vec::new(),
+            objects: 0,
+        }
+    }
+
+    /// Objects added so far.
+    pub fn objects(&self) -> usize {
+        self.objects
+    }
+
+    /// Adds the next object of the model, shaded with `surfaces[obj.surface]`.
+    pub fn add(&mut self, surfaces: &[Surface], obj: &Object) {
+        let index = self.objects;
+        self.objects += 1;
+        let motion = if obj.motion.is_finite() {
+            obj.motion
+        } else {
+            Vec3::ZERO
+        };
+        let mk = |kind| Primitive {
+            kind,
+            object: index as u32,
+            surface: obj.surface,
+            motion,
+        };
+        let reason = match &obj.shape {
+            Shape::Sphere { center, radius } => {
+                if center.is_finite() && radius.is_finite() && *radius > 0.0 {
+                    return self.add_primitive(mk(PrimitiveKind::Sphere {
+                        centre: *center,
+                        radius: *radius,
+                    }));
+                }
+                "sphere with a non-positive or non-finite radius"
+            }
+            Shape::Ellipsoid { to_world } => {
+                let det = to_world.matrix3.determinant();
+                if det.is_finite() && det.abs() > 1e-300 && to_world.translation.is_finite() {
+                    return self.add_primitive(mk(PrimitiveKind::Ellipsoid {
+                        to_local: to_world.inverse(),
+                    }));
+                }
+                "ellipsoid with a singular transformation"
+            }
+            Shape::Quadric(q) => {
+                if q.q.iter().all(|c| c.is_finite()) && q.q.iter().any(|c| *c != 0.0) {
+                    return self.add_primitive(mk(PrimitiveKind::Quadric(q.clone())));
+                }
+                "quadric with no or non-finite coefficients"
+            }
+            Shape::Polygon { vertices } => match triangulate(vertices) {
+                Ok(t) if motion == Vec3::ZERO => {
+                    if self.out.mesh.triangles.len() + t.triangles.len() > MAX_PER_KIND {
+                        "polygon beyond the most triangles a scene may have (2^30)"
+                    } else {
+                        let first = self.out.slots.len() as u32;
+                        let range =
+                            self.out
+                                .mesh
+                                .add_polygon(&t.triangles, t.normal, first, obj.surface);
+                        self.out
+                            .slots
+                            .extend(range.clone().map(|k| TRIANGLE | k as u32));
+                        let transparent = surfaces
+                            .get(obj.surface as usize)
+                            .is_some_and(|s| s.kst() > 0.0);
+                        if transparent {
+                            self.candidates.push(Candidate {
+                                polygon: Polygon::new(index, vertices),
+                                triangles: range,
+                            });
+                        }
+                        return;
+                    }
+                }
+                Ok(t) => {
+                    for v in t.triangles {
+                        self.add_primitive(mk(PrimitiveKind::Triangle {
+                            v,
+                            normal: t.normal,
+                            solid: false,
+                        }));
+                    }
+                    return;
+                }
+                Err(Degenerate::TooFewVertices) => "polygon with fewer than 3 distinct vertices",
+                Err(Degenerate::ZeroArea) => "polygon with zero area",
+            },
+        };
+        self.dropped.push(Dropped {
+            object: index,
+            reason: reason.to_string(),
+        });
+    }
+
+    /// Adds one primitive as the next one (static triangles go to the mesh, as open or
+    /// solid faces by their `solid`; static spheres to their table).
+    pub fn add_primitive(&mut self, p: Primitive) {
+        let prim = self.out.slots.len() as u32;
+        let slot = match p.kind {
+            PrimitiveKind::Triangle { v, normal, solid }
+                if p.motion == Vec3::ZERO && self.out.mesh.triangles.len() < MAX_PER_KIND =>
+            {
+                let range = self.out.mesh.add_polygon(&[v], normal, prim, p.surface);
+                if solid {
+                    self.out.mesh.make_solid(range.clone(), false);
+                }
+                TRIANGLE | range.start as u32
+            }
+            PrimitiveKind::Sphere { centre, radius }
+                if p.motion == Vec3::ZERO && self.out.spheres.len() < MAX_PER_KIND =>
+            {
+                self.out.spheres.push(StaticSphere {
+                    centre,
+                    radius,
+                    prim,
+                    surface: p.surface,
+                });
+                SPHERE | (self.out.spheres.len() - 1) as u32
+            }
+            _ if self.out.others.len() < MAX_PER_KIND => {
+                self.out.other_prims.push(prim);
+                self.out.others.push(p);
+                OTHER | (self.out.others.len() - 1) as u32
+            }
+            _ => {
+                self.dropped.push(Dropped {
+                    object: p.object as usize,
+                    reason: "beyond the most primitives a scene may have".into(),
+                });
+                return;
+            }
+        };
+        self.out.slots.push(slot);
+    }
+
+    /// The primitives, and the objects dropped as degenerate.
+    pub fn finish(mut self) -> (Primitives, Vec<Dropped>) {
+        let polygons: Vec<&Polygon> = self.candidates.iter().map(|c| &c.polygon).collect();
+        let faces = closed_faces_of(&polygons);
+        for (c, face) in self.candidates.iter().zip(faces) {
+            match face {
+                Face::Open => {}
+                Face::Outward => self.out.mesh.make_solid(c.triangles.clone(), false),
+                Face::Inward => self.out.mesh.make_solid(c.triangles.clone(), true),
+            }
+        }
+        drop(self.candidates);
+        let mut out = self.out;
+        out.mesh.finish();
+        order_spheres(&mut out.spheres);
+        out.index_slots();
+        out.slots.shrink_to_fit();
+        out.others.shrink_to_fit();
+        out.other_prims.shrink_to_fit();
+        (out, self.dropped)
+    }
+}
+
+/// Puts static spheres in Morton order of their centres (ties by primitive number).
+fn order_spheres(spheres: &mut [StaticSphere]) {
+    let bounds = spheres.iter().fold(Aabb::EMPTY, |b, s| b.grow(s.centre));
+    spheres.sort_by_cached_key(|s| (morton(s.centre, &bounds), s.prim));
+}

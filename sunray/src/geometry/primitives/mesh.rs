@@ -1,0 +1,279 @@
+//! The scene's static triangles as one indexed mesh: each distinct corner stored once, each
+//! triangle three corner indices and its primitive's number, surface and normal in 24 bytes.
+//! A triangle's plane normal is recomputed from its corners when that gives the polygon's
+//! normal to the bit (every triangle that was a polygon of three corners), and kept in a
+//! table of its own otherwise (the triangles of a larger polygon share one entry).
+//!
+//! Triangles and corners are kept in a spatial order (Morton order of the triangles'
+//! centres, corners by first use), so the triangles a ray meets in a BVH leaf or a voxel lie
+//! near each other in memory.
+
+use super::super::polygon::plane_normal;
+use super::super::{Aabb, Vec3};
+use std::collections::HashMap;
+
+/// `MeshTriangle::normal`: the triangle is a face of a closed transparent mesh.
+const SOLID: u32 = 1 << 30;
+/// `MeshTriangle::normal`: the normal is the negated stored or recomputed one.
+const FLIP: u32 = 1 << 31;
+/// `MeshTriangle::normal`'s low bits when the normal is recomputed from the corners.
+const RECOMPUTED: u32 = SOLID - 1;
+
+/// One triangle of the mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshTriangle {
+    /// Its corners: indices into [`Mesh::vertices`], in the polygon's winding.
+    pub v: [u32; 3],
+    /// Its number among the scene's primitives (ties between equal hits go to the lower).
+    pub prim: u32,
+    /// Its surface: an index into the world's surfaces.
+    pub surface: u32,
+    /// Low 30 bits: an index into [`Mesh::normals`], or all ones when the normal is
+    /// recomputed from the corners; bit 30: a face of a closed transparent mesh; bit 31:
+    /// the normal is negated (a face of a mesh wound inside out).
+    normal: u32,
+}
+
+/// Indexed static triangles (see the module's text).
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Distinct corners.
+    pub vertices: Vec<Vec3>,
+    /// The triangles.
+    pub triangles: Vec<MeshTriangle>,
+    /// Normals that cannot be recomputed from a triangle's corners.
+    normals: Vec<Vec3>,
+    /// Corner positions (their exact bits) to their index, while the mesh is built.
+    ids: HashMap<[u64; 3], u32>,
+}
+
+impl Mesh {
+    /// Adds the triangles of one polygon, with the polygon's unit `normal`, for primitives
+    /// numbered from `first_prim`; the positions of the new triangles in
+    /// [`Mesh::triangles`].
+    pub fn add_polygon(
+        &mut self,
+        triangles: &[[Vec3; 3]],
+        normal: Vec3,
+        first_prim: u32,
+        surface: u32,
+    ) -> std::ops::Range<usize> {
+        let start = self.triangles.len();
+        let mut stored = None;
+        for (k, corners) in triangles.iter().enumerate() {
+            let recomputed = plane_normal(corners);
+            let same =
+                recomputed.to_array().map(f64::to_bits) == normal.to_array().map(f64::to_bits);
+            let n = if same {
+                RECOMPUTED
+            } else {
+                *stored.get_or_insert_with(|| {
+                    self.normals.push(normal);
+                    (self.normals.len() - 1) as u32
+                })
+            };
+            let v = corners.map(|p| self.vertex(p));
+            self.triangles.push(MeshTriangle {
+                v,
+                prim: first_prim + k as u32,
+                surface,
+                normal: n,
+            });
+        }
+        start..self.triangles.len()
+    }
+
+    /// The index of corner `p`, added if new. Corners are the same only when every bit is
+    /// (so -0 and +0 stay apart, and the corners given are the corners intersected).
+    fn vertex(&mut self, p: Vec3) -> u32 {
+        let next = self.vertices.len() as u32;
+        let id = *self
+            .ids
+            .entry(p.to_array().map(f64::to_bits))
+            .or_insert(next);
+        if id == next {
+            self.vertices.push(p);
+        }
+        id
+    }
+
+    /// Marks the triangles at `range` as faces of a closed transparent mesh, their normals
+    /// negated when `flip`.
+    pub fn make_solid(&mut self, range: std::ops::Range<usize>, flip: bool) {
+        for t in &mut self.triangles[range] {
+            t.normal |= SOLID | if flip { FLIP } else { 0 };
+        }
+    }
+
+    /// The corners of `t`.
+    #[inline(always)]
+    pub fn corners(&self, t: &MeshTriangle) -> [Vec3; 3] {
+        t.v.map(|i| self.vertices[i as usize])
+    }
+
+    /// The unit plane normal of `t`, exactly the polygon's (negated for an inward face).
+    #[inline]
+    pub fn normal(&self, t: &MeshTriangle) -> Vec3 {
+        let index = t.normal & RECOMPUTED;
+        let n = if index == RECOMPUTED {
+            plane_normal(&self.corners(t))
+        } else {
+            self.normals[index as usize]
+        };
+        if t.normal & FLIP != 0 {
+            -n
+        } else {
+            n
+        }
+    }
+
+    /// Whether `t` is a face of a closed transparent mesh.
+    #[inline]
+    pub fn is_solid(t: &MeshTriangle) -> bool {
+        t.normal & SOLID != 0
+    }
+
+    /// Ends the building: forgets the corner index, and puts the triangles in Morton order
+    /// of their centres (ties by primitive number) and the corners in order of first use.
+    pub fn finish(&mut self) {
+        self.ids = HashMap::new();
+        let centre = |t: &MeshTriangle| {
+            let [a, b, c] = self.corners(t);
+            (a + b + c) / 3.0
+        };
+        let bounds = self
+            .triangles
+            .iter()
+            .fold(Aabb::EMPTY, |b, t| b.grow(centre(t)));
+        let mut keys: Vec<(u64, u32)> = self
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (morton(centre(t), &bounds), i as u32))
+            .collect();
+        // The triangles were added in primitive order, so ties go by primitive number.
+        keys.sort_unstable();
+        let triangles: Vec<MeshTriangle> = keys
+            .iter()
+            .map(|&(_, i)| self.triangles[i as usize])
+            .collect();
+        drop(keys);
+        self.triangles = triangles;
+        self.renumber_vertices();
+        self.normals.shrink_to_fit();
+    }
+
+    /// Moves triangle `k` to `new[k]` (a permutation), and renumbers the corners by first
+    /// use in the new order.
+    pub fn permute(&mut self, new: &[u32]) {
+        super::permute(&mut self.triangles, new);
+        self.renumber_vertices();
+    }
+
+    /// Puts the corners in order of first use by the triangles.
+    fn renumber_vertices(&mut self) {
+        let mut renumbered = vec![u32::MAX; self.vertices.len()];
+        let mut vertices = Vec::with_capacity(self.vertices.len());
+        for t in &mut self.triangles {
+            for v in &mut t.v {
+                let new = &mut renumbered[*v as usize];
+                if *new == u32::MAX {
+                    *new = vertices.len() as u32;
+                    vertices.push(self.vertices[*v as usize]);
+                }
+                *v = *new;
+            }
+        }
+        self.vertices = vertices;
+    }
+
+    /// Bytes held (for the memory figures).
+    pub fn bytes(&self) -> usize {
+        self.vertices.capacity() * std::mem::size_of::<Vec3>()
+            + self.triangles.capacity() * std::mem::size_of::<MeshTriangle>()
+            + self.normals.capacity() * std::mem::size_of::<Vec3>()
+    }
+}
+
+/// The Morton code (21 bits an axis, interleaved) of `p` within `bounds`.
+pub fn morton(p: Vec3, bounds: &Aabb) -> u64 {
+    let extent = bounds.extent();
+    let mut key = 0u64;
+    for axis in 0..3 {
+        let f = if extent[axis] > 0.0 {
+            (p[axis] - bounds.min[axis]) / extent[axis]
+        } else {
+            0.0
+        };
+        let cell = (f * ((1u64 << 21) - 1) as f64).clamp(0.0, ((1u64 << 21) - 1) as f64) as u64;
+        key |= spread(cell) << axis;
+    }
+    key
+}
+
+/// The 21 low bits of `x` moved to every third bit.
+fn spread(x: u64) -> u64 {
+    let mut x = x & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f00000000ffff;
+    x = (x | x << 16) & 0x1f0000ff0000ff;
+    x = (x | x << 8) & 0x100f00f00f00f00f;
+    x = (x | x << 4) & 0x10c30c30c30c30c3;
+    x = (x | x << 2) & 0x1249249249249249;
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn corners_are_shared_and_normals_exact() {
+        let mut m = Mesh::default();
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0));
+        // One triangle polygon: its normal is recomputed; a quad: one stored normal.
+        let n1 = plane_normal(&[a, b, c]);
+        m.add_polygon(&[[a, b, c]], n1, 0, 0);
+        let quad = plane_normal(&[a, b, d, c]);
+        m.add_polygon(&[[a, b, d], [a, d, c]], quad, 1, 0);
+        m.finish();
+        assert_eq!(m.vertices.len(), 4, "corners are stored once");
+        assert_eq!(m.triangles.len(), 3);
+        for t in &m.triangles {
+            let want = if t.prim == 0 { n1 } else { quad };
+            assert_eq!(
+                m.normal(t).to_array().map(f64::to_bits),
+                want.to_array().map(f64::to_bits)
+            );
+        }
+        assert!(m.normals.len() <= 1);
+        // -0 and +0 are different corners.
+        let mut z = Mesh::default();
+        let neg = Vec3::new(-0.0, 0.0, 0.0);
+        z.add_polygon(&[[Vec3::ZERO, Vec3::X, Vec3::Y]], n1, 0, 0);
+        z.add_polygon(&[[neg, Vec3::X, Vec3::Y]], n1, 1, 0);
+        z.finish();
+        assert_eq!(z.vertices.len(), 4);
+    }
+
+    #[test]
+    fn solid_faces_keep_their_flag_and_flip_their_normal() {
+        let mut m = Mesh::default();
+        let n = plane_normal(&[Vec3::ZERO, Vec3::X, Vec3::Y]);
+        let r = m.add_polygon(&[[Vec3::ZERO, Vec3::X, Vec3::Y]], n, 0, 3);
+        m.make_solid(r, true);
+        m.finish();
+        let t = m.triangles[0];
+        assert!(Mesh::is_solid(&t));
+        assert_eq!(m.normal(&t), -n);
+        assert_eq!(t.surface, 3);
+    }
+
+    #[test]
+    fn morton_order_keeps_neighbours_together() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        assert_eq!(morton(Vec3::ZERO, &b), 0);
+        assert_eq!(morton(Vec3::ONE, &b), (1u64 << 63) - 1);
+        assert!(morton(Vec3::splat(0.1), &b) < morton(Vec3::splat(0.9), &b));
+        assert_eq!(spread(0b11), 0b1001);
+    }
+}

@@ -1,0 +1,311 @@
+//! The scene's primitives, stored compactly: what the accelerators index and the shader
+//! asks about, by primitive number (the model's objects in order, a polygon's triangles one
+//! after another; ties between equal hits go to the lower number).
+//!
+//! Most primitives of a big scene are static triangles and spheres; they are kept in compact
+//! tables ([`mesh`]: indexed triangles of 24 bytes and shared corners; static spheres of 40
+//! bytes), in a spatial order. Everything else (ellipsoids, quadrics, moving shapes) is a
+//! [`Primitive`]. A primitive's *slot* says which table holds it and where; the BVH's
+//! leaves list slots, so a leaf's triangles are read from the mesh directly. Every query
+//! computes `t` with the same function and the same numbers as [`Primitive`] would, so the
+//! images are those of the plain list, to the bit.
+//!
+//! # Layout
+//! - [`mesh`]: the indexed triangle mesh.
+//! - [`builder`]: objects to primitives (triangulation, closed transparent meshes, dropped
+//!   objects), one object at a time, so a model can be decoded as a stream.
+
+pub mod builder;
+pub mod mesh;
+
+use super::sphere::intersect_sphere;
+use super::triangle::intersect_triangle;
+use super::{Aabb, Primitive, PrimitiveKind, RayPre, Real, Vec3};
+pub use builder::PrimitivesBuilder;
+use mesh::Mesh;
+
+/// Slot kinds, in a slot's top two bits.
+const TRIANGLE: u32 = 0;
+const SPHERE: u32 = 1 << 30;
+const OTHER: u32 = 2 << 30;
+const KIND: u32 = 3 << 30;
+/// The most primitives of one kind (a slot's low 30 bits).
+pub const MAX_PER_KIND: usize = (1 << 30) - 1;
+
+/// A static sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticSphere {
+    /// Centre in world units.
+    pub centre: Vec3,
+    /// Radius in world units, > 0.
+    pub radius: Real,
+    /// Its primitive number.
+    pub prim: u32,
+    /// Its surface.
+    pub surface: u32,
+}
+
+/// Where a primitive is kept: its table (top two bits) and its index there.
+pub type Slot = u32;
+
+/// The scene's primitives (see the module's text).
+#[derive(Clone, Debug, Default)]
+pub struct Primitives {
+    /// Primitive number to slot.
+    slots: Vec<Slot>,
+    mesh: Mesh,
+    spheres: Vec<StaticSphere>,
+    /// Primitive numbers of `others`.
+    other_prims: Vec<u32>,
+    others: Vec<Primitive>,
+    /// Whether an accelerator's order was adopted ([`Primitives::adopt_order`]).
+    ordered: bool,
+}
+
+/// Moves `items[k]` to `new[k]`.
+fn permute<T: Copy>(items: &mut Vec<T>, new: &[u32]) {
+    let Some(&first) = items.first() else {
+        return;
+    };
+    let mut out = vec![first; items.len()];
+    for (item, &to) in items.iter().zip(new) {
+        out[to as usize] = *item;
+    }
+    *items = out;
+}
+
+impl Primitives {
+    /// The primitives of a plain list, in its order (tests and benchmarks build scenes so).
+    /// Triangles count as open faces or solid ones as their `solid` says.
+    pub fn from_list(list: Vec<Primitive>) -> Primitives {
+        let mut b = PrimitivesBuilder::new();
+        for p in list {
+            b.add_primitive(p);
+        }
+        b.finish().0
+    }
+
+    /// How many primitives there are.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// The slot of primitive `i`.
+    #[inline(always)]
+    pub fn slot(&self, i: u32) -> Slot {
+        self.slots[i as usize]
+    }
+
+    /// The primitive number of `slot`.
+    #[inline(always)]
+    pub fn prim_of(&self, slot: Slot) -> u32 {
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => self.mesh.triangles[k].prim,
+            SPHERE => self.spheres[k].prim,
+            _ => self.other_prims[k],
+        }
+    }
+
+    /// Primitive `i`'s nearest `t` in `(t_min, t_max)`.
+    #[inline(always)]
+    pub fn intersect(&self, i: u32, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
+        self.intersect_slot(self.slot(i), r, t_min, t_max)
+    }
+
+    /// The nearest `t` in `(t_min, t_max)` of the primitive in `slot`.
+    #[inline(always)]
+    pub fn intersect_slot(&self, slot: Slot, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => {
+                let v = self.mesh.corners(&self.mesh.triangles[k]);
+                intersect_triangle(r, &v, t_min, t_max)
+            }
+            SPHERE => {
+                let s = &self.spheres[k];
+                intersect_sphere(&r.ray, s.centre, s.radius, t_min, t_max)
+            }
+            _ => self.others[k].intersect(r, t_min, t_max),
+        }
+    }
+
+    /// Puts the static triangles and spheres in the order their primitives first appear in
+    /// `order` (an accelerator's leaf order; those not in it go last), and the mesh's corners
+    /// in order of first use, so that a leaf's items lie side by side in memory. Done once:
+    /// later calls change nothing and return false, so the slots an accelerator keeps stay
+    /// valid.
+    pub fn adopt_order(&mut self, order: &[u32]) -> bool {
+        if self.ordered {
+            return false;
+        }
+        self.ordered = true;
+        let rank = |slots: &[Slot], kind: u32, n: usize| {
+            // New position of each entry of a table: by first appearance in `order`.
+            let mut new = vec![u32::MAX; n];
+            let mut next = 0u32;
+            for &i in order {
+                let slot = slots[i as usize];
+                if slot & KIND == kind && new[(slot & !KIND) as usize] == u32::MAX {
+                    new[(slot & !KIND) as usize] = next;
+                    next += 1;
+                }
+            }
+            for p in new.iter_mut().filter(|p| **p == u32::MAX) {
+                *p = next;
+                next += 1;
+            }
+            new
+        };
+        let new = rank(&self.slots, TRIANGLE, self.mesh.triangles.len());
+        self.mesh.permute(&new);
+        let new = rank(&self.slots, SPHERE, self.spheres.len());
+        permute(&mut self.spheres, &new);
+        self.index_slots();
+        true
+    }
+
+    /// Points every triangle's and sphere's slot at where it is.
+    fn index_slots(&mut self) {
+        for (k, t) in self.mesh.triangles.iter().enumerate() {
+            self.slots[t.prim as usize] = TRIANGLE | k as u32;
+        }
+        for (k, s) in self.spheres.iter().enumerate() {
+            self.slots[s.prim as usize] = SPHERE | k as u32;
+        }
+    }
+
+    /// Primitive `i` as a plain [`Primitive`] (for what is not on the hot path: bounds,
+    /// box overlaps while building an accelerator).
+    pub fn get(&self, i: u32) -> Primitive {
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => {
+                let t = &self.mesh.triangles[k];
+                Primitive {
+                    kind: PrimitiveKind::Triangle {
+                        v: self.mesh.corners(t),
+                        normal: self.mesh.normal(t),
+                        solid: Mesh::is_solid(t),
+                    },
+                    object: 0,
+                    surface: t.surface,
+                    motion: Vec3::ZERO,
+                }
+            }
+            SPHERE => {
+                let s = &self.spheres[k];
+                Primitive {
+                    kind: PrimitiveKind::Sphere {
+                        centre: s.centre,
+                        radius: s.radius,
+                    },
+                    object: 0,
+                    surface: s.surface,
+                    motion: Vec3::ZERO,
+                }
+            }
+            _ => self.others[k].clone(),
+        }
+    }
+
+    /// Primitive `i`'s world-space bounds over the shutter interval, or None if unbounded.
+    pub fn bounds(&self, i: u32) -> Option<Aabb> {
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => {
+                Some(Aabb::from_points(&self.mesh.corners(&self.mesh.triangles[k])).padded())
+            }
+            SPHERE => {
+                let s = &self.spheres[k];
+                let r = Vec3::splat(s.radius);
+                Some(Aabb::new(s.centre - r, s.centre + r).padded())
+            }
+            _ => self.others[k].bounds(),
+        }
+    }
+
+    /// Whether primitive `i` may touch box `b` ([`Primitive::overlaps_box`]).
+    pub fn overlaps_box(&self, i: u32, b: &Aabb) -> bool {
+        self.get(i).overlaps_box(b)
+    }
+
+    /// How many primitives have no bounds (quadrics without a bounding clip).
+    pub fn unbounded_count(&self) -> usize {
+        self.others.iter().filter(|p| p.bounds().is_none()).count()
+    }
+
+    /// The geometric unit normal of primitive `i` at world point `p` reached at shutter time
+    /// `time` ([`Primitive::normal`]).
+    #[inline]
+    pub fn normal(&self, i: u32, p: Vec3, time: Real) -> Vec3 {
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => self.mesh.normal(&self.mesh.triangles[k]),
+            SPHERE => {
+                let s = &self.spheres[k];
+                (p - Vec3::ZERO * time - s.centre) / s.radius
+            }
+            _ => self.others[k].normal(p, time),
+        }
+    }
+
+    /// Whether primitive `i` encloses a volume ([`Primitive::is_closed`]).
+    #[inline]
+    pub fn is_closed(&self, i: u32) -> bool {
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => Mesh::is_solid(&self.mesh.triangles[k]),
+            SPHERE => true,
+            _ => self.others[k].is_closed(),
+        }
+    }
+
+    /// Primitive `i`'s surface (an index into the world's surfaces).
+    #[inline]
+    pub fn surface(&self, i: u32) -> u32 {
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => self.mesh.triangles[k].surface,
+            SPHERE => self.spheres[k].surface,
+            _ => self.others[k].surface,
+        }
+    }
+
+    /// Primitive `i`'s displacement over the shutter interval (zero when static).
+    #[inline]
+    pub fn motion(&self, i: u32) -> Vec3 {
+        let slot = self.slot(i);
+        match slot & KIND {
+            OTHER => self.others[(slot & !KIND) as usize].motion,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// Static triangles in the mesh, and its distinct corners.
+    pub fn mesh_counts(&self) -> (usize, usize) {
+        (self.mesh.triangles.len(), self.mesh.vertices.len())
+    }
+
+    /// Bytes the tables hold.
+    pub fn bytes(&self) -> usize {
+        self.slots.capacity() * 4
+            + self.mesh.bytes()
+            + self.spheres.capacity() * std::mem::size_of::<StaticSphere>()
+            + self.other_prims.capacity() * 4
+            + self.others.capacity() * std::mem::size_of::<Primitive>()
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,227 @@
+//! The compact tables answer every query exactly as the plain [`Primitive`] of the same
+//! primitive does, on scenes with every kind: a triangle mesh, quads, a closed glass box
+//! (solid faces, both windings), spheres, an ellipsoid, a quadric, moving shapes.
+
+use super::*;
+use crate::geometry::Ray;
+use crate::sampler::splitmix64;
+use glam::DAffine3;
+use yari::model::{Object, Shape, Surface, World};
+
+fn rand(s: &mut u64) -> f64 {
+    (splitmix64(s) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+fn bits(v: Vec3) -> [u64; 3] {
+    v.to_array().map(f64::to_bits)
+}
+
+/// A world of every kind of object: surface 0 opaque, surface 1 glass.
+fn mixed_world() -> World {
+    let mut w = crate::bench::spd_world(yari::spd::Database::Tetra, 2).unwrap();
+    w.surfaces = vec![
+        Surface::default(),
+        Surface {
+            kdt: 0.0,
+            refract: 1.5,
+            ..Surface::default()
+        },
+    ];
+    for o in &mut w.objects {
+        o.surface = 0;
+    }
+    let poly = |vertices: Vec<Vec3>, surface: u32, motion: Vec3| Object {
+        shape: Shape::Polygon { vertices },
+        surface,
+        motion,
+    };
+    // A glass box wound outward, one wound inward: their faces are solid.
+    for (lo, outward) in [
+        (Vec3::new(3.0, 0.0, 0.0), true),
+        (Vec3::new(6.0, 0.0, 0.0), false),
+    ] {
+        for f in crate::geometry::solid::tests::box_faces(lo, lo + Vec3::ONE, outward) {
+            w.objects.push(poly(f, 1, Vec3::ZERO));
+        }
+    }
+    // An opaque quad, a concave pentagon, a moving triangle, an open glass sheet.
+    let quad = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.2), Vec3::Y];
+    w.objects.push(poly(quad.clone(), 0, Vec3::ZERO));
+    w.objects.push(poly(
+        vec![
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(1.0, 0.5, 2.0),
+            Vec3::new(2.0, 2.0, 2.0),
+            Vec3::new(0.0, 2.0, 2.0),
+        ],
+        0,
+        Vec3::ZERO,
+    ));
+    w.objects
+        .push(poly(quad[..3].to_vec(), 0, Vec3::new(0.0, 0.5, 0.0)));
+    w.objects.push(poly(quad, 1, Vec3::ZERO));
+    w.objects.push(Object {
+        shape: Shape::Sphere {
+            center: Vec3::new(-2.0, 0.0, 0.0),
+            radius: 0.7,
+        },
+        surface: 1,
+        motion: Vec3::ZERO,
+    });
+    w.objects.push(Object {
+        shape: Shape::Sphere {
+            center: Vec3::new(-2.0, 2.0, 0.0),
+            radius: 0.5,
+        },
+        surface: 0,
+        motion: Vec3::new(0.3, 0.0, 0.0),
+    });
+    w.objects.push(Object {
+        shape: Shape::Ellipsoid {
+            to_world: DAffine3::from_translation(Vec3::new(0.0, -3.0, 0.0))
+                * DAffine3::from_scale(Vec3::new(2.0, 0.5, 1.0)),
+        },
+        surface: 0,
+        motion: Vec3::ZERO,
+    });
+    w
+}
+
+#[test]
+fn every_query_matches_the_plain_primitive() {
+    let w = mixed_world();
+    let scene = crate::scene::Scene::new(w.clone());
+    let prims = &scene.prims;
+    let faces = crate::geometry::solid::closed_faces(&w);
+    assert_eq!(
+        faces
+            .iter()
+            .filter(|f| **f != crate::geometry::solid::Face::Open)
+            .count(),
+        12
+    );
+    let (triangles, corners) = prims.mesh_counts();
+    assert!(
+        corners < triangles,
+        "{corners} corners for {triangles} triangles"
+    );
+    let solid = (0..prims.len() as u32)
+        .filter(|&i| prims.get(i).is_closed())
+        .count();
+    let kinds: Vec<String> = (0..prims.len() as u32)
+        .filter(|&i| prims.get(i).is_closed())
+        .map(|i| {
+            format!("{:?}", prims.get(i).kind)
+                .chars()
+                .take(12)
+                .collect()
+        })
+        .collect();
+    assert_eq!(
+        solid,
+        24 + 1 + 1 + 1,
+        "box triangles, two spheres, the ellipsoid: {kinds:?}"
+    );
+    let mut s = 7u64;
+    let mut hits = 0;
+    for _ in 0..400 {
+        let o = Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) * 16.0 - 8.0;
+        // Towards a point near some primitive, so that most rays hit something.
+        let aim = (rand(&mut s) * prims.len() as f64) as u32 % prims.len() as u32;
+        let target = prims.bounds(aim).unwrap().centre();
+        let d = target + (Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) - 0.5) * 0.2 - o;
+        let mut ray = Ray::new(o, d);
+        ray.time = rand(&mut s);
+        let r = RayPre::new(ray);
+        for i in 0..prims.len() as u32 {
+            let plain = prims.get(i);
+            let t = prims.intersect(i, &r, 0.0, Real::INFINITY);
+            assert_eq!(
+                t.map(f64::to_bits),
+                plain.intersect(&r, 0.0, Real::INFINITY).map(f64::to_bits)
+            );
+            assert_eq!(prims.intersect_slot(prims.slot(i), &r, 0.0, 1e300), t);
+            if let Some(t) = t {
+                hits += 1;
+                let p = ray.at(t);
+                assert_eq!(
+                    bits(prims.normal(i, p, ray.time)),
+                    bits(plain.normal(p, ray.time))
+                );
+            }
+        }
+    }
+    assert!(hits > 200, "{hits}");
+    for i in 0..prims.len() as u32 {
+        let plain = prims.get(i);
+        assert_eq!(prims.prim_of(prims.slot(i)), i);
+        assert_eq!(prims.is_closed(i), plain.is_closed());
+        assert_eq!(prims.surface(i), plain.surface);
+        assert_eq!(prims.motion(i), plain.motion);
+        assert_eq!(prims.bounds(i), plain.bounds());
+    }
+}
+
+#[test]
+fn a_polygons_normal_is_its_own_to_the_bit() {
+    // The triangles of a quad share the quad's Newell normal (stored); a triangle's is
+    // recomputed from its corners; an inward glass face's is negated.
+    let w = mixed_world();
+    let scene = crate::scene::Scene::new(w.clone());
+    let mut prim = 0u32;
+    let faces = crate::geometry::solid::closed_faces(&w);
+    for (k, o) in w.objects.iter().enumerate() {
+        let Shape::Polygon { vertices } = &o.shape else {
+            prim += 1;
+            continue;
+        };
+        let t = crate::geometry::polygon::triangulate(vertices).unwrap();
+        let want = match faces[k] {
+            crate::geometry::solid::Face::Inward => -t.normal,
+            _ => t.normal,
+        };
+        for _ in &t.triangles {
+            let got = scene.prims.normal(prim, Vec3::ZERO, 0.0);
+            assert_eq!(bits(got), bits(want), "object {k}");
+            prim += 1;
+        }
+    }
+    assert_eq!(prim as usize, scene.prims.len());
+}
+
+#[test]
+fn a_model_read_as_a_stream_is_the_same_scene() {
+    let w = mixed_world();
+    let bytes = yari::modelfile::to_bytes(&w).unwrap();
+    let whole = crate::scene::Scene::new(w);
+    let streamed = crate::scene::Scene::read_model(&mut &bytes[..]).unwrap();
+    let mut pieces = crate::scene::SceneStream::new();
+    for p in bytes.chunks(13) {
+        pieces.feed(p).unwrap();
+    }
+    let pieces = pieces.finish().unwrap();
+    for s in [&streamed, &pieces] {
+        assert_eq!(s.objects, whole.objects);
+        assert_eq!(s.prims.len(), whole.prims.len());
+        for i in 0..whole.prims.len() as u32 {
+            assert_eq!(
+                format!("{:?}", s.prims.get(i)),
+                format!("{:?}", whole.prims.get(i))
+            );
+        }
+    }
+    let mut cut = crate::scene::SceneStream::new();
+    cut.feed(&bytes[..bytes.len() - 3]).unwrap();
+    assert!(cut.finish().is_err());
+}
+
+#[test]
+fn the_tables_hold_about_forty_bytes_a_triangle() {
+    let w = crate::bench::spd_world(yari::spd::Database::Tetra, 6).unwrap();
+    let scene = crate::scene::Scene::new(w);
+    let n = scene.prims.len();
+    assert_eq!(n, 4096);
+    let per = scene.prims.bytes() as f64 / n as f64;
+    assert!(per < 48.0, "{per} bytes a triangle");
+}
