@@ -14,7 +14,8 @@ pub struct SpdArgs {
     /// Which database.
     #[arg(value_enum)]
     pub(crate) database: DatabaseName,
-    /// Haines's size factor (default: tetra 6, mount 6, balls 4; mount allows 0 to 7).
+    /// Haines's size factor (default: tetra 6, mount 6, balls 4; allowed: tetra 1 to 12, which
+    /// is 4^size triangles, mount 0 to 7, balls 0 to 6).
     #[arg(short, long)]
     pub size: Option<u32>,
     /// Where to write (`.nff` for NFF, else YARI; default: YARI on stdout).

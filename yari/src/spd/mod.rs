@@ -50,7 +50,7 @@ impl Database {
     /// The sizes accepted: bounded by Haines's hash (mount) and by output size.
     pub fn sizes(self) -> std::ops::RangeInclusive<u32> {
         match self {
-            Database::Tetra => 1..=10,
+            Database::Tetra => 1..=12,
             Database::Mount => 0..=mount::MAX_SIZE,
             Database::Balls => 0..=6,
         }
