@@ -196,11 +196,13 @@ def failover_section(data, out):
                    "(Adopt) and started new ones only for the rest.\n")
 
 
-def bigscene_section(data, out):
-    out.append("## Production-size scenes (chunked, cached, compact)\n")
+def bigscene_section(data, out, name="bigscene"):
+    if name == "bigscene":
+        out.append("## Production-size scenes (chunked, cached, compact)\n")
+    flags = data["settings"].get("flags", "--resolution " + data["settings"]["resolution"])
     out.append(f"tetra at {', '.join(str(4 ** s) for s in data['settings']['sizes'])} "
-               f"triangles on the six workstations, {data['settings']['resolution']}, "
-               "each submitted twice from ws1 (`deploy/bench/run.sh bigscene`). "
+               f"triangles on the six workstations, `{flags}`, "
+               f"each submitted twice from ws1 (`deploy/bench/run.sh {name}`). "
                "First line: from the start of `sunray submit` to the first finished line; "
                "sent: what the submitting host's remd sent of the model.\n")
     out.append("Hosts that rendered: those whose worker had the scene and its BVH ready before "
@@ -245,6 +247,8 @@ def main():
         failover_section(data["failover"], out)
     if "bigscene" in data:
         bigscene_section(data["bigscene"], out)
+    if "bigscene-long" in data:
+        bigscene_section(data["bigscene-long"], out, "bigscene-long")
     with open(os.path.join(RESULTS, "report.md"), "w") as f:
         f.write("\n".join(out) + "\n")
     shutil.copy(os.path.join(WORK, "bench.json"), os.path.join(RESULTS, "bench.json"))
