@@ -67,13 +67,10 @@ pub fn build_or_load(
 impl Accel {
     /// The accelerator made of a BVH of `prims`.
     fn of_bvh(prims: &Primitives, bvh: Bvh) -> Accel {
-        let unbounded = (0..prims.len() as u32)
-            .filter(|&i| prims.bounds(i).is_none())
-            .collect();
         Accel {
             kind: AccelKind::Bvh,
             structure: Structure::Bvh(bvh),
-            unbounded,
+            unbounded: prims.unbounded(),
         }
     }
 }

@@ -139,8 +139,7 @@ impl Accel {
     /// Builds the chosen structure over the bounded primitives; the unbounded ones are kept in
     /// a list every query tests.
     pub fn build(prims: &mut Primitives, opts: &AccelOptions) -> Accel {
-        let n = prims.len() as u32;
-        let unbounded: Vec<u32> = (0..n).filter(|&i| prims.bounds(i).is_none()).collect();
+        let unbounded = prims.unbounded();
         let kind = opts.kind.resolve(prims.len() - unbounded.len());
         let structure = match kind {
             AccelKind::Octree => {

@@ -95,14 +95,8 @@ impl Primitive {
             return self.bounds().is_none_or(|pb| pb.overlaps(&b));
         }
         match &self.kind {
-            PrimitiveKind::Triangle { v, .. } => {
-                let tb = Aabb::from_points(v);
-                let inside = tb.min.cmpge(b.min).all() && tb.max.cmple(b.max).all();
-                inside || (tb.overlaps(&b) && super::overlap::triangle_box(v, &b))
-            }
-            PrimitiveKind::Sphere { centre, radius } => {
-                super::overlap::sphere_box(*centre, *radius * (1.0 + 1e-9), &b)
-            }
+            PrimitiveKind::Triangle { v, .. } => triangle_overlaps(v, &b),
+            PrimitiveKind::Sphere { centre, radius } => sphere_overlaps(*centre, *radius, &b),
             _ => self.bounds().is_none_or(|pb| pb.overlaps(&b)),
         }
     }
@@ -153,6 +147,19 @@ impl Primitive {
                 | PrimitiveKind::Triangle { solid: true, .. }
         )
     }
+}
+
+/// Whether static triangle `v` touches box `b` (already padded): exactly, by the separating
+/// axis test, unless it lies inside.
+pub fn triangle_overlaps(v: &[Vec3; 3], b: &Aabb) -> bool {
+    let tb = Aabb::from_points(v);
+    let inside = tb.min.cmpge(b.min).all() && tb.max.cmple(b.max).all();
+    inside || (tb.overlaps(b) && super::overlap::triangle_box(v, b))
+}
+
+/// Whether a static sphere touches box `b` (already padded), by its closest point.
+pub fn sphere_overlaps(centre: Vec3, radius: Real, b: &Aabb) -> bool {
+    super::overlap::sphere_box(centre, radius * (1.0 + 1e-9), b)
 }
 
 #[cfg(test)]

@@ -104,7 +104,9 @@ impl Extend<u8> for ByteCount {
 /// in memory, not the two (and a half, while a growing buffer moves) of the plain way.
 pub fn to_bytes(world: &World) -> Result<Vec<u8>, ModelFileError> {
     let corrupt = |e: postcard::Error| ModelFileError::Corrupt(e.to_string());
-    let size = postcard::to_extend(world, ByteCount::default()).map_err(corrupt)?.0;
+    let size = postcard::to_extend(world, ByteCount::default())
+        .map_err(corrupt)?
+        .0;
     let mut head = Vec::with_capacity(HEADER_LEN + size);
     head.extend_from_slice(MAGIC);
     head.extend_from_slice(&VERSION.to_le_bytes());

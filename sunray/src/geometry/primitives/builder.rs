@@ -8,8 +8,7 @@
 use super::super::polygon::{triangulate, Degenerate};
 use super::super::primitive::Dropped;
 use super::super::solid::{closed_faces_of, Face, Polygon};
-use super::super::{Aabb, Primitive, PrimitiveKind, Vec3};
-use super::mesh::morton;
+use super::super::{Primitive, PrimitiveKind, Vec3};
 use super::{Primitives, StaticSphere, MAX_PER_KIND, OTHER, SPHERE, TRIANGLE};
 use yari::model::{Object, Shape, Surface};
 
@@ -189,17 +188,11 @@ impl PrimitivesBuilder {
         drop(self.candidates);
         let mut out = self.out;
         out.mesh.finish();
-        order_spheres(&mut out.spheres);
         out.index_slots();
         out.slots.shrink_to_fit();
+        out.spheres.shrink_to_fit();
         out.others.shrink_to_fit();
         out.other_prims.shrink_to_fit();
         (out, self.dropped)
     }
-}
-
-/// Puts static spheres in Morton order of their centres (ties by primitive number).
-fn order_spheres(spheres: &mut [StaticSphere]) {
-    let bounds = spheres.iter().fold(Aabb::EMPTY, |b, s| b.grow(s.centre));
-    spheres.sort_by_cached_key(|s| (morton(s.centre, &bounds), s.prim));
 }

@@ -4,12 +4,12 @@
 //! normal to the bit (every triangle that was a polygon of three corners), and kept in a
 //! table of its own otherwise (the triangles of a larger polygon share one entry).
 //!
-//! Triangles and corners are kept in a spatial order (Morton order of the triangles'
-//! centres, corners by first use), so the triangles a ray meets in a BVH leaf or a voxel lie
-//! near each other in memory.
+//! Corners are stored in order of first use. The triangles stay in primitive order until an
+//! accelerator's order is adopted ([`super::Primitives::adopt_order`]: the BVH's leaves),
+//! so that the triangles a ray meets in a leaf lie side by side in memory.
 
 use super::super::polygon::plane_normal;
-use super::super::{Aabb, Vec3};
+use super::super::Vec3;
 use std::collections::HashMap;
 
 /// `MeshTriangle::normal`: the triangle is a face of a closed transparent mesh.
@@ -133,33 +133,12 @@ impl Mesh {
         t.normal & SOLID != 0
     }
 
-    /// Ends the building: forgets the corner index, and puts the triangles in Morton order
-    /// of their centres (ties by primitive number) and the corners in order of first use.
+    /// Ends the building: forgets the corner index. (Corners were added in order of first
+    /// use, so nothing needs renumbering until the triangles are reordered.)
     pub fn finish(&mut self) {
         self.ids = HashMap::new();
-        let centre = |t: &MeshTriangle| {
-            let [a, b, c] = self.corners(t);
-            (a + b + c) / 3.0
-        };
-        let bounds = self
-            .triangles
-            .iter()
-            .fold(Aabb::EMPTY, |b, t| b.grow(centre(t)));
-        let mut keys: Vec<(u64, u32)> = self
-            .triangles
-            .iter()
-            .enumerate()
-            .map(|(i, t)| (morton(centre(t), &bounds), i as u32))
-            .collect();
-        // The triangles were added in primitive order, so ties go by primitive number.
-        keys.sort_unstable();
-        let triangles: Vec<MeshTriangle> = keys
-            .iter()
-            .map(|&(_, i)| self.triangles[i as usize])
-            .collect();
-        drop(keys);
-        self.triangles = triangles;
-        self.renumber_vertices();
+        self.triangles.shrink_to_fit();
+        self.vertices.shrink_to_fit();
         self.normals.shrink_to_fit();
     }
 
@@ -193,33 +172,6 @@ impl Mesh {
             + self.triangles.capacity() * std::mem::size_of::<MeshTriangle>()
             + self.normals.capacity() * std::mem::size_of::<Vec3>()
     }
-}
-
-/// The Morton code (21 bits an axis, interleaved) of `p` within `bounds`.
-pub fn morton(p: Vec3, bounds: &Aabb) -> u64 {
-    let extent = bounds.extent();
-    let mut key = 0u64;
-    for axis in 0..3 {
-        let f = if extent[axis] > 0.0 {
-            (p[axis] - bounds.min[axis]) / extent[axis]
-        } else {
-            0.0
-        };
-        let cell = (f * ((1u64 << 21) - 1) as f64).clamp(0.0, ((1u64 << 21) - 1) as f64) as u64;
-        key |= spread(cell) << axis;
-    }
-    key
-}
-
-/// The 21 low bits of `x` moved to every third bit.
-fn spread(x: u64) -> u64 {
-    let mut x = x & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f00000000ffff;
-    x = (x | x << 16) & 0x1f0000ff0000ff;
-    x = (x | x << 8) & 0x100f00f00f00f00f;
-    x = (x | x << 4) & 0x10c30c30c30c30c3;
-    x = (x | x << 2) & 0x1249249249249249;
-    x
 }
 
 #[cfg(test)]
@@ -266,14 +218,5 @@ mod tests {
         assert!(Mesh::is_solid(&t));
         assert_eq!(m.normal(&t), -n);
         assert_eq!(t.surface, 3);
-    }
-
-    #[test]
-    fn morton_order_keeps_neighbours_together() {
-        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
-        assert_eq!(morton(Vec3::ZERO, &b), 0);
-        assert_eq!(morton(Vec3::ONE, &b), (1u64 << 63) - 1);
-        assert!(morton(Vec3::splat(0.1), &b) < morton(Vec3::splat(0.9), &b));
-        assert_eq!(spread(0b11), 0b1001);
     }
 }

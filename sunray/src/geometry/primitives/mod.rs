@@ -4,7 +4,7 @@
 //!
 //! Most primitives of a big scene are static triangles and spheres; they are kept in compact
 //! tables ([`mesh`]: indexed triangles of 24 bytes and shared corners; static spheres of 40
-//! bytes), in a spatial order. Everything else (ellipsoids, quadrics, moving shapes) is a
+//! bytes), in the order of the BVH's leaves once one is built. Everything else (ellipsoids, quadrics, moving shapes) is a
 //! [`Primitive`]. A primitive's *slot* says which table holds it and where; the BVH's
 //! leaves list slots, so a leaf's triangles are read from the mesh directly. Every query
 //! computes `t` with the same function and the same numbers as [`Primitive`] would, so the
@@ -232,12 +232,36 @@ impl Primitives {
         }
     }
 
-    /// Whether primitive `i` may touch box `b` ([`Primitive::overlaps_box`]).
+    /// Whether primitive `i` may touch box `b` ([`Primitive::overlaps_box`], without
+    /// making the plain primitive).
     pub fn overlaps_box(&self, i: u32, b: &Aabb) -> bool {
-        self.get(i).overlaps_box(b)
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => {
+                let v = self.mesh.corners(&self.mesh.triangles[k]);
+                super::primitive::triangle_overlaps(&v, &b.padded())
+            }
+            SPHERE => {
+                let s = &self.spheres[k];
+                super::primitive::sphere_overlaps(s.centre, s.radius, &b.padded())
+            }
+            _ => self.others[k].overlaps_box(b),
+        }
     }
 
-    /// How many primitives have no bounds (quadrics without a bounding clip).
+    /// The primitives with no bounds (quadrics without a bounding clip), in order. Only the
+    /// plain primitives can be unbounded, so the mesh and the sphere table are not looked at.
+    pub fn unbounded(&self) -> Vec<u32> {
+        self.others
+            .iter()
+            .zip(&self.other_prims)
+            .filter(|(p, _)| p.bounds().is_none())
+            .map(|(_, &i)| i)
+            .collect()
+    }
+
+    /// How many primitives have no bounds.
     pub fn unbounded_count(&self) -> usize {
         self.others.iter().filter(|p| p.bounds().is_none()).count()
     }

@@ -160,6 +160,17 @@ fn every_query_matches_the_plain_primitive() {
         assert_eq!(prims.surface(i), plain.surface);
         assert_eq!(prims.motion(i), plain.motion);
         assert_eq!(prims.bounds(i), plain.bounds());
+        for k in 0..8 {
+            let c = plain.bounds().unwrap().centre();
+            let at = c + Vec3::new(rand(&mut s), rand(&mut s), rand(&mut s)) - 0.5;
+            let half = Vec3::splat(0.05 + 0.1 * f64::from(k));
+            let b = crate::geometry::Aabb::new(at - half, at + half);
+            assert_eq!(
+                prims.overlaps_box(i, &b),
+                plain.overlaps_box(&b),
+                "{i} {b:?}"
+            );
+        }
     }
 }
 
