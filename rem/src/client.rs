@@ -111,6 +111,8 @@ pub struct SpawnRequest {
     pub owner: Option<ProcId>,
     /// Place every process on this host only; `None` = the least-loaded hosts.
     pub host: Option<String>,
+    /// Hosts left out of the placement (where the caller's other processes run).
+    pub avoid_hosts: Vec<String>,
 }
 
 impl SpawnRequest {
@@ -130,6 +132,7 @@ impl SpawnRequest {
                 .map(|o| o.to_string())
                 .unwrap_or_default(),
             host: self.host.clone().unwrap_or_default(),
+            avoid_hosts: self.avoid_hosts.clone(),
         }
     }
 }
@@ -146,6 +149,7 @@ impl Default for SpawnRequest {
             job: None,
             owner: None,
             host: None,
+            avoid_hosts: Vec::new(),
         }
     }
 }
@@ -307,6 +311,24 @@ impl RemClient {
             })
             .await?;
         Ok(())
+    }
+
+    /// From now on the events of running process `id` (Exited, Lost) go to `owner`, a relay
+    /// process attached through this daemon by the same user. Answers the process as its
+    /// host lists it; `NotFound` once it has exited.
+    pub async fn adopt(&self, id: &ProcId, owner: &ProcId) -> Result<proto::ProcessInfo> {
+        let reply = self
+            .rpc
+            .clone()
+            .adopt_process(proto::AdoptProcessRequest {
+                proc_id: id.to_string(),
+                owner: owner.to_string(),
+            })
+            .await?
+            .into_inner();
+        reply
+            .process
+            .ok_or_else(|| Error::NotFound(format!("process {id}")))
     }
 
     /// The kept stdout and stderr of a process.

@@ -1,6 +1,6 @@
 //! The daemon's operations, in library terms (typed errors): what the gRPC services call.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -21,11 +21,12 @@ use crate::placement::{self, Candidate};
 use crate::policy::SpawnPolicy;
 use crate::process::{ProcessTable, StartSpec};
 use crate::proto::{
-    job_event, Checkpoint, FetchReplicaRequest, JobEvent, JobRecord, KillLocalRequest,
-    ListJobsLocalRequest, LogsLocalRequest, LogsReply, Placement, ProcessInfo, PsRequest,
-    SpawnReply, SpawnRequest, StartLocalRequest,
+    job_event, AdoptLocalRequest, Checkpoint, FetchReplicaRequest, JobEvent, JobRecord,
+    KillLocalRequest, ListJobsLocalRequest, LogsLocalRequest, LogsReply, Placement, ProcessInfo,
+    PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
 };
 use crate::relay::Router;
+use crate::wire::MAX_AVOID_HOSTS;
 
 /// The job epoch a checkpoint write carries (0: none), and the job record it belongs to
 /// (empty: the checkpoint's own key).
@@ -141,12 +142,20 @@ impl Daemon {
         } else {
             return Err(Error::Invalid(format!("bad job id {}", shown(&req.job))));
         };
+        if req.avoid_hosts.len() > MAX_AVOID_HOSTS {
+            return Err(Error::Invalid(format!(
+                "{} hosts to avoid; at most {MAX_AVOID_HOSTS}",
+                req.avoid_hosts.len()
+            )));
+        }
+        let avoid: HashSet<&str> = req.avoid_hosts.iter().map(String::as_str).collect();
         let candidates: Vec<Candidate> = self
             .membership
             .hosts()
             .into_iter()
             .filter(|h| h.alive && h.accepting)
             .filter(|h| req.host.is_empty() || h.name == req.host)
+            .filter(|h| !avoid.contains(h.name.as_str()))
             .map(|h| {
                 let load = h.load.unwrap_or_default();
                 Candidate {
@@ -315,6 +324,48 @@ impl Daemon {
                     .map(|_| ())
             }
         }
+    }
+
+    /// Sends the events of running process `id` to `owner` (attached here by `who`, who
+    /// must be the process's user) from now on: its host's table changes owner, and this
+    /// daemon reports it `LOST` to `owner` if its host is lost.
+    pub async fn adopt(&self, who: &Identity, id: ProcId, owner: &str) -> Result<ProcessInfo> {
+        self.check_owner(who, owner)?;
+        let info = match self.peer_for(&id)? {
+            None => {
+                self.processes
+                    .adopt(id, owner.to_string(), who.clone())
+                    .await?
+            }
+            Some(addr) => {
+                let req = AdoptLocalRequest {
+                    proc_id: id.to_string(),
+                    owner: owner.to_string(),
+                    acting: Some(who.acting()),
+                };
+                self.peers
+                    .call(
+                        id.host(),
+                        &addr,
+                        method::ADOPT,
+                        req,
+                        |mut c, r| async move { c.adopt_local(r).await },
+                    )
+                    .await?
+                    .process
+                    .ok_or_else(|| Error::Unreachable {
+                        host: id.host().to_string(),
+                        reason: "it answered no process".into(),
+                    })?
+            }
+        };
+        let placed = Placement {
+            proc_id: info.proc_id.clone(),
+            host: info.host.clone(),
+            pid: info.pid,
+        };
+        self.jobs.record(&info.job, owner, &[placed]).await;
+        Ok(info)
     }
 
     /// The kept output of process `id` from the offsets `from` (stdout, stderr) on, for

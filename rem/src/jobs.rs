@@ -14,11 +14,12 @@ use crate::relay::Router;
 
 struct Proc {
     host: String,
+    /// Who receives its events (a successor may adopt it).
+    owner: String,
     done: bool,
 }
 
 struct Job {
-    owner: String,
     procs: HashMap<String, Proc>,
 }
 
@@ -40,7 +41,7 @@ impl Jobs {
         Jobs { tx }
     }
 
-    /// Records processes started for `job` (owned by `owner`).
+    /// Records processes started for `job` (owned by `owner`), or adopted by `owner`.
     pub async fn record(&self, job: &str, owner: &str, placed: &[Placement]) {
         let _ = self
             .tx
@@ -60,9 +61,9 @@ async fn run(
         tokio::select! {
             rec = records.recv() => {
                 let Some((job, owner, placed)) = rec else { break };
-                let entry = jobs.entry(job).or_insert_with(|| Job { owner, procs: HashMap::new() });
+                let entry = jobs.entry(job).or_insert_with(|| Job { procs: HashMap::new() });
                 for p in placed {
-                    entry.procs.insert(p.proc_id, Proc { host: p.host, done: false });
+                    entry.procs.insert(p.proc_id, Proc { host: p.host, owner: owner.clone(), done: false });
                 }
             }
             ev = observed.recv() => {
@@ -90,7 +91,7 @@ async fn run(
                                 exit_code: None,
                                 signal: None,
                                 message: format!("host {host} stopped answering"),
-                                owner: job.owner.clone(),
+                                owner: p.owner.clone(),
                             };
                             let router = router.clone();
                             tokio::spawn(async move {

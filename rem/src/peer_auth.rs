@@ -68,6 +68,8 @@ pub mod method {
     pub const HAS_CHUNKS: &str = "HasChunks";
     /// `Peer.FetchChunk`.
     pub const FETCH_CHUNK: &str = "FetchChunk";
+    /// `Peer.AdoptLocal`.
+    pub const ADOPT: &str = "AdoptLocal";
 }
 
 /// This daemon's key and name, and the nonces it has seen.

@@ -34,6 +34,12 @@ struct Entry {
 enum Cmd {
     Start(StartSpec, oneshot::Sender<Result<Vec<Placement>>>),
     Kill(ProcId, Identity, oneshot::Sender<Result<()>>),
+    Adopt(
+        ProcId,
+        String,
+        Identity,
+        oneshot::Sender<Result<ProcessInfo>>,
+    ),
     Logs(
         ProcId,
         Identity,
@@ -101,6 +107,12 @@ impl ProcessTable {
         self.ask(|tx| Cmd::Kill(id, who, tx)).await?
     }
 
+    /// Sends the events of running process `id` to `owner` from now on; only for its user
+    /// or an admin. Answers the process as listed.
+    pub async fn adopt(&self, id: ProcId, owner: String, who: Identity) -> Result<ProcessInfo> {
+        self.ask(|tx| Cmd::Adopt(id, owner, who, tx)).await?
+    }
+
     /// The kept output of a process from the offsets `from` (stdout, stderr) on; only for
     /// its user or an admin.
     pub async fn logs(&self, id: ProcId, who: Identity, from: (u64, u64)) -> Result<LogsReply> {
@@ -144,6 +156,9 @@ impl Actor {
                         .map(|_| ())
                         .and_then(|()| self.kill(&id));
                     let _ = reply.send(r);
+                }
+                Cmd::Adopt(id, owner, who, reply) => {
+                    let _ = reply.send(self.adopt(&id, owner, &who));
                 }
                 Cmd::Logs(id, who, from, reply) => {
                     let r = self.owned(&id, &who);
@@ -286,6 +301,25 @@ impl Actor {
             host: self.cfg.host.clone(),
             pid,
         })
+    }
+
+    fn adopt(&mut self, id: &ProcId, owner: String, who: &Identity) -> Result<ProcessInfo> {
+        let owner = ProcId::parse(&owner)
+            .ok_or_else(|| Error::Invalid(format!("bad owner id {}", crate::ids::shown(&owner))))?;
+        self.owned(id, who)?;
+        let Some(e) = self.entries.get_mut(id) else {
+            return Err(Error::NotFound(format!("process {id}")));
+        };
+        if e.info.state != "running" {
+            return Err(Error::NotFound(format!(
+                "running process {id} (it has exited)"
+            )));
+        }
+        tracing::info!(proc = %id, from = %e.info.owner, to = %owner, "adopted");
+        e.info.owner = owner.to_string();
+        let mut info = e.info.clone();
+        info.attached = self.router.is_attached(&info.proc_id);
+        Ok(info)
     }
 
     /// Process `id`, if `who` may act on it.

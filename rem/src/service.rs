@@ -47,6 +47,18 @@ impl Rem for Service {
         Ok(Response::new(self.0.spawn(&who, req.into_inner()).await?))
     }
 
+    async fn adopt_process(
+        &self,
+        req: Request<proto::AdoptProcessRequest>,
+    ) -> Result<Response<proto::AdoptProcessReply>, Status> {
+        let who = self.user(&req)?;
+        let r = req.into_inner();
+        let process = self.0.adopt(&who, proc_id(&r.proc_id)?, &r.owner).await?;
+        Ok(Response::new(proto::AdoptProcessReply {
+            process: Some(process),
+        }))
+    }
+
     async fn ps(&self, req: Request<proto::PsRequest>) -> Result<Response<proto::PsReply>, Status> {
         self.user(&req)?;
         Ok(Response::new(proto::PsReply {
@@ -250,6 +262,27 @@ impl Peer for Service {
         let who = Identity::from_acting(r.acting.as_ref())?;
         self.0.processes.kill(proc_id(&r.proc_id)?, who).await?;
         Ok(self.answer(&req, method::KILL, proto::KillReply {}))
+    }
+
+    async fn adopt_local(
+        &self,
+        req: Request<proto::AdoptLocalRequest>,
+    ) -> Result<Response<proto::AdoptProcessReply>, Status> {
+        self.peer(&req, method::ADOPT)?;
+        let r = req.get_ref();
+        let who = Identity::from_acting(r.acting.as_ref())?;
+        let process = self
+            .0
+            .processes
+            .adopt(proc_id(&r.proc_id)?, r.owner.clone(), who)
+            .await?;
+        Ok(self.answer(
+            &req,
+            method::ADOPT,
+            proto::AdoptProcessReply {
+                process: Some(process),
+            },
+        ))
     }
 
     async fn logs_local(

@@ -14,6 +14,8 @@ pub const FRAME_OVERHEAD: usize = 1 << 20;
 pub const BATCH: usize = 512;
 /// Bytes of envelopes in one batch (one envelope may be larger on its own).
 pub const BATCH_BYTES: usize = 1 << 20;
+/// Most hosts a spawn may ask to avoid (`SpawnRequest.avoid_hosts`).
+pub const MAX_AVOID_HOSTS: usize = 1024;
 
 /// What remd prints first on stdout, followed by the address it listens on, so whoever
 /// started it with port 0 learns the port.

@@ -213,6 +213,13 @@ impl peer_server::Peer for FakePeer {
         self.record(&req);
         Err(Status::unimplemented(""))
     }
+    async fn adopt_local(
+        &self,
+        req: Request<proto::AdoptLocalRequest>,
+    ) -> Result<Response<proto::AdoptProcessReply>, Status> {
+        self.record(&req);
+        Err(Status::unimplemented(""))
+    }
     async fn logs_local(
         &self,
         req: Request<proto::LogsLocalRequest>,
@@ -478,6 +485,16 @@ async fn a_second_user_cannot_kill_read_or_overwrite_the_first_users_job() {
         // Mallory can neither end it nor read its output, on either host.
         assert_eq!(code(mallory.kill(&p.proc_id).await), Code::PermissionDenied);
         assert_eq!(code(mallory.logs(&p.proc_id).await), Code::PermissionDenied);
+        // Nor have its events sent to a process of hers, nor to Alice's owner.
+        let hers = mallory_on_a.attach(Some("hers")).await.unwrap();
+        assert_eq!(
+            code(mallory_on_a.adopt(&p.proc_id, hers.id()).await),
+            Code::PermissionDenied
+        );
+        assert_eq!(
+            code(mallory_on_a.adopt(&p.proc_id, owner.id()).await),
+            Code::PermissionDenied
+        );
         assert!(running(&alice, &p.proc_id).await, "{} was ended", p.proc_id);
     }
     // She cannot read Alice's checkpoint; her own, newer, of the same job id shadows nothing.

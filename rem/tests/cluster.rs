@@ -81,6 +81,29 @@ async fn placement_avoids_the_host_running_rem_work() {
     assert_eq!(many.processes.len(), 4);
     let ps = client.ps().await.unwrap();
     assert_eq!(ps.iter().filter(|p| p.state == "running").count(), 7);
+    // Hosts to avoid are left out, however lightly loaded; too few others is an error.
+    let avoid = |count, hosts: &[&str]| SpawnRequest {
+        avoid_hosts: hosts.iter().map(|h| h.to_string()).collect(),
+        ..spin(count)
+    };
+    let elsewhere = client.spawn(avoid(2, &["a", "zz"])).await.unwrap();
+    let mut placed: Vec<_> = elsewhere
+        .processes
+        .iter()
+        .map(|p| p.host.as_str())
+        .collect();
+    placed.sort();
+    assert_eq!(placed, ["b", "c"]);
+    let two = client.spawn(avoid(2, &["b"])).await.unwrap();
+    assert!(two.processes.iter().all(|p| p.host != "b"), "{two:?}");
+    let err = client.spawn(avoid(3, &["b"])).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::FailedPrecondition, "{err}");
+    let names: Vec<String> = (0..=rem::wire::MAX_AVOID_HOSTS)
+        .map(|i| format!("h{i}"))
+        .collect();
+    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+    let err = client.spawn(avoid(1, &refs)).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::InvalidArgument, "{err}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

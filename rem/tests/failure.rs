@@ -133,3 +133,65 @@ async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
     cluster.daemons[1] = b;
     cluster.converge(T).await;
 }
+
+/// A successor (a new job controller) adopts its predecessor's processes: their exit and
+/// their host's loss are reported to it, and the exit no longer to the predecessor.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_adopted_process_reports_its_exit_and_its_hosts_loss_to_its_new_owner() {
+    let cluster = RemdProcesses::start(3, &[]);
+    cluster.converge(T).await;
+    let on_a = cluster.client(0).await;
+    let mut first = on_a.attach(None).await.unwrap();
+    let job = on_a.spawn(spin(&first, 3)).await.unwrap();
+    for _ in 0..3 {
+        next_event(&mut first, T, |e| e.kind == EventKind::Started as i32).await;
+    }
+    let on_b = cluster.client(1).await;
+    let mut second = on_b.attach(None).await.unwrap();
+    for p in &job.processes {
+        let info = on_b.adopt(&p.proc_id, second.id()).await.unwrap();
+        assert_eq!(info.owner, second.id().as_str());
+        assert_eq!(info.state, "running");
+    }
+    let ps = on_a.ps().await.unwrap();
+    for p in &job.processes {
+        let listed = ps.iter().find(|i| i.proc_id == p.proc_id.as_str()).unwrap();
+        assert_eq!(listed.owner, second.id().as_str(), "{listed:?}");
+    }
+    // The process on a exits: the new owner hears it, the old one does not.
+    let on_host = |h: &str| {
+        job.processes
+            .iter()
+            .find(|p| p.host == h)
+            .unwrap()
+            .proc_id
+            .clone()
+    };
+    on_a.kill(&on_host("a")).await.unwrap();
+    let ev = next_event(&mut second, T, |e| e.kind == EventKind::Exited as i32).await;
+    assert_eq!(ev.proc_id, on_host("a").as_str());
+    assert!(
+        tokio::time::timeout(Duration::from_millis(500), async {
+            loop {
+                if let rem::Incoming::Event(e) = first.recv().await.unwrap() {
+                    return e;
+                }
+            }
+        })
+        .await
+        .is_err(),
+        "the first owner still hears the adopted process"
+    );
+    // c is lost: b, where the new owner is attached, reports c's process LOST to it.
+    let t0 = Instant::now();
+    cluster.daemons[2].signal(libc::SIGKILL);
+    let ev = next_event(&mut second, DETECT + Duration::from_millis(500), |e| {
+        e.kind == EventKind::Lost as i32
+    })
+    .await;
+    assert_eq!(ev.proc_id, on_host("c").as_str());
+    eprintln!("adopted process LOST after {:?}", t0.elapsed());
+    // An exited process cannot be adopted.
+    let err = on_b.adopt(&on_host("a"), second.id()).await.unwrap_err();
+    assert_eq!(err.code(), tonic::Code::NotFound, "{err}");
+}

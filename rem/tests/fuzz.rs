@@ -230,6 +230,7 @@ impl Gen<'_> {
             } else {
                 self.string()
             },
+            avoid_hosts: self.many(Gen::string),
         }
     }
 
@@ -543,6 +544,17 @@ impl Gen<'_> {
                 acting: self.acting(),
             }
             .encode_to_vec(),
+            Rpc::AdoptProcess => proto::AdoptProcessRequest {
+                proc_id: self.proc_id(),
+                owner: self.proc_id(),
+            }
+            .encode_to_vec(),
+            Rpc::AdoptLocal => proto::AdoptLocalRequest {
+                proc_id: self.proc_id(),
+                owner: self.proc_id(),
+                acting: self.acting(),
+            }
+            .encode_to_vec(),
             Rpc::Logs => proto::LogsRequest {
                 proc_id: self.proc_id(),
                 stdout_from: self.u64(),
@@ -816,6 +828,7 @@ enum Rpc {
     StartJob,
     PutChunk,
     GetChunk,
+    AdoptProcess,
     Heartbeat,
     StartLocal,
     KillLocal,
@@ -829,9 +842,10 @@ enum Rpc {
     StoreChunk,
     HasChunks,
     FetchChunk,
+    AdoptLocal,
 }
 
-const RPCS: [Rpc; 26] = [
+const RPCS: [Rpc; 28] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -845,6 +859,7 @@ const RPCS: [Rpc; 26] = [
     Rpc::StartJob,
     Rpc::PutChunk,
     Rpc::GetChunk,
+    Rpc::AdoptProcess,
     Rpc::Heartbeat,
     Rpc::StartLocal,
     Rpc::KillLocal,
@@ -858,6 +873,7 @@ const RPCS: [Rpc; 26] = [
     Rpc::StoreChunk,
     Rpc::HasChunks,
     Rpc::FetchChunk,
+    Rpc::AdoptLocal,
 ];
 
 impl Rpc {
@@ -890,6 +906,8 @@ impl Rpc {
             Rpc::StoreChunk => "StoreChunk",
             Rpc::HasChunks => "HasChunks",
             Rpc::FetchChunk => "FetchChunk",
+            Rpc::AdoptProcess => "AdoptProcess",
+            Rpc::AdoptLocal => "AdoptLocal",
         }
     }
 
@@ -926,6 +944,7 @@ impl Rpc {
             Rpc::StoreChunk => canonical::<proto::PutChunkRequest>(body),
             Rpc::HasChunks => canonical::<proto::HasChunksRequest>(body),
             Rpc::FetchChunk => canonical::<proto::GetChunkRequest>(body),
+            Rpc::AdoptLocal => canonical::<proto::AdoptLocalRequest>(body),
             _ => None,
         };
         sha256_hex(canon.as_deref().unwrap_or(body))

@@ -172,6 +172,19 @@ impl LoopbackCluster {
         self.with_client_of(via, |client| async move { client.ps().await.unwrap() })
     }
 
+    /// The kept output of REM process `proc_id` (stdout, then stderr), through daemon `via`.
+    pub fn output_via(&self, via: &str, proc_id: &str) -> String {
+        let id = rem::ProcId::parse(proc_id).unwrap();
+        self.with_client_of(via, |client| async move {
+            let logs = client.logs(&id).await.unwrap();
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&logs.stdout),
+                String::from_utf8_lossy(&logs.stderr)
+            )
+        })
+    }
+
     /// The REM processes of the cluster (to check that nothing was started).
     pub fn processes(&self) -> Vec<rem::ProcessInfo> {
         self.with_client(|client| async move { client.ps().await.unwrap() })

@@ -148,6 +148,55 @@ fn a_controller_killed_mid_job_is_replaced_and_the_job_finishes_by_itself() {
     assert!(exited_workers(&cluster, "b", "kill9.w2").is_empty());
 }
 
+#[test]
+fn a_taken_over_worker_that_dies_is_reported_to_its_new_controller_at_once() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    // Slow lines (two workers, 96 lines of 300 ms): time for a takeover, then a fault.
+    let job = submit(&cluster, "adopted", 300);
+    wait_mid_job(&cluster, &job);
+    signal(pid_of(&cluster, "a", "adopted.c1"), libc::SIGKILL);
+    let second = cluster.wait_record("b", &job, "moved to epoch 2", |r| {
+        r.epoch == 2 && r.state == "running" && !r.controller.is_empty()
+    });
+    // REM now sends the first epoch's workers' events to the second controller.
+    let end = Instant::now() + Duration::from_secs(20);
+    let victim = loop {
+        let workers: Vec<_> = cluster
+            .processes_via("b")
+            .into_iter()
+            .filter(|p| p.job == "adopted.w1" && p.state == "running")
+            .collect();
+        if !workers.is_empty() && workers.iter().all(|p| p.owner == second.controller) {
+            break workers[0].clone();
+        }
+        assert!(Instant::now() < end, "never adopted: {workers:#?}");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let t0 = Instant::now();
+    signal(victim.pid as i32, libc::SIGKILL);
+    // The fault is the process's exit (not a silence of 10 s, nor an undeliverable line).
+    let log = loop {
+        let log = cluster.output_via("b", &second.controller);
+        if log.contains(r#""event":"fault""#) {
+            break log;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(5),
+            "no fault seen: {log}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let fault = log
+        .lines()
+        .find(|l| l.contains(r#""event":"fault""#))
+        .unwrap();
+    assert!(fault.contains("killed by signal 9"), "{fault}");
+    eprintln!("fault seen by the new controller after {:?}", t0.elapsed());
+    let r = check_finished(&cluster, "c", &job, dir.path());
+    assert_eq!(r.epoch, 2, "{r:?}");
+}
+
 /// The processes of REM job `rem_job` once none of them runs (bounded wait).
 fn exited_workers(cluster: &LoopbackCluster, via: &str, rem_job: &str) -> Vec<rem::ProcessInfo> {
     let end = Instant::now() + Duration::from_secs(10);
@@ -186,6 +235,18 @@ fn losing_the_controllers_host_moves_the_job_to_a_live_host() {
         survivors.iter().all(|p| p.exit_code == Some(0)),
         "{survivors:#?}"
     );
+    // New workers went to other hosts than the ones taken over.
+    let mut hosts: Vec<String> = cluster
+        .processes_via("c")
+        .into_iter()
+        .filter(|p| p.job.starts_with("hostloss.w") && p.job != "hostloss.w1")
+        .map(|p| p.host)
+        .chain(survivors.iter().map(|p| p.host.clone()))
+        .collect();
+    let n = hosts.len();
+    hosts.sort();
+    hosts.dedup();
+    assert_eq!(hosts.len(), n, "two workers on one host: {hosts:?}");
 }
 
 #[test]

@@ -241,6 +241,7 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 job,
                 owner: relay.as_ref().map(|r| r.id().clone()),
                 host: None,
+                avoid_hosts: Vec::new(),
             };
             let spawned = client.spawn(req).await?;
             if json {

@@ -555,6 +555,7 @@ async fn start_workers(
             job: Some(rem_job),
             owner: Some(owner),
             host: None,
+            avoid_hosts: Vec::new(),
         })
         .await
         .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))

@@ -121,15 +121,42 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         want.min(live.len().max(1) as u32)
     };
     // The previous controllers' workers that still run are taken over (they keep their
-    // lines and their scene); new ones make up the rest.
+    // lines and their scene, and REM sends their events here now); new ones make up the
+    // rest, on other hosts than theirs.
     let mut workers = if all_in {
         Vec::new()
     } else {
-        running_workers(&client, &job, epoch, &live).await
+        take_over_workers(&client, &job, epoch, &me, &live).await
     };
     let more = count.saturating_sub(workers.len() as u32);
     if !all_in && more > 0 {
-        workers.extend(start_workers(&client, &opts, &spec, &job, epoch, more, &me, &live).await?);
+        let avoid: Vec<String> = workers.iter().map(|w| w.host.clone()).collect();
+        let free = live.iter().filter(|h| !avoid.contains(&h.name)).count() as u32;
+        let more = if spec.same_host { more } else { more.min(free) };
+        let placed = match more {
+            0 => Ok(Vec::new()),
+            _ => {
+                start_workers(
+                    &client,
+                    &opts,
+                    &spec,
+                    (&job, epoch),
+                    more,
+                    &me,
+                    &live,
+                    avoid,
+                )
+                .await
+            }
+        };
+        match placed {
+            Ok(placed) => workers.extend(placed),
+            // The taken-over workers can finish the job alone.
+            Err(e) if !workers.is_empty() => {
+                eprintln!("sunray controller: warning: no new workers: {e}");
+            }
+            Err(e) => return Err(e),
+        }
     }
     let checkpointed = Arc::new(AtomicU32::new(restored.lines.len() as u32));
     let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
@@ -295,49 +322,56 @@ async fn keep_lease(
     }
 }
 
-/// The running workers of this job's earlier controllers (REM jobs `JOB.wE`, E < `epoch`).
-async fn running_workers(
+/// The running workers of this job's earlier controllers (REM jobs `JOB.wE`, E < `epoch`),
+/// adopted in REM by this controller (`me`): their Exited and Lost events come here now. A
+/// worker that exits meanwhile is left out.
+async fn take_over_workers(
     client: &RemClient,
     job: &str,
     epoch: u64,
+    me: &rem::ProcId,
     live: &[rem::HostInfo],
 ) -> Vec<WorkerProc> {
     let Ok(procs) = client.ps().await else {
         return Vec::new();
     };
     let prefix = format!("{job}.w");
-    procs
-        .iter()
-        .filter(|p| p.state == "running")
-        .filter(|p| {
-            p.job
-                .strip_prefix(&prefix)
-                .and_then(|e| e.parse::<u64>().ok())
-                .is_some_and(|e| e < epoch)
-        })
-        .filter_map(|p| {
-            Some(WorkerProc {
-                proc_id: rem::ProcId::parse(&p.proc_id)?,
+    let mut workers = Vec::new();
+    let running = procs.iter().filter(|p| p.state == "running").filter(|p| {
+        p.job
+            .strip_prefix(&prefix)
+            .and_then(|e| e.parse::<u64>().ok())
+            .is_some_and(|e| e < epoch)
+    });
+    for p in running {
+        let Some(proc_id) = rem::ProcId::parse(&p.proc_id) else {
+            continue;
+        };
+        match client.adopt(&proc_id, me).await {
+            Ok(_) => workers.push(WorkerProc {
+                proc_id,
                 host: p.host.clone(),
                 pid: p.pid,
                 load_at_start: controller::load_per_core(live, &p.host),
                 adopted: true,
-            })
-        })
-        .collect()
+            }),
+            Err(e) => eprintln!("sunray controller: not taking over {proc_id}: {e}"),
+        }
+    }
+    workers
 }
 
-/// Starts `count` workers owned by this controller (`me`).
+/// Starts `count` workers owned by this controller (`me`), not on `avoid_hosts`.
 #[allow(clippy::too_many_arguments)]
 async fn start_workers(
     client: &RemClient,
     opts: &ControllerOptions,
     spec: &proto::JobSpec,
-    job: &str,
-    epoch: u64,
+    (job, epoch): (&str, u64),
     count: u32,
     me: &rem::ProcId,
     live: &[rem::HostInfo],
+    avoid_hosts: Vec<String>,
 ) -> Result<Vec<WorkerProc>, FarmError> {
     let mut args = vec!["worker".to_string()];
     if spec.threads > 0 {
@@ -354,6 +388,7 @@ async fn start_workers(
             job: Some(format!("{job}.w{epoch}")),
             owner: Some(me.clone()),
             host: None,
+            avoid_hosts,
         })
         .await?;
     Ok(WorkerProc::placed(&spawned, live))
