@@ -66,7 +66,8 @@
 //! - [`load`]: this host's load (sysinfo) and REM process count.
 //! - [`cgroup`]: the CPU limit and use of remd's control group (containers).
 //! - [`placement`]: ranking hosts by load per core.
-//! - [`membership`]: heartbeats, joining, lost and returning hosts.
+//! - [`swim`]: the membership protocol (SWIM on foca, sealed datagrams, load reports,
+//!   local health); [`membership`]: its UDP driver, joining, lost and returning hosts.
 //! - [`peers`]: cached connections to other daemons.
 //! - [`process`]: the OS processes REM runs here; [`child`]: building one (environment, nice).
 //! - [`logbuf`]: bounded stdout / stderr keepers.
@@ -126,6 +127,7 @@ pub mod replicas;
 mod rpc;
 pub mod server;
 mod service;
+pub mod swim;
 mod token;
 pub mod transport;
 pub mod wire;
