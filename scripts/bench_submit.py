@@ -43,7 +43,7 @@ def remds(bin_dir, tmp, names):
         line = p.stdout.readline().strip()
         addrs.append(line.removeprefix("remd listening on "))
         procs.append(p)
-    time.sleep(1.5)  # let the daemons see each other (heartbeats)
+    time.sleep(1.5)  # let the daemons see each other (membership)
     return procs, addrs, secret
 
 

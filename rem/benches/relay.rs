@@ -172,7 +172,7 @@ async fn run() {
         percentile(&all3, 0.5)
     );
 
-    // Failure detection (default heartbeat 250 ms, lost after 1.5 s): kill -9 c.
+    // Failure detection (default probe 200 ms, suspected for 400 ms): kill -9 c.
     let b = cluster.client(1).await;
     let job = client
         .spawn(SpawnRequest {

@@ -56,12 +56,14 @@ pub struct RemdArgs {
     /// Directory for checkpoints.
     #[arg(long, env = "REMD_STATE_DIR")]
     pub state_dir: Option<PathBuf>,
-    /// Milliseconds between heartbeats to each member [default: 250].
-    #[arg(long, env = "REMD_HEARTBEAT_MS")]
-    pub heartbeat_ms: Option<u64>,
-    /// A member not heard from for this many milliseconds is lost [default: 1500].
-    #[arg(long, env = "REMD_LOST_AFTER_MS")]
-    pub lost_after_ms: Option<u64>,
+    /// Milliseconds between this daemon's probes of one other member (failure detection;
+    /// the probe's timeout is two fifths of it) [default: 200].
+    #[arg(long, env = "REMD_PROBE_MS")]
+    pub probe_ms: Option<u64>,
+    /// Milliseconds a member that failed a probe is suspected before it is declared lost
+    /// (it can refute meanwhile) [default: 400].
+    #[arg(long, env = "REMD_SUSPECT_MS")]
+    pub suspect_ms: Option<u64>,
     /// Largest relay message payload in bytes.
     #[arg(long, env = "REMD_MAX_MESSAGE")]
     pub max_message: Option<usize>,

@@ -14,8 +14,8 @@
 //! | `--run-as` | `REMD_RUN_AS` | `run_as` | remd's own user |
 //! | `--insecure` | `REMD_INSECURE` | `insecure` | false: plain HTTP/2 only on loopback |
 //! | `--state-dir` | `REMD_STATE_DIR` | `state_dir` | a fresh temporary directory |
-//! | `--heartbeat-ms` | `REMD_HEARTBEAT_MS` | `heartbeat_ms` | 250 |
-//! | `--lost-after-ms` | `REMD_LOST_AFTER_MS` | `lost_after_ms` | 1500 |
+//! | `--probe-ms` | `REMD_PROBE_MS` | `probe_ms` | 200 |
+//! | `--suspect-ms` | `REMD_SUSPECT_MS` | `suspect_ms` | 400 |
 //! | `--max-message` | `REMD_MAX_MESSAGE` | `max_message` | 16 MiB |
 //! | `--kill-grace-ms` | `REMD_KILL_GRACE_MS` | `kill_grace_ms` | 2000 |
 //! | `--tls-cert`, `--tls-key`, `--tls-ca`, `--tls-domain` | `REMD_TLS_*` | `tls_*` | no TLS |
@@ -32,6 +32,7 @@ use crate::cli::RemdArgs;
 use crate::error::{Error, Result};
 use crate::limits::Limits;
 use crate::policy::{ProgramRule, SpawnPolicy, DEFAULT_ENV_ALLOW};
+use crate::swim::SwimConfig;
 use crate::transport::ServerTlsFiles;
 
 pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
@@ -55,8 +56,8 @@ pub(crate) struct FileConfig {
     pub(crate) run_as: Option<String>,
     pub(crate) insecure: Option<bool>,
     pub(crate) state_dir: Option<PathBuf>,
-    pub(crate) heartbeat_ms: Option<u64>,
-    pub(crate) lost_after_ms: Option<u64>,
+    pub(crate) probe_ms: Option<u64>,
+    pub(crate) suspect_ms: Option<u64>,
     pub(crate) max_message: Option<usize>,
     pub(crate) kill_grace_ms: Option<u64>,
     pub(crate) tls_cert: Option<PathBuf>,
@@ -90,10 +91,8 @@ pub struct DaemonSettings {
     pub insecure: bool,
     /// Directory for checkpoints [default: a temporary one].
     pub state_dir: Option<PathBuf>,
-    /// Time between heartbeats to each member.
-    pub heartbeat: Duration,
-    /// A member not heard from for this long is lost.
-    pub lost_after: Duration,
+    /// The membership protocol's timing (probe period, suspicion timeout ...).
+    pub swim: SwimConfig,
     /// Time between samples of this host's load.
     pub load_interval: Duration,
     /// Largest relay message payload in bytes.
@@ -132,8 +131,7 @@ impl DaemonSettings {
             run_as: None,
             insecure: false,
             state_dir: None,
-            heartbeat: Duration::from_millis(250),
-            lost_after: Duration::from_millis(1500),
+            swim: SwimConfig::default(),
             load_interval: Duration::from_secs(1),
             max_message: DEFAULT_MAX_MESSAGE,
             queue: 4096,
@@ -195,16 +193,21 @@ impl DaemonSettings {
             .transpose()?;
         s.insecure = args.insecure || file.insecure.unwrap_or(false);
         s.state_dir = args.state_dir.or(file.state_dir);
-        if let Some(ms) = args.heartbeat_ms.or(file.heartbeat_ms) {
-            s.heartbeat = Duration::from_millis(ms.max(10));
+        if let Some(ms) = args.probe_ms.or(file.probe_ms) {
+            if !(20..=60_000).contains(&ms) {
+                return Err(Error::Config(format!(
+                    "probe-ms {ms} is outside 20..=60000"
+                )));
+            }
+            s.swim.set_probe_period(Duration::from_millis(ms));
         }
-        if let Some(ms) = args.lost_after_ms.or(file.lost_after_ms) {
-            s.lost_after = Duration::from_millis(ms.max(20));
-        }
-        if s.lost_after <= s.heartbeat {
-            return Err(Error::Config(
-                "lost-after must be longer than the heartbeat interval".into(),
-            ));
+        if let Some(ms) = args.suspect_ms.or(file.suspect_ms) {
+            if !(20..=600_000).contains(&ms) {
+                return Err(Error::Config(format!(
+                    "suspect-ms {ms} is outside 20..=600000"
+                )));
+            }
+            s.swim.suspect_after = Duration::from_millis(ms);
         }
         if let Some(m) = args.max_message.or(file.max_message) {
             s.max_message = m.max(1);
@@ -310,7 +313,7 @@ mod tests {
             format!(
                 "name = \"filehost\"\nlisten = \"127.0.0.1:9000\"\nsecret_file = {:?}\n\
                  allow = [\"/bin/true\", \"/usr/bin/sunray:worker|controller\"]\n\
-                 heartbeat_ms = 100\nlost_after_ms = 600\n[limits]\nspawn_count = 8\n\
+                 probe_ms = 100\nsuspect_ms = 600\n[limits]\nspawn_count = 8\n\
                  mailbox_bytes = \"2M\"\n",
                 secret
             ),
@@ -333,7 +336,8 @@ mod tests {
             Some(vec!["worker".to_string(), "controller".to_string()])
         );
         assert_eq!((s.limits.spawn_count, s.limits.mailbox_bytes), (8, 2 << 20));
-        assert_eq!(s.heartbeat, Duration::from_millis(100));
+        assert_eq!(s.swim.probe_period, Duration::from_millis(100));
+        assert_eq!(s.swim.suspect_after, Duration::from_millis(600));
         assert!(s.secret.matches(b"s3cret"));
     }
 

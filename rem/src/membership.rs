@@ -1,27 +1,34 @@
 //! Membership: which daemons exist, which are alive, and their load.
 //!
-//! Every heartbeat interval each daemon sends its own `HostInfo` and the members it knows to
-//! every other member (and to each `--join` address not yet identified); the reply carries the
-//! same from the other side, so joining through any one member spreads to all. A member not
-//! heard from (either direction) for `lost_after` is marked lost, and `MemberEvent::Lost` is
-//! broadcast; when it answers again it is alive again (`MemberEvent::Back`). Heartbeat calls
-//! time out, so a hung (SIGSTOPped) daemon is detected like a dead one.
+//! One [`crate::swim::SwimNode`] per daemon, driven here: its sealed datagrams go over UDP on
+//! the port of the daemon's gRPC listener, its timers run on tokio's clock, and every
+//! [`SwimConfig::report_every`] it adds this host's load report, which travels piggybacked
+//! on the protocol's own datagrams. Each daemon probes one member per probe period, whatever
+//! the cluster's size, so its idle cost does not grow with the lab (docs/rem.md has the
+//! protocol and its figures).
 //!
-//! Heartbeats go through `PeerPool::call_proven`: a reply counts only with a daemon's proof
-//! (`peer_auth`), and only its sender's own entry is believed, so whoever answers at a lost
-//! member's address can neither revive it nor add members.
+//! A member counts as alive once the protocol has it up and its first load report is in
+//! (so a host is never placed on without figures), and is then `MemberEvent::Back`; declared
+//! down, it is `MemberEvent::Lost`, until it (or a restarted daemon of the same name) is
+//! alive again. A hung (SIGSTOPped) daemon does not answer
+//! probes, so it is detected like a dead one. Until it knows another member, and whenever
+//! it knows none alive, the daemon asks its `--join` addresses to let it in, every second.
 
-use std::collections::BTreeMap;
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap, HashMap, HashSet};
+use std::net::SocketAddr;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::net::UdpSocket;
+use tokio::sync::{broadcast, watch};
 
 use crate::load::LoadGauge;
-use crate::peer_auth::{method, ANY};
 use crate::peers::PeerPool;
-use crate::proto::{HeartbeatRequest, HostInfo, Member};
+use crate::proto::HostInfo;
+use crate::swim::reports::ReportTable;
+use crate::swim::{Change, MemberId, Outbox, SwimConfig, SwimNode, Timer};
 
 /// A change in who is alive.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -33,10 +40,9 @@ pub enum MemberEvent {
 /// What this daemon knows about another.
 #[derive(Clone, Debug)]
 pub struct HostEntry {
+    /// Its gRPC address.
     pub addr: String,
     pub alive: bool,
-    pub info: Option<HostInfo>,
-    pub last_heard: Option<Instant>,
 }
 
 /// The membership table (without this daemon itself).
@@ -49,60 +55,77 @@ pub struct View {
 #[derive(Clone, Debug)]
 pub struct MembershipConfig {
     pub name: String,
+    /// Its advertised gRPC address.
     pub addr: String,
     pub join: Vec<String>,
-    pub heartbeat: Duration,
-    pub lost_after: Duration,
-}
-
-enum Cmd {
-    Heard {
-        info: HostInfo,
-        members: Vec<Member>,
-        seed: Option<String>,
-    },
+    pub swim: SwimConfig,
+    /// The cluster secret (datagrams are sealed with a key derived from it).
+    pub secret: Vec<u8>,
 }
 
 /// Cloneable handle to the membership actor.
 #[derive(Clone, Debug)]
 pub struct Membership {
-    tx: mpsc::Sender<Cmd>,
     view: watch::Receiver<Arc<View>>,
     events: broadcast::Sender<MemberEvent>,
     me: Arc<MembershipConfig>,
     gauge: LoadGauge,
     accepting: Arc<AtomicBool>,
+    reports: Arc<Mutex<ReportTable>>,
+}
+
+fn unix_ms() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
 }
 
 impl Membership {
-    /// Starts the actor and its heartbeat loop; it stops when `stop` fires.
+    /// Starts the actor on `socket` (UDP, bound where the gRPC listener is); it stops when
+    /// `stop` fires.
     pub fn start(
         cfg: MembershipConfig,
+        socket: UdpSocket,
         gauge: LoadGauge,
         accepting: Arc<AtomicBool>,
         peers: PeerPool,
         stop: tokio_util::sync::CancellationToken,
-    ) -> Self {
-        let (tx, rx) = mpsc::channel(256);
+    ) -> std::io::Result<Self> {
+        let udp = socket.local_addr()?;
+        let me = MemberId {
+            name: cfg.name.clone(),
+            addr: advertised_udp(&cfg.addr, udp),
+            grpc: cfg.addr.clone(),
+            stamp: unix_ms(),
+        };
+        let mut seed = [0u8; 8];
+        getrandom::getrandom(&mut seed).map_err(|e| std::io::Error::other(e.to_string()))?;
+        let node = SwimNode::new(me, &cfg.secret, cfg.swim.clone(), u64::from_le_bytes(seed));
         let (view_tx, view) = watch::channel(Arc::new(View::default()));
         let (events, _) = broadcast::channel(256);
         let handle = Membership {
-            tx,
             view,
-            events: events.clone(),
+            events,
             me: Arc::new(cfg),
             gauge,
             accepting,
+            reports: node.reports(),
         };
         let actor = Actor {
             handle: handle.clone(),
+            node,
+            socket,
+            timers: BinaryHeap::new(),
+            timer_seq: 0,
             view: View::default(),
             view_tx,
-            seeds: handle.me.join.iter().map(|a| (a.clone(), None)).collect(),
+            current: HashMap::new(),
+            waiting: HashSet::new(),
+            report_now: false,
             peers,
         };
-        tokio::spawn(actor.run(rx, stop));
-        handle
+        tokio::spawn(actor.run(stop));
+        Ok(handle)
     }
 
     pub fn name(&self) -> &str {
@@ -121,20 +144,23 @@ impl Membership {
         }
     }
 
-    /// Every host: this one first, then the others by name.
+    /// Every host: this one first, then the others by name, each with its newest load
+    /// report (`last_heard_ms`: how old it is; `u64::MAX` for none).
     pub fn hosts(&self) -> Vec<HostInfo> {
         let view = self.view.borrow().clone();
-        let now = Instant::now();
+        let reports = self.reports.lock().unwrap_or_else(|e| e.into_inner());
+        let now = unix_ms();
         let mut out = vec![self.me()];
         for (name, e) in &view.hosts {
-            let mut info = e.info.clone().unwrap_or_default();
-            info.name = name.clone();
-            info.addr = e.addr.clone();
-            info.alive = e.alive;
-            info.last_heard_ms = e
-                .last_heard
-                .map_or(u64::MAX, |t| now.duration_since(t).as_millis() as u64);
-            out.push(info);
+            let report = reports.get(name);
+            out.push(HostInfo {
+                name: name.clone(),
+                addr: e.addr.clone(),
+                alive: e.alive,
+                load: report.map(|r| r.load),
+                accepting: report.is_some_and(|r| r.accepting),
+                last_heard_ms: report.map_or(u64::MAX, |r| now.saturating_sub(r.sent_ms)),
+            });
         }
         out
     }
@@ -157,189 +183,211 @@ impl Membership {
             .filter(|e| e.alive)
             .map(|e| e.addr.clone())
     }
+}
 
-    /// Records a heartbeat received from another daemon and returns the reply.
-    pub async fn heard(&self, req: HeartbeatRequest) -> (HostInfo, Vec<Member>) {
-        if let Some(info) = req.sender {
-            let _ = self
-                .tx
-                .send(Cmd::Heard {
-                    info,
-                    members: req.members,
-                    seed: None,
-                })
-                .await;
-        }
-        (self.me(), self.members())
-    }
-
-    /// Every member known, this one included.
-    pub fn members(&self) -> Vec<Member> {
-        let view = self.view.borrow().clone();
-        let mut out = vec![Member {
-            name: self.me.name.clone(),
-            addr: self.me.addr.clone(),
-        }];
-        out.extend(view.hosts.iter().map(|(n, e)| Member {
-            name: n.clone(),
-            addr: e.addr.clone(),
-        }));
-        out
+/// The UDP address others reach this daemon at: the advertised gRPC address's IP (when it
+/// is one) with the UDP port, else the bound address.
+fn advertised_udp(advertised: &str, bound: SocketAddr) -> SocketAddr {
+    match advertised.parse::<SocketAddr>() {
+        Ok(a) => SocketAddr::new(a.ip(), bound.port()),
+        Err(_) => std::net::ToSocketAddrs::to_socket_addrs(advertised)
+            .ok()
+            .and_then(|mut a| a.next())
+            .map_or(bound, |a| SocketAddr::new(a.ip(), bound.port())),
     }
 }
 
+/// A timer due at an instant (ordered by due time, then by when it was set).
+type Due = Reverse<(Instant, u64, Timer<MemberId>)>;
+
 struct Actor {
     handle: Membership,
+    node: SwimNode,
+    socket: UdpSocket,
+    timers: BinaryHeap<Due>,
+    timer_seq: u64,
     view: View,
     view_tx: watch::Sender<Arc<View>>,
-    /// `--join` addresses and the name that answered there.
-    seeds: BTreeMap<String, Option<String>>,
+    /// The identity each name is known by now (a restart takes a newer one).
+    current: HashMap<String, MemberId>,
+    /// Members up whose first load report has not come yet.
+    waiting: HashSet<String>,
+    /// A member came up: report this host's load again at once, for it.
+    report_now: bool,
     peers: PeerPool,
 }
 
 impl Actor {
-    async fn run(mut self, mut rx: mpsc::Receiver<Cmd>, stop: tokio_util::sync::CancellationToken) {
-        let mut tick = tokio::time::interval(self.handle.me.heartbeat);
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        // Staleness is checked more often than heartbeats are sent, so detection takes
-        // `lost_after` plus at most this, not plus a whole heartbeat interval.
-        let mut check =
-            tokio::time::interval(self.handle.me.heartbeat.min(Duration::from_millis(50)));
-        check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    async fn run(mut self, stop: tokio_util::sync::CancellationToken) {
+        let cfg = self.node.config().clone();
+        let mut report = tokio::time::interval(cfg.report_every);
+        report.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let mut join = tokio::time::interval(Duration::from_secs(1));
+        join.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        let mut buf = vec![0u8; crate::swim::node::MAX_DATAGRAM + 1];
         loop {
+            let next = self.timers.peek().map(|Reverse((at, _, _))| *at);
+            let sleep = tokio::time::sleep_until(
+                next.unwrap_or_else(|| Instant::now() + Duration::from_secs(3600))
+                    .into(),
+            );
             tokio::select! {
                 _ = stop.cancelled() => break,
-                _ = check.tick() => self.check_lost(),
-                _ = tick.tick() => {
-                    self.check_lost();
-                    self.send_heartbeats();
-                }
-                cmd = rx.recv() => match cmd {
-                    Some(Cmd::Heard { info, members, seed }) => self.heard(info, members, seed),
-                    None => break,
+                r = self.socket.recv_from(&mut buf) => match r {
+                    Ok((n, from)) => {
+                        if let Err(e) = self.node.datagram(&buf[..n], unix_ms()) {
+                            tracing::debug!(%from, "membership datagram not believed: {e}");
+                        }
+                    }
+                    Err(e) => tracing::debug!("membership socket: {e}"),
                 },
-            }
-        }
-    }
-
-    fn publish(&self) {
-        self.view_tx.send_replace(Arc::new(self.view.clone()));
-    }
-
-    fn heard(&mut self, info: HostInfo, members: Vec<Member>, seed: Option<String>) {
-        let me = &self.handle.me.name;
-        if let Some(seed) = seed {
-            self.seeds.insert(seed, Some(info.name.clone()));
-        }
-        if &info.name == me || !crate::ids::is_valid_name(&info.name) {
-            return;
-        }
-        let entry = self
-            .view
-            .hosts
-            .entry(info.name.clone())
-            .or_insert_with(|| HostEntry {
-                addr: info.addr.clone(),
-                alive: false,
-                info: None,
-                last_heard: None,
-            });
-        entry.addr = info.addr.clone();
-        entry.last_heard = Some(Instant::now());
-        let was_alive = entry.alive;
-        entry.alive = true;
-        entry.info = Some(info.clone());
-        if !was_alive {
-            tracing::info!(host = %info.name, addr = %info.addr, "host alive");
-            let _ = self
-                .handle
-                .events
-                .send(MemberEvent::Back(info.name.clone()));
-        }
-        for m in members {
-            if &m.name == me || !crate::ids::is_valid_name(&m.name) || m.addr.is_empty() {
-                continue;
-            }
-            match self.view.hosts.get_mut(&m.name) {
-                Some(e) if !e.alive => e.addr = m.addr,
-                Some(_) => {}
-                None => {
-                    self.view.hosts.insert(
-                        m.name,
-                        HostEntry {
-                            addr: m.addr,
-                            alive: false,
-                            info: None,
-                            last_heard: None,
-                        },
-                    );
-                }
-            }
-        }
-        self.publish();
-    }
-
-    fn check_lost(&mut self) {
-        let lost_after = self.handle.me.lost_after;
-        let mut changed = false;
-        for (name, e) in self.view.hosts.iter_mut() {
-            let stale = e.last_heard.is_none_or(|t| t.elapsed() > lost_after);
-            if e.alive && stale {
-                e.alive = false;
-                changed = true;
-                tracing::warn!(host = %name, "host lost");
-                self.peers.forget(&e.addr);
-                let _ = self.handle.events.send(MemberEvent::Lost(name.clone()));
-            }
-        }
-        if changed {
-            self.publish();
-        }
-    }
-
-    fn send_heartbeats(&self) {
-        let req = HeartbeatRequest {
-            sender: Some(self.handle.me()),
-            members: self.handle.members(),
-        };
-        let timeout = (self.handle.me.lost_after / 2).min(Duration::from_secs(1));
-        // (address, the join address it is, the name expected there)
-        let mut targets: Vec<(String, Option<String>, String)> = self
-            .view
-            .hosts
-            .iter()
-            .map(|(name, e)| (e.addr.clone(), None, name.clone()))
-            .collect();
-        for (seed, name) in &self.seeds {
-            let known = name
-                .as_ref()
-                .is_some_and(|n| self.view.hosts.contains_key(n) || n == &self.handle.me.name);
-            if !known && !targets.iter().any(|(a, _, _)| a == seed) {
-                targets.push((seed.clone(), Some(seed.clone()), ANY.to_string()));
-            }
-        }
-        for (addr, seed, name) in targets {
-            let req = req.clone();
-            let tx = self.handle.tx.clone();
-            let peers = self.peers.clone();
-            tokio::spawn(async move {
-                let beat = |mut c: crate::peers::PeerRpc, r| async move { c.heartbeat(r).await };
-                let reply = peers
-                    .call_proven(&name, &addr, method::HEARTBEAT, timeout, req, beat)
-                    .await;
-                if let Ok((proven, reply)) = reply {
-                    // Only a daemon's own entry is believed from it.
-                    if let Some(info) = reply.sender.filter(|s| s.name == proven) {
-                        let _ = tx
-                            .send(Cmd::Heard {
-                                info,
-                                members: reply.members,
-                                seed,
-                            })
-                            .await;
+                _ = sleep, if next.is_some() => self.fire_due(),
+                _ = report.tick() => self.report_load(),
+                _ = join.tick() => {
+                    if !self.view.hosts.values().any(|e| e.alive) {
+                        self.announce().await;
                     }
                 }
-            });
+            }
+            if std::mem::take(&mut self.report_now) {
+                self.report_load();
+            }
+            let out = self.node.drain();
+            let mut changed = self.apply(out);
+            changed |= self.reports_arrived();
+            if changed {
+                self.view_tx.send_replace(Arc::new(self.view.clone()));
+            }
+        }
+    }
+
+    fn report_load(&mut self) {
+        let load = self.handle.gauge.current();
+        let accepting = self.handle.accepting.load(Ordering::Relaxed);
+        self.node.report_load(accepting, &load, unix_ms());
+    }
+
+    /// Members waiting for their first report that now have one are alive.
+    fn reports_arrived(&mut self) -> bool {
+        if self.waiting.is_empty() {
+            return false;
+        }
+        let reports = self.handle.reports.clone();
+        let reports = reports.lock().unwrap_or_else(|e| e.into_inner());
+        let ready: Vec<String> = self
+            .waiting
+            .iter()
+            .filter(|n| reports.get(n).is_some())
+            .cloned()
+            .collect();
+        drop(reports);
+        for name in &ready {
+            self.waiting.remove(name);
+            if let Some(e) = self.view.hosts.get_mut(name) {
+                if !e.alive {
+                    e.alive = true;
+                    tracing::info!(host = %name, addr = %e.addr, "host alive");
+                    let _ = self.handle.events.send(MemberEvent::Back(name.clone()));
+                }
+            }
+        }
+        !ready.is_empty()
+    }
+
+    /// Asks every `--join` address (resolved now: a name may resolve later) to let us in.
+    async fn announce(&mut self) {
+        for seed in self.handle.me.join.clone() {
+            match tokio::net::lookup_host(seed.as_str()).await {
+                Ok(addrs) => {
+                    for a in addrs {
+                        self.node.announce(a, unix_ms());
+                    }
+                }
+                Err(e) => tracing::debug!(%seed, "join address: {e}"),
+            }
+        }
+    }
+
+    fn fire_due(&mut self) {
+        let now = Instant::now();
+        while let Some(Reverse((at, _, _))) = self.timers.peek() {
+            if *at > now {
+                break;
+            }
+            let Some(Reverse((at, _, timer))) = self.timers.pop() else {
+                break;
+            };
+            self.node.timer(timer, now.duration_since(at), unix_ms());
+        }
+    }
+
+    /// Sends, sets timers and applies changes; whether the table changed.
+    fn apply(&mut self, out: Outbox) -> bool {
+        for (to, bytes) in out.datagrams {
+            // UDP is lossy anyway: a full socket buffer drops the datagram.
+            if let Err(e) = self.socket.try_send_to(&bytes, to) {
+                tracing::debug!(%to, "membership send: {e}");
+            }
+        }
+        let now = Instant::now();
+        for (after, timer) in out.timers {
+            self.timer_seq += 1;
+            self.timers
+                .push(Reverse((now + after, self.timer_seq, timer)));
+        }
+        let changed = !out.changes.is_empty();
+        for change in out.changes {
+            self.change(change);
+        }
+        changed
+    }
+
+    fn change(&mut self, change: Change) {
+        match change {
+            Change::Up(id) | Change::Renamed(id) if id.is_valid() => {
+                let up = self
+                    .current
+                    .get(&id.name)
+                    .is_none_or(|c| c.stamp <= id.stamp);
+                if !up {
+                    return; // an older identity of a restarted daemon
+                }
+                let entry = self
+                    .view
+                    .hosts
+                    .entry(id.name.clone())
+                    .or_insert_with(|| HostEntry {
+                        addr: id.grpc.clone(),
+                        alive: false,
+                    });
+                entry.addr = id.grpc.clone();
+                self.current.insert(id.name.clone(), id.clone());
+                if !entry.alive && self.node.is_active(&id) {
+                    self.waiting.insert(id.name.clone());
+                    self.report_now = true;
+                }
+            }
+            Change::Down(id) => {
+                if self.current.get(&id.name) != Some(&id) {
+                    return; // not the identity the name is known by now
+                }
+                self.waiting.remove(&id.name);
+                self.handle
+                    .reports
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .remove(&id.name);
+                if let Some(e) = self.view.hosts.get_mut(&id.name) {
+                    if e.alive {
+                        e.alive = false;
+                        tracing::warn!(host = %id.name, "host lost");
+                        self.peers.forget(&e.addr);
+                        let _ = self.handle.events.send(MemberEvent::Lost(id.name));
+                    }
+                }
+            }
+            Change::Idle => tracing::warn!("no other member is alive; asking the join addresses"),
+            Change::Up(_) | Change::Renamed(_) => {}
         }
     }
 }

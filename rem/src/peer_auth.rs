@@ -4,7 +4,7 @@
 //! is an HMAC-SHA256, under the daemon key (derived from the cluster secret; clients hold only
 //! the client key, so they cannot make one), of the method, both names, the time, a random
 //! nonce and a digest of the request body. The receiver checks that the call is for itself
-//! (`TO` is its name, or `-` for a heartbeat to a join address not yet identified), that the
+//! (`TO` is its name), that the
 //! time is within [`MAX_SKEW`] of its own clock, the MAC, and that the nonce is new, so a
 //! captured call cannot be replayed nor redirected to another daemon, and whoever answers at a
 //! lost member's address learns nothing it could use. Every reply carries
@@ -37,13 +37,11 @@ pub const REPLY_METADATA: &str = "x-rem-peer-proof";
 pub const MAX_SKEW: Duration = Duration::from_secs(30);
 /// Nonces remembered at most (a full table refuses calls until old ones expire).
 pub const MAX_NONCES: usize = 200_000;
-/// The `TO` of a heartbeat sent to a join address whose daemon is not known yet.
+/// The `TO` of a call to an address whose daemon is not known (refused by every daemon).
 pub const ANY: &str = "-";
 
 /// The method names signed (one per `Peer` RPC).
 pub mod method {
-    /// `Peer.Heartbeat`.
-    pub const HEARTBEAT: &str = "Heartbeat";
     /// `Peer.StartLocal`.
     pub const START: &str = "StartLocal";
     /// `Peer.KillLocal`.
@@ -193,7 +191,7 @@ impl DaemonKey {
         if !crate::ids::is_valid_name(from) || from == self.me || nonce.len() > 128 {
             return Err(deny("bad caller"));
         }
-        if to != self.me && !(to == ANY && method == method::HEARTBEAT) {
+        if to != self.me {
             return Err(deny("the call was meant for another daemon"));
         }
         let ts_ms: u64 = ts.parse().map_err(|_| deny("bad time"))?;
@@ -315,13 +313,11 @@ mod tests {
         assert!(key("s", "b").verify(&req, method::PS, "-").is_err());
         let reply = key("not-s", "b").reply(&req, method::PS, HostInfo::default());
         assert!(a.check_reply(&pending, reply).is_err());
-        // No proof at all, or one for "anyone" outside a heartbeat.
+        // No proof at all, or one for "anyone".
         assert!(key("s", "b")
             .verify(&Request::new(()), method::PS, "-")
             .is_err());
         let (req, _) = a.sign(ANY, method::PS, "-", ());
         assert!(key("s", "b").verify(&req, method::PS, "-").is_err());
-        let (req, _) = a.sign(ANY, method::HEARTBEAT, "-", ());
-        assert!(key("s", "b").verify(&req, method::HEARTBEAT, "-").is_ok());
     }
 }

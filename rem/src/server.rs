@@ -80,19 +80,32 @@ pub async fn run(
     let gauge = LoadGauge::start(settings.load_interval);
     let accepting = Arc::new(AtomicBool::new(true));
     let stop = CancellationToken::new();
+    // Membership datagrams use the listener's port, over UDP.
+    let udp = tokio::net::UdpSocket::bind(bound).await.map_err(|e| {
+        Error::Config(format!(
+            "cannot bind UDP {bound} for membership (the gRPC listener's port): {e}"
+        ))
+    })?;
     let membership = Membership::start(
         MembershipConfig {
             name: settings.name.clone(),
             addr: advertise.clone(),
             join: settings.join.clone(),
-            heartbeat: settings.heartbeat,
-            lost_after: settings.lost_after,
+            swim: settings.swim.clone(),
+            // The daemons' key (a client-key file cannot make it): users cannot speak
+            // the membership protocol.
+            secret: settings
+                .secret
+                .daemon_key()
+                .ok_or_else(|| Error::Config("a daemon needs the cluster secret".into()))?
+                .to_vec(),
         },
+        udp,
         gauge.clone(),
         accepting.clone(),
         peers.clone(),
         stop.clone(),
-    );
+    )?;
     let (observer, observed) = mpsc::unbounded_channel();
     let router = Router::new(
         settings.queue,

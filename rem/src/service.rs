@@ -225,25 +225,6 @@ impl Service {
 
 #[tonic::async_trait]
 impl Peer for Service {
-    async fn heartbeat(
-        &self,
-        req: Request<proto::HeartbeatRequest>,
-    ) -> Result<Response<proto::HeartbeatReply>, Status> {
-        let from = self.peer(&req, method::HEARTBEAT)?;
-        let beat = req.get_ref().clone();
-        if beat.sender.as_ref().is_some_and(|s| s.name != from) {
-            return Err(Status::permission_denied(format!(
-                "daemon {from} sent a heartbeat in another daemon's name"
-            )));
-        }
-        let (sender, members) = self.0.membership.heard(beat).await;
-        let reply = proto::HeartbeatReply {
-            sender: Some(sender),
-            members,
-        };
-        Ok(self.answer(&req, method::HEARTBEAT, reply))
-    }
-
     async fn start_local(
         &self,
         req: Request<proto::StartLocalRequest>,

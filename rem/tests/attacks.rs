@@ -5,17 +5,12 @@
 
 mod common;
 
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use common::*;
-use rem::proto::{
-    self, peer_client::PeerClient, peer_item, peer_server, HeartbeatReply, HostInfo, Member,
-    PeerBatch, PeerItem,
-};
+use rem::proto::{self, peer_client::PeerClient, peer_item, PeerBatch, PeerItem};
 use rem::{ConnectOptions, Error, RemClient, Secret, SpawnRequest};
-use tonic::metadata::MetadataMap;
-use tonic::{Code, Request, Response, Status, Streaming};
+use tonic::Code;
 
 const T: Duration = Duration::from_secs(10);
 
@@ -165,156 +160,29 @@ async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
     assert!(c.spawn(spin(1)).await.is_ok());
 }
 
-/// A fake daemon: records the metadata of every call, and answers heartbeats with a reply
-/// it makes up (no proof: it does not hold the cluster secret).
-#[derive(Clone, Default)]
-struct FakePeer {
-    seen: Arc<Mutex<Vec<MetadataMap>>>,
-}
-
-impl FakePeer {
-    fn record<T>(&self, req: &Request<T>) {
-        self.seen.lock().unwrap().push(req.metadata().clone());
-    }
-}
-
-#[tonic::async_trait]
-impl peer_server::Peer for FakePeer {
-    async fn heartbeat(
-        &self,
-        req: Request<proto::HeartbeatRequest>,
-    ) -> Result<Response<HeartbeatReply>, Status> {
-        self.record(&req);
-        Ok(Response::new(HeartbeatReply {
-            sender: Some(HostInfo {
-                name: "b".into(),
-                addr: "127.0.0.1:9".into(),
-                alive: true,
-                accepting: true,
-                ..HostInfo::default()
-            }),
-            members: vec![Member {
-                name: "evil".into(),
-                addr: "127.0.0.1:9".into(),
-            }],
-        }))
-    }
-    async fn start_local(
-        &self,
-        req: Request<proto::StartLocalRequest>,
-    ) -> Result<Response<proto::StartLocalReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn kill_local(
-        &self,
-        req: Request<proto::KillLocalRequest>,
-    ) -> Result<Response<proto::KillReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn adopt_local(
-        &self,
-        req: Request<proto::AdoptLocalRequest>,
-    ) -> Result<Response<proto::AdoptProcessReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn logs_local(
-        &self,
-        req: Request<proto::LogsLocalRequest>,
-    ) -> Result<Response<proto::LogsReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn ps_local(
-        &self,
-        req: Request<proto::PsRequest>,
-    ) -> Result<Response<proto::PsReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn forward(
-        &self,
-        req: Request<Streaming<PeerBatch>>,
-    ) -> Result<Response<proto::ForwardReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn store_replica(
-        &self,
-        req: Request<proto::Checkpoint>,
-    ) -> Result<Response<proto::StoreReplicaReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn fetch_replica(
-        &self,
-        req: Request<proto::FetchReplicaRequest>,
-    ) -> Result<Response<proto::GetCheckpointReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn store_job(
-        &self,
-        req: Request<proto::Checkpoint>,
-    ) -> Result<Response<proto::StoreReplicaReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn store_chunk(
-        &self,
-        req: Request<proto::PutChunkRequest>,
-    ) -> Result<Response<proto::PutChunkReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn has_chunks(
-        &self,
-        req: Request<proto::HasChunksRequest>,
-    ) -> Result<Response<proto::HasChunksReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn fetch_chunk(
-        &self,
-        req: Request<proto::GetChunkRequest>,
-    ) -> Result<Response<proto::GetChunkReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-    async fn list_jobs_local(
-        &self,
-        req: Request<proto::ListJobsLocalRequest>,
-    ) -> Result<Response<proto::ListJobsLocalReply>, Status> {
-        self.record(&req);
-        Err(Status::unimplemented(""))
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_fake_peer_on_a_dead_members_port_learns_nothing_and_is_not_believed() {
+async fn a_fake_member_on_a_dead_members_port_learns_nothing_and_is_not_believed() {
+    use rem::swim::{MemberId, SwimConfig, SwimNode};
     let mut cluster = InProcessRemds::start(2, |_| {}).await;
     cluster.converge(T).await;
+    let a_addr: std::net::SocketAddr = cluster.addrs()[0].parse().unwrap();
     let b = cluster.daemons.remove(1);
     let b_addr = b.addr().to_string();
     b.stop().await;
-    // The attacker takes b's port.
-    let listener = tokio::net::TcpListener::bind(&b_addr).await.unwrap();
-    let fake = FakePeer::default();
-    let server = tokio::spawn(
-        tonic::transport::Server::builder()
-            .add_service(peer_server::PeerServer::new(fake.clone()))
-            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener)),
-    );
     let c = cluster.client(0).await;
-    // Heartbeats arrive (a keeps calling its lost member) ...
-    let end = Instant::now() + T;
-    while fake.seen.lock().unwrap().len() < 5 {
-        assert!(Instant::now() < end, "no call reached the fake peer");
-        tokio::time::sleep(Duration::from_millis(50)).await;
+    wait_hosts(&c, T, |hs| hs.iter().any(|h| h.name == "b" && !h.alive)).await;
+    // The attacker takes b's (UDP) port: a asks its lost member to rejoin now and then.
+    let socket = tokio::net::UdpSocket::bind(&b_addr).await.unwrap();
+    let mut captured = Vec::new();
+    let mut buf = vec![0u8; 2048];
+    while captured.len() < 2 {
+        let (n, _) = tokio::time::timeout(T, socket.recv_from(&mut buf))
+            .await
+            .expect("no datagram reached the fake member")
+            .unwrap();
+        captured.push(buf[..n].to_vec());
     }
-    // ... and carry no secret and no key: only a proof bound to this call.
+    // They carry no secret and no key: only a tag bound to each datagram.
     let secret = cluster.secret();
     let keys = [
         secret.user_root().unwrap(),
@@ -322,26 +190,47 @@ async fn a_fake_peer_on_a_dead_members_port_learns_nothing_and_is_not_believed()
         secret.admin_key().unwrap(),
         secret.daemon_key().unwrap(),
     ];
-    for md in fake.seen.lock().unwrap().iter() {
-        for kv in md.iter() {
-            let bytes: Vec<u8> = match kv {
-                tonic::metadata::KeyAndValueRef::Ascii(_, v) => v.as_bytes().to_vec(),
-                tonic::metadata::KeyAndValueRef::Binary(_, v) => v.to_bytes().unwrap().to_vec(),
+    for d in &captured {
+        assert!(
+            !String::from_utf8_lossy(d).contains(SECRET),
+            "the secret was sent"
+        );
+        for key in &keys {
+            assert!(!d.windows(32).any(|w| w == key), "a key was sent");
+        }
+    }
+    // It answers as "b" and as "evil", sealed with what it could get: a made-up secret, or
+    // a user's client key (users cannot speak the membership protocol), and replays what
+    // it captured. None of it is believed: b stays lost, "evil" is unknown.
+    let now = || {
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_millis() as u64
+    };
+    let user_key = secret.client_credential(None).unwrap().1;
+    for (i, key) in [b"made-up".to_vec(), user_key.to_vec()].iter().enumerate() {
+        for name in ["b", "evil"] {
+            let me = MemberId {
+                name: name.into(),
+                addr: socket.local_addr().unwrap(),
+                grpc: b_addr.clone(),
+                stamp: now() + i as u64,
             };
-            let text = String::from_utf8_lossy(&bytes);
-            assert!(!text.contains(SECRET), "the secret was sent");
-            for key in &keys {
-                assert!(!bytes.windows(32).any(|w| w == key), "a key was sent");
-                assert!(!text.contains(&hex::encode(key)));
+            let mut node = SwimNode::new(me, key, SwimConfig::default(), 7 + i as u64);
+            node.announce(a_addr, now());
+            for (to, d) in node.drain().datagrams {
+                socket.send_to(&d, to).await.unwrap();
             }
         }
     }
-    // Its made-up replies changed nothing: b stays lost, "evil" is unknown.
+    for d in &captured {
+        socket.send_to(d, a_addr).await.unwrap();
+    }
     tokio::time::sleep(Duration::from_millis(800)).await;
     let hosts = c.hosts().await.unwrap();
     assert!(hosts.iter().all(|h| h.name != "evil"), "{hosts:?}");
     assert!(hosts.iter().any(|h| h.name == "b" && !h.alive), "{hosts:?}");
-    server.abort();
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -49,7 +49,7 @@ const CHECK_EVERY: usize = 10_000;
 const CALL_DEADLINE: Duration = Duration::from_secs(30);
 /// How long a stream's answer is read before the call is dropped.
 const STREAM_READ: Duration = Duration::from_millis(200);
-/// The names the fuzzer signs peer calls as (never a real daemon's in heartbeats).
+/// The names the fuzzer signs peer calls as (never a real daemon's).
 const FAKE_DAEMONS: [&str; 4] = ["fz0", "fz1", "fz2", "fz3"];
 /// Extra daemon flags: rem-echo may only `exit` (so nothing heavy runs whatever the
 /// arguments), and processes and checkpoints are bounded (the temp dir stays small).
@@ -325,22 +325,6 @@ impl Gen<'_> {
         }
     }
 
-    fn f64(&mut self) -> f64 {
-        let r = &mut *self.rng;
-        let random = f64::from_bits(r.next());
-        r.pick(&[
-            f64::NAN,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            -0.0,
-            0.0,
-            -1.0,
-            f64::MIN_POSITIVE,
-            f64::MAX,
-            random,
-        ])
-    }
-
     fn data(&mut self) -> Vec<u8> {
         let n = match self.rng.below(24) {
             0 => 256 << 10,
@@ -417,56 +401,6 @@ impl Gen<'_> {
                 (key, self.string())
             })
             .collect()
-    }
-
-    fn addr(&mut self) -> String {
-        let r = &mut *self.rng;
-        match r.below(10) {
-            0 => r.pick(&self.world.addrs),
-            1 => format!("127.0.0.1:{}", 1 + r.below(65_535)),
-            2 => r
-                .pick(&[
-                    "127.0.0.1:1",
-                    "localhost:1",
-                    "[::1]:1",
-                    "http://127.0.0.1:1/x/y",
-                    "https://127.0.0.1:1",
-                    "127.0.0.1:99999",
-                    "127.0.0.1",
-                    "[::1",
-                    "unix:///tmp/x",
-                    "10.0.0.1:1",
-                ])
-                .into(),
-            _ => self.string(),
-        }
-    }
-
-    fn load(&mut self) -> Option<proto::Load> {
-        if self.rng.one_in(4) {
-            return None;
-        }
-        Some(proto::Load {
-            cores: self.u32(),
-            load_avg_1m: self.f64(),
-            cpu_busy: self.f64(),
-            mem_free_bytes: self.u64(),
-            mem_total_bytes: self.u64(),
-            rem_processes: self.u32(),
-            load_per_core: self.f64(),
-            capacity: self.f64(),
-        })
-    }
-
-    fn host_info(&mut self, name: String) -> proto::HostInfo {
-        proto::HostInfo {
-            name,
-            addr: self.addr(),
-            load: self.load(),
-            alive: self.rng.one_in(2),
-            last_heard_ms: self.u64(),
-            accepting: self.rng.one_in(2),
-        }
     }
 
     fn envelope(&mut self) -> proto::Envelope {
@@ -601,30 +535,6 @@ impl Gen<'_> {
                     })
                 };
                 proto::ClientFrame { frame: Some(frame) }.encode_to_vec()
-            }
-            Rpc::Heartbeat => {
-                let sender = match self.rng.below(8) {
-                    0 => None,
-                    1 => Some(self.string()),
-                    _ => Some(from.to_string()),
-                };
-                proto::HeartbeatRequest {
-                    sender: sender.map(|n| self.host_info(n)),
-                    members: self.many(|g| proto::Member {
-                        // Names from a small set: the daemons keep every member named to
-                        // them and heartbeat it forever (a table with no bound: whoever
-                        // holds the daemon key may grow it; not what this run is about).
-                        name: g
-                            .rng
-                            .pick(&[
-                                "m0", "m1", "m2", "m3", "fz0", "fz1", "a", "b", "", "../x", "a/b",
-                                "é",
-                            ])
-                            .into(),
-                        addr: g.addr(),
-                    }),
-                }
-                .encode_to_vec()
             }
             Rpc::Forward => proto::PeerBatch {
                 from_host: if self.rng.one_in(4) {
@@ -829,7 +739,6 @@ enum Rpc {
     PutChunk,
     GetChunk,
     AdoptProcess,
-    Heartbeat,
     StartLocal,
     KillLocal,
     LogsLocal,
@@ -845,7 +754,7 @@ enum Rpc {
     AdoptLocal,
 }
 
-const RPCS: [Rpc; 28] = [
+const RPCS: [Rpc; 27] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -860,7 +769,6 @@ const RPCS: [Rpc; 28] = [
     Rpc::PutChunk,
     Rpc::GetChunk,
     Rpc::AdoptProcess,
-    Rpc::Heartbeat,
     Rpc::StartLocal,
     Rpc::KillLocal,
     Rpc::LogsLocal,
@@ -888,7 +796,6 @@ impl Rpc {
             Rpc::Attach => "Attach",
             Rpc::PutCheckpoint => "PutCheckpoint",
             Rpc::GetCheckpoint => "GetCheckpoint",
-            Rpc::Heartbeat => "Heartbeat",
             Rpc::StartLocal => "StartLocal",
             Rpc::KillLocal => "KillLocal",
             Rpc::LogsLocal => "LogsLocal",
@@ -912,7 +819,7 @@ impl Rpc {
     }
 
     fn is_peer(self) -> bool {
-        self >= Rpc::Heartbeat
+        self >= Rpc::StartLocal
     }
 
     fn is_stream(self) -> bool {
@@ -932,7 +839,6 @@ impl Rpc {
         }
         let canon = match self {
             Rpc::Forward => return "-".into(),
-            Rpc::Heartbeat => canonical::<proto::HeartbeatRequest>(body),
             Rpc::StartLocal => canonical::<proto::StartLocalRequest>(body),
             Rpc::KillLocal => canonical::<proto::KillLocalRequest>(body),
             Rpc::LogsLocal => canonical::<proto::LogsLocalRequest>(body),
@@ -996,17 +902,12 @@ impl Input {
         let daemon = rng.below(world.names.len());
         let rpc = rng.pick(&RPCS);
         let valid = rng.one_in(2);
-        let from = if rpc == Rpc::Heartbeat || rng.one_in(2) {
+        let from = if rng.one_in(2) {
             rng.pick(&FAKE_DAEMONS).to_string()
         } else {
             world.names[1 - daemon].clone()
         };
-        let mut shape = rng.pick(&[Shape::Raw, Shape::Valid, Shape::Mutated]);
-        // A signed heartbeat is well-formed, its member names from a small set: every new
-        // name it carried would be one more host the daemons heartbeat forever.
-        if valid && rpc == Rpc::Heartbeat {
-            shape = Shape::Valid;
-        }
+        let shape = rng.pick(&[Shape::Raw, Shape::Valid, Shape::Mutated]);
         let credential = if valid {
             Credential::Valid(from.clone())
         } else {
@@ -1632,17 +1533,12 @@ async fn the_fuzzers_codec_and_credentials_reach_past_the_checks() {
         refused
     );
     // A body with unknown fields is signed as the daemon re-encodes it.
-    let mut beat = proto::HeartbeatRequest {
-        sender: Some(proto::HostInfo {
-            name: "fz0".into(),
-            addr: "127.0.0.1:1".into(),
-            ..proto::HostInfo::default()
-        }),
-        members: Vec::new(),
+    let mut has = proto::HasChunksRequest {
+        hashes: vec!["0".repeat(64)],
     }
     .encode_to_vec();
-    beat.extend([0xF8, 0x01, 0x05]); // field 31, varint 5: unknown, dropped by decoding
-    assert_eq!(call(Rpc::Heartbeat, beat, valid()).await, ok);
+    has.extend([0xF8, 0x01, 0x05]); // field 31, varint 5: unknown, dropped by decoding
+    assert_eq!(call(Rpc::HasChunks, has, valid()).await, ok);
     // A checkpoint sealed as a daemon seals it is stored; with another seal it is not.
     let mut cp = proto::Checkpoint {
         job: "fuzz-job".into(),

@@ -90,7 +90,7 @@ impl LoopbackCluster {
             .unwrap();
         let mut cmd = Command::new(remd_bin());
         cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
-            .args(["--heartbeat-ms", "150", "--lost-after-ms", "900"])
+            .args(["--probe-ms", "150", "--suspect-ms", "300"])
             // A stopped farm-job controller is replaced after 3 s without a record write.
             .args(["--limit", &format!("job_lease_ms={LEASE_MS}")])
             .arg("--allow")

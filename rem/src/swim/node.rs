@@ -52,6 +52,12 @@ impl Default for SwimConfig {
 }
 
 impl SwimConfig {
+    /// Sets the probe period, with the probe timeout at two fifths of it.
+    pub fn set_probe_period(&mut self, period: Duration) {
+        self.probe_period = period;
+        self.probe_rtt = period * 2 / 5;
+    }
+
     /// foca's configuration for this timing.
     fn foca(&self) -> foca::Config {
         let mut c = foca::Config::simple();
@@ -244,7 +250,8 @@ impl SwimNode {
 
     /// Adds this member's load report to what it spreads.
     pub fn report_load(&mut self, accepting: bool, load: &Load, now_ms: u64) {
-        self.report_seq += 1;
+        // The clock numbers reports, so a restarted daemon's are newer than its old ones.
+        self.report_seq = (self.report_seq + 1).max(now_ms);
         let name = self.foca.identity().name.clone();
         let item = LoadReports::encode(&name, self.report_seq, now_ms, accepting, load);
         if let Err(e) = self.foca.add_broadcast(&item) {
@@ -269,6 +276,16 @@ impl SwimNode {
             .unwrap_or_else(|e| e.into_inner())
             .get(name)
             .cloned()
+    }
+
+    /// The table of load reports (shared: readers lock it briefly).
+    pub fn reports(&self) -> Arc<Mutex<ReportTable>> {
+        self.reports.clone()
+    }
+
+    /// Whether `id` is an active member (alive or suspected) now.
+    pub fn is_active(&self, id: &MemberId) -> bool {
+        self.foca.iter_members().any(|m| m.id() == id)
     }
 
     /// The members foca counts as active (alive or suspected), this one excluded.
