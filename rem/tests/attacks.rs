@@ -163,7 +163,8 @@ async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_fake_member_on_a_dead_members_port_learns_nothing_and_is_not_believed() {
     use rem::swim::{MemberId, SwimConfig, SwimNode};
-    let mut cluster = InProcessRemds::start(2, |_| {}).await;
+    // Three: a and c keep asking the lost b to rejoin (a member alone has nobody to ask).
+    let mut cluster = InProcessRemds::start(3, |_| {}).await;
     cluster.converge(T).await;
     let a_addr: std::net::SocketAddr = cluster.addrs()[0].parse().unwrap();
     let b = cluster.daemons.remove(1);
@@ -171,7 +172,7 @@ async fn a_fake_member_on_a_dead_members_port_learns_nothing_and_is_not_believed
     b.stop().await;
     let c = cluster.client(0).await;
     wait_hosts(&c, T, |hs| hs.iter().any(|h| h.name == "b" && !h.alive)).await;
-    // The attacker takes b's (UDP) port: a asks its lost member to rejoin now and then.
+    // The attacker takes b's (UDP) port: a and c ask their lost member to rejoin every 2 s.
     let socket = tokio::net::UdpSocket::bind(&b_addr).await.unwrap();
     let mut captured = Vec::new();
     let mut buf = vec![0u8; 2048];
