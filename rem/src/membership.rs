@@ -28,7 +28,7 @@ use crate::load::LoadGauge;
 use crate::peers::PeerPool;
 use crate::proto::HostInfo;
 use crate::swim::reports::ReportTable;
-use crate::swim::{Change, MemberId, Outbox, SwimConfig, SwimNode, Timer};
+use crate::swim::{Change, MemberId, Outbox, SwimConfig, SwimNode, SwimTimer};
 
 /// A change in who is alive.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -198,7 +198,7 @@ fn advertised_udp(advertised: &str, bound: SocketAddr) -> SocketAddr {
 }
 
 /// A timer due at an instant (ordered by due time, then by when it was set).
-type Due = Reverse<(Instant, u64, Timer<MemberId>)>;
+type Due = Reverse<(Instant, u64, SwimTimer)>;
 
 struct Actor {
     handle: Membership,

@@ -23,6 +23,5 @@ pub mod node;
 pub mod reports;
 pub mod seal;
 
-pub use foca::Timer;
 pub use member::MemberId;
-pub use node::{Change, Outbox, SwimConfig, SwimNode, Traffic};
+pub use node::{Change, Outbox, SwimConfig, SwimNode, SwimTimer, Traffic};

@@ -82,6 +82,17 @@ impl SwimConfig {
     }
 }
 
+/// A timer of a [`SwimNode`], to be given back to it when due. It belongs to one instance
+/// of the protocol: a member that rejoined after the cluster declared it down starts a new
+/// one, and the old one's timers are then ignored.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct SwimTimer {
+    generation: u32,
+    /// When it was set (unix ms).
+    set_ms: u64,
+    timer: Timer<MemberId>,
+}
+
 /// A change of who is alive, as this member sees it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Change {
@@ -101,7 +112,7 @@ pub struct Outbox {
     /// Sealed datagrams and where they go.
     pub datagrams: Vec<(SocketAddr, Vec<u8>)>,
     /// Timers to set: each is given back to [`SwimNode::timer`] after its delay.
-    pub timers: Vec<(Duration, Timer<MemberId>)>,
+    pub timers: Vec<(Duration, SwimTimer)>,
     /// Who came up or went down.
     pub changes: Vec<Change>,
 }
@@ -121,6 +132,18 @@ pub struct Traffic {
 
 type Engine = Foca<MemberId, PostcardCodec, StdRng, LoadReports>;
 
+/// How long this member may hear nothing at all, in probe periods, before it takes itself
+/// for the one cut off and stops declaring others down.
+const DEAF_PERIODS: u32 = 3;
+
+/// How long it goes on not declaring others down while it hears nothing: after that it is
+/// alone (every other member is gone) rather than cut off.
+const DEAF_MAX: Duration = Duration::from_secs(10);
+
+/// Membership changes waiting to be spread, at least, for load reports to be sent on their
+/// own (about what one datagram holds).
+const BURST: usize = 16;
+
 /// One member.
 pub struct SwimNode {
     foca: Engine,
@@ -128,7 +151,15 @@ pub struct SwimNode {
     reports: Arc<Mutex<ReportTable>>,
     health: Health,
     cfg: SwimConfig,
+    seed: u64,
+    /// Incremented each time the protocol starts anew (after a rejoin).
+    generation: u32,
+    /// foca's `max_transmissions` now (it follows the cluster's size).
+    max_tx: u8,
     report_seq: u64,
+    gossip_ticks: u64,
+    /// When a datagram was last believed (unix ms).
+    last_heard_ms: u64,
     out: Outbox,
     traffic: Traffic,
 }
@@ -139,7 +170,10 @@ struct Step<'a> {
     sealer: &'a mut Sealer,
     health: &'a mut Health,
     traffic: &'a mut Traffic,
+    generation: u32,
     now_ms: u64,
+    /// The cluster declared this member down and foca took this new identity.
+    rejoined: Option<MemberId>,
 }
 
 impl foca::Runtime<MemberId> for Step<'_> {
@@ -149,8 +183,14 @@ impl foca::Runtime<MemberId> for Step<'_> {
             Notification::MemberDown(id) => Change::Down(id.clone()),
             Notification::Rename(_, id) => Change::Renamed(id.clone()),
             Notification::Idle => Change::Idle,
-            Notification::Rejoin(_) | Notification::Defunct => {
-                // Declared down while alive: most likely this member was the slow one.
+            Notification::Rejoin(id) => {
+                // Declared down while alive: most likely this member was the slow (or cut
+                // off) one.
+                self.health.worse();
+                self.rejoined = Some(id.clone());
+                return;
+            }
+            Notification::Defunct => {
                 self.health.worse();
                 return;
             }
@@ -173,8 +213,21 @@ impl foca::Runtime<MemberId> for Step<'_> {
             | Timer::ChangeSuspectToDown { .. } => self.health.stretch(after),
             _ => after,
         };
-        self.out.timers.push((after, event));
+        let timer = SwimTimer {
+            generation: self.generation,
+            set_ms: self.now_ms,
+            timer: event,
+        };
+        self.out.timers.push((after, timer));
     }
+}
+
+/// Updates are sent this many times by each member that learns them: about 3 ln(n + 1) for
+/// n members, so that the chance a member never hears of one, about e^-max_tx, stays well
+/// under 1/n² (every pair knows of each other after a thousand members join at once).
+pub fn max_transmissions(members: usize) -> u8 {
+    let n = members as f64 + 1.0;
+    (3.0 * n.ln()).ceil().clamp(6.0, 40.0) as u8
 }
 
 impl SwimNode {
@@ -183,23 +236,30 @@ impl SwimNode {
     pub fn new(me: MemberId, secret: &[u8], cfg: SwimConfig, seed: u64) -> SwimNode {
         let handler = LoadReports::default();
         let reports = handler.table.clone();
-        let foca = Foca::with_custom_broadcast(
-            me,
-            cfg.foca(),
-            StdRng::seed_from_u64(seed),
-            PostcardCodec,
-            handler,
-        );
+        let max_tx = max_transmissions(0);
+        let foca = Self::engine(me, &cfg, max_tx, seed, handler);
         SwimNode {
             foca,
             sealer: Sealer::new(secret, seed),
             reports,
             health: Health::default(),
             cfg,
+            seed,
+            generation: 0,
+            max_tx,
             report_seq: 0,
+            gossip_ticks: 0,
+            last_heard_ms: 0,
             out: Outbox::default(),
             traffic: Traffic::default(),
         }
+    }
+
+    fn engine(me: MemberId, cfg: &SwimConfig, max_tx: u8, seed: u64, h: LoadReports) -> Engine {
+        let mut config = cfg.foca();
+        config.max_transmissions =
+            std::num::NonZeroU8::new(max_tx).unwrap_or(config.max_transmissions);
+        Foca::with_custom_broadcast(me, config, StdRng::seed_from_u64(seed), PostcardCodec, h)
     }
 
     fn step<T>(&mut self, now_ms: u64, f: impl FnOnce(&mut Engine, &mut Step<'_>) -> T) -> T {
@@ -208,9 +268,77 @@ impl SwimNode {
             sealer: &mut self.sealer,
             health: &mut self.health,
             traffic: &mut self.traffic,
+            generation: self.generation,
             now_ms,
+            rejoined: None,
         };
-        f(&mut self.foca, &mut step)
+        let r = f(&mut self.foca, &mut step);
+        if let Some(id) = step.rejoined {
+            self.start_anew(id, now_ms);
+        }
+        self.follow_cluster_size();
+        r
+    }
+
+    /// After the cluster declared this member down (it was cut off, or stopped): a new
+    /// instance of the protocol under the new identity, knowing the members the old one
+    /// counted as active, and announced to a few of them. What the old one had still to
+    /// spread is dropped: the members it declared down while it was the one cut off must
+    /// not be declared down again by it, now that it is back (foca keeps its updates
+    /// across a rejoin, and its author suggests a new instance for this).
+    fn start_anew(&mut self, id: MemberId, now_ms: u64) {
+        let known: Vec<foca::Member<MemberId>> = self
+            .foca
+            .iter_members()
+            .map(|m| foca::Member::alive(m.id().clone()))
+            .collect();
+        self.generation = self.generation.wrapping_add(1);
+        let seed = self.seed ^ u64::from(self.generation).rotate_left(32);
+        let handler = LoadReports {
+            table: self.reports.clone(),
+        };
+        self.foca = Self::engine(id, &self.cfg, self.max_tx, seed, handler);
+        let askable: Vec<MemberId> = known.iter().take(3).map(|m| m.id().clone()).collect();
+        let mut step = Step {
+            out: &mut self.out,
+            sealer: &mut self.sealer,
+            health: &mut self.health,
+            traffic: &mut self.traffic,
+            generation: self.generation,
+            now_ms,
+            rejoined: None,
+        };
+        if let Err(e) = self.foca.apply_many(known.into_iter(), false, &mut step) {
+            tracing::debug!("membership restart: {e}");
+        }
+        for m in askable {
+            if let Err(e) = self.foca.announce(m, &mut step) {
+                tracing::debug!("membership restart: announce: {e}");
+            }
+        }
+    }
+
+    /// Keeps `max_transmissions` in step with the number of members.
+    fn follow_cluster_size(&mut self) {
+        let want = max_transmissions(self.foca.num_members());
+        if want != self.max_tx {
+            let mut config = self.cfg.foca();
+            if let Some(tx) = std::num::NonZeroU8::new(want) {
+                config.max_transmissions = tx;
+            }
+            if self.foca.set_config(config).is_ok() {
+                self.max_tx = want;
+            }
+        }
+    }
+
+    /// Takes `members` as alive without spreading the news (a member list known from
+    /// elsewhere, e.g. a simulation starting from a cluster that already knows itself).
+    pub fn assume_alive(&mut self, members: impl Iterator<Item = MemberId>, now_ms: u64) {
+        let alive = members.map(foca::Member::alive);
+        if let Err(e) = self.step(now_ms, |f, s| f.apply_many(alive, false, s)) {
+            tracing::debug!("assumed members: {e}");
+        }
     }
 
     /// Asks the member at `addr` (a `--join` address) to let this one in.
@@ -225,7 +353,10 @@ impl SwimNode {
     pub fn datagram(&mut self, bytes: &[u8], now_ms: u64) -> Result<(), Rejected> {
         self.traffic.received += 1;
         let payload = match self.sealer.open(bytes, now_ms) {
-            Ok(p) => p.to_vec(),
+            Ok(p) => {
+                self.last_heard_ms = now_ms;
+                p.to_vec()
+            }
             Err(e) => {
                 self.traffic.rejected += 1;
                 return Err(e);
@@ -239,13 +370,80 @@ impl SwimNode {
     }
 
     /// A timer set earlier is due; it fires `late` after it was due.
-    pub fn timer(&mut self, timer: Timer<MemberId>, late: Duration, now_ms: u64) {
-        if matches!(timer, Timer::ProbeRandomMember(_)) {
-            self.health.probe_round(late, self.cfg.probe_rtt / 2);
+    pub fn timer(&mut self, timer: SwimTimer, late: Duration, now_ms: u64) {
+        if timer.generation != self.generation {
+            return; // set by the instance before a restart
         }
-        if let Err(e) = self.step(now_ms, |f, s| f.handle_timer(timer, s)) {
+        let slack = self.cfg.probe_rtt / 2;
+        match timer.timer {
+            Timer::ProbeRandomMember(_) => self.health.probe_round(late, slack),
+            Timer::ChangeSuspectToDown {
+                ref member_id,
+                incarnation,
+                ..
+            } => {
+                self.health.timer_fired(late, slack);
+                if !self.still_suspect(member_id, incarnation) {
+                    // Refuted (or already down). foca would still send it "you are down"
+                    // (`notify_down_members`), and it would rejoin for nothing.
+                    return;
+                }
+                if let Some(after) = self.suspicion_left(&timer, now_ms) {
+                    self.out.timers.push((after, timer));
+                    return;
+                }
+            }
+            _ => {
+                self.health.timer_fired(late, slack);
+            }
+        }
+        let gossip = matches!(timer.timer, Timer::PeriodicGossip(_));
+        let t = timer.timer;
+        if let Err(e) = self.step(now_ms, |f, s| f.handle_timer(t, s)) {
             tracing::debug!("membership timer: {e}");
         }
+        if gossip {
+            self.gossip_ticks = self.gossip_ticks.wrapping_add(1);
+        }
+        if gossip && self.gossip_ticks.is_multiple_of(2) && self.foca.updates_backlog() >= BURST {
+            // Membership changes fill the datagrams first: while they are many (a lab
+            // booting), load reports would wait; every other gossip round they go on their
+            // own meanwhile.
+            if let Err(e) = self.step(now_ms, |f, s| f.broadcast(s)) {
+                tracing::debug!("membership broadcast: {e}");
+            }
+        }
+    }
+
+    /// Whether `id` is still suspected at `incarnation` (it has not refuted).
+    fn still_suspect(&self, id: &MemberId, incarnation: foca::Incarnation) -> bool {
+        self.foca.iter_membership_state().any(|m| {
+            m.id() == id && m.incarnation() == incarnation && m.state() == foca::State::Suspect
+        })
+    }
+
+    /// How much longer a suspicion must last before its member may be declared down, if
+    /// it may not be now: a suspicion lasts the suspicion timeout stretched by this member's
+    /// health *now* (it may have been set while this member seemed healthy, its first
+    /// probes failing because it was the slow one), and nobody is declared down while this
+    /// member hears nothing (it is the one cut off: what it declared would spread when it is
+    /// back).
+    fn suspicion_left(&self, timer: &SwimTimer, now_ms: u64) -> Option<Duration> {
+        if self.deaf(now_ms) {
+            return Some(self.health.stretch(self.cfg.suspect_after));
+        }
+        let lasted = Duration::from_millis(now_ms.saturating_sub(timer.set_ms));
+        let due = self.health.stretch(self.cfg.suspect_after);
+        (lasted + Duration::from_millis(1) < due).then(|| due - lasted)
+    }
+
+    /// Whether this member has heard nothing for a while though others should have spoken:
+    /// it knows at least two active members (with one, its silence is that member's), and
+    /// for at most [`DEAF_MAX`] (after that it is alone, and declares the others down).
+    fn deaf(&self, now_ms: u64) -> bool {
+        let silent = Duration::from_millis(now_ms.saturating_sub(self.last_heard_ms));
+        let window = self.health.stretch(self.cfg.probe_period) * DEAF_PERIODS;
+        self.foca.num_members() >= 2 && silent > window && silent < DEAF_MAX
     }
 
     /// Adds this member's load report to what it spreads.

@@ -68,11 +68,27 @@ impl ReportTable {
 pub struct ReportKey {
     name: String,
     seq: u64,
+    /// A hash of the name: foca compares a new key with every key it is spreading, so the
+    /// comparison must be cheap (a thousand members' reports).
+    name_hash: u64,
+}
+
+impl ReportKey {
+    fn new(name: String, seq: u64) -> ReportKey {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::hash::DefaultHasher::new();
+        name.hash(&mut h);
+        ReportKey {
+            name_hash: h.finish(),
+            name,
+            seq,
+        }
+    }
 }
 
 impl Invalidates for ReportKey {
     fn invalidates(&self, other: &Self) -> bool {
-        self.name == other.name && self.seq > other.seq
+        self.name_hash == other.name_hash && self.seq > other.seq && self.name == other.name
     }
 }
 
@@ -143,10 +159,7 @@ impl BroadcastHandler<MemberId> for LoadReports {
                 load,
             },
         );
-        Ok(Some(ReportKey {
-            name: item.name,
-            seq: item.seq,
-        }))
+        Ok(Some(ReportKey::new(item.name, item.seq)))
     }
 }
 
@@ -176,14 +189,12 @@ mod tests {
         let bad = LoadReports::encode("../x", 1, 1, true, &load(1));
         assert!(h.receive_item(&bad, None).unwrap().is_none());
         assert_eq!(h.table().refused, 2);
-        let k2 = ReportKey {
-            name: "a".into(),
-            seq: 2,
-        };
-        let k1 = ReportKey {
-            name: "a".into(),
-            seq: 1,
-        };
+        let k2 = ReportKey::new("a".into(), 2);
+        let k1 = ReportKey::new("a".into(), 1);
         assert!(k2.invalidates(&k1) && !k1.invalidates(&k2));
+        assert!(
+            !ReportKey::new("b".into(), 3).invalidates(&k1),
+            "another member's"
+        );
     }
 }
