@@ -6,7 +6,8 @@ prints:
 
 1. idle:   CPU time (utime+stime, /proc/PID/stat) of every daemon of a converged, idle cluster of
            N daemons for each N in --sizes, over --idle-s seconds (after 3 s of settling), in ms
-           per second per daemon: median, max and mean over the daemons.
+           per second per daemon: median, max and mean over the daemons; then how old the load
+           reports the first and the last daemon hold are (`rem hosts --json`, last_heard_ms).
 2. detect: N = the largest size. --kills times: `kill -9` a daemon (never a0, a different one each
            run), then poll `rem hosts --json` on a0 and on the last other daemon every 20 ms until
            each lists the victim not alive. A time is taken when the answer arrives, so it includes
@@ -101,6 +102,13 @@ class Cluster:
         except (subprocess.TimeoutExpired, ValueError, KeyError, TypeError):
             return None
 
+    def report_ages(self, name):
+        """How old (ms) the load reports daemon `name` holds of the others are (LAST HEARD)."""
+        cmd = [self.rem, "--remd", self.addrs[name], "--secret-file", self.secret, "hosts", "--json"]
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=5, env=ENV)
+        hosts = json.loads(r.stdout) if r.returncode == 0 else []
+        return [h["last_heard_ms"] for h in hosts if h["name"] != name and h.get("last_heard_ms") is not None]
+
     def lost(self, view):
         return [h for h in self.names if not view.get(h, False)]
 
@@ -140,10 +148,11 @@ def idle(build, n, secs):
         time.sleep(secs)
         after, dt = [cpu_ticks(pid) for pid in pids], time.monotonic() - t0
         c.check_running()
+        ages = c.report_ages(c.names[0]) + c.report_ages(c.names[-1])
     finally:
         c.stop()
     rates = [(b - a) * 1000.0 / CLK / dt for a, b in zip(before, after)]
-    return statistics.median(rates), max(rates), statistics.mean(rates)
+    return statistics.median(rates), max(rates), statistics.mean(rates), ages
 
 
 def detect(build, n, kills):
@@ -261,9 +270,14 @@ def main():
         if "idle" in only:
             for size in sizes:
                 for label in labels:
-                    med, mx, mean = idle(builds[label], size, args.idle_s)
+                    med, mx, mean, ages = idle(builds[label], size, args.idle_s)
                     print(f"idle [{label}] {size} daemons, {args.idle_s:g} s: CPU per daemon median {med:.2f} "
                           f"ms/s, max {mx:.2f}, mean {mean:.2f} (1 tick = {1000 / CLK / args.idle_s:.2f})")
+                    if ages:
+                        print(f"  load reports held by the first and last daemon: {len(ages)}, age median "
+                              f"{statistics.median(ages):.0f} ms, max {max(ages)} ms")
+                        record(f"load report age at the end, {size} daemons (ms, median)", "{:.0f}", label,
+                               statistics.median(ages))
                     record(f"idle CPU per daemon, {size} daemons (ms/s, median)", "{:.2f}", label, med)
                     record(f"idle CPU per daemon, {size} daemons (ms/s, max)", "{:.2f}", label, mx)
         if "detect" in only:
