@@ -962,6 +962,10 @@ fn a_thousand_members_detect_a_death_within_2s_at_p99_with_no_false_accusation()
     assert!(f.rejoin_ms.is_some(), "not up again after the heal: {f:#?}");
     assert!(f.rejoined_sees_all_ms.is_some(), "rejoined member: {f:#?}");
     assert_eq!(f.false_total(), 0, "false accusations: {f:#?}");
+    assert_eq!(
+        f.isolated_downs, 0,
+        "the partitioned member, hearing nobody, declares nobody down: {f:#?}"
+    );
     assert!(
         f.renewed_members <= 1,
         "only the partitioned member may have been told it was down: {f:#?}"

@@ -506,3 +506,17 @@ impl SwimNode {
         &self.cfg
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn updates_are_sent_more_times_as_the_cluster_grows_slowly() {
+        assert_eq!(max_transmissions(0), 6, "at least 6");
+        assert_eq!(max_transmissions(4), 6);
+        assert_eq!(max_transmissions(39), 12);
+        assert_eq!(max_transmissions(999), 21);
+        assert_eq!(max_transmissions(usize::MAX), 40, "bounded");
+    }
+}
