@@ -1,7 +1,7 @@
 //! One member of the membership protocol, without I/O: datagrams, timers and load reports
 //! go in with the time, datagrams to send, timers to set and membership changes come out
 //! ([`Outbox`]). `membership.rs` drives it with a UDP socket and tokio's clock; the
-//! simulation in `rem/tests/swim_sim.rs` drives a thousand of them with a simulated clock
+//! simulation in `rem/tests/swim_sim/` drives a thousand of them with a simulated clock
 //! and network.
 
 use std::net::SocketAddr;
