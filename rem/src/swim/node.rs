@@ -256,10 +256,17 @@ impl SwimNode {
     }
 
     fn engine(me: MemberId, cfg: &SwimConfig, max_tx: u8, seed: u64, h: LoadReports) -> Engine {
-        let mut config = cfg.foca();
-        config.max_transmissions =
-            std::num::NonZeroU8::new(max_tx).unwrap_or(config.max_transmissions);
+        let config = Self::foca_config(cfg, max_tx);
         Foca::with_custom_broadcast(me, config, StdRng::seed_from_u64(seed), PostcardCodec, h)
+    }
+
+    /// foca's configuration for `cfg`, each update sent `max_tx` times.
+    fn foca_config(cfg: &SwimConfig, max_tx: u8) -> foca::Config {
+        let mut config = cfg.foca();
+        if let Some(tx) = std::num::NonZeroU8::new(max_tx) {
+            config.max_transmissions = tx;
+        }
+        config
     }
 
     fn step<T>(&mut self, now_ms: u64, f: impl FnOnce(&mut Engine, &mut Step<'_>) -> T) -> T {
@@ -299,36 +306,24 @@ impl SwimNode {
         };
         self.foca = Self::engine(id, &self.cfg, self.max_tx, seed, handler);
         let askable: Vec<MemberId> = known.iter().take(3).map(|m| m.id().clone()).collect();
-        let mut step = Step {
-            out: &mut self.out,
-            sealer: &mut self.sealer,
-            health: &mut self.health,
-            traffic: &mut self.traffic,
-            generation: self.generation,
-            now_ms,
-            rejoined: None,
-        };
-        if let Err(e) = self.foca.apply_many(known.into_iter(), false, &mut step) {
-            tracing::debug!("membership restart: {e}");
-        }
-        for m in askable {
-            if let Err(e) = self.foca.announce(m, &mut step) {
-                tracing::debug!("membership restart: announce: {e}");
+        self.step(now_ms, |f, s| {
+            if let Err(e) = f.apply_many(known.into_iter(), false, &mut *s) {
+                tracing::debug!("membership restart: {e}");
             }
-        }
+            for m in askable {
+                if let Err(e) = f.announce(m, &mut *s) {
+                    tracing::debug!("membership restart: announce: {e}");
+                }
+            }
+        });
     }
 
     /// Keeps `max_transmissions` in step with the number of members.
     fn follow_cluster_size(&mut self) {
         let want = max_transmissions(self.foca.num_members());
-        if want != self.max_tx {
-            let mut config = self.cfg.foca();
-            if let Some(tx) = std::num::NonZeroU8::new(want) {
-                config.max_transmissions = tx;
-            }
-            if self.foca.set_config(config).is_ok() {
-                self.max_tx = want;
-            }
+        let config = || Self::foca_config(&self.cfg, want);
+        if want != self.max_tx && self.foca.set_config(config()).is_ok() {
+            self.max_tx = want;
         }
     }
 
@@ -375,26 +370,25 @@ impl SwimNode {
             return; // set by the instance before a restart
         }
         let slack = self.cfg.probe_rtt / 2;
-        match timer.timer {
-            Timer::ProbeRandomMember(_) => self.health.probe_round(late, slack),
-            Timer::ChangeSuspectToDown {
-                ref member_id,
-                incarnation,
-                ..
-            } => {
-                self.health.timer_fired(late, slack);
-                if !self.still_suspect(member_id, incarnation) {
-                    // Refuted (or already down). foca would still send it "you are down"
-                    // (`notify_down_members`), and it would rejoin for nothing.
-                    return;
-                }
-                if let Some(after) = self.suspicion_left(&timer, now_ms) {
-                    self.out.timers.push((after, timer));
-                    return;
-                }
+        if matches!(timer.timer, Timer::ProbeRandomMember(_)) {
+            self.health.probe_round(late, slack);
+        } else {
+            self.health.timer_fired(late, slack);
+        }
+        if let Timer::ChangeSuspectToDown {
+            ref member_id,
+            incarnation,
+            ..
+        } = timer.timer
+        {
+            if !self.still_suspect(member_id, incarnation) {
+                // Refuted (or already down). foca would still send it "you are down"
+                // (`notify_down_members`), and it would rejoin for nothing.
+                return;
             }
-            _ => {
-                self.health.timer_fired(late, slack);
+            if let Some(after) = self.suspicion_left(&timer, now_ms) {
+                self.out.timers.push((after, timer));
+                return;
             }
         }
         let gossip = matches!(timer.timer, Timer::PeriodicGossip(_));
