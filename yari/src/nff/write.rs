@@ -74,6 +74,8 @@ fn write_entity(out: &mut String, e: &Entity) {
             }
             Ok(())
         }
+        // On one line, as `lib_output_cylcone` prints it (NFF.TXT shows three lines; the
+        // reader takes either).
         Entity::Cone {
             base,
             base_radius,
@@ -81,7 +83,7 @@ fn write_entity(out: &mut String, e: &Entity) {
             apex_radius,
         } => writeln!(
             out,
-            "c\n{} {}\n{} {}",
+            "c {} {} {} {}",
             g3(base),
             g(*base_radius),
             g3(apex),
@@ -208,7 +210,7 @@ mod tests {
         });
         let want = "b 0.078 0.361 0.753\nv\nfrom 2.1 1.3 1.7\nat 0 0 0\nup 0 0 1\nangle 45\n\
                     hither 0.01\nresolution 512 512\nl 4 3 2\nf 1 0.75 0.33 0.8 0 100000 0 1\n\
-                    p 3\n1 0 0\n0 1 0\n0 0 0\ns 0 0 0 0.5\nc\n0 0 0 1\n0 0 2 0\n";
+                    p 3\n1 0 0\n0 1 0\n0 0 0\ns 0 0 0 0.5\nc 0 0 0 1 0 0 2 0\n";
         assert_eq!(write(&s), want);
     }
 }
