@@ -19,17 +19,26 @@ pub fn identity() -> Matrix {
 /// Axes for [`rotate_matrix`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Axis {
+    /// Rotation about x, from y towards z.
+    X,
     /// Rotation about y, from z towards x.
     Y,
     /// Rotation about z, from x towards y.
     Z,
 }
 
-/// `lib_create_rotate_matrix` about the Y or Z axis.
+/// `lib_create_rotate_matrix` about the X, Y or Z axis.
 pub fn rotate_matrix(axis: Axis, angle: f64) -> Matrix {
     let mut m = [[0.0; 4]; 4];
     let (c, s) = (angle.cos(), angle.sin());
     match axis {
+        Axis::X => {
+            m[0][0] = 1.0;
+            m[1][1] = c;
+            m[2][2] = c;
+            m[1][2] = s;
+            m[2][1] = -s;
+        }
         Axis::Y => {
             m[1][1] = 1.0;
             m[0][0] = c;
@@ -75,6 +84,56 @@ pub fn axis_rotate_matrix(axis: [f64; 3], angle: f64) -> Matrix {
         ],
         [0.0, 0.0, 0.0, 1.0],
     ]
+}
+
+/// `lib_create_translate_matrix`: the identity with `v` in the bottom row.
+pub fn translate_matrix(v: [f64; 3]) -> Matrix {
+    let mut m = identity();
+    m[3][0] = v[0];
+    m[3][1] = v[1];
+    m[3][2] = v[2];
+    m
+}
+
+/// `lib_create_scale_matrix`: `v` on the diagonal, 1 in the corner.
+pub fn scale_matrix(v: [f64; 3]) -> Matrix {
+    let mut m = [[0.0; 4]; 4];
+    m[0][0] = v[0];
+    m[1][1] = v[1];
+    m[2][2] = v[2];
+    m[3][3] = 1.0;
+    m
+}
+
+/// `lib_matrix_multiply`: `a b` (with row vectors, `a` is applied first).
+pub fn matrix_multiply(a: &Matrix, b: &Matrix) -> Matrix {
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j] + a[i][3] * b[3][j]
+        })
+    })
+}
+
+/// `lib_transpose_matrix`.
+pub fn transpose(m: &Matrix) -> Matrix {
+    std::array::from_fn(|i| std::array::from_fn(|j| m[j][i]))
+}
+
+/// `lib_transform_point`: x, y, z times the upper 3x3, plus the bottom row (the
+/// translation). The translation is added even when it is zero, as his code does (it turns
+/// a -0 into 0).
+pub fn transform_point(v: [f64; 3], m: &Matrix) -> [f64; 3] {
+    std::array::from_fn(|j| v[0] * m[0][j] + v[1] * m[1][j] + v[2] * m[2][j] + m[3][j])
+}
+
+/// `lib_normalize_vector` returning the length too (his function returns the divisor).
+pub fn normalize_len(v: [f64; 3]) -> ([f64; 3], f64) {
+    let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if d > 0.0 {
+        ([v[0] / d, v[1] / d, v[2] / d], d)
+    } else {
+        (v, d)
+    }
 }
 
 /// `lib_transform_vector`: x, y, z times the upper 3x3.

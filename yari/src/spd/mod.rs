@@ -4,20 +4,40 @@
 //!
 //! The generators follow Haines's C programs step for step (his matrix conventions, recursion
 //! order and random numbers), so `tetra(6)`, `mount(6)` and `balls(4)` reproduce the
-//! reference files `tetra6.nff`, `mount6.nff` and `balls4.nff`.
+//! reference files `tetra6.nff`, `mount6.nff` and `balls4.nff`, and every database prints,
+//! at every size tested, the NFF text his program prints.
 //!
 //! # Layout
 //! - [`haines_lib`]: the matrix routines and Gaussian random numbers of Haines's `libvec.c`.
+//! - [`haines_output`]: his library's output routines (colour, polygon, patch, sphere,
+//!   cylinder/cone, transformation stack), NFF branch.
 //! - [`tetra`]: the recursive tetrahedron.
 //! - [`mount`]: the fractal mountain and its four glass spheres.
 //! - [`balls`]: the sphereflake on a floor polygon.
+//! - [`gears`]: the cube of meshed gears, some transparent.
+//! - [`rings`]: the pyramid of six-ring objects (cylinders and spheres) before a wall.
+//! - [`tree`]: Aono and Kunii's tree of cones and spheres.
+//! - [`teapot`]: the Bezier teapot as `pp` triangles on a checkerboard.
+//! - [`lattice`]: spheres joined by cylinders on a cubic grid.
+//! - [`shells`]: Pickover's sea shell of spheres.
+//! - [`jacks`]: recursive jacks (cylinders and spheres).
+//! - [`sombrero`]: a height field of triangles.
 //! - [`checkerboard`](mod@checkerboard): checkerboards of polygons (`check`).
 
 pub mod balls;
 pub mod checkerboard;
+pub mod gears;
 pub mod haines_lib;
+pub mod haines_output;
+pub mod jacks;
+pub mod lattice;
 pub mod mount;
+pub mod rings;
+pub mod shells;
+pub mod sombrero;
+pub mod teapot;
 pub mod tetra;
+pub mod tree;
 
 pub use checkerboard::{checkerboard, CheckerboardError, CheckerboardOptions};
 
@@ -36,32 +56,95 @@ pub enum Database {
     Mount,
     /// The sphereflake on a floor polygon.
     Balls,
+    /// The cube of meshed gears (144-vertex faces), some transparent, on a mirror floor.
+    Gears,
+    /// The pyramid of objects of six pentagonal rings (cylinders and spheres).
+    Rings,
+    /// The tree of cones and spheres over a field.
+    Tree,
+    /// The teapot as `pp` triangles with normals, on a checkerboard.
+    Teapot,
+    /// Spheres joined by cylinders on a cubic grid.
+    Lattice,
+    /// The sea shell: a spiral of overlapping spheres.
+    Shells,
+    /// Recursive jacks of cylinders and spheres.
+    Jacks,
+    /// The sombrero height field, as triangles.
+    Sombrero,
 }
 
 impl Database {
-    /// Haines's default size factor (the reference files' sizes).
+    /// Every database, in Haines's order (the original seven, then the extras).
+    pub const ALL: [Database; 11] = [
+        Database::Balls,
+        Database::Gears,
+        Database::Mount,
+        Database::Rings,
+        Database::Teapot,
+        Database::Tetra,
+        Database::Tree,
+        Database::Lattice,
+        Database::Shells,
+        Database::Jacks,
+        Database::Sombrero,
+    ];
+
+    /// Haines's default size factor (the size his program uses without `-s`).
     pub fn default_size(self) -> u32 {
         match self {
-            Database::Tetra | Database::Mount => 6,
-            Database::Balls => 4,
+            Database::Tetra | Database::Mount | Database::Teapot => 6,
+            Database::Balls | Database::Gears => 4,
+            Database::Rings => 7,
+            Database::Tree => 11,
+            Database::Lattice => 12,
+            Database::Shells => 5,
+            Database::Jacks | Database::Sombrero => 1,
         }
     }
 
-    /// The sizes accepted: bounded by Haines's hash (mount) and by output size.
+    /// The sizes accepted: bounded by Haines's hash (mount) and by output size. The new
+    /// databases stop at about 5 million primitives or less (their NFF text then runs to a
+    /// few hundred MB):
+    /// - gears 1 to 25: size^3 gears of 146 polygons (2.3M polygons at 25);
+    /// - rings 1 to 60: 5 size (size+1)(2 size+1) cylinders and as many spheres (4.4M at 60);
+    /// - tree 1 to 20: 2^(size+1) - 1 cones and as many spheres (4.2M at 20);
+    /// - teapot 1 to 200: about 65 size^2 triangles and squares (2.6M at 200);
+    /// - lattice 1 to 100: (size+1)^3 spheres, 3 size (size+1)^2 cylinders (4.1M at 100);
+    /// - shells 1 to 14: 180 * 2^size + 1 spheres (2.9M at 14);
+    /// - jacks 1 to 7: 9 (8^size - 1) / 7 cylinders and spheres (2.7M at 7);
+    /// - sombrero 1 to 6: 2 (32 * 2^(size-1) - 1)^2 triangles (2.1M at 6).
     pub fn sizes(self) -> std::ops::RangeInclusive<u32> {
         match self {
             Database::Tetra => 1..=12,
             Database::Mount => 0..=mount::MAX_SIZE,
             Database::Balls => 0..=6,
+            Database::Gears => 1..=25,
+            Database::Rings => 1..=60,
+            Database::Tree => 1..=20,
+            Database::Teapot => 1..=200,
+            Database::Lattice => 1..=100,
+            Database::Shells => 1..=14,
+            Database::Jacks => 1..=7,
+            Database::Sombrero => 1..=6,
         }
     }
 
-    /// The command-line and file name: `tetra`, `mount` or `balls`.
+    /// The command-line and file name: `tetra`, `mount`, `balls`, `gears`, `rings`, `tree`,
+    /// `teapot`, `lattice`, `shells`, `jacks` or `sombrero` (Haines's program names).
     pub fn name(self) -> &'static str {
         match self {
             Database::Tetra => "tetra",
             Database::Mount => "mount",
             Database::Balls => "balls",
+            Database::Gears => "gears",
+            Database::Rings => "rings",
+            Database::Tree => "tree",
+            Database::Teapot => "teapot",
+            Database::Lattice => "lattice",
+            Database::Shells => "shells",
+            Database::Jacks => "jacks",
+            Database::Sombrero => "sombrero",
         }
     }
 }
@@ -95,6 +178,14 @@ pub fn generate(db: Database, size: u32) -> Result<NffScene, SizeError> {
         Database::Tetra => tetra::tetra(size),
         Database::Mount => mount::mount(size),
         Database::Balls => balls::balls(size),
+        Database::Gears => gears::gears(size),
+        Database::Rings => rings::rings(size),
+        Database::Tree => tree::tree(size),
+        Database::Teapot => teapot::teapot(size),
+        Database::Lattice => lattice::lattice(size),
+        Database::Shells => shells::shells(size),
+        Database::Jacks => jacks::jacks(size),
+        Database::Sombrero => sombrero::sombrero(size),
     })
 }
 
@@ -123,3 +214,5 @@ pub fn write_reference_files(dir: &std::path::Path) -> std::io::Result<()> {
 
 #[cfg(test)]
 mod reference_tests;
+#[cfg(test)]
+mod reference_tests_rest;

@@ -35,7 +35,7 @@ const HAINES: [(&str, Database, u32, usize, &str); 3] = [
     ),
 ];
 
-fn hex(bytes: &[u8]) -> String {
+pub(super) fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
