@@ -1,6 +1,8 @@
-//! `sunray spd tetra|mount|balls [--size N] [-o OUT]`: Haines's Standard Procedural Databases,
-//! generated exactly as his programs do (`tetra 6`, `mount 6` and `balls 4` equal the
-//! reference files). `.nff` output is Haines's own text; anything else (and stdout) is YARI.
+//! `sunray spd tetra|mount|balls|gears|rings|tree|teapot|lattice|shells|jacks|sombrero
+//! [--size N] [-o OUT]`: Haines's Standard Procedural Databases, generated exactly as his
+//! programs do (`tetra 6`, `mount 6` and `balls 4` equal the reference files; every database
+//! prints his program's NFF text). `.nff` output is Haines's own text; anything else (and
+//! stdout) is YARI.
 
 use super::convert::{output_format, render_scene, write_output, OutputFormat};
 use clap::{Args, ValueEnum};
@@ -14,8 +16,10 @@ pub struct SpdArgs {
     /// Which database.
     #[arg(value_enum)]
     pub(crate) database: DatabaseName,
-    /// Haines's size factor (default: tetra 6, mount 6, balls 4; allowed: tetra 1 to 12, which
-    /// is 4^size triangles, mount 0 to 7, balls 0 to 6).
+    /// Haines's size factor (default: tetra 6, mount 6, balls 4, gears 4, rings 7, tree 11,
+    /// teapot 6, lattice 12, shells 5, jacks 1, sombrero 1; allowed: tetra 1 to 12, which is
+    /// 4^size triangles, mount 0 to 7, balls 0 to 6, gears 1 to 25, rings 1 to 60, tree 1 to
+    /// 20, teapot 1 to 200, lattice 1 to 100, shells 1 to 14, jacks 1 to 7, sombrero 1 to 6).
     #[arg(short, long)]
     pub size: Option<u32>,
     /// Where to write (`.nff` for NFF, else YARI; default: YARI on stdout).
@@ -32,6 +36,14 @@ pub(crate) enum DatabaseName {
     Tetra,
     Mount,
     Balls,
+    Gears,
+    Rings,
+    Tree,
+    Teapot,
+    Lattice,
+    Shells,
+    Jacks,
+    Sombrero,
 }
 
 /// Generates the database and writes it (or prints it on stdout).
@@ -40,6 +52,14 @@ pub fn run(args: SpdArgs) -> anyhow::Result<ExitCode> {
         DatabaseName::Tetra => Database::Tetra,
         DatabaseName::Mount => Database::Mount,
         DatabaseName::Balls => Database::Balls,
+        DatabaseName::Gears => Database::Gears,
+        DatabaseName::Rings => Database::Rings,
+        DatabaseName::Tree => Database::Tree,
+        DatabaseName::Teapot => Database::Teapot,
+        DatabaseName::Lattice => Database::Lattice,
+        DatabaseName::Shells => Database::Shells,
+        DatabaseName::Jacks => Database::Jacks,
+        DatabaseName::Sombrero => Database::Sombrero,
     };
     let scene = generate(db, args.size.unwrap_or(db.default_size()))?;
     let format = output_format(args.format, args.output.as_deref());
