@@ -69,3 +69,13 @@ pub fn scene_figures(stats: &serde_json::Value) -> Vec<(String, u64, bool)> {
 pub fn accel_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
     per_node(stats, |n| n["accel_cached"].as_bool().unwrap())
 }
+
+/// The hosts whose worker got as far as asking for work (so its accelerator was built or
+/// read, and a built BVH kept): a worker still fetching or building when the image was done
+/// is killed at the job's end, and keeps nothing.
+pub fn prepared_hosts(stats: &serde_json::Value) -> Vec<String> {
+    per_node(stats, |n| n["preprocess_s"].as_f64().unwrap() > 0.0)
+        .into_iter()
+        .filter_map(|(host, prepared)| prepared.then_some(host))
+        .collect()
+}
