@@ -86,6 +86,7 @@ impl Probe {
             opts: TraceOptions {
                 max_depth,
                 min_weight: 0.0,
+                spawn_all: false,
             },
             scratch: &mut scratch,
             counters: &mut counters,

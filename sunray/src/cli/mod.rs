@@ -44,7 +44,8 @@ pub enum Command {
     Compile(compile::CompileArgs),
     /// Convert an NFF or OFF scene to YARI (the thesis's nff2gfx / off2gfx).
     Convert(convert::ConvertArgs),
-    /// Generate one of Haines's Standard Procedural Databases (tetra, mount, balls).
+    /// Generate one of Haines's Standard Procedural Databases (tetra, mount, balls, gears,
+    /// rings, tree, teapot, lattice, shells, jacks, sombrero).
     Spd(spd::SpdArgs),
     /// Generate a checkerboard of polygons (the thesis's `check`).
     CheckBoard(check_board::CheckBoardArgs),

@@ -394,6 +394,7 @@ pub(crate) mod tests {
             max_per_voxel: 10,
             octree_max_depth: 8,
             mailbox: true,
+            spawn_all: false,
         }
     }
 

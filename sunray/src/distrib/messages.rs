@@ -128,6 +128,7 @@ impl Settings {
             samples: r.samples,
             max_depth: r.trace.max_depth,
             min_weight: r.trace.min_weight,
+            spawn_all: r.trace.spawn_all,
             accel: self.accel.kind.name().to_string(),
             max_per_voxel: self.accel.max_per_voxel.min(u32::MAX as usize) as u32,
             octree_max_depth: self.accel.max_depth,
@@ -148,6 +149,7 @@ impl Settings {
                 trace: TraceOptions {
                     max_depth: p.max_depth,
                     min_weight: p.min_weight,
+                    spawn_all: p.spawn_all,
                 },
             },
             accel: AccelOptions {
@@ -229,6 +231,7 @@ mod tests {
                 trace: TraceOptions {
                     max_depth: 3,
                     min_weight: 0.01,
+                    spawn_all: true,
                 },
             },
             accel: AccelOptions {

@@ -47,7 +47,8 @@ impl RenderOptions {
 impl RenderOptions {
     /// Haines's SPD invariant setup: (W+1)x(H+1) eye rays, one through each pixel corner of
     /// the WxH image (the NFF angle then spans the centres of the first and last rows of the
-    /// corner grid), one sample each, no weight threshold.
+    /// corner grid), one sample each, no weight threshold, and every ray his procedure
+    /// spawns ([`TraceOptions::spawn_all`]).
     pub fn spd_corners(self) -> RenderOptions {
         RenderOptions {
             width: self.width + 1,
@@ -55,6 +56,7 @@ impl RenderOptions {
             samples: 1,
             trace: TraceOptions {
                 min_weight: 0.0,
+                spawn_all: true,
                 ..self.trace
             },
         }

@@ -1,13 +1,10 @@
 //! The Hall model's direct terms at a hit: ambient, then per light the diffuse reflection and
 //! its highlight (lights in front), or the diffuse transmission and its highlight (lights
-//! behind a transmitting surface), each light filtered by its shadow ray.
+//! behind a transmitting surface), each light filtered by its shadow ray ([`super::shadow`]).
 
 use super::hall::{SurfacePoint, Tracer};
-use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
+use crate::geometry::{Ray, Real, Vec3};
 use crate::sampler::{sample_disc, SampleStream};
-
-/// Maximum transparent surfaces a shadow ray passes through before it is treated as blocked.
-const MAX_SHADOW_CROSSINGS: usize = 64;
 
 /// The reflection highlight (Phong's on the halfway vector): (N.H)^phong, H between L and V.
 fn reflection_highlight(l: Vec3, v: Vec3, nf: Vec3, phong: Real) -> Real {
@@ -84,83 +81,5 @@ impl Tracer<'_> {
             }
         }
         result
-    }
-
-    /// The filter a shadow ray from `p` (leaving on the side of `side`) towards a light at
-    /// distance `dist` in direction `l` receives: 1 if unblocked, 0 if an opaque surface is in
-    /// the way, and the product of `kst * colour` of every transparent surface crossed.
-    /// `ray` is the ray that found `p` (its origin scales the offset, its time is the shadow
-    /// ray's).
-    pub(super) fn shadow(&mut self, p: Vec3, side: Vec3, l: Vec3, dist: Real, ray: &Ray) -> Vec3 {
-        self.counters.shadow += 1;
-        let time = ray.time;
-        let origin = offset_from(p, side, ray.origin);
-        let t_max = (p + l * dist - origin).dot(l);
-        let ray = Ray {
-            origin,
-            dir: l,
-            time,
-        };
-        let pre = RayPre::new(ray);
-        let scene = self.scene;
-        let opaque = |i: u32| scene.surface(i).kst() <= 0.0;
-        // Most shadow rays meet nothing or an opaque surface first: one any-hit query
-        // settles those (and every ray of a scene without transparency); only a ray that met
-        // a transparent surface takes the long way.
-        let transparency = scene.world.features.transparency;
-        match self.accel.any(
-            &scene.prims,
-            &pre,
-            t_max,
-            &|_| true,
-            self.scratch,
-            self.counters,
-        ) {
-            None => return Vec3::ONE,
-            Some(h) if !transparency || opaque(h.prim) => return Vec3::ZERO,
-            Some(_) => {}
-        }
-        if self
-            .accel
-            .any(
-                &scene.prims,
-                &pre,
-                t_max,
-                &opaque,
-                self.scratch,
-                self.counters,
-            )
-            .is_some()
-        {
-            return Vec3::ZERO;
-        }
-        // Only transparent surfaces lie in the way: attenuate by each crossing.
-        let mut filter = Vec3::ONE;
-        let mut from = pre;
-        let mut remaining = t_max;
-        for _ in 0..MAX_SHADOW_CROSSINGS {
-            let Some(h) =
-                self.accel
-                    .closest(&scene.prims, &from, remaining, self.scratch, self.counters)
-            else {
-                return filter;
-            };
-            let s = scene.surface(h.prim);
-            filter *= s.color * s.kst();
-            if filter.max_element() <= 0.0 {
-                return Vec3::ZERO;
-            }
-            let q = from.ray.at(h.t);
-            let n = scene.prims.normal(h.prim, q, time);
-            let push = if n.dot(l) >= 0.0 { n } else { -n };
-            let o = offset_from(q, push, from.ray.origin);
-            remaining -= (o - from.ray.origin).dot(l);
-            from = RayPre::new(Ray {
-                origin: o,
-                dir: l,
-                time,
-            });
-        }
-        Vec3::ZERO
     }
 }

@@ -29,6 +29,14 @@ pub struct TraceOptions {
     /// A secondary ray is spawned only if its weight (product of the coefficients along its
     /// path) exceeds this.
     pub min_weight: Real,
+    /// Haines's SPD testing procedure (his README, rules 8 and 9), for counting rays: every
+    /// ray that hits a reflecting *or transmitting* surface spawns a reflected ray (total
+    /// internal reflection included), and every ray is spawned to the depth limit whatever
+    /// its weight. A transmitting surface with ksr = 0 reflects nothing in the Hall model, so
+    /// its reflected ray has weight 0 and leaves the image as it is; it is traced only to be
+    /// counted (`--spd-corners`).
+    #[serde(default)]
+    pub spawn_all: bool,
 }
 
 impl TraceOptions {
@@ -50,6 +58,7 @@ impl Default for TraceOptions {
         TraceOptions {
             max_depth: 5,
             min_weight: 0.001,
+            spawn_all: false,
         }
     }
 }

@@ -4,7 +4,8 @@
 //! - [`media`]: the nested transparent volumes a ray travels inside.
 //! - [`hall`]: the recursive ray tracer ([`hall::Tracer`]): finds the hit and what shading
 //!   needs of it (textured normal, media on either side), then adds
-//! - [`direct`]: the direct terms (ambient, diffuse and highlights, through shadow rays), and
+//! - [`direct`]: the direct terms (ambient, diffuse and highlights, through shadow rays),
+//! - [`shadow`]: shadow rays, opaque and transparent occluders in one walk, and
 //! - [`secondary`]: the reflected and refracted rays.
 
 pub mod direct;
@@ -12,6 +13,7 @@ pub mod hall;
 pub mod media;
 pub mod optics;
 pub mod secondary;
+pub mod shadow;
 
 pub use hall::{TraceOptions, Tracer};
 pub use media::Media;

@@ -1,6 +1,7 @@
 //! The secondary rays at a hit: the reflected ray (weighted by ksr and, on a transmitting
 //! surface, Fresnel's F) and the refracted ray (kst (1 - F)), each spawned only above the
 //! weight threshold and within the depth limit, with gloss and translucency perturbing them.
+//! Under Haines's procedure ([`super::TraceOptions::spawn_all`]) every ray is spawned.
 
 use super::hall::{RayKind, SurfacePoint, Tracer};
 use super::optics::{fresnel, reflect, refract};
@@ -28,8 +29,12 @@ impl Tracer<'_> {
             1.0
         };
 
+        // Haines's procedure spawns what the Hall model weighs 0 (a transmitter's reflection
+        // when ksr = 0, rays below an ancestor of weight 0), to count it.
+        let every = self.opts.spawn_all;
         let w_refl = ksr * f;
-        if ksr > 0.0 && weight * w_refl > self.opts.min_weight {
+        if (ksr > 0.0 || (every && kst > 0.0)) && (every || weight * w_refl > self.opts.min_weight)
+        {
             let mut dir = reflect(ray.dir, nf);
             if surf.gloss > 0.0 && world.features.gloss {
                 dir = perturb(dir, surf.gloss, rng);
@@ -54,7 +59,7 @@ impl Tracer<'_> {
         }
 
         let w_refr = kst * (1.0 - f);
-        if kst > 0.0 && weight * w_refr > self.opts.min_weight {
+        if kst > 0.0 && (every || weight * w_refr > self.opts.min_weight) {
             let bent = if at.closed {
                 refract(ray.dir, nf, at.n_view / at.n_far)
             } else {

@@ -9,7 +9,7 @@ use crate::scene::Scene;
 use crate::stats::Counters;
 use yari::model::{Camera, Light, Object, Shape, Surface, World};
 
-fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World {
+pub(super) fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World {
     let mut w = World {
         resolution: [8, 8],
         background: Vec3::new(0.2, 0.4, 0.6),
@@ -70,7 +70,7 @@ fn close(a: Vec3, b: Vec3) {
     assert!((a - b).abs().max_element() < 1e-9, "{a} != {b}");
 }
 
-fn square(z: f64) -> Shape {
+pub(super) fn square(z: f64) -> Shape {
     Shape::Polygon {
         vertices: vec![
             Vec3::new(-1.0, -1.0, z),
@@ -81,7 +81,7 @@ fn square(z: f64) -> Shape {
     }
 }
 
-fn white_light(at: Vec3) -> Light {
+pub(super) fn white_light(at: Vec3) -> Light {
     Light {
         position: at,
         color: Vec3::ONE,
@@ -107,6 +107,7 @@ fn ambient_diffuse_and_highlight_head_on() {
     let opts = TraceOptions {
         max_depth: 1,
         min_weight: 0.0,
+        spawn_all: false,
     };
     let (c, n) = trace(
         world(
@@ -143,6 +144,7 @@ fn diffuse_follows_the_cosine_and_highlight_the_half_vector() {
         TraceOptions {
             max_depth: 1,
             min_weight: 0.0,
+            spawn_all: false,
         },
     );
     let h = (dir + Vec3::Z).normalize();
@@ -184,11 +186,56 @@ fn fresnel_splits_reflection_and_transmission() {
         TraceOptions {
             max_depth: 5,
             min_weight: 0.0,
+            spawn_all: false,
         },
     );
     let bg = Vec3::new(0.2, 0.4, 0.6);
     close(c, bg * (0.5 * 0.04) + bg * 0.96);
     assert_eq!((n.reflected, n.refracted), (1, 1));
+}
+
+#[test]
+fn haines_procedure_spawns_a_transmitters_reflection_to_count_it() {
+    // Gears' glass: ksr = 0 (NFF Ks 0), kst = 0.8, refract 1.1. The Hall model reflects
+    // nothing there; Haines's procedure spawns the reflected ray anyway (weight 0), and under
+    // it the rays below a weight-0 ray too. The colour stays the same.
+    let s = Surface {
+        color: Vec3::ONE,
+        kdr: 1.0,
+        kdt: 0.2,
+        ka: 0.0,
+        refract: 1.1,
+        ..Surface::default()
+    };
+    let mirror_behind = Surface {
+        color: Vec3::ONE,
+        kdr: 0.0,
+        ka: 0.0,
+        ..Surface::default()
+    };
+    let scene = || {
+        world(
+            vec![
+                (square(0.0), s.clone()),
+                (square(-1.0), mirror_behind.clone()),
+            ],
+            vec![],
+        )
+    };
+    let opts = |spawn_all| TraceOptions {
+        max_depth: 5,
+        min_weight: 0.0,
+        spawn_all,
+    };
+    let (hall, n) = trace(scene(), opts(false));
+    // Eye ray refracts through the sheet, the mirror reflects it back up through the sheet.
+    assert_eq!((n.reflected, n.refracted), (1, 2), "{n:?}");
+    let (haines, m) = trace(scene(), opts(true));
+    assert_eq!(hall, haines, "weight-0 rays change nothing");
+    // The sheet's hits now spawn reflected rays too: off its top (depth 2, to the
+    // background) and off its underside (depth 4, weight 0, down to the mirror, whose
+    // reflection, depth 5, meets the sheet at the depth limit).
+    assert_eq!((m.reflected, m.refracted), (4, 2), "{m:?}");
 }
 
 #[test]
@@ -217,6 +264,7 @@ fn transmissivity_attenuates_per_unit_length() {
         TraceOptions {
             max_depth: 5,
             min_weight: 0.0,
+            spawn_all: false,
         },
     );
     close(c, Vec3::new(0.2, 0.4, 0.6) * 0.25);
@@ -244,6 +292,7 @@ fn diffuse_and_specular_transmission_from_a_light_behind() {
         TraceOptions {
             max_depth: 5,
             min_weight: 0.0,
+            spawn_all: false,
         },
     );
     let bg = Vec3::new(0.2, 0.4, 0.6);
@@ -271,6 +320,7 @@ fn shadows_block_and_transparent_occluders_filter() {
     let opts = TraceOptions {
         max_depth: 1,
         min_weight: 0.0,
+        spawn_all: false,
     };
     // Opaque blocker off the eye ray (a small square at z = 2 between floor and light would
     // also block the eye ray, so the eye looks from the side instead).
@@ -358,7 +408,8 @@ fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
             &w2,
             TraceOptions {
                 max_depth: 5,
-                min_weight: 0.0
+                min_weight: 0.0,
+                spawn_all: false,
             }
         )
         .reflected,
@@ -369,7 +420,8 @@ fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
             &w2,
             TraceOptions {
                 max_depth: 1,
-                min_weight: 0.0
+                min_weight: 0.0,
+                spawn_all: false,
             }
         )
         .reflected,
@@ -389,7 +441,8 @@ fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
             &w2,
             TraceOptions {
                 max_depth: 10,
-                min_weight: 0.2
+                min_weight: 0.2,
+                spawn_all: false,
             }
         )
         .reflected,
@@ -417,10 +470,12 @@ fn the_ray_tree_never_goes_past_max_depth_whatever_it_is_asked() {
         TraceOptions {
             max_depth: u32::MAX,
             min_weight: -1.0,
+            spawn_all: false,
         },
         TraceOptions {
             max_depth: 1_000_000_000,
             min_weight: 0.0,
+            spawn_all: false,
         },
     ] {
         let mut scratch = Scratch::new(scene.prims.len(), true);

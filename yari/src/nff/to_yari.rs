@@ -1,11 +1,13 @@
 //! The NFF to YARI mapping (the thesis's `nff2gfx`); `docs/nff-mapping.md` explains each rule.
 //!
-//! - `b` -> `background`; NFF has no ambient light, so `ambient` is black and every surface
-//!   gets `ka = 0`.
+//! - `b` -> `background`. NFF has no ambient light; Haines's SPD README asks for one, and
+//!   for an ambient term on every object: `ambient` is white times sqrt(n)/(2n) for n lights
+//!   (1/2 with none), and each surface's `ka` makes its ambient term Kd * rgb, like its
+//!   diffuse term.
 //! - `v` -> `camera` with HALF of NFF's full `angle`, and `resolution`; `hither` has no YARI
 //!   counterpart and is dropped.
-//! - `l` -> `light`; every light's colour (white when none is given) is scaled by 1/sqrt(n)
-//!   for n lights, the scaling Haines's SPD leaves to NFF renderers.
+//! - `l` -> `light`; every light's colour (white when none is given) is scaled by
+//!   sqrt(n)/(2n) for n lights, the relative intensity Haines's SPD README gives.
 //! - `f` -> `attribute` on the Hall model: kdr = 1 - Ks, kdt = 1 - T, colour = rgb Kd / kdr
 //!   (so the diffuse term kdr * colour is NFF's Kd * rgb), phong = Shine, refract = ior.
 //! - `s` -> `sphere`, `p`/`pp` -> `polygon` (vertex normals dropped), `c` -> a clipped
@@ -26,16 +28,13 @@ pub fn to_yari(nff: &NffScene) -> Scene {
         .iter()
         .filter(|e| matches!(e.node, Entity::Light { .. }))
         .count();
-    let light_scale = if lights > 0 {
-        1.0 / (lights as f64).sqrt()
-    } else {
-        1.0
-    };
-    // NFF has no ambient light: say so explicitly rather than take YARI's default.
+    let light_scale = haines_intensity(lights);
+    // NFF has no ambient light: Haines's intensity, explicitly rather than YARI's default.
     let first = nff.entities.first().map(|e| e.span).unwrap_or_default();
-    scene
-        .view
-        .push(Spanned::new(ViewStmt::Ambient(rgb([0.0; 3], first)), first));
+    scene.view.push(Spanned::new(
+        ViewStmt::Ambient(rgb([light_scale; 3], first)),
+        first,
+    ));
     for e in &nff.entities {
         let span = e.span;
         match &e.node {
@@ -114,7 +113,15 @@ pub fn to_yari(nff: &NffScene) -> Scene {
     scene
 }
 
-/// The Hall-model attribute fields of an NFF fill.
+/// The relative intensity of each light and of the ambient light for `lights` lights,
+/// Haines's sqrt(n)/(2n) (SPD README): 1/2 for one light (and for none), 0.2236 for five.
+pub fn haines_intensity(lights: usize) -> f64 {
+    let n = lights.max(1) as f64;
+    n.sqrt() / (2.0 * n)
+}
+
+/// The Hall-model attribute fields of an NFF fill. `ka` makes the ambient term `ka * colour`
+/// equal `Kd * rgb`, as the diffuse term is.
 pub fn fill_attribute(f: &Fill) -> Vec<AttrField> {
     let kd = f.kd.clamp(0.0, 1.0);
     let kdr = (1.0 - f.ks).clamp(0.0, 1.0);
@@ -129,7 +136,7 @@ pub fn fill_attribute(f: &Fill) -> Vec<AttrField> {
         AttrField::Color(Spanned::new(ColorSpec::Rgb(color), Span::default())),
         AttrField::Kdr(kdr),
         AttrField::Kdt(kdt),
-        AttrField::Ka(0.0),
+        AttrField::Ka(if kdr > 0.0 { kdr } else { kd }),
         AttrField::Phong(f.shine),
         AttrField::Refract(refract),
     ]
@@ -187,7 +194,11 @@ mod tests {
             (kdr * c[0] - 0.1).abs() < 1e-12,
             "diffuse term must stay Kd * rgb"
         );
-        assert_eq!((ka, phong, refract), (0.0, 101.148, 1.5));
+        assert_eq!((ka, phong, refract), (kdr, 101.148, 1.5));
+        assert!(
+            (ka * c[0] - 0.1).abs() < 1e-12,
+            "ambient term Kd * rgb, as the diffuse term"
+        );
         // mount6's rock: f 0.5 0.45 0.35 1 0 100000 0 0 (ior 0 becomes 1)
         let rock = Fill {
             color: [0.5, 0.45, 0.35],
@@ -219,7 +230,24 @@ mod tests {
             t: 0.0,
             ior: 1.0,
         };
-        assert_eq!(attr(&fill_attribute(&perfect)).0, [0.2, 0.3, 0.4]);
+        let (c, _, _, ka, _, _) = attr(&fill_attribute(&perfect));
+        assert_eq!(
+            (c, ka),
+            ([0.2, 0.3, 0.4], 0.0),
+            "Kd 0: no ambient term either"
+        );
+        // A diffuse mirror (Ks 1, Kd 0.5): colour rgb, so ka is Kd.
+        let shiny = Fill { kd: 0.5, ..perfect };
+        assert_eq!(attr(&fill_attribute(&shiny)).3, 0.5);
+    }
+
+    #[test]
+    fn haines_intensities() {
+        assert_eq!(haines_intensity(0), 0.5);
+        assert_eq!(haines_intensity(1), 0.5);
+        assert!((haines_intensity(3) - 0.288_675).abs() < 1e-6);
+        assert!((haines_intensity(5) - 0.223_607).abs() < 1e-6);
+        assert!((haines_intensity(7) - 0.188_982).abs() < 1e-6);
     }
 
     #[test]
@@ -259,11 +287,12 @@ mod tests {
                     saw.0 = true;
                 }
                 ViewStmt::Ambient(c) => {
-                    assert_eq!(c.node, ColorSpec::Rgb([0.0; 3]));
+                    // Haines's sqrt(n)/(2n) for 4 lights, as each light.
+                    assert_eq!(c.node, ColorSpec::Rgb([0.25; 3]));
                     saw.1 = true;
                 }
                 ViewStmt::Light(l) => {
-                    assert_eq!(l.color.node, ColorSpec::Rgb([0.5; 3]));
+                    assert_eq!(l.color.node, ColorSpec::Rgb([0.25; 3]));
                     saw.2 += 1;
                 }
                 _ => {}

@@ -160,7 +160,13 @@ fn references_compile_to_the_expected_worlds() {
         );
         assert_eq!(world.surfaces.len(), surfaces, "{file}");
         assert_eq!(world.camera.half_angle_deg, 22.5, "{file}");
-        assert_eq!(world.ambient, glam::DVec3::ZERO, "{file}");
+        // Haines's sqrt(n)/(2n) for n lights, as each light.
+        let a = crate::nff::to_yari::haines_intensity(world.lights.len());
+        assert_eq!(world.ambient, glam::DVec3::splat(a), "{file}");
+        assert!(world
+            .lights
+            .iter()
+            .all(|l| l.color == glam::DVec3::splat(a)));
         assert_eq!(world.resolution, [512, 512], "{file}");
     }
     // mount's glass spheres reflect and transmit; balls' spheres reflect only.
@@ -180,7 +186,7 @@ fn references_compile_to_the_expected_worlds() {
     assert_eq!(lights.len(), 3);
     assert!(lights
         .iter()
-        .all(|c| (c.x - 1.0 / 3.0f64.sqrt()).abs() < 1e-12));
+        .all(|c| (c.x - 3.0f64.sqrt() / 6.0).abs() < 1e-12));
 }
 
 /// A converted cone compiles to a clipped quadric.

@@ -1,0 +1,246 @@
+//! The one-walk shadow ray against the loop it replaced (one any-hit walk, one walk for an
+//! opaque surface, then one closest-hit walk per transparent crossing, each from just past
+//! the last crossing), on glass slabs and glass spheres with every accelerator.
+
+use super::super::tests::{square, white_light, world};
+use crate::accel::{Accel, AccelKind, AccelOptions, Scratch};
+use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
+use crate::sampler::SampleStream;
+use crate::scene::Scene;
+use crate::shading::{TraceOptions, Tracer};
+use crate::stats::Counters;
+use yari::model::{Shape, Surface};
+
+/// The loop the one walk replaced (crossings capped at 64), as it was.
+fn shadow_by_crossings(
+    t: &mut Tracer,
+    p: Vec3,
+    side: Vec3,
+    l: Vec3,
+    dist: Real,
+    ray: &Ray,
+) -> Vec3 {
+    let origin = offset_from(p, side, ray.origin);
+    let t_max = (p + l * dist - origin).dot(l);
+    let pre = RayPre::new(Ray::new(origin, l));
+    let scene = t.scene;
+    let opaque = |i: u32| scene.surface(i).kst() <= 0.0;
+    match t
+        .accel
+        .any(&scene.prims, &pre, t_max, &|_| true, t.scratch, t.counters)
+    {
+        None => return Vec3::ONE,
+        Some(h) if opaque(h.prim) => return Vec3::ZERO,
+        Some(_) => {}
+    }
+    if t.accel
+        .any(&scene.prims, &pre, t_max, &opaque, t.scratch, t.counters)
+        .is_some()
+    {
+        return Vec3::ZERO;
+    }
+    let mut filter = Vec3::ONE;
+    let mut from = pre;
+    let mut remaining = t_max;
+    for _ in 0..64 {
+        let Some(h) = t
+            .accel
+            .closest(&scene.prims, &from, remaining, t.scratch, t.counters)
+        else {
+            return filter;
+        };
+        let s = scene.surface(h.prim);
+        filter *= s.color * s.kst();
+        let q = from.ray.at(h.t);
+        let n = scene.prims.normal(h.prim, q, 0.0);
+        let push = if n.dot(l) >= 0.0 { n } else { -n };
+        let o = offset_from(q, push, from.ray.origin);
+        remaining -= (o - from.ray.origin).dot(l);
+        from = RayPre::new(Ray::new(o, l));
+    }
+    Vec3::ZERO
+}
+
+fn glass(color: Vec3, kdt: f64) -> Surface {
+    Surface {
+        color,
+        kdr: 1.0,
+        kdt,
+        refract: 1.0,
+        ..Surface::default()
+    }
+}
+
+/// Five glass slabs, three glass spheres (one inside a slab's span), one small opaque square.
+fn glass_world() -> yari::model::World {
+    let mut objects = Vec::new();
+    for k in 0..5 {
+        let tint = Vec3::new(1.0, 0.9 - 0.1 * k as f64, 0.8);
+        objects.push((
+            square(1.0 + k as f64 * 0.7),
+            glass(tint, 0.3 + 0.1 * k as f64),
+        ));
+    }
+    for (k, c) in [
+        Vec3::new(0.3, 0.2, 2.2),
+        Vec3::new(-0.4, 0.1, 3.6),
+        Vec3::new(0.0, -0.5, 0.4),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        objects.push((
+            Shape::Sphere {
+                center: c,
+                radius: 0.25 + 0.1 * k as f64,
+            },
+            glass(Vec3::new(0.7, 1.0, 0.9), 0.2),
+        ));
+    }
+    objects.push((
+        Shape::Sphere {
+            center: Vec3::new(0.6, 0.6, 4.5),
+            radius: 0.4,
+        },
+        Surface::default(),
+    ));
+    world(objects, vec![white_light(Vec3::new(0.0, 0.0, 10.0))])
+}
+
+/// Every accelerator, and the octree with and without the mailbox.
+fn setups() -> Vec<(AccelKind, bool)> {
+    vec![
+        (AccelKind::Bvh, true),
+        (AccelKind::Octree, true),
+        (AccelKind::Octree, false),
+        (AccelKind::Exhaustive, true),
+    ]
+}
+
+#[test]
+fn one_walk_filters_as_the_crossing_loop_did_with_fewer_tests() {
+    let mut scene = Scene::new(glass_world());
+    for (kind, mailbox) in setups() {
+        let opts = AccelOptions {
+            kind,
+            max_per_voxel: 2,
+            ..AccelOptions::default()
+        };
+        let accel = Accel::build(&mut scene.prims, &opts);
+        let mut scratch = Scratch::new(scene.prims.len(), mailbox);
+        let (mut new_c, mut old_c) = (Counters::default(), Counters::default());
+        let mut rng = SampleStream::new(7, 3, 0);
+        let (mut filtered, mut blocked, mut clear) = (0, 0, 0);
+        for _ in 0..2000 {
+            let (a, b) = rng.next_2d();
+            let p = Vec3::new(a * 2.4 - 1.2, b * 2.4 - 1.2, -0.5);
+            let (c, d) = rng.next_2d();
+            let light = Vec3::new(c * 4.0 - 2.0, d * 4.0 - 2.0, 9.0);
+            let (l, dist) = ((light - p).normalize(), (light - p).length());
+            let mut tracer = Tracer {
+                scene: &scene,
+                accel: &accel,
+                opts: TraceOptions::default(),
+                scratch: &mut scratch,
+                counters: &mut new_c,
+            };
+            let ray = Ray::new(p + Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
+            let new = tracer.shadow(p, Vec3::Z, l, dist, &ray);
+            tracer.counters = &mut old_c;
+            let old = shadow_by_crossings(&mut tracer, p, Vec3::Z, l, dist, &ray);
+            assert!(
+                (new - old).abs().max_element() <= 1e-12 * old.max_element().max(1.0),
+                "{kind:?}, mailbox {mailbox}: from {p} to {light}: {new} != {old}"
+            );
+            let most = new.max_element();
+            if most == 0.0 {
+                blocked += 1;
+            } else if most == 1.0 {
+                clear += 1;
+            } else {
+                filtered += 1;
+            }
+        }
+        // The rays cover every case, and the walk does less work.
+        assert!(
+            filtered > 500 && blocked > 20 && clear > 20,
+            "{filtered} {blocked} {clear}"
+        );
+        eprintln!(
+            "{kind:?}, mailbox {mailbox}: {} tests, the loop {}",
+            new_c.intersection_tests, old_c.intersection_tests
+        );
+        assert!(
+            new_c.intersection_tests < old_c.intersection_tests,
+            "{kind:?}: {} tests, the loop {}",
+            new_c.intersection_tests,
+            old_c.intersection_tests
+        );
+    }
+}
+
+#[test]
+fn a_glass_sphere_filters_twice_and_once_from_inside() {
+    let kdt = 0.4;
+    let color = Vec3::new(1.0, 0.5, 0.25);
+    let w = world(
+        vec![(
+            Shape::Sphere {
+                center: Vec3::new(0.0, 0.0, 3.0),
+                radius: 1.0,
+            },
+            glass(color, kdt),
+        )],
+        vec![white_light(Vec3::new(0.0, 0.0, 10.0))],
+    );
+    let mut scene = Scene::new(w);
+    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
+    let mut scratch = Scratch::new(scene.prims.len(), true);
+    let mut counters = Counters::default();
+    let mut tracer = Tracer {
+        scene: &scene,
+        accel: &accel,
+        opts: TraceOptions::default(),
+        scratch: &mut scratch,
+        counters: &mut counters,
+    };
+    let once = color * (1.0 - kdt);
+    let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
+    // From below the sphere: in and out.
+    let f = tracer.shadow(Vec3::ZERO, Vec3::Z, Vec3::Z, 10.0, &up);
+    assert!((f - once * once).abs().max_element() < 1e-12, "{f}");
+    // From its centre: out only.
+    let f = tracer.shadow(Vec3::new(0.0, 0.0, 3.0), Vec3::Z, Vec3::Z, 7.0, &up);
+    assert!((f - once).abs().max_element() < 1e-12, "{f}");
+}
+
+#[test]
+fn a_stack_of_dark_glass_is_blocked_once_the_light_left_is_negligible() {
+    // 30 slabs each passing 0.5: 0.5^30 < 1e-6, so the walk stops (and reports darkness)
+    // before it meets them all.
+    let objects = (0..30)
+        .map(|k| (square(1.0 + k as f64 * 0.2), glass(Vec3::ONE, 0.5)))
+        .collect();
+    let mut scene = Scene::new(world(objects, vec![white_light(Vec3::new(0.0, 0.0, 10.0))]));
+    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
+    let mut scratch = Scratch::new(scene.prims.len(), true);
+    let mut counters = Counters::default();
+    let mut tracer = Tracer {
+        scene: &scene,
+        accel: &accel,
+        opts: TraceOptions::default(),
+        scratch: &mut scratch,
+        counters: &mut counters,
+    };
+    let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
+    assert_eq!(
+        tracer.shadow(Vec3::ZERO, Vec3::Z, Vec3::Z, 10.0, &up),
+        Vec3::ZERO
+    );
+    // The ten above z = 4.9 pass 0.5^10.
+    let f = tracer.shadow(Vec3::new(0.0, 0.0, 4.9), Vec3::Z, Vec3::Z, 5.1, &up);
+    assert!(
+        (f - Vec3::splat(0.5f64.powi(10))).abs().max_element() < 1e-15,
+        "{f}"
+    );
+}
