@@ -6,6 +6,7 @@ use sunray::accel::{Accel, AccelKind, AccelOptions};
 use sunray::render::{render_image, Progress, RenderOptions};
 use sunray::scene::Scene;
 use sunray::stats::Counters;
+use yari::spd::Database;
 
 mod support;
 
@@ -14,6 +15,28 @@ fn spd(name: &str) -> Counters {
     let world = yari::load::load_path(&path, &yari::colour::ColourTable::builtin())
         .unwrap()
         .world;
+    corners(world)
+}
+
+/// Haines's database `db` at `size`: his NFF text (as `sunray spd` writes it), read as
+/// `sunray render` reads a file. The text matters: gears' bottom faces are computed apart
+/// from their sides, and only with the coordinates printed as `%g` do the corners match
+/// exactly, so that the gears are closed solids.
+fn generated(db: Database, size: u32) -> Counters {
+    let text = yari::nff::write(&yari::spd::generate(db, size).unwrap());
+    let world = yari::load::load_str(
+        "generated.nff",
+        text,
+        yari::load::InputKind::Nff,
+        &yari::colour::ColourTable::builtin(),
+    )
+    .unwrap()
+    .world;
+    corners(world)
+}
+
+/// The counts of a 513x513 corner-ray render of `world` with the BVH.
+fn corners(world: yari::model::World) -> Counters {
     let mut scene = Scene::new(world);
     let accel = Accel::build(
         &mut scene.prims,
@@ -62,4 +85,51 @@ fn balls_invariants() {
     within(c.reflected, 175_095);
     within(c.shadow, 954_368);
     assert_eq!(c.refracted, 0);
+}
+
+#[test]
+fn rings_invariants() {
+    let c = generated(Database::Rings, 7);
+    within(c.eye_hits, 263_169);
+    within(c.reflected, 315_236);
+    within(c.shadow, 1_085_002);
+    assert_eq!(c.refracted, 0);
+}
+
+#[test]
+fn tree_invariants() {
+    let c = generated(Database::Tree, 11);
+    within(c.eye_hits, 169_836);
+    within(c.shadow, 1_097_419);
+    assert_eq!((c.reflected, c.refracted), (0, 0));
+}
+
+/// His table's teapot is size 12 (9,264 triangles; the program's default is 6).
+#[test]
+fn teapot_invariants() {
+    let c = generated(Database::Teapot, 12);
+    within(c.eye_hits, 161_120);
+    within(c.reflected, 225_248);
+    within(c.shadow, 407_656);
+    assert_eq!(c.refracted, 0);
+}
+
+/// The glass gears (Ks = 0, T = 0.8) spawn reflected rays under Haines's procedure
+/// (`TraceOptions::spawn_all`), as his rules 8 and 9 ask; without them reflected rays were
+/// 85,467 and shadow rays 1,528,461. Refracted rays are 3.2% short of his figure with the gears
+/// closed solids (total internal reflection inside them), 2.5% over with them thin sheets (no
+/// bending): his figure lies between, and the cause is still open (docs/renderer.md).
+#[test]
+fn gears_invariants() {
+    let c = generated(Database::Gears, 4);
+    within(c.eye_hits, 245_086);
+    within(c.reflected, 304_643);
+    within(c.shadow - c.shadow_behind, 2_246_955);
+    let refracted = (c.refracted as f64 - 207_564.0) / 207_564.0;
+    assert!(
+        (-0.04..0.0).contains(&refracted),
+        "refracted {} ({:+.2}%)",
+        c.refracted,
+        refracted * 100.0
+    );
 }
