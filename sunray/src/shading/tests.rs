@@ -41,21 +41,44 @@ pub(super) fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World
     w
 }
 
+/// A scene built from a world, its default accelerator and one thread's scratch and counters:
+/// what a [`Tracer`] borrows.
+pub(super) struct Fixture {
+    scene: Scene,
+    accel: Accel,
+    scratch: Scratch,
+    pub counters: Counters,
+}
+
+impl Fixture {
+    pub(super) fn new(w: World) -> Fixture {
+        let mut scene = Scene::new(w);
+        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
+        let scratch = Scratch::new(scene.prims.len(), true);
+        Fixture {
+            scene,
+            accel,
+            scratch,
+            counters: Counters::default(),
+        }
+    }
+
+    pub(super) fn tracer(&mut self, opts: TraceOptions) -> Tracer<'_> {
+        Tracer {
+            scene: &self.scene,
+            accel: &self.accel,
+            opts,
+            scratch: &mut self.scratch,
+            counters: &mut self.counters,
+        }
+    }
+}
+
 /// Traces one ray from (0, 0, 5) towards -z; returns the colour and the counters.
 fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
-    let mut scene = Scene::new(w);
-    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-    let mut scratch = Scratch::new(scene.prims.len(), true);
-    let mut counters = Counters::default();
-    let mut tracer = Tracer {
-        scene: &scene,
-        accel: &accel,
-        opts,
-        scratch: &mut scratch,
-        counters: &mut counters,
-    };
+    let mut f = Fixture::new(w);
     let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
-    let c = tracer.trace(
+    let c = f.tracer(opts).trace(
         ray,
         RayKind::Eye,
         1,
@@ -63,7 +86,7 @@ fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
         crate::shading::Media::AIR,
         &mut SampleStream::new(0, 0, 0),
     );
-    (c, counters)
+    (c, f.counters)
 }
 
 fn close(a: Vec3, b: Vec3) {

@@ -2,7 +2,7 @@
 //! opaque surface, then one closest-hit walk per transparent crossing, each from just past
 //! the last crossing), on glass slabs and glass spheres with every accelerator.
 
-use super::super::tests::{square, white_light, world};
+use super::super::tests::{square, white_light, world, Fixture};
 use crate::accel::{Accel, AccelKind, AccelOptions, Scratch};
 use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
 use crate::sampler::SampleStream;
@@ -193,17 +193,8 @@ fn a_glass_sphere_filters_twice_and_once_from_inside() {
         )],
         vec![white_light(Vec3::new(0.0, 0.0, 10.0))],
     );
-    let mut scene = Scene::new(w);
-    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-    let mut scratch = Scratch::new(scene.prims.len(), true);
-    let mut counters = Counters::default();
-    let mut tracer = Tracer {
-        scene: &scene,
-        accel: &accel,
-        opts: TraceOptions::default(),
-        scratch: &mut scratch,
-        counters: &mut counters,
-    };
+    let mut fixture = Fixture::new(w);
+    let mut tracer = fixture.tracer(TraceOptions::default());
     let once = color * (1.0 - kdt);
     let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
     // From below the sphere: in and out.
@@ -221,17 +212,8 @@ fn a_stack_of_dark_glass_is_blocked_once_the_light_left_is_negligible() {
     let objects = (0..30)
         .map(|k| (square(1.0 + k as f64 * 0.2), glass(Vec3::ONE, 0.5)))
         .collect();
-    let mut scene = Scene::new(world(objects, vec![white_light(Vec3::new(0.0, 0.0, 10.0))]));
-    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-    let mut scratch = Scratch::new(scene.prims.len(), true);
-    let mut counters = Counters::default();
-    let mut tracer = Tracer {
-        scene: &scene,
-        accel: &accel,
-        opts: TraceOptions::default(),
-        scratch: &mut scratch,
-        counters: &mut counters,
-    };
+    let mut fixture = Fixture::new(world(objects, vec![white_light(Vec3::new(0.0, 0.0, 10.0))]));
+    let mut tracer = fixture.tracer(TraceOptions::default());
     let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
     assert_eq!(
         tracer.shadow(Vec3::ZERO, Vec3::Z, Vec3::Z, 10.0, &up),
