@@ -94,6 +94,7 @@ impl Mesh {
             .iter()
             .map(|f| Primitive::Polygon {
                 vertices: f.iter().map(|&i| self.vertices[i].to_array()).collect(),
+                normals: None,
             })
             .collect()
     }

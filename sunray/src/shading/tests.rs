@@ -9,7 +9,7 @@ use crate::scene::Scene;
 use crate::stats::Counters;
 use yari::model::{Camera, Light, Object, Shape, Surface, World};
 
-fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World {
+pub(super) fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World {
     let mut w = World {
         resolution: [8, 8],
         background: Vec3::new(0.2, 0.4, 0.6),
@@ -42,7 +42,7 @@ fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World {
 }
 
 /// Traces one ray from (0, 0, 5) towards -z; returns the colour and the counters.
-fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
+pub(super) fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
     let mut scene = Scene::new(w);
     let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
     let mut scratch = Scratch::new(scene.prims.len(), true);
