@@ -255,6 +255,7 @@ pub fn revolve(p: &mut Project, a: RevolveArgs) -> Result<(), ModelError> {
         a.axis.index(),
         a.step,
         a.smoothness,
+        a.smooth.then_some(a.crease),
     )?;
     p.add_object(part(a.name, mesh.to_primitives()))
 }
