@@ -173,8 +173,9 @@ fn primitive(p: &Primitive) -> ast::Primitive {
             center: *center,
             radius: *radius,
         },
-        Primitive::Polygon { vertices } => ast::Primitive::Polygon {
+        Primitive::Polygon { vertices, normals } => ast::Primitive::Polygon {
             vertices: vertices.clone(),
+            normals: normals.clone(),
         },
         Primitive::Quadric { coeffs, clip } => ast::Primitive::Quadric {
             coeffs: *coeffs,

@@ -289,8 +289,9 @@ fn primitive(p: &ast::Primitive) -> Primitive {
             center: *center,
             radius: *radius,
         },
-        ast::Primitive::Polygon { vertices } => Primitive::Polygon {
+        ast::Primitive::Polygon { vertices, normals } => Primitive::Polygon {
             vertices: vertices.clone(),
+            normals: normals.clone(),
         },
         ast::Primitive::Quadric { coeffs, clip } => Primitive::Quadric {
             coeffs: *coeffs,

@@ -14,6 +14,9 @@ pub struct Mesh {
     /// Each face as indices into `vertices`, 3 or more, counter-clockwise seen from outside
     /// when the mesh is outward.
     pub faces: Vec<Vec<usize>>,
+    /// Smooth shading: for each face (when not empty), a normal per corner in the face's
+    /// order, or `None` for a flat face.
+    pub normals: Vec<Option<Vec<DVec3>>>,
 }
 
 impl Mesh {
@@ -30,10 +33,13 @@ impl Mesh {
         six_v / 6.0
     }
 
-    /// Reverses every face.
+    /// Reverses every face (its corner normals with it).
     pub fn flip(&mut self) {
         for f in &mut self.faces {
             f.reverse();
+        }
+        for n in self.normals.iter_mut().flatten() {
+            n.reverse();
         }
     }
 
@@ -88,12 +94,19 @@ impl Mesh {
         Ok(())
     }
 
-    /// The faces as YARI polygons.
+    /// The faces as YARI polygons (with `normals = ...` where a face has corner normals).
     pub fn to_primitives(&self) -> Vec<Primitive> {
         self.faces
             .iter()
-            .map(|f| Primitive::Polygon {
+            .enumerate()
+            .map(|(k, f)| Primitive::Polygon {
                 vertices: f.iter().map(|&i| self.vertices[i].to_array()).collect(),
+                normals: self
+                    .normals
+                    .get(k)
+                    .cloned()
+                    .flatten()
+                    .map(|n| n.iter().map(|v| v.to_array()).collect()),
             })
             .collect()
     }
@@ -158,7 +171,11 @@ mod tests {
             vec![0, 4, 6, 2],
             vec![1, 3, 7, 5],
         ];
-        Mesh { vertices, faces }
+        Mesh {
+            vertices,
+            faces,
+            normals: Vec::new(),
+        }
     }
 
     #[test]

@@ -231,6 +231,10 @@ pub enum Primitive {
     Polygon {
         /// The vertices in order, at least 3.
         vertices: Vec<V3>,
+        /// One normal per vertex for smooth shading (YARI's `normals = ...`); `None` (and
+        /// absent from the file) for a flat polygon.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        normals: Option<Vec<V3>>,
     },
     /// Coefficients in YARI's order (see `yari::model::Quadric`) and clipping.
     Quadric {
@@ -376,6 +380,7 @@ mod tests {
                         [1e-300, 5e-324, f64::MAX],
                         [0.1, 0.2, 0.3],
                     ],
+                    normals: Some(vec![[0.1, 0.2, 0.3], [1e-300, 0.0, 1.0], [0.0, 0.0, -1.0]]),
                 },
             ],
             children: vec![],

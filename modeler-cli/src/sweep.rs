@@ -5,7 +5,9 @@
 //! Revolve: the profile lies in a plane that contains the axis, on one side of it. Profile
 //! points on the axis become single vertices (the faces next to them are triangles); an end
 //! of the profile off the axis is closed by a flat cap, so the solid is always closed. A
-//! closed profile sweeps a ring (torus-like) with no caps.
+//! closed profile sweeps a ring (torus-like) with no caps. With a crease angle
+//! ([`revolve_smooth`], `revolve --smooth`) the side faces carry vertex normals
+//! ([`smooth`]).
 //!
 //! Extrude: the outline is taken as closed; the side faces join each outline edge to its
 //! copy moved by the vector, and the caps (bottom: the outline, top: the moved outline)
@@ -20,14 +22,26 @@ use glam::DVec3;
 pub const MAX_SEGMENTS: usize = 720;
 
 /// Sweeps `profile` (a skeleton whose plane contains `axis`) about that axis through 360
-/// degrees in steps of about `step_deg` (rounded so that the steps divide 360).
+/// degrees in steps of about `step_deg` (rounded so that the steps divide 360). With
+/// `crease_deg` the side faces get vertex normals for smooth shading (see [`smooth`]): smooth
+/// around the axis, and along the profile at every corner that turns by at most `crease_deg`
+/// degrees.
 pub fn revolve(
     profile: &Skeleton,
     axis: usize,
     step_deg: f64,
     smoothness: Option<u32>,
+    crease_deg: Option<f64>,
 ) -> Result<Mesh, ModelError> {
     let name = &profile.name;
+    if let Some(c) = crease_deg {
+        if !(0.0..=180.0).contains(&c) {
+            return Err(ModelError::bad_arg(
+                "--crease",
+                format!("the crease angle must be 0 to 180 degrees (got {c})"),
+            ));
+        }
+    }
     let (pa, pb, normal_axis) = profile.plane.axes();
     if axis == normal_axis {
         return Err(ModelError::skeleton(
@@ -117,6 +131,9 @@ pub fn revolve(
     }
     let n = rh.len();
     let edges = if profile.closed { n } else { n - 1 };
+    let frame = smooth::Frame { axis: a, e1, e2 };
+    let point_normals = crease_deg.map(|c| smooth::profile_normals(&rh, profile.closed, c));
+    let angle = |k: usize| (k as f64) * std::f64::consts::TAU / segments as f64;
     for i in 0..edges {
         let j = (i + 1) % n;
         let (ri, rj) = (rh[i].0, rh[j].0);
@@ -125,14 +142,32 @@ pub fn revolve(
         }
         for k in 0..segments {
             let k1 = (k + 1) % segments;
-            let face = if ri == 0.0 {
-                vec![ring[i][k], ring[j][k1], ring[j][k]]
+            // Corners as (profile point, which of its normals, angle); a pole corner takes
+            // the face's middle angle.
+            let mid = (angle(k) + angle(k + 1)) / 2.0;
+            let (face, corners) = if ri == 0.0 {
+                let c = vec![(i, 1, mid), (j, 0, angle(k1)), (j, 0, angle(k))];
+                (vec![ring[i][k], ring[j][k1], ring[j][k]], c)
             } else if rj == 0.0 {
-                vec![ring[i][k], ring[i][k1], ring[j][k]]
+                let c = vec![(i, 1, angle(k)), (i, 1, angle(k1)), (j, 0, mid)];
+                (vec![ring[i][k], ring[i][k1], ring[j][k]], c)
             } else {
-                vec![ring[i][k], ring[i][k1], ring[j][k1], ring[j][k]]
+                let c = vec![
+                    (i, 1, angle(k)),
+                    (i, 1, angle(k1)),
+                    (j, 0, angle(k1)),
+                    (j, 0, angle(k)),
+                ];
+                (vec![ring[i][k], ring[i][k1], ring[j][k1], ring[j][k]], c)
             };
             mesh.faces.push(face);
+            if let Some(pn) = &point_normals {
+                let normals: Option<Vec<DVec3>> = corners
+                    .iter()
+                    .map(|&(p, side, theta)| pn[p][side].map(|m| frame.normal(m, theta)))
+                    .collect();
+                mesh.normals.push(normals);
+            }
         }
     }
     if !profile.closed {
@@ -146,7 +181,12 @@ pub fn revolve(
     if mesh.faces.is_empty() {
         return Err(ModelError::skeleton(name, "sweeps no surface"));
     }
+    if point_normals.is_some() {
+        // The caps are flat.
+        mesh.normals.resize(mesh.faces.len(), None);
+    }
     mesh.orient_outward();
+    smooth::orient_normals(&mut mesh);
     Ok(mesh)
 }
 
@@ -209,9 +249,11 @@ pub fn extrude(
     Ok(mesh)
 }
 
+/// The name of axis 0, 1 or 2.
 pub fn axis_name(axis: usize) -> &'static str {
     ["x", "y", "z"].get(axis).copied().unwrap_or("?")
 }
 
+pub mod smooth;
 #[cfg(test)]
 mod tests;

@@ -67,7 +67,7 @@ fn polygons(o: &Object) -> Vec<Vec<[f64; 3]>> {
     o.primitives
         .iter()
         .filter_map(|p| match p {
-            Primitive::Polygon { vertices } => Some(vertices.clone()),
+            Primitive::Polygon { vertices, .. } => Some(vertices.clone()),
             _ => None,
         })
         .collect()

@@ -55,6 +55,7 @@ const TOKENS: &[&str] = &[
     "center",
     "radius",
     "vertices",
+    "normals",
     "position",
     "at",
     "up",
@@ -111,6 +112,9 @@ fn main() -> ExitCode {
     if seeds.len() < 2 {
         eprintln!("warning: thesis scenes not found under {dir}; using generated seeds only");
     }
+    // A scene of smooth polygons (vertex normals).
+    let smooth = format!("{dir}/../smooth/terminator.yari");
+    seeds.extend(std::fs::read_to_string(smooth).ok());
     for _ in 0..64 {
         seeds.push(scene_gen::small_scene(&mut rng));
     }

@@ -2,7 +2,8 @@
 //!
 //! The grammar is Appendix C.4 of the thesis plus the documented extensions (see the crate
 //! docs and `docs/yari.md`): `samples(n)`, light `radius`, camera `aperture`/`focus`,
-//! attribute `gloss`/`translucency`/`transmissivity`, quadric clipping, and `motion(x,y,z)`.
+//! attribute `gloss`/`translucency`/`transmissivity`, quadric clipping, `motion(x,y,z)` and
+//! per-vertex polygon normals.
 //! The parser builds it, the compiler (`compile`) turns it into a [`crate::model::World`],
 //! and the writer prints it back to YARI text.
 
@@ -26,6 +27,13 @@ impl<T> Spanned<T> {
 
 /// A point, direction or `r,g,b` colour as written, in the scene's units (x, y, z).
 pub type Vec3 = [f64; 3];
+
+/// Whether a normal as written has a direction: its squared length is a normal `f64` (not
+/// zero, not so small or so large that normalising it fails). The parser refuses other
+/// normals; the NFF and OFF importers shade such a polygon flat.
+pub fn has_direction(n: &Vec3) -> bool {
+    (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).is_normal()
+}
 
 /// A colour as written: an `r,g,b` triple or a name looked up in the colour table.
 #[derive(Clone, Debug, PartialEq)]
@@ -160,10 +168,13 @@ pub enum Primitive {
         /// The radius, > 0.
         radius: f64,
     },
-    /// `polygon(vertices = n ; x1,y1,z1 ... xn,yn,zn)`: a planar polygon.
+    /// `polygon(vertices = n ; x1,y1,z1 ... xn,yn,zn [; normals = ...])`: a planar polygon.
     Polygon {
         /// The vertices in order (at least 3).
         vertices: Vec<Vec3>,
+        /// Extension: one normal per vertex (`; normals = nx1,ny1,nz1 ...`), none of them
+        /// zero, for smooth shading; `None` is a flat polygon, as in the thesis.
+        normals: Option<Vec<Vec3>>,
     },
     /// Ten coefficients, the upper triangle of the symmetric 4x4 matrix Q, row by row
     /// (see [`crate::model::Quadric`]), and optional clipping.

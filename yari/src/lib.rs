@@ -14,6 +14,7 @@
 //! - [`modelfile`]: the compiled model in binary (`.srw`), for workers.
 //! - [`load`]: any scene file (YARI, NFF, OFF, model) to a compiled world.
 //! - [`nff`], [`off`]: converters from NFF and OFF to the syntax tree (`nff2gfx`, `off2gfx`).
+//! - [`polygon`]: polygons cut into triangles, the same way for the renderer and the writers.
 //! - [`pov`]: a compiled world written as POV-Ray 3.7 SDL, to compare with POV-Ray.
 //! - [`spd`]: Haines's Standard Procedural Databases (`tetra`, `mount`, `balls`) and `check`
 //!   checkerboards, generated as NFF scenes.
@@ -41,6 +42,7 @@ pub mod modelfile;
 pub mod nff;
 pub mod off;
 pub mod parse;
+pub mod polygon;
 pub mod pov;
 pub mod span;
 pub mod spd;

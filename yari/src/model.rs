@@ -3,6 +3,7 @@
 //! Everything is in world space with transformations already applied. Spheres stay exact:
 //! a sphere under a similarity transform is a [`Shape::Sphere`]; under a non-uniform scale it
 //! becomes an [`Shape::Ellipsoid`] with its exact affine map, never a mesh.
+//! A polygon with vertex normals is a [`Shape::SmoothPolygon`].
 //! [`Features`] says what the scene uses so the renderer sets up only that.
 
 use glam::{DAffine3, DVec3};
@@ -189,6 +190,18 @@ pub enum Shape {
     },
     /// A general quadric, possibly clipped.
     Quadric(Quadric),
+    /// A planar polygon shaded smoothly: as [`Shape::Polygon`], with a normal at each vertex
+    /// that the renderer interpolates across it (YARI's `normals = ...`, NFF's `pp`).
+    /// Written last so that models without it serialize exactly as before this variant
+    /// existed (the model file's version 1).
+    SmoothPolygon {
+        /// The vertices in order, not repeating the first at the end.
+        vertices: Vec<DVec3>,
+        /// One normal per vertex, in world space, finite and non-zero; unit length when a
+        /// transformation placed them, as written otherwise (their length does not matter:
+        /// the renderer normalises them).
+        normals: Vec<DVec3>,
+    },
 }
 
 /// A general quadric surface x^T Q x = 0 in homogeneous coordinates x = (x, y, z, 1), where
@@ -229,7 +242,7 @@ pub struct Features {
     pub spheres: usize,
     /// Number of [`Shape::Ellipsoid`] objects.
     pub ellipsoids: usize,
-    /// Number of [`Shape::Polygon`] objects.
+    /// Number of [`Shape::Polygon`] and [`Shape::SmoothPolygon`] objects.
     pub polygons: usize,
     /// Number of [`Shape::Quadric`] objects.
     pub quadrics: usize,

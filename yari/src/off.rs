@@ -1,37 +1,49 @@
 //! OFF (Object File Format) to YARI: the thesis's `off2gfx`.
 //!
-//! The format read is the common ASCII OFF:
+//! The format read is the common ASCII OFF of Geomview, with its optional prefixes:
 //!
 //! ```text
-//! OFF                      header (optional `C`/`N` prefixes are not supported)
-//! nv nf ne                 counts (may follow `OFF` on the same line; ne is ignored)
-//! x y z                    nv vertex lines
-//! n i1 i2 ... in [r g b [a]]   nf face lines: n zero-based vertex indices, optional colour
+//! [ST][C][N]OFF            header: N = a normal per vertex, C = a colour per vertex,
+//!                          ST = texture coordinates per vertex (`4` and `n` are refused)
+//! nv nf ne                 counts (may follow the header on the same line; ne is ignored)
+//! x y z [nx ny nz] [r g b [a]] [s t]     nv vertex lines
+//! n i1 i2 ... in [r g b [a]]             nf face lines: zero-based indices, optional colour
 //! ```
 //!
 //! `#` starts a comment to the end of the line. Face colours are either 0-1 floats or, when
 //! any component is above 1, 0-255 integers; alpha is ignored. Each polygon gets the default
 //! YARI attribute (white, diffuse) unless its face has a colour, which becomes
-//! `attribute(color = ...)` (repeated only when the colour changes). OFF has no view, so a
-//! camera is placed to frame the object's bounding sphere (looking from +x+y+z, half angle
-//! 22.5 degrees), with a white light at the camera, a black background and 512x512 pixels.
+//! `attribute(color = ...)` (repeated only when the colour changes). Vertex colours and
+//! texture coordinates are read and checked but not used. With `N`, each face becomes a
+//! `polygon` with `normals = ...` (its vertices' normals), or a flat one, with a warning, when
+//! one of them has no direction. OFF has no view, so a camera is placed to frame the
+//! object's bounding sphere (looking from +x+y+z, half angle 22.5 degrees), with a white
+//! light at the camera, a black background and 512x512 pixels.
+//!
+//! # Layout
+//! - this file: the entry point and the scene built around the faces.
+//! - `read`: the header, vertex and face lines, with located errors.
+
+mod read;
 
 use crate::ast::{
     AttrField, BodyItem, CameraDef, ColorSpec, LightDef, Primitive, Scene, Spanned, Vec3, ViewStmt,
 };
-use crate::diag::{Diagnostic, Diagnostics};
+use crate::diag::Diagnostics;
 use crate::span::{Source, Span};
+use read::{read_off, Face};
 
-/// Largest vertex or face count accepted (a guard against absurd headers).
-const MAX_COUNT: u64 = 50_000_000;
-/// The reader stops after this many errors.
-const MAX_ERRORS: usize = 50;
-
-/// Reads an OFF file into a YARI syntax tree.
+/// Reads an OFF file into a YARI syntax tree (warnings are dropped; see
+/// [`parse_with_warnings`]).
 pub fn parse(src: &Source) -> Result<Scene, Diagnostics> {
-    let mut lines = Lines::new(&src.text);
+    parse_with_warnings(src).map(|(scene, _)| scene)
+}
+
+/// Reads an OFF file into a YARI syntax tree, returning the warnings with it (text after
+/// the faces, `NOFF` faces shaded flat for a zero normal).
+pub fn parse_with_warnings(src: &Source) -> Result<(Scene, Diagnostics), Diagnostics> {
     let mut diags = Diagnostics::default();
-    let (vertices, faces) = match read_header_and_body(&mut lines, &mut diags) {
+    let (vertices, faces) = match read_off(&src.text, &mut diags) {
         Ok(body) => body,
         Err(d) => {
             diags.push(d);
@@ -41,182 +53,7 @@ pub fn parse(src: &Source) -> Result<Scene, Diagnostics> {
     if diags.has_errors() {
         return Err(diags);
     }
-    Ok(build_scene(&vertices, &faces))
-}
-
-/// One face: vertex positions already looked up, optional colour, the line's span.
-struct Face {
-    vertices: Vec<Vec3>,
-    color: Option<Vec3>,
-    span: Span,
-}
-
-fn read_header_and_body(
-    lines: &mut Lines<'_>,
-    diags: &mut Diagnostics,
-) -> Result<(Vec<Vec3>, Vec<Face>), Diagnostic> {
-    let mut header = lines
-        .next_line()
-        .ok_or_else(|| lines.eof("the `OFF` header"))?;
-    match header.first() {
-        Some(t) if t.text == "OFF" => {
-            header.remove(0);
-        }
-        Some(t) => {
-            return Err(Diagnostic::error(
-                t.span,
-                format!("expected the `OFF` header, found `{}`", t.text),
-            ))
-        }
-        None => return Err(lines.eof("the `OFF` header")),
-    }
-    let counts = if header.is_empty() {
-        lines
-            .next_line()
-            .ok_or_else(|| lines.eof("the counts `nv nf ne`"))?
-    } else {
-        header
-    };
-    if counts.len() < 2 || counts.len() > 3 {
-        let span = counts[0].span.to(counts[counts.len() - 1].span);
-        return Err(Diagnostic::error(
-            span,
-            "expected the counts line `nv nf ne`",
-        ));
-    }
-    let nv = count(&counts[0], "the vertex count")?;
-    let nf = count(&counts[1], "the face count")?;
-    if let Some(ne) = counts.get(2) {
-        count(ne, "the edge count")?;
-    }
-
-    let mut vertices = Vec::with_capacity(nv.min(1 << 20) as usize);
-    for i in 0..nv {
-        let what = format!("vertex {i} of {nv}");
-        let line = lines.next_line().ok_or_else(|| lines.eof(&what))?;
-        if line.len() != 3 {
-            let span = line[0].span.to(line[line.len() - 1].span);
-            return Err(Diagnostic::error(
-                span,
-                format!("{what} must have 3 coordinates, found {}", line.len()),
-            ));
-        }
-        let mut v = [0.0; 3];
-        for (k, t) in line.iter().enumerate() {
-            v[k] = number(t, &what)?;
-        }
-        vertices.push(v);
-    }
-
-    let mut faces = Vec::with_capacity(nf.min(1 << 20) as usize);
-    for f in 0..nf {
-        let what = format!("face {f} of {nf}");
-        let line = lines.next_line().ok_or_else(|| lines.eof(&what))?;
-        match face(&line, &vertices, &what) {
-            Ok(face) => faces.push(face),
-            Err(d) => {
-                diags.push(d);
-                if diags.errors().count() >= MAX_ERRORS {
-                    return Err(Diagnostic::error(
-                        line[0].span,
-                        "too many errors; giving up",
-                    ));
-                }
-            }
-        }
-    }
-    if let Some(extra) = lines.next_line() {
-        diags.push(Diagnostic::warning(
-            extra[0].span,
-            format!("text after the {nf} faces is ignored"),
-        ));
-    }
-    Ok((vertices, faces))
-}
-
-fn face(line: &[Token<'_>], vertices: &[Vec3], what: &str) -> Result<Face, Diagnostic> {
-    let span = line[0].span.to(line[line.len() - 1].span);
-    let n = count(&line[0], &format!("the vertex count of {what}"))? as usize;
-    if n < 3 {
-        return Err(Diagnostic::error(
-            line[0].span,
-            format!("{what} has {n} vertices; a polygon needs at least 3"),
-        ));
-    }
-    let rest = &line[1..];
-    if rest.len() < n {
-        return Err(Diagnostic::error(
-            span,
-            format!("{what} lists {} vertex indices, expected {n}", rest.len()),
-        ));
-    }
-    let mut points = Vec::with_capacity(n);
-    for t in &rest[..n] {
-        let i = count(t, "a vertex index")?;
-        let v = vertices.get(i as usize).ok_or_else(|| {
-            Diagnostic::error(
-                t.span,
-                format!(
-                    "vertex index {i} is out of range (the file has {} vertices)",
-                    vertices.len()
-                ),
-            )
-        })?;
-        points.push(*v);
-    }
-    let extra = &rest[n..];
-    let color = match extra.len() {
-        0 => None,
-        3 | 4 => {
-            let mut c = [0.0; 3];
-            for (k, t) in extra[..3].iter().enumerate() {
-                c[k] = number(t, "a colour component")?;
-                if c[k] < 0.0 {
-                    return Err(Diagnostic::error(
-                        t.span,
-                        "colour components must not be negative",
-                    ));
-                }
-            }
-            if c.iter().any(|&x| x > 1.0) {
-                c = c.map(|x| x / 255.0);
-            }
-            Some(c)
-        }
-        k => {
-            let span = extra[0].span.to(extra[k - 1].span);
-            return Err(Diagnostic::error(span, format!("{what}: expected a colour (3 or 4 numbers) after the indices, found {k} numbers")));
-        }
-    };
-    Ok(Face {
-        vertices: points,
-        color,
-        span,
-    })
-}
-
-fn count(t: &Token<'_>, what: &str) -> Result<u64, Diagnostic> {
-    match t.text.parse::<u64>() {
-        Ok(n) if n <= MAX_COUNT => Ok(n),
-        Ok(n) => Err(Diagnostic::error(
-            t.span,
-            format!("{what} {n} is larger than {MAX_COUNT}"),
-        )),
-        Err(_) => Err(Diagnostic::error(
-            t.span,
-            format!("expected {what} (a whole number), found `{}`", t.text),
-        )),
-    }
-}
-
-fn number(t: &Token<'_>, what: &str) -> Result<f64, Diagnostic> {
-    match t.text.parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(Diagnostic::error(
-            t.span,
-            format!("expected a number in {what}, found `{}`", t.text),
-        )),
-    }
+    Ok((build_scene(&vertices, &faces), diags))
 }
 
 fn build_scene(vertices: &[Vec3], faces: &[Face]) -> Scene {
@@ -270,6 +107,7 @@ fn build_scene(vertices: &[Vec3], faces: &[Face]) -> Scene {
         }
         let polygon = Primitive::Polygon {
             vertices: f.vertices.clone(),
+            normals: f.normals.clone(),
         };
         scene
             .body
@@ -301,61 +139,6 @@ fn bounding_sphere(points: &[Vec3]) -> (Vec3, f64) {
         })
         .fold(0.0, f64::max);
     (center, if r > 0.0 { r } else { 1.0 })
-}
-
-#[derive(Clone, Copy)]
-struct Token<'a> {
-    text: &'a str,
-    span: Span,
-}
-
-/// Non-empty lines of tokens, comments removed.
-struct Lines<'a> {
-    text: &'a str,
-    offset: usize,
-}
-
-impl<'a> Lines<'a> {
-    fn new(text: &'a str) -> Self {
-        Lines { text, offset: 0 }
-    }
-
-    fn eof(&self, what: &str) -> Diagnostic {
-        let end = self.text.len();
-        Diagnostic::error(
-            Span::new(end, end),
-            format!("unexpected end of file: expected {what}"),
-        )
-    }
-
-    fn next_line(&mut self) -> Option<Vec<Token<'a>>> {
-        while self.offset < self.text.len() {
-            let start = self.offset;
-            let end = self.text[start..]
-                .find('\n')
-                .map(|i| start + i)
-                .unwrap_or(self.text.len());
-            self.offset = end + 1;
-            let line = &self.text[start..end];
-            let line = line.split('#').next().unwrap_or("");
-            let mut tokens = Vec::new();
-            let mut pos = 0;
-            for piece in line.split(|c: char| c.is_ascii_whitespace()) {
-                if !piece.is_empty() {
-                    let s = start + pos;
-                    tokens.push(Token {
-                        text: piece,
-                        span: Span::new(s, s + piece.len()),
-                    });
-                }
-                pos += piece.len() + 1;
-            }
-            if !tokens.is_empty() {
-                return Some(tokens);
-            }
-        }
-        None
-    }
 }
 
 #[cfg(test)]

@@ -12,7 +12,8 @@
 //!   `roughness 1/phong` (Blinn's (N.H)^phong), `reflection ksr` (with `fresnel` when the
 //!   surface transmits), `transmit kst` and `interior { ior refract }`;
 //! - triangles are gathered per surface into one `mesh` (POV-Ray's fast path), larger
-//!   polygons become `polygon`s, ellipsoids a unit `sphere` under a `matrix`, quadrics a
+//!   polygons become `polygon`s, smooth polygons `smooth_triangle`s of the mesh (cut and
+//!   with normals as the renderer has them, [`crate::polygon`]), ellipsoids a unit `sphere` under a `matrix`, quadrics a
 //!   `quadric` clipped by `plane`s;
 //! - `global_settings`: `max_trace_level 5` and `adc_bailout 0.001` (SunRay's defaults),
 //!   `assumed_gamma 1` (both write linear values).
@@ -125,6 +126,10 @@ pub fn write_pov(world: &World) -> String {
                     v(vertices[2])
                 );
             }
+            Shape::SmoothPolygon { vertices, normals } => {
+                let k = (obj.surface as usize).min(meshes.len() - 1);
+                smooth_triangles(&mut meshes[k], vertices, normals);
+            }
             Shape::Polygon { vertices } => {
                 let pts: Vec<String> = vertices
                     .iter()
@@ -169,6 +174,29 @@ pub fn write_pov(world: &World) -> String {
         let _ = writeln!(out, "mesh {{\n{body}  {tex}{int}\n}}");
     }
     out
+}
+
+/// A smooth polygon as `smooth_triangle`s of a mesh: cut as the renderer cuts it
+/// ([`crate::polygon::triangulate`]), each corner with its vertex normal as the renderer
+/// shades with it ([`crate::polygon::shading_normals`]). A degenerate polygon (which the
+/// renderer drops too) writes nothing.
+fn smooth_triangles(mesh: &mut String, vertices: &[DVec3], normals: &[DVec3]) {
+    let Ok(t) = crate::polygon::triangulate(vertices) else {
+        return;
+    };
+    let Some(normals) = crate::polygon::shading_normals(normals, t.normal) else {
+        return;
+    };
+    for tri in &t.triangles {
+        let corner = |k: usize| format!("{}, {}", v(vertices[tri[k]]), v(normals[tri[k]]));
+        let _ = writeln!(
+            mesh,
+            "  smooth_triangle {{ {}, {}, {} }}",
+            corner(0),
+            corner(1),
+            corner(2)
+        );
+    }
 }
 
 /// SunRay's camera (see `sunray::camera`) as explicit POV vectors.
@@ -282,5 +310,34 @@ mod tests {
         let pixel = 2.0 * 30f64.to_radians().tan() / 31.0;
         let up_len = pixel * 32.0;
         assert!(pov.contains(&format!("up <0, {}, 0>", up_len)), "{pov}");
+    }
+
+    #[test]
+    fn smooth_polygons_become_smooth_triangles_cut_as_the_renderer_cuts_them() {
+        let w = world(
+            "begin
+               polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,2 0,0,1 0,0,1);
+               polygon(vertices = 4; 0,0,1 1,0,1 1,1,1 0,1,1; normals = 0,0,-1 1,0,-1 1,1,-1 0,1,-1);
+               polygon(vertices = 3; 0,0,0 1,0,0 2,0,0; normals = 0,0,1 0,0,1 0,0,1);
+             end",
+        );
+        let pov = write_pov(&w);
+        let smooth: Vec<&str> = pov
+            .lines()
+            .filter(|l| l.contains("smooth_triangle"))
+            .collect();
+        // The triangle, then the square fanned from its first corner; the degenerate one
+        // (which the renderer drops) is not written. The square's normals point against its
+        // plane normal (+z), so they are turned over, and every normal has unit length.
+        assert_eq!(
+            smooth,
+            vec![
+                "  smooth_triangle { <0, 0, 0>, <0, 0, 1>, <1, 0, 0>, <0, 0, 1>, <0, 1, 0>, <0, 0, 1> }",
+                "  smooth_triangle { <0, 0, 1>, <-0, -0, 1>, <1, 0, 1>, <-0.7071067811865475, -0, 0.7071067811865475>, <1, 1, 1>, <-0.5773502691896258, -0.5773502691896258, 0.5773502691896258> }",
+                "  smooth_triangle { <0, 0, 1>, <-0, -0, 1>, <1, 1, 1>, <-0.5773502691896258, -0.5773502691896258, 0.5773502691896258>, <0, 1, 1>, <-0, -0.7071067811865475, 0.7071067811865475> }",
+            ],
+            "{pov}"
+        );
+        assert_eq!(pov.matches("mesh {").count(), 1);
     }
 }

@@ -107,8 +107,19 @@ fn leaf() -> impl Strategy<Value = BodyItem> {
         }),
         (vec3(), num())
             .prop_map(|(center, radius)| BodyItem::Primitive(Primitive::Sphere { center, radius })),
-        prop::collection::vec(vec3(), 0..6)
-            .prop_map(|vertices| BodyItem::Primitive(Primitive::Polygon { vertices })),
+        prop::collection::vec(
+            (
+                vec3(),
+                vec3().prop_filter("a normal has a direction", has_direction)
+            ),
+            0..6
+        )
+        .prop_flat_map(|corners| (Just(corners), any::<bool>()))
+        .prop_map(|(corners, smooth)| {
+            let (vertices, normals): (Vec<Vec3>, Vec<Vec3>) = corners.into_iter().unzip();
+            let normals = smooth.then_some(normals);
+            BodyItem::Primitive(Primitive::Polygon { vertices, normals })
+        }),
         (
             prop::array::uniform10(num()),
             prop::collection::vec((vec3(), num()), 0..3)
@@ -188,6 +199,7 @@ proptest! {
         words in prop::collection::vec(prop::sample::select(vec![
             "begin", "end", "(", ")", ";", ",", "=", "sphere", "polygon", "vertices", "center", "radius", "1", "-.5",
             "1e3", "camera", "attribute", "color", "red", "quadric", "clip", "/*", "*/", "translate",
+            "normals", "0",
         ]), 0..60)
     ) {
         let text = words.join(" ");

@@ -201,7 +201,13 @@ pub fn add_cmd(p: &mut Project, cmd: AddCmd) -> Result<(), ModelError> {
                 ));
             }
             let vertices = vertices.iter().map(|v| v.to_array()).collect();
-            p.add_object(part(a.name, vec![Primitive::Polygon { vertices }]))
+            p.add_object(part(
+                a.name,
+                vec![Primitive::Polygon {
+                    vertices,
+                    normals: None,
+                }],
+            ))
         }
         AddCmd::Quadric(a) => {
             p.check_new_object_name(&a.name)?;
@@ -249,6 +255,7 @@ pub fn revolve(p: &mut Project, a: RevolveArgs) -> Result<(), ModelError> {
         a.axis.index(),
         a.step,
         a.smoothness,
+        a.smooth.then_some(a.crease),
     )?;
     p.add_object(part(a.name, mesh.to_primitives()))
 }

@@ -172,6 +172,12 @@ pub struct RevolveArgs {
     /// Line segments per Bézier piece (default: the skeleton's).
     #[arg(long)]
     pub smoothness: Option<u32>,
+    /// Give the side faces vertex normals, so the renderer shades them smooth.
+    #[arg(long)]
+    pub smooth: bool,
+    /// With --smooth: profile corners turning by more than this many degrees stay sharp.
+    #[arg(long, default_value_t = 45.0, requires = "smooth")]
+    pub crease: f64,
 }
 
 #[derive(Args, Debug)]

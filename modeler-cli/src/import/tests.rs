@@ -69,6 +69,7 @@ pub(crate) fn everything() -> Project {
         primitives: vec![
             Primitive::Polygon {
                 vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.1]],
+                normals: Some(vec![[0.0, 0.0, 1.0], [0.1, 0.0, 1.0], [0.0, -0.1, 1.0]]),
             },
             Primitive::Quadric {
                 coeffs: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0],

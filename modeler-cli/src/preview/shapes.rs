@@ -48,7 +48,9 @@ impl Drawables {
                 }
             });
             match &obj.shape {
-                Shape::Polygon { vertices } => d.polygons.push((vertices.clone(), color)),
+                Shape::Polygon { vertices } | Shape::SmoothPolygon { vertices, .. } => {
+                    d.polygons.push((vertices.clone(), color))
+                }
                 Shape::Sphere { center, radius } => {
                     let m = DAffine3::from_scale_rotation_translation(
                         DVec3::splat(*radius),

@@ -27,6 +27,7 @@ fn square(z: f64, half: f64) -> Primitive {
             [half, half, z],
             [-half, half, z],
         ],
+        normals: None,
     }
 }
 

@@ -29,7 +29,7 @@ fn a_revolved_cylinder_profile_is_a_closed_prism_of_the_right_volume() {
         &[[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]],
     );
     for step in [120.0, 45.0, 10.0, 7.5] {
-        let m = revolve(&p, 1, step, None).unwrap();
+        let m = revolve(&p, 1, step, None, None).unwrap();
         assert_solid(&m);
         let n = (360.0 / step) as usize;
         assert!(
@@ -50,7 +50,7 @@ fn open_profile_ends_off_the_axis_get_caps() {
         false,
         &[[-1.0, 0.0], [-2.0, 1.0]],
     );
-    let m = revolve(&p, 1, 30.0, None).unwrap();
+    let m = revolve(&p, 1, 30.0, None, None).unwrap();
     assert_solid(&m);
     assert_eq!(m.faces.len(), 12 + 2);
 }
@@ -64,7 +64,7 @@ fn a_closed_profile_sweeps_a_closed_ring() {
         true,
         &[[2.0, 0.0], [3.0, 0.0], [3.0, 1.0], [2.0, 1.0]],
     );
-    let m = revolve(&p, 2, 15.0, None).unwrap();
+    let m = revolve(&p, 2, 15.0, None, None).unwrap();
     assert_solid(&m);
     let n = 24;
     let expected = ngon_prism(n, 3.0, 1.0) - ngon_prism(n, 2.0, 1.0);
@@ -90,12 +90,12 @@ fn bezier_profiles_stay_closed_at_every_smoothness_and_step() {
     for smooth in [1, 2, 5, 12] {
         p.smoothness = smooth;
         for step in [90.0, 45.0, 20.0] {
-            let m = revolve(&p, 1, step, None).unwrap();
+            let m = revolve(&p, 1, step, None, None).unwrap();
             assert_solid(&m);
         }
     }
-    let blocky = revolve(&p, 1, 90.0, Some(1)).unwrap();
-    let smooth = revolve(&p, 1, 10.0, Some(12)).unwrap();
+    let blocky = revolve(&p, 1, 90.0, Some(1), None).unwrap();
+    let smooth = revolve(&p, 1, 10.0, Some(12), None).unwrap();
     assert!(smooth.faces.len() > 10 * blocky.faces.len());
 }
 
@@ -107,7 +107,7 @@ fn revolve_refuses_bad_profiles_with_reasons() {
         false,
         &[[-1.0, 0.0], [1.0, 1.0]],
     );
-    assert!(revolve(&crosses, 1, 45.0, None)
+    assert!(revolve(&crosses, 1, 45.0, None, None)
         .unwrap_err()
         .to_string()
         .contains("crosses"));
@@ -117,7 +117,7 @@ fn revolve_refuses_bad_profiles_with_reasons() {
         false,
         &[[1.0, 0.0], [1.0, 1.0]],
     );
-    assert!(revolve(&wrong_plane, 1, 45.0, None)
+    assert!(revolve(&wrong_plane, 1, 45.0, None, None)
         .unwrap_err()
         .to_string()
         .contains("does not contain"));
@@ -127,11 +127,11 @@ fn revolve_refuses_bad_profiles_with_reasons() {
         false,
         &[[1.0, 0.0], [1.0, 1.0]],
     );
-    assert!(revolve(&ok, 1, 0.0, None)
+    assert!(revolve(&ok, 1, 0.0, None, None)
         .unwrap_err()
         .to_string()
         .contains("--step"));
-    assert!(revolve(&ok, 1, 200.0, None)
+    assert!(revolve(&ok, 1, 200.0, None, None)
         .unwrap_err()
         .to_string()
         .contains("--step"));
@@ -141,7 +141,7 @@ fn revolve_refuses_bad_profiles_with_reasons() {
         false,
         &[[0.0, 0.0], [0.0, 1.0]],
     );
-    assert!(revolve(&on_axis, 1, 45.0, None).is_err());
+    assert!(revolve(&on_axis, 1, 45.0, None, None).is_err());
 }
 
 #[test]
@@ -204,4 +204,93 @@ fn extrude_without_caps_is_open_and_a_flat_vector_is_refused() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("--by"), "{e}");
+}
+
+#[test]
+fn a_smooth_revolved_sphere_has_nearly_radial_outward_normals() {
+    // A half circle of radius 2 from pole to pole in 8 pieces, on the +x side, about y.
+    let pts: Vec<[f64; 2]> = (0..=8)
+        .map(|i| {
+            let t = std::f64::consts::PI * i as f64 / 8.0;
+            [2.0 * t.sin(), -2.0 * t.cos()]
+        })
+        .collect();
+    let p = skel(Plane::Xy, SkeletonKind::Lines, false, &pts);
+    let flat = revolve(&p, 1, 30.0, None, None).unwrap();
+    assert!(flat.normals.is_empty());
+    let m = revolve(&p, 1, 30.0, None, Some(45.0)).unwrap();
+    assert_solid(&m);
+    assert_eq!(m.faces, flat.faces, "the same geometry");
+    assert_eq!(m.normals.len(), m.faces.len());
+    let mut worst: f64 = 0.0;
+    for (f, n) in m.faces.iter().zip(&m.normals) {
+        let n = n.as_ref().expect("every side face is smooth (no caps)");
+        assert_eq!(n.len(), f.len());
+        for (&v, n) in f.iter().zip(n) {
+            let radial = m.vertices[v].normalize();
+            assert!((n.length() - 1.0).abs() < 1e-12);
+            worst = worst.max(n.angle_between(radial).to_degrees());
+        }
+    }
+    // Averaged profile normals are within a few degrees of the sphere's; poles exact.
+    assert!(worst < 3.0, "{worst} degrees");
+    let pole = m
+        .vertices
+        .iter()
+        .position(|v| *v == DVec3::new(0.0, 2.0, 0.0))
+        .unwrap();
+    for (f, n) in m.faces.iter().zip(&m.normals) {
+        if let Some(k) = f.iter().position(|&v| v == pole) {
+            assert_eq!(n.as_ref().unwrap()[k], DVec3::Y);
+        }
+    }
+    // The primitives carry the normals, and YARI text with them compiles to smooth polygons.
+    let prims = m.to_primitives();
+    assert!(prims.iter().all(|p| matches!(
+        p,
+        crate::project::Primitive::Polygon {
+            normals: Some(_),
+            ..
+        }
+    )));
+}
+
+#[test]
+fn a_smooth_cylinder_keeps_its_rims_sharp_and_its_caps_flat() {
+    // Radius 1, height 2, from the axis at the bottom to the axis at the top: the two
+    // right-angle rims turn by 90 degrees, more than the crease angle.
+    let p = skel(
+        Plane::Xy,
+        SkeletonKind::Lines,
+        false,
+        &[[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]],
+    );
+    let m = revolve(&p, 1, 45.0, None, Some(45.0)).unwrap();
+    for (f, n) in m.faces.iter().zip(&m.normals) {
+        let n = n.as_ref().unwrap();
+        let verts: Vec<DVec3> = f.iter().map(|&v| m.vertices[v]).collect();
+        let side = verts.iter().all(|v| v.y == verts[0].y);
+        for (v, n) in verts.iter().zip(n) {
+            if side {
+                // A bottom or top disc (made of triangles to the pole): straight down or up.
+                assert!((n.y.abs() - 1.0).abs() < 1e-12, "{v} {n}");
+            } else {
+                // The wall: horizontal and radial, even at the rims.
+                assert!(
+                    n.y.abs() < 1e-12 && (n.dot(DVec3::new(v.x, 0.0, v.z)) - 1.0).abs() < 1e-12
+                );
+            }
+        }
+    }
+    // With a crease of 90 degrees the rims are rounded: the normals there lean at 45.
+    let round = revolve(&p, 1, 45.0, None, Some(90.0)).unwrap();
+    let leaning = round
+        .normals
+        .iter()
+        .flatten()
+        .flatten()
+        .filter(|n| (n.y.abs() - 0.5f64.sqrt()).abs() < 1e-12)
+        .count();
+    assert!(leaning > 0);
+    assert!(revolve(&p, 1, 45.0, None, Some(200.0)).is_err());
 }

@@ -156,6 +156,7 @@ fn a_composite_moves_and_turns_as_one_body_in_world_space() {
         name: "tri".into(),
         primitives: vec![Primitive::Polygon {
             vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]],
+            normals: None,
         }],
         ..Object::default()
     };

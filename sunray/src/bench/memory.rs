@@ -40,6 +40,14 @@ pub enum MemoryBenchError {
         /// Its exit status.
         status: String,
     },
+    /// The smooth twin of a scene could not be read or written.
+    #[error("smooth twin of {path}: {source}")]
+    Twin {
+        /// The scene file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
 }
 
 /// Runs `cmd` to its end; its peak resident set size in bytes.
@@ -87,6 +95,78 @@ pub fn write_tetra(
     cmd.stdout(std::process::Stdio::null());
     peak_of(cmd, "compile")?;
     Ok([model, nff])
+}
+
+/// Writes the smooth twin of tetra's NFF file `nff` beside it (`NAME-smooth.nff`) and
+/// compiles it with `program compile` (`NAME-smooth.srw`): the same triangles, each a `pp`
+/// whose vertex normals point away from the centre of the scene's bounds, so the triangles
+/// meeting at a corner share its normal, as in a real smooth mesh. The text is streamed
+/// line by line (twice: bounds, then output), so this process stays small: a child's peak
+/// resident size as `wait4` reports it can include its parent's. The model's path.
+pub fn write_smooth_twin(program: &Path, nff: &Path) -> Result<PathBuf, MemoryBenchError> {
+    use std::io::{BufRead, BufWriter, Write};
+    let err = |source| MemoryBenchError::Twin {
+        path: nff.display().to_string(),
+        source,
+    };
+    let lines = || -> Result<_, MemoryBenchError> {
+        let f = std::fs::File::open(nff).map_err(err)?;
+        Ok(std::io::BufReader::new(f).lines())
+    };
+    let point = |l: &str| -> Option<glam::DVec3> {
+        let v: Vec<f64> = l
+            .split_whitespace()
+            .filter_map(|w| w.parse().ok())
+            .collect();
+        (v.len() == 3).then(|| glam::DVec3::new(v[0], v[1], v[2]))
+    };
+    // Vertex lines are the lines after a `p n` line.
+    let (mut lo, mut hi) = (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY);
+    let mut left = 0usize;
+    for line in lines()? {
+        let line = line.map_err(err)?;
+        if left > 0 {
+            left -= 1;
+            if let Some(v) = point(&line) {
+                (lo, hi) = (lo.min(v), hi.max(v));
+            }
+        } else if let Some(n) = line.strip_prefix("p ") {
+            left = n.trim().parse().unwrap_or(0);
+        }
+    }
+    let centre = (lo + hi) / 2.0;
+    let twin = nff.with_file_name(format!(
+        "{}-smooth.nff",
+        nff.file_stem().unwrap_or_default().to_string_lossy()
+    ));
+    let mut out = BufWriter::new(std::fs::File::create(&twin).map_err(err)?);
+    for line in lines()? {
+        let line = line.map_err(err)?;
+        let written = if left > 0 {
+            left -= 1;
+            match point(&line) {
+                Some(v) => {
+                    let n = v - centre;
+                    writeln!(out, "{line} {} {} {}", n.x, n.y, n.z)
+                }
+                None => writeln!(out, "{line}"),
+            }
+        } else if let Some(n) = line.strip_prefix("p ") {
+            left = n.trim().parse().unwrap_or(0);
+            writeln!(out, "pp {n}")
+        } else {
+            writeln!(out, "{line}")
+        };
+        written.map_err(err)?;
+    }
+    out.flush().map_err(err)?;
+    drop(out);
+    let model = twin.with_extension(yari::modelfile::EXTENSION);
+    let mut cmd = Command::new(program);
+    cmd.arg("compile").arg(&twin).arg("-o").arg(&model);
+    cmd.stdout(std::process::Stdio::null());
+    peak_of(cmd, "compile")?;
+    Ok(model)
 }
 
 /// Each program's peak memory rendering each of `scenes` (2 threads, 64x64), `rounds`

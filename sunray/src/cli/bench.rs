@@ -25,7 +25,8 @@ pub enum Which {
     /// Unused feature paths switched on vs off; `--accel auto` against the fastest.
     Features,
     /// Peak memory of `sunray render` (2 threads) on tetra of --tetra-size, in bytes per
-    /// triangle; with --against OLD, that build too, alternately.
+    /// triangle; with --against OLD, that build too, alternately; with --smooth, also on
+    /// tetra's triangles with vertex normals (this program only).
     Memory,
 }
 
@@ -64,6 +65,9 @@ pub struct BenchArgs {
     /// memory: rounds (each program's lowest peak is shown).
     #[arg(long, default_value_t = 3)]
     pub rounds: usize,
+    /// memory: also measure tetra's triangles as smooth triangles (vertex normals).
+    #[arg(long)]
+    pub smooth: bool,
     /// accuracy: where to write accuracy.png and accuracy.md.
     #[arg(long, default_value = "bench/results")]
     pub out_dir: std::path::PathBuf,
@@ -118,9 +122,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             let me = std::env::current_exe()?;
             let dir = tempfile::tempdir()?;
             let scenes = memory::write_tetra(&me, dir.path(), args.tetra_size)?;
-            let mut programs = vec![me];
+            let mut programs = vec![me.clone()];
             programs.extend(args.against.iter().cloned());
-            let peaks = memory::measure(&programs, &scenes, args.rounds, dir.path())?;
+            let mut peaks = memory::measure(&programs, &scenes, args.rounds, dir.path())?;
+            if args.smooth {
+                let twin = memory::write_smooth_twin(&me, &scenes[1])?;
+                peaks.extend(memory::measure(&[me], &[twin], args.rounds, dir.path())?);
+            }
             memory::table(&peaks, 4u64.saturating_pow(args.tetra_size))
         }
     };

@@ -9,7 +9,6 @@ use clap::{Args, ValueEnum};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use yari::diag::Diagnostics;
 use yari::span::Source;
 
 /// Convert an NFF (`.nff`) or OFF (`.off`) scene to YARI, or any scene to POV-Ray SDL
@@ -78,7 +77,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
     let src = Source::new(name, text);
     let result = match format {
         InputFormat::Nff => yari::nff::parse_with_warnings(&src),
-        InputFormat::Off => yari::off::parse(&src).map(|s| (s, Diagnostics::default())),
+        InputFormat::Off => yari::off::parse_with_warnings(&src),
     };
     match result {
         Ok((scene, warnings)) => {

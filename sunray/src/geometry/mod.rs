@@ -4,7 +4,8 @@
 //! ellipsoids, triangles (polygons are triangulated, see [`polygon`]; faces of closed
 //! transparent meshes bound a volume, see [`solid`]) and clipped quadrics, with static
 //! triangles in an indexed mesh and static spheres in a table of their own
-//! ([`primitives`]); anything else is a plain [`Primitive`].
+//! ([`primitives`]); anything else is a plain [`Primitive`]. Triangles of polygons with
+//! vertex normals are shaded with the interpolated normal ([`smooth`]).
 //! Intersection returns only the ray parameter `t`; the normal is computed afterwards for the
 //! closest hit alone.
 //!
@@ -19,6 +20,7 @@ pub mod polygon;
 pub mod primitive;
 pub mod primitives;
 pub mod quadric;
+pub mod smooth;
 pub mod solid;
 pub mod sphere;
 pub mod triangle;

@@ -48,7 +48,8 @@ pub fn closed_faces(world: &World) -> Vec<Face> {
         .iter()
         .enumerate()
         .filter_map(|(i, obj)| {
-            let Shape::Polygon { vertices } = &obj.shape else {
+            let (Shape::Polygon { vertices } | Shape::SmoothPolygon { vertices, .. }) = &obj.shape
+            else {
                 return None;
             };
             let transparent = world

@@ -14,6 +14,7 @@
 
 use super::media::{Media, Medium};
 use crate::accel::{Accel, Scratch};
+use crate::geometry::smooth::SmoothHit;
 use crate::geometry::{Ray, RayPre, Real, Vec3};
 use crate::sampler::SampleStream;
 use crate::scene::Scene;
@@ -165,6 +166,13 @@ impl<'a> Tracer<'a> {
             n = -ray.dir;
         }
         let entering = ray.dir.dot(n) < 0.0;
+        // A smooth triangle is shaded with its interpolated normal (on the side of the
+        // geometric one); everything else with the geometric normal.
+        let smooth = prims.smooth_hit(prim_index, p, ray.time);
+        let geometric = n;
+        if let Some(s) = &smooth {
+            n = s.normal().unwrap_or(n);
+        }
         let mut colour = surf.color;
         if let Some(tex) = &surf.texture {
             // Textures stick to moving objects: look up at the object's rest position.
@@ -173,8 +181,19 @@ impl<'a> Tracer<'a> {
             colour = c;
             n = tn;
         }
-        // N faces the viewer; geometric side decides entering/leaving.
-        let nf = if ray.dir.dot(n) < 0.0 { n } else { -n };
+        // N faces the viewer; the geometric side decides entering/leaving. On a smooth
+        // triangle N is turned with the geometric normal (not by itself), and the geometric
+        // normal facing the viewer (`ng`) says where secondary and shadow rays start.
+        let (nf, ng, facing) = match smooth {
+            None => {
+                let nf = if ray.dir.dot(n) < 0.0 { n } else { -n };
+                (nf, nf, 1.0)
+            }
+            Some(_) => {
+                let facing = if entering { 1.0 } else { -1.0 };
+                (n * facing, geometric * facing, facing)
+            }
+        };
         let closed = prims.is_closed(prim_index);
         let surface = prims.surface(prim_index);
         // The volumes on the viewer's side and on the far side, and their refractive indices.
@@ -201,6 +220,8 @@ impl<'a> Tracer<'a> {
         SurfacePoint {
             p,
             nf,
+            ng,
+            smooth: smooth.map(|s| (s, facing)),
             v: -ray.dir,
             colour,
             surf,
@@ -217,8 +238,15 @@ impl<'a> Tracer<'a> {
 pub(super) struct SurfacePoint<'a> {
     /// The point.
     pub p: Vec3,
-    /// The (textured) normal, facing the viewer.
+    /// The (textured, on a smooth triangle interpolated) normal, facing the viewer.
     pub nf: Vec3,
+    /// The normal that says which side is which: where secondary and shadow rays start and
+    /// which side they must leave into. `nf` itself, except on a smooth triangle, where it
+    /// is the geometric normal facing the viewer.
+    pub ng: Vec3,
+    /// On a smooth triangle, the hit on it and the side of its normals the viewer is on
+    /// (+1 or -1), for the shadow rays' origins ([`SurfacePoint::shadow_origin`]).
+    pub smooth: Option<(SmoothHit, Real)>,
     /// Towards the viewer.
     pub v: Vec3,
     /// The surface colour there (textured).
@@ -235,4 +263,19 @@ pub(super) struct SurfacePoint<'a> {
     pub n_view: Real,
     /// Refractive index on the far side.
     pub n_far: Real,
+}
+
+impl SurfacePoint<'_> {
+    /// Where a shadow ray towards the viewer's side (`front`) or the far side starts before
+    /// its offset: the hit point, or on a smooth triangle the hit point lifted by Hanika's
+    /// shadow-terminator fix ([`SmoothHit::shadow_origin`]).
+    pub fn shadow_origin(&self, front: bool) -> Vec3 {
+        match &self.smooth {
+            None => self.p,
+            Some((hit, facing)) => {
+                let side = if front { *facing } else { -*facing };
+                hit.shadow_origin(self.p, side)
+            }
+        }
+    }
 }

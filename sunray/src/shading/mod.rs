@@ -19,4 +19,6 @@ pub use hall::{TraceOptions, Tracer};
 pub use media::Media;
 
 #[cfg(test)]
+mod smooth_tests;
+#[cfg(test)]
 mod tests;

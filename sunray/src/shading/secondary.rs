@@ -2,6 +2,9 @@
 //! surface, Fresnel's F) and the refracted ray (kst (1 - F)), each spawned only above the
 //! weight threshold and within the depth limit, with gloss and translucency perturbing them.
 //! Under Haines's procedure ([`super::TraceOptions::spawn_all`]) every ray is spawned.
+//! On a smooth triangle the directions come from the shading normal but must leave on the
+//! right side of the geometric surface ([`mirror_direction`], [`refracted_direction`]), and
+//! the rays start off the geometric surface.
 
 use super::hall::{RayKind, SurfacePoint, Tracer};
 use super::optics::{fresnel, reflect, refract};
@@ -20,7 +23,7 @@ impl Tracer<'_> {
         mut result: Vec3,
     ) -> Vec3 {
         let world = &self.scene.world;
-        let (p, nf, v, surf) = (at.p, at.nf, at.v, at.surf);
+        let (p, nf, ng, v, surf) = (at.p, at.nf, at.ng, at.v, at.surf);
         let (ksr, kst) = (surf.ksr(), surf.kst());
         let cos_i = v.dot(nf).max(0.0);
         let f = if kst > 0.0 {
@@ -35,15 +38,16 @@ impl Tracer<'_> {
         let w_refl = ksr * f;
         if (ksr > 0.0 || (every && kst > 0.0)) && (every || weight * w_refl > self.opts.min_weight)
         {
-            let mut dir = reflect(ray.dir, nf);
+            let mirror = mirror_direction(ray.dir, nf, ng);
+            let mut dir = mirror;
             if surf.gloss > 0.0 && world.features.gloss {
                 dir = perturb(dir, surf.gloss, rng);
-                if dir.dot(nf) <= 0.0 {
-                    dir = reflect(ray.dir, nf);
+                if dir.dot(ng) <= 0.0 {
+                    dir = mirror;
                 }
             }
             let r = Ray {
-                origin: offset_from(p, nf, ray.origin),
+                origin: offset_from(p, ng, ray.origin),
                 dir,
                 time: ray.time,
             };
@@ -61,19 +65,19 @@ impl Tracer<'_> {
         let w_refr = kst * (1.0 - f);
         if kst > 0.0 && (every || weight * w_refr > self.opts.min_weight) {
             let bent = if at.closed {
-                refract(ray.dir, nf, at.n_view / at.n_far)
+                refracted_direction(ray.dir, nf, ng, at.n_view / at.n_far)
             } else {
                 Some(ray.dir)
             };
             if let Some(mut dir) = bent {
                 if surf.translucency > 0.0 && world.features.translucency {
                     let d = perturb(dir, surf.translucency, rng);
-                    if d.dot(nf) < 0.0 {
+                    if d.dot(ng) < 0.0 {
                         dir = d;
                     }
                 }
                 let r = Ray {
-                    origin: offset_from(p, -nf, ray.origin),
+                    origin: offset_from(p, -ng, ray.origin),
                     dir,
                     time: ray.time,
                 };
@@ -89,6 +93,33 @@ impl Tracer<'_> {
             }
         }
         result
+    }
+}
+
+/// The mirror direction of `d` about the shading normal `nf`; if that points below the
+/// geometric surface (`ng`, facing the viewer, as `nf` does; they differ only on smooth
+/// triangles), the mirror direction about `ng` instead, which always leaves on the viewer's
+/// side. (Flipping the bad direction's normal component would also leave on that side, but
+/// would send grazing rays along the surface; the geometric mirror is what the flat facet
+/// itself does.)
+pub fn mirror_direction(d: Vec3, nf: Vec3, ng: Vec3) -> Vec3 {
+    let dir = reflect(d, nf);
+    if nf == ng || dir.dot(ng) > 0.0 {
+        dir
+    } else {
+        reflect(d, ng)
+    }
+}
+
+/// The refraction of `d` through the shading normal `nf` with `eta` = n_view / n_far; if
+/// that does not cross the geometric surface (`ng`, facing the viewer), the refraction
+/// through `ng` instead. `None` on total internal reflection.
+pub fn refracted_direction(d: Vec3, nf: Vec3, ng: Vec3, eta: Real) -> Option<Vec3> {
+    let dir = refract(d, nf, eta)?;
+    if nf == ng || dir.dot(ng) < 0.0 {
+        Some(dir)
+    } else {
+        refract(d, ng, eta)
     }
 }
 

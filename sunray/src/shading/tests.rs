@@ -75,7 +75,7 @@ impl Fixture {
 }
 
 /// Traces one ray from (0, 0, 5) towards -z; returns the colour and the counters.
-fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
+pub(super) fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
     let mut f = Fixture::new(w);
     let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
     let c = f.tracer(opts).trace(

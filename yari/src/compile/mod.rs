@@ -305,7 +305,7 @@ pub fn features(world: &World) -> Features {
         match o.shape {
             Shape::Sphere { .. } => f.spheres += 1,
             Shape::Ellipsoid { .. } => f.ellipsoids += 1,
-            Shape::Polygon { .. } => f.polygons += 1,
+            Shape::Polygon { .. } | Shape::SmoothPolygon { .. } => f.polygons += 1,
             Shape::Quadric(_) => f.quadrics += 1,
         }
         f.motion_blur |= o.motion != DVec3::ZERO;

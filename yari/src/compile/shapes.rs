@@ -3,7 +3,9 @@
 //! - A sphere under a similarity (rotation, translation, uniform scale, within 1e-9) stays a
 //!   [`Shape::Sphere`]; otherwise it is a [`Shape::Ellipsoid`] with its exact affine map.
 //! - A polygon's vertices are transformed; repeated consecutive vertices are removed and a
-//!   polygon left with fewer than 3 vertices or no area is dropped with a warning.
+//!   polygon left with fewer than 3 vertices or no area is dropped with a warning. Its
+//!   vertex normals (if any) follow their vertices: each becomes L^-T n, renormalised, for
+//!   M = (L, t); with no transformation in effect they are kept as written.
 //! - A quadric Q becomes M^-T Q M^-1; a clip box becomes 6 half-spaces and every half-space
 //!   n.p <= d becomes (L^-T n).p <= d + (L^-T n).t for M = (L, t). Normals are not rescaled.
 
@@ -19,7 +21,9 @@ impl Compiler<'_> {
     pub(crate) fn primitive(&mut self, p: &Primitive, state: &State, span: Span) -> Option<Shape> {
         match p {
             Primitive::Sphere { center, radius } => self.sphere(*center, *radius, state, span),
-            Primitive::Polygon { vertices } => self.polygon(vertices, state, span),
+            Primitive::Polygon { vertices, normals } => {
+                self.polygon(vertices, normals.as_deref(), state, span)
+            }
             Primitive::Quadric { coeffs, clip } => self.quadric(coeffs, clip, state, span),
         }
     }
@@ -72,7 +76,13 @@ impl Compiler<'_> {
         self.finite_shape(shape, span)
     }
 
-    fn polygon(&mut self, vertices: &[[f64; 3]], state: &State, span: Span) -> Option<Shape> {
+    fn polygon(
+        &mut self,
+        vertices: &[[f64; 3]],
+        normals: Option<&[[f64; 3]]>,
+        state: &State,
+        span: Span,
+    ) -> Option<Shape> {
         if vertices.len() < 3 {
             self.error(
                 span,
@@ -83,15 +93,28 @@ impl Compiler<'_> {
             );
             return None;
         }
+        if normals.is_some_and(|n| n.len() != vertices.len()) {
+            self.error(span, "a polygon needs one normal per vertex");
+            return None;
+        }
+        let normals = match normals {
+            Some(n) => Some(self.normals(n, state, span)?),
+            None => None,
+        };
         let mut world: Vec<DVec3> = Vec::with_capacity(vertices.len());
-        for v in vertices {
+        let mut kept: Vec<DVec3> = Vec::with_capacity(normals.as_ref().map_or(0, Vec::len));
+        for (i, v) in vertices.iter().enumerate() {
             let p = state.point(*v);
             if world.last() != Some(&p) {
                 world.push(p);
+                if let Some(n) = &normals {
+                    kept.push(n[i]);
+                }
             }
         }
         while world.len() > 1 && world.first() == world.last() {
             world.pop();
+            kept.pop();
         }
         if world.iter().any(|p| !p.is_finite()) {
             self.error(span, "polygon vertices are not finite after transformation");
@@ -111,7 +134,48 @@ impl Compiler<'_> {
             self.warn(span, "degenerate polygon dropped: it has no area");
             return None;
         }
-        Some(Shape::Polygon { vertices: world })
+        Some(match normals {
+            Some(_) => Shape::SmoothPolygon {
+                vertices: world,
+                normals: kept,
+            },
+            None => Shape::Polygon { vertices: world },
+        })
+    }
+
+    /// A polygon's vertex normals in world space: as written with no transformation in
+    /// effect, else L^-T n renormalised for the current map M = (L, t). `None` after an
+    /// error (a zero normal, or one the transformation sends out of range).
+    fn normals(&mut self, normals: &[[f64; 3]], state: &State, span: Span) -> Option<Vec<DVec3>> {
+        let Some(inv) = state.inverse() else {
+            self.error(
+                span,
+                "the current transformation cannot be inverted to place the polygon's normals",
+            );
+            return None;
+        };
+        let lt = inv.matrix3.transpose();
+        let mut out = Vec::with_capacity(normals.len());
+        for (k, n) in normals.iter().enumerate() {
+            let n = DVec3::from_array(*n);
+            let w = if state.identity {
+                Some(n).filter(|n| n.length_squared().is_normal())
+            } else {
+                (lt * n).try_normalize()
+            };
+            let Some(w) = w else {
+                self.error(
+                    span,
+                    format!(
+                        "the normal of vertex {} has no direction after transformation",
+                        k + 1
+                    ),
+                );
+                return None;
+            };
+            out.push(w);
+        }
+        Some(out)
     }
 
     fn quadric(
@@ -197,6 +261,9 @@ impl Compiler<'_> {
             }
             Shape::Ellipsoid { to_world } => to_world.is_finite(),
             Shape::Polygon { vertices } => vertices.iter().all(|v| v.is_finite()),
+            Shape::SmoothPolygon { vertices, normals } => {
+                vertices.iter().chain(normals).all(|v| v.is_finite())
+            }
             Shape::Quadric(q) => {
                 q.q.iter().all(|c| c.is_finite())
                     && q.clip

@@ -300,6 +300,11 @@ fn non_finite_numbers_from_other_front_ends_are_errors() {
         }),
         BodyItem::Primitive(Primitive::Polygon {
             vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, f64::INFINITY, 0.0]],
+            normals: None,
+        }),
+        BodyItem::Primitive(Primitive::Polygon {
+            vertices: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            normals: Some(vec![[0.0, 0.0, 1.0], [nan, 0.0, 1.0], [0.0, 0.0, 1.0]]),
         }),
         BodyItem::Primitive(Primitive::Quadric {
             coeffs: [nan; 10],
@@ -322,4 +327,59 @@ fn non_finite_numbers_from_other_front_ends_are_errors() {
             "{item:?}"
         );
     }
+}
+
+/// The normals of the only object, which must be a smooth polygon.
+fn normals_of(w: &World) -> Vec<DVec3> {
+    match &w.objects[0].shape {
+        Shape::SmoothPolygon { vertices, normals } => {
+            assert_eq!(vertices.len(), normals.len());
+            normals.clone()
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn normals_follow_the_inverse_transpose_and_are_renormalised() {
+    let tri = "polygon(vertices=3; 0,0,0 1,0,0 0,1,0; normals = 1,1,0 0,0,2 1,0,1);";
+    // With no transformation the normals are kept as written (no arithmetic).
+    let n = normals_of(&world(tri));
+    assert_eq!(n[1], DVec3::new(0.0, 0.0, 2.0));
+    // scale(2,1,1): L^-T = diag(1/2, 1, 1), then unit length.
+    let n = normals_of(&world(&format!("scale(2,1,1); {tri}")));
+    let s = 1.25f64.sqrt();
+    assert!(close(n[0], DVec3::new(0.5 / s, 1.0 / s, 0.0)), "{n:?}");
+    assert!(close(n[1], DVec3::Z), "{n:?}");
+    assert!(close(n[2], DVec3::new(0.5 / s, 0.0, 1.0 / s)), "{n:?}");
+    // Then a quarter turn about z: (x, y) -> (-y, x).
+    let n = normals_of(&world(&format!("scale(2,1,1); rotate(0,0,90); {tri}")));
+    assert!(close(n[0], DVec3::new(-1.0 / s, 0.5 / s, 0.0)), "{n:?}");
+    // A normal stays perpendicular to the surface's tangents under a shear.
+    let w = world(&format!(
+        "transform(1 0.7 0 3  0 1 0.2 0  0.4 0 1 0); {tri}"
+    ));
+    let m = crate::compile::stack::rows_to_affine(&[
+        1.0, 0.7, 0.0, 3.0, 0.0, 1.0, 0.2, 0.0, 0.4, 0.0, 1.0, 0.0,
+    ]);
+    let n = normals_of(&w);
+    // The object-space normal (1,1,0) is perpendicular to the tangent (1,-1,0).
+    let t = m.transform_vector3(DVec3::new(1.0, -1.0, 0.0));
+    assert!(n[0].dot(t).abs() < 1e-12 && (n[0].length() - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn normals_stay_with_their_vertices_when_repeats_are_removed() {
+    let w = world(
+        "polygon(vertices=5; 0,0,0 0,0,0 1,0,0 0,1,0 0,0,0; normals = 0,0,1 9,9,9 0,1,1 1,0,1 7,7,7);",
+    );
+    assert_eq!(
+        normals_of(&w),
+        vec![
+            DVec3::Z,
+            DVec3::new(0.0, 1.0, 1.0),
+            DVec3::new(1.0, 0.0, 1.0)
+        ]
+    );
+    assert_eq!(w.features.polygons, 1);
 }

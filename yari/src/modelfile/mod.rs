@@ -6,11 +6,19 @@
 //! ```text
 //! offset  size  what
 //!      0     8  magic b"SUNRAYW1"
-//!      8     4  format version (u32), currently 1
+//!      8     4  format version (u32): 1, or 2 when a polygon has vertex normals
 //!     12     8  payload length in bytes (u64)
 //!     20     8  FNV-1a 64-bit hash of the payload (u64)
 //!     28     n  payload: the World serialized with serde by postcard 1.x
 //! ```
+//!
+//! Versions: 1 is the format as it was before vertex normals; 2 is the same encoding in which
+//! an object may also be a [`crate::model::Shape::SmoothPolygon`] (an enum variant added
+//! after the others, so every other object encodes as in version 1). The writer writes the
+//! lowest version that holds the world ([`version_for`]): a world without smooth polygons
+//! gives the very bytes it gave before they existed, and a program that predates them refuses
+//! a file with them by its version number instead of failing to decode it. Both versions
+//! are read; a smooth polygon in a version 1 file is refused.
 //!
 //! A wrong magic, another version, a short file, a hash mismatch, a payload that does not
 //! decode to exactly one World, or a World that breaks the compiler's guarantees
@@ -21,6 +29,9 @@
 
 pub mod stream;
 
+#[cfg(test)]
+mod smooth_tests;
+
 use crate::model::{Object, World};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -28,8 +39,11 @@ pub use stream::{read_stream, ModelStream};
 
 /// The first 8 bytes of every model file.
 pub const MAGIC: &[u8; 8] = b"SUNRAYW1";
-/// The format version this code writes and reads.
-pub const VERSION: u32 = 1;
+/// The newest format version this code writes and reads (version 2: smooth polygons).
+pub const VERSION: u32 = 2;
+/// The oldest format version this code reads, and the one it writes for every world
+/// without smooth polygons (so those files are what they were before version 2).
+pub const OLDEST_VERSION: u32 = 1;
 /// The conventional file extension.
 pub const EXTENSION: &str = "srw";
 const HEADER_LEN: usize = 28;
@@ -44,9 +58,9 @@ pub enum ModelFileError {
     /// The file does not start with [`MAGIC`].
     #[error("not a SunRay model file (bad magic number)")]
     BadMagic,
-    /// The header's format version is not [`VERSION`].
+    /// The header's format version is not one of [`OLDEST_VERSION`] to [`VERSION`].
     #[error(
-        "model file format version {found} is not supported (this program reads version {VERSION})"
+        "model file format version {found} is not supported (this program reads versions {OLDEST_VERSION} to {VERSION})"
     )]
     UnsupportedVersion {
         /// The version in the header.
@@ -99,6 +113,20 @@ impl Extend<u8> for ByteCount {
     }
 }
 
+/// The version a file of `world` is written with: [`OLDEST_VERSION`] unless an object is a
+/// smooth polygon, which needs [`VERSION`].
+pub fn version_for(world: &World) -> u32 {
+    let smooth = world
+        .objects
+        .iter()
+        .any(|o| matches!(o.shape, crate::model::Shape::SmoothPolygon { .. }));
+    if smooth {
+        VERSION
+    } else {
+        OLDEST_VERSION
+    }
+}
+
 /// The whole file as bytes. The payload is measured, then serialized straight after the
 /// header in a buffer of exactly its size, and the header filled in: one copy of the model
 /// in memory, not the two (and a half, while a growing buffer moves) of the plain way.
@@ -109,7 +137,7 @@ pub fn to_bytes(world: &World) -> Result<Vec<u8>, ModelFileError> {
         .0;
     let mut head = Vec::with_capacity(HEADER_LEN + size);
     head.extend_from_slice(MAGIC);
-    head.extend_from_slice(&VERSION.to_le_bytes());
+    head.extend_from_slice(&version_for(world).to_le_bytes());
     head.resize(HEADER_LEN, 0);
     let mut out = postcard::to_extend(world, head).map_err(corrupt)?;
     let len = (out.len() - HEADER_LEN) as u64;
@@ -134,8 +162,9 @@ pub fn read(input: &mut impl Read) -> Result<World, ModelFileError> {
 }
 
 /// Checks what the compiler guarantees, so a renderer can rely on it: a non-empty image and
-/// sample count, surface indices in range, polygons of 3 or more vertices, spheres with a
-/// positive radius, and finite numbers throughout.
+/// sample count, surface indices in range, polygons of 3 or more vertices (smooth ones with
+/// one non-zero normal per vertex), spheres with a positive radius, and finite numbers
+/// throughout.
 pub fn validate(world: &World) -> Result<(), String> {
     validate_head(world)?;
     for (i, o) in world.objects.iter().enumerate() {
@@ -207,6 +236,12 @@ fn validate_object(i: usize, o: &Object, surfaces: usize) -> Result<(), String> 
             Shape::Polygon { vertices } => {
                 vertices.len() >= 3 && vertices.iter().all(|v| finite(*v))
             }
+            Shape::SmoothPolygon { vertices, normals } => {
+                vertices.len() >= 3
+                    && normals.len() == vertices.len()
+                    && vertices.iter().all(|v| finite(*v))
+                    && normals.iter().all(|n| n.length_squared().is_normal())
+            }
             Shape::Quadric(q) => {
                 q.q.iter().all(|v| v.is_finite())
                     && q.clip
@@ -218,6 +253,16 @@ fn validate_object(i: usize, o: &Object, surfaces: usize) -> Result<(), String> 
         return Err(format!("object {i} is degenerate or not finite"));
     }
     Ok(())
+}
+
+/// Whether object `i` can be in a file of format `version` (a smooth polygon needs 2).
+fn fits_version(i: usize, o: &Object, version: u32) -> Result<(), String> {
+    match o.shape {
+        crate::model::Shape::SmoothPolygon { .. } if version < VERSION => Err(format!(
+            "object {i} has vertex normals, which a version {version} file cannot hold"
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// Reads a model file from bytes.
@@ -302,10 +347,10 @@ mod tests {
             Err(ModelFileError::Truncated { .. })
         ));
         let mut v = bytes.clone();
-        v[8] = 2;
+        v[8] = 3;
         assert!(matches!(
             from_bytes(&v),
-            Err(ModelFileError::UnsupportedVersion { found: 2 })
+            Err(ModelFileError::UnsupportedVersion { found: 3 })
         ));
         let mut v = bytes.clone();
         let last = v.len() - 1;

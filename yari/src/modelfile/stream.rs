@@ -9,8 +9,9 @@
 //! and the length are checked at [`ModelStream::finish`]; a caller uses nothing it was handed
 //! before that succeeds.
 
-use super::{fnv1a_update, validate_head, validate_object, ModelFileError, HEADER_LEN};
-use super::{FNV_OFFSET, MAGIC, VERSION};
+use super::{fits_version, fnv1a_update, validate_head, validate_object};
+use super::{ModelFileError, HEADER_LEN};
+use super::{FNV_OFFSET, MAGIC, OLDEST_VERSION, VERSION};
 use crate::model::{Camera, Features, Light, Object, Surface, World};
 use glam::DVec3;
 use serde::Deserialize;
@@ -45,6 +46,8 @@ enum Stage {
 pub struct ModelStream {
     stage: Stage,
     header: Vec<u8>,
+    /// The header's format version.
+    version: u32,
     /// Payload length and checksum from the header.
     len: u64,
     expected_hash: u64,
@@ -74,6 +77,7 @@ impl ModelStream {
         ModelStream {
             stage: Stage::Header,
             header: Vec::with_capacity(HEADER_LEN),
+            version: 0,
             len: 0,
             expected_hash: 0,
             received: 0,
@@ -139,9 +143,10 @@ impl ModelStream {
         let h = &self.header;
         let word = |at: usize| u64::from_le_bytes(h[at..at + 8].try_into().unwrap_or([0; 8]));
         let version = u32::from_le_bytes(h[8..12].try_into().unwrap_or([0; 4]));
-        if version != VERSION {
+        if !(OLDEST_VERSION..=VERSION).contains(&version) {
             return Err(ModelFileError::UnsupportedVersion { found: version });
         }
+        self.version = version;
         self.len = word(12);
         self.expected_hash = word(20);
         self.stage = Stage::Head;
@@ -198,6 +203,7 @@ impl ModelStream {
                         };
                         let i = self.next_object;
                         validate_object(i, &obj, world.surfaces.len())
+                            .and_then(|()| fits_version(i, &obj, self.version))
                             .map_err(ModelFileError::Invalid)?;
                         object(world, i, obj);
                         self.next_object += 1;

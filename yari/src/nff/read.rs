@@ -6,7 +6,7 @@
 //! broken entity (up to [`MAX_ERRORS`]).
 
 use super::scene::{Entity, Fill, NffScene, View};
-use crate::ast::{Spanned, Vec3};
+use crate::ast::{has_direction, Spanned, Vec3};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::span::{Source, Span};
 
@@ -336,7 +336,14 @@ impl<'a> Reader<'a> {
         for i in 0..n {
             vertices.push(self.vec3(&format!("vertex {}", i + 1))?);
             if with_normals {
-                normals.push(self.vec3(&format!("the normal of vertex {}", i + 1))?);
+                let start = self.pos;
+                let normal = self.vec3(&format!("the normal of vertex {}", i + 1))?;
+                if !has_direction(&normal) && normals.iter().all(has_direction) {
+                    let span = self.tokens[start].span.to(self.last_span());
+                    let why = "has no direction (zero or out of range); this `pp` is shaded flat";
+                    self.warn(span, format!("the normal of vertex {} {why}", i + 1));
+                }
+                normals.push(normal);
             }
         }
         Ok(Entity::Polygon {

@@ -42,7 +42,7 @@ pub enum Entity {
     Polygon {
         /// The vertices in order.
         vertices: Vec<Vec3>,
-        /// For `pp`, one normal per vertex (YARI has no use for them and drops them).
+        /// For `pp`, one normal per vertex (YARI's `normals = ...`).
         normals: Option<Vec<Vec3>>,
     },
     /// `c`: a cone or cylinder without end caps, from the base disc to the apex disc.

@@ -10,13 +10,15 @@
 //!   sqrt(n)/(2n) for n lights, the relative intensity Haines's SPD README gives.
 //! - `f` -> `attribute` on the Hall model: kdr = 1 - Ks, kdt = 1 - T, colour = rgb Kd / kdr
 //!   (so the diffuse term kdr * colour is NFF's Kd * rgb), phong = Shine, refract = ior.
-//! - `s` -> `sphere`, `p`/`pp` -> `polygon` (vertex normals dropped), `c` -> a clipped
+//! - `s` -> `sphere`, `p` -> `polygon`, `pp` -> `polygon` with `normals = ...` (shaded
+//!   flat, without them, when one of its normals has no direction), `c` -> a clipped
 //!   `quadric` ([`super::cone`]).
 
 use super::cone::cone_quadric;
 use super::scene::{Entity, Fill, NffScene};
 use crate::ast::{
-    AttrField, BodyItem, CameraDef, ColorSpec, LightDef, Primitive, Scene, Spanned, Vec3, ViewStmt,
+    has_direction, AttrField, BodyItem, CameraDef, ColorSpec, LightDef, Primitive, Scene, Spanned,
+    Vec3, ViewStmt,
 };
 use crate::span::Span;
 
@@ -88,10 +90,14 @@ pub fn to_yari(nff: &NffScene) -> Scene {
                 },
                 span,
             ),
-            Entity::Polygon { vertices, .. } => push_primitive(
+            Entity::Polygon { vertices, normals } => push_primitive(
                 &mut scene,
                 Primitive::Polygon {
                     vertices: vertices.clone(),
+                    normals: normals
+                        .as_ref()
+                        .filter(|n| n.len() == vertices.len() && n.iter().all(has_direction))
+                        .cloned(),
                 },
                 span,
             ),
@@ -304,5 +310,48 @@ mod tests {
             y.body.items[1].node,
             BodyItem::Primitive(Primitive::Quadric { .. })
         ));
+    }
+
+    #[test]
+    fn pp_keeps_its_normals_into_the_model() {
+        use crate::model::Shape;
+        let text = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\n\
+                    l 0 0 5\nf 1 1 1 1 0 0 0 1\n\
+                    pp 3\n0 0 0 -1 -1 1\n1 0 0 1 0 2\n0 1 0 0 1 1\n\
+                    p 3\n0 0 1\n1 0 1\n0 1 1\n\
+                    pp 3\n0 0 2 0 0 1\n1 0 2 0 0 0\n0 1 2 0 0 1\n";
+        let src = crate::span::Source::new("t.nff", text);
+        let (scene, warnings) = crate::nff::parse_with_warnings(&src).unwrap();
+        // The pp with a zero normal is shaded flat, with a located warning.
+        let w: Vec<String> = warnings.warnings().map(|d| d.message.clone()).collect();
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("the normal of vertex 2 has no direction"),
+            "{w:?}"
+        );
+        assert!(warnings.render(&src).contains("t.nff:20:7: warning:"));
+        let world = crate::compile::compile(&scene, &crate::colour::ColourTable::builtin())
+            .unwrap()
+            .world;
+        let shapes: Vec<&Shape> = world.objects.iter().map(|o| &o.shape).collect();
+        match shapes[0] {
+            Shape::SmoothPolygon { vertices, normals } => {
+                assert_eq!(vertices[1], glam::DVec3::X);
+                assert_eq!(
+                    normals,
+                    &vec![
+                        glam::DVec3::new(-1.0, -1.0, 1.0),
+                        glam::DVec3::new(1.0, 0.0, 2.0),
+                        glam::DVec3::new(0.0, 1.0, 1.0)
+                    ]
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(shapes[1], Shape::Polygon { .. }));
+        assert!(matches!(shapes[2], Shape::Polygon { .. }));
+        // And back to YARI text with the normals.
+        let yari = crate::writer::write_scene(&scene);
+        assert!(yari.contains("normals =  -1,-1,1  1,0,2  0,1,1)"), "{yari}");
     }
 }

@@ -10,7 +10,7 @@ fn polygons(s: &Scene) -> Vec<&Vec<Vec3>> {
         .items
         .iter()
         .filter_map(|i| match &i.node {
-            BodyItem::Primitive(Primitive::Polygon { vertices }) => Some(vertices),
+            BodyItem::Primitive(Primitive::Polygon { vertices, .. }) => Some(vertices),
             _ => None,
         })
         .collect()
@@ -110,6 +110,89 @@ fn never_panics_on_garbage() {
     ] {
         let _ = parse(&Source::new("t.off", text));
     }
+}
+
+fn normals(s: &Scene) -> Vec<Option<Vec<Vec3>>> {
+    s.body
+        .items
+        .iter()
+        .filter_map(|i| match &i.node {
+            BodyItem::Primitive(Primitive::Polygon { normals, .. }) => Some(normals.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn noff_gives_each_face_its_vertices_normals() {
+    // A square of two triangles bent along its diagonal, normals per vertex.
+    let text = "NOFF\n4 2 0\n0 0 0  0 0 1\n1 0 0  0.5 0 1\n1 1 0 0 0 2\n0 1 0  -0.5 0 1\n\
+                3 0 1 2\n3 0 2 3 1 0 0\n";
+    let s = parse(&Source::new("sq.off", text)).unwrap();
+    assert_eq!(
+        normals(&s),
+        vec![
+            Some(vec![[0.0, 0.0, 1.0], [0.5, 0.0, 1.0], [0.0, 0.0, 2.0]]),
+            Some(vec![[0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [-0.5, 0.0, 1.0]]),
+        ]
+    );
+    assert_eq!(polygons(&s)[1][2], [0.0, 1.0, 0.0]);
+    // The scene compiles to smooth polygons.
+    let w = crate::compile::compile(&s, &crate::colour::ColourTable::builtin())
+        .unwrap()
+        .world;
+    assert!(w
+        .objects
+        .iter()
+        .all(|o| matches!(o.shape, crate::model::Shape::SmoothPolygon { .. })));
+    // Plain OFF has none.
+    assert!(normals(&parse(&Source::new("cube.off", CUBE)).unwrap())
+        .iter()
+        .all(Option::is_none));
+}
+
+#[test]
+fn off_prefixes_lay_out_the_vertex_lines() {
+    // Colour per vertex (3 or 4 numbers) and texture coordinates are read and skipped.
+    let text = "STCNOFF 3 1 0\n0 0 0 0 0 1 1 0 0 1 0.5 0.5\n1 0 0 0 0 1 0 1 0 0 1\n\
+                0 1 0 0 0 1 0 0 1 1 1 1\n3 0 1 2\n";
+    let s = parse(&Source::new("t.off", text)).unwrap();
+    assert_eq!(normals(&s)[0].as_ref().map(Vec::len), Some(3));
+    let s = parse(&Source::new(
+        "t.off",
+        "COFF 3 1 0\n0 0 0 1 0 0\n1 0 0 0 1 0 1\n0 1 0 0 0 1\n3 0 1 2\n",
+    ))
+    .unwrap();
+    assert_eq!(normals(&s), vec![None]);
+}
+
+#[test]
+fn bad_noff_input_gets_located_errors_and_warnings() {
+    let e = error("NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 0\n0 1 0 0 0 1\n3 0 1 2\n");
+    assert!(
+        e.starts_with("t.off:4:1: error: vertex 1 of 3 must have 3 coordinates and a normal (6 numbers), found 5"),
+        "{e}"
+    );
+    let e = error("4OFF\n");
+    assert!(e.contains("only 3-dimensional OFF is supported"), "{e}");
+    let e = error("NOFFX\n");
+    assert!(
+        e.contains("expected the `OFF` header, found `NOFFX`"),
+        "{e}"
+    );
+    // A zero normal: that face is flat, with a warning at its index.
+    let src = Source::new(
+        "z.off",
+        "NOFF 3 1 0\n0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n3 0 1 2\n",
+    );
+    let s = parse(&src).unwrap();
+    assert_eq!(normals(&s), vec![None]);
+    let (_, warnings) = parse_with_warnings(&src).unwrap();
+    let w = warnings.render(&src);
+    assert!(
+        w.starts_with("z.off:5:5: warning: the normal of vertex 1 has no direction; face 0 of 1 is shaded flat"),
+        "{w}"
+    );
 }
 
 use proptest::strategy::Strategy;

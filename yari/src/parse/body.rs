@@ -106,7 +106,8 @@ impl Parser<'_> {
         Ok(BodyItem::Primitive(Primitive::Sphere { center, radius }))
     }
 
-    /// `vertices = n ; x1,y1,z1 ... xn,yn,zn` (commas between numbers optional).
+    /// `vertices = n ; x1,y1,z1 ... xn,yn,zn` (commas between numbers optional), then the
+    /// optional `; normals = nx1,ny1,nz1 ... nxn,nyn,nzn` (extension: one per vertex).
     fn polygon(&mut self) -> PResult<BodyItem> {
         if !self.at_word("vertices") {
             return Err(self.unexpected("`vertices = n`"));
@@ -121,35 +122,100 @@ impl Parser<'_> {
             ));
         }
         self.expect(TokenKind::Semi, "`;` after the number of vertices")?;
-        let list_start = self.tok.span;
-        let mut vertices: Vec<Vec3> = Vec::with_capacity((n as usize).min(64));
-        let mut partial = [0.0; 3];
-        let mut count = 0usize;
-        while self.at(TokenKind::Number) {
-            partial[count % 3] = self.bump().value;
-            count += 1;
-            if count.is_multiple_of(3) {
-                vertices.push(partial);
-            }
-            self.eat(TokenKind::Comma);
-        }
-        if !self.at(TokenKind::RParen) {
-            return Err(self.unexpected("a number or `)`"));
-        }
-        let list = self.span_from(list_start);
-        if !count.is_multiple_of(3) {
-            return Err(self.error(
-                list,
-                format!("each vertex needs 3 coordinates, but {count} numbers are listed"),
-            ));
-        }
+        let (vertices, _) = self.vector_list((n as usize).min(64), "vertex")?;
         if vertices.len() as f64 != n {
             return Err(self.error(
                 n_span,
                 format!("polygon declares {n} vertices but lists {}", vertices.len()),
             ));
         }
-        Ok(BodyItem::Primitive(Primitive::Polygon { vertices }))
+        let vertices: Vec<Vec3> = vertices.into_iter().map(|(v, _)| v).collect();
+        let mut normals = None;
+        if self.eat(TokenKind::Semi) && !self.at(TokenKind::RParen) {
+            if !self.at_word("normals") {
+                return Err(if self.at(TokenKind::Ident) {
+                    let (at, name) = (self.tok.span, self.text(self.tok));
+                    self.error(
+                        at,
+                        format!("unknown field `{name}` in `polygon`; expected `normals`"),
+                    )
+                } else {
+                    self.unexpected("`normals = ...` or `)`")
+                });
+            }
+            let field = self.bump().span;
+            self.expect(TokenKind::Equals, "`=`")?;
+            normals = Some(self.normals(vertices.len(), field)?);
+            if self.eat(TokenKind::Semi) && !self.at(TokenKind::RParen) {
+                return Err(self.unexpected("`)` after the normals"));
+            }
+        }
+        Ok(BodyItem::Primitive(Primitive::Polygon {
+            vertices,
+            normals,
+        }))
+    }
+
+    /// The list after `normals =`: one non-zero vector per vertex (`count` of them).
+    fn normals(&mut self, count: usize, field: Span) -> PResult<Vec<Vec3>> {
+        let (normals, list) = self.vector_list(count.min(64), "normal")?;
+        if normals.len() != count {
+            let at = if list.start == list.end { field } else { list };
+            return Err(self.error(
+                at,
+                format!(
+                    "polygon has {count} vertices but {} normals; give one normal per vertex",
+                    normals.len()
+                ),
+            ));
+        }
+        for (k, (v, span)) in normals.iter().enumerate() {
+            let why = if v.iter().all(|c| *c == 0.0) {
+                "is zero; a normal needs a direction"
+            } else if !crate::ast::has_direction(v) {
+                "cannot be normalised: its length is out of range"
+            } else {
+                continue;
+            };
+            return Err(self.error(*span, format!("the normal of vertex {} {why}", k + 1)));
+        }
+        Ok(normals.into_iter().map(|(v, _)| v).collect())
+    }
+
+    /// Numbers up to the next `;` or `)`, three by three: the vectors with their spans, and
+    /// the span of the whole list (empty when there are no numbers). `what` names one item.
+    fn vector_list(&mut self, capacity: usize, what: &str) -> PResult<(Vec<(Vec3, Span)>, Span)> {
+        let list_start = self.tok.span;
+        let mut out: Vec<(Vec3, Span)> = Vec::with_capacity(capacity);
+        let mut partial = [0.0; 3];
+        let mut first = list_start;
+        let mut count = 0usize;
+        while self.at(TokenKind::Number) {
+            if count.is_multiple_of(3) {
+                first = self.tok.span;
+            }
+            partial[count % 3] = self.bump().value;
+            count += 1;
+            if count.is_multiple_of(3) {
+                out.push((partial, self.span_from(first)));
+            }
+            self.eat(TokenKind::Comma);
+        }
+        if !self.at(TokenKind::RParen) && !self.at(TokenKind::Semi) {
+            return Err(self.unexpected("a number or `)`"));
+        }
+        let list = if count == 0 {
+            Span::new(list_start.start as usize, list_start.start as usize)
+        } else {
+            self.span_from(list_start)
+        };
+        if !count.is_multiple_of(3) {
+            return Err(self.error(
+                list,
+                format!("each {what} needs 3 coordinates, but {count} numbers are listed"),
+            ));
+        }
+        Ok((out, list))
     }
 
     /// `a b c d e f g h i j` then optional `; clip = min max` and `; plane = a,b,c d` fields.

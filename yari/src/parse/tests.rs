@@ -41,7 +41,7 @@ fn thesis_tetrahedron_parses_as_printed() {
         matches!(&scene.view[2].node, ViewStmt::Background(c) if c.node == ColorSpec::Named("UNC_Blue".into()))
     );
     match &scene.body.items[1].node {
-        BodyItem::Primitive(Primitive::Polygon { vertices }) => {
+        BodyItem::Primitive(Primitive::Polygon { vertices, .. }) => {
             assert_eq!(
                 vertices,
                 &vec![[-1.0, -1.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
@@ -169,4 +169,85 @@ fn a_forgotten_close_paren_does_not_swallow_the_next_statement() {
     assert_eq!(errs.len(), 2, "{errs:?}");
     assert_eq!(errs[0], "expected `)`, found `polygon`");
     assert!(errs[1].contains("declares 3 vertices but lists 2"));
+}
+
+#[test]
+fn polygon_normals_parse_after_the_vertices() {
+    let scene = parse_text(
+        "begin
+           polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,1 0 0.1 1, 0.1,0,1);
+           polygon(vertices = 3; 0,0,0 1,0,0 0,1,0;);
+           polygon(vertices = 3; 0,0,0 1,0,0 0,1,0);
+         end",
+    )
+    .unwrap();
+    let normals: Vec<Option<Vec<[f64; 3]>>> = scene
+        .body
+        .items
+        .iter()
+        .map(|i| match &i.node {
+            BodyItem::Primitive(Primitive::Polygon { normals, .. }) => normals.clone(),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(
+        normals,
+        vec![
+            Some(vec![[0.0, 0.0, 1.0], [0.0, 0.1, 1.0], [0.1, 0.0, 1.0]]),
+            None,
+            None
+        ]
+    );
+}
+
+#[test]
+fn bad_normals_are_located_errors_with_a_caret() {
+    let rendered = |text: &str| {
+        let src = Source::new("n.yari", text);
+        parse(&src).unwrap_err().render(&src)
+    };
+    // Too few normals: the error points at the list of normals.
+    let e =
+        rendered("begin\n polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,1 0,0,1);\nend");
+    assert!(
+        e.starts_with(
+            "n.yari:2:53: error: polygon has 3 vertices but 2 normals; give one normal per vertex"
+        ),
+        "{e}"
+    );
+    assert!(
+        e.contains(&format!("\n{}^~~~~~~~~~~", " ".repeat(54))),
+        "{e:?}"
+    );
+    // A zero normal: the error points at its three numbers.
+    let e = rendered(
+        "begin\n polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,1 0,0,0 0,0,1);\nend",
+    );
+    assert!(
+        e.starts_with(
+            "n.yari:2:59: error: the normal of vertex 2 is zero; a normal needs a direction"
+        ),
+        "{e}"
+    );
+    assert!(e.contains(&format!("\n{}^~~~~", " ".repeat(60))), "{e:?}");
+    // A normal whose length cannot be normalised, a partial vector, an unknown field.
+    assert!(errors(
+        "begin polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,1 1e-200,0,0 0,0,1); end"
+    )[0]
+    .contains("cannot be normalised"));
+    assert!(errors(
+        "begin polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,1 0,0,1 0,0); end"
+    )[0]
+    .contains("each normal needs 3 coordinates, but 8 numbers are listed"));
+    assert!(
+        errors("begin polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; colours = 1,1,1); end")[0]
+            .contains("unknown field `colours` in `polygon`; expected `normals`")
+    );
+    assert!(errors(
+        "begin polygon(vertices = 3; 0,0,0 1,0,0 0,1,0; normals = 0,0,1 0,0,1 0,0,1; x); end"
+    )[0]
+    .contains("expected `)` after the normals"));
+    // The error does not stop the next statement from being read.
+    let errs = errors("begin\n polygon(vertices = 3; 0 0 0 1 0 0 0 1 0; normals = 0 0 1);\n sphre(center=0,0,0);\nend");
+    assert_eq!(errs.len(), 2, "{errs:?}");
 }

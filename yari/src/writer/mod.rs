@@ -182,10 +182,16 @@ fn write_primitive(out: &mut String, p: &Primitive) {
                 Num(*radius)
             );
         }
-        Primitive::Polygon { vertices } => {
+        Primitive::Polygon { vertices, normals } => {
             let _ = write!(out, "polygon(vertices = {};", vertices.len());
             for v in vertices {
                 let _ = write!(out, "  {}", V(v));
+            }
+            if let Some(normals) = normals {
+                out.push_str("; normals =");
+                for n in normals {
+                    let _ = write!(out, "  {}", V(n));
+                }
             }
             out.push(')');
         }

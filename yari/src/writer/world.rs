@@ -97,6 +97,11 @@ pub fn world_to_scene(world: &World) -> Scene {
             }
             Shape::Polygon { vertices } => Primitive::Polygon {
                 vertices: vertices.iter().map(|v| v3(*v)).collect(),
+                normals: None,
+            },
+            Shape::SmoothPolygon { vertices, normals } => Primitive::Polygon {
+                vertices: vertices.iter().map(|v| v3(*v)).collect(),
+                normals: Some(normals.iter().map(|n| v3(*n)).collect()),
             },
             Shape::Quadric(q) => Primitive::Quadric {
                 coeffs: q.q,

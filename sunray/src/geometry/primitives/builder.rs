@@ -1,16 +1,18 @@
 //! Objects to primitives, one object at a time (so a model is decoded as a stream and never
-//! held whole beside its primitives). Polygons are triangulated into the mesh, static
+//! held whole beside its primitives). Polygons are triangulated into the mesh (a smooth
+//! polygon's triangles also get their corner normals in the smooth table), static
 //! spheres go to their table, the rest stay [`Primitive`]s; degenerate objects are dropped
 //! and listed, never turned into NaNs. Transparent static polygons are remembered until
 //! [`PrimitivesBuilder::finish`], which finds the closed meshes among them
 //! ([`crate::geometry::solid`]) and makes their triangles solid faces.
 
-use super::super::polygon::{triangulate, Degenerate};
+use super::super::polygon::{triangulate_indexed, Degenerate};
 use super::super::primitive::Dropped;
 use super::super::solid::{closed_faces_of, Face, Polygon};
 use super::super::{Primitive, PrimitiveKind, Vec3};
 use super::{Primitives, StaticSphere, MAX_PER_KIND, OTHER, SPHERE, TRIANGLE};
 use yari::model::{Object, Shape, Surface};
+use yari::polygon::{against, unit_normals};
 
 /// A transparent static polygon, a candidate face of a closed mesh.
 struct Candidate {
@@ -88,49 +90,100 @@ impl PrimitivesBuilder {
                 }
                 "quadric with no or non-finite coefficients"
             }
-            Shape::Polygon { vertices } => match triangulate(vertices) {
-                Ok(t) if motion == Vec3::ZERO => {
-                    if self.out.mesh.triangles.len() + t.triangles.len() > MAX_PER_KIND {
-                        "polygon beyond the most triangles a scene may have (2^30)"
-                    } else {
-                        let first = self.out.slots.len() as u32;
-                        let range =
-                            self.out
-                                .mesh
-                                .add_polygon(&t.triangles, t.normal, first, obj.surface);
-                        self.out
-                            .slots
-                            .extend(range.clone().map(|k| TRIANGLE | k as u32));
-                        let transparent = surfaces
-                            .get(obj.surface as usize)
-                            .is_some_and(|s| s.kst() > 0.0);
-                        if transparent {
-                            self.candidates.push(Candidate {
-                                polygon: Polygon::new(index, vertices),
-                                triangles: range,
-                            });
-                        }
-                        return;
-                    }
+            Shape::Polygon { vertices } => {
+                match self.add_polygon(surfaces, obj, motion, vertices, None) {
+                    Ok(()) => return,
+                    Err(reason) => reason,
                 }
-                Ok(t) => {
-                    for v in t.triangles {
-                        self.add_primitive(mk(PrimitiveKind::Triangle {
-                            v,
-                            normal: t.normal,
-                            solid: false,
-                        }));
-                    }
-                    return;
+            }
+            Shape::SmoothPolygon { vertices, normals } => {
+                match self.add_polygon(surfaces, obj, motion, vertices, Some(normals)) {
+                    Ok(()) => return,
+                    Err(reason) => reason,
                 }
-                Err(Degenerate::TooFewVertices) => "polygon with fewer than 3 distinct vertices",
-                Err(Degenerate::ZeroArea) => "polygon with zero area",
-            },
+            }
         };
         self.dropped.push(Dropped {
             object: index,
             reason: reason.to_string(),
         });
+    }
+
+    /// Adds polygon `vertices` of object `obj` (the one being added) as triangles: to the
+    /// mesh when static, as plain primitives when moving; with `normals`, each triangle's
+    /// corner normals go to the smooth table (unit length, used negated when they point
+    /// away from the polygon's plane normal, as [`yari::polygon::shading_normals`] turns
+    /// them; the polygon is flat if they cannot be normalised).
+    /// The reason it was dropped otherwise.
+    fn add_polygon(
+        &mut self,
+        surfaces: &[Surface],
+        obj: &Object,
+        motion: Vec3,
+        vertices: &[Vec3],
+        normals: Option<&[Vec3]>,
+    ) -> Result<(), &'static str> {
+        let index = self.objects - 1;
+        let t = match triangulate_indexed(vertices) {
+            Ok(t) => t,
+            Err(Degenerate::TooFewVertices) => {
+                return Err("polygon with fewer than 3 distinct vertices")
+            }
+            Err(Degenerate::ZeroArea) => return Err("polygon with zero area"),
+        };
+        let normals = normals
+            .filter(|n| n.len() == vertices.len())
+            .and_then(unit_normals)
+            .map(|n| {
+                let negate = against(&n, t.normal);
+                (n, negate)
+            });
+        let corners: Vec<[Vec3; 3]> = t.triangles.iter().map(|c| c.map(|k| vertices[k])).collect();
+        let first = self.out.slots.len() as u32;
+        if motion == Vec3::ZERO {
+            if self.out.mesh.triangles.len() + corners.len() > MAX_PER_KIND {
+                return Err("polygon beyond the most triangles a scene may have (2^30)");
+            }
+            let range = self
+                .out
+                .mesh
+                .add_polygon(&corners, t.normal, first, obj.surface);
+            self.out
+                .slots
+                .extend(range.clone().map(|k| TRIANGLE | k as u32));
+            let transparent = surfaces
+                .get(obj.surface as usize)
+                .is_some_and(|s| s.kst() > 0.0);
+            if transparent {
+                self.candidates.push(Candidate {
+                    polygon: Polygon::new(index, vertices),
+                    triangles: range,
+                });
+            }
+        } else {
+            for v in corners {
+                self.add_primitive(Primitive {
+                    kind: PrimitiveKind::Triangle {
+                        v,
+                        normal: t.normal,
+                        solid: false,
+                    },
+                    object: index as u32,
+                    surface: obj.surface,
+                    motion,
+                });
+            }
+        }
+        if let Some((n, negate)) = normals {
+            let last = self.out.slots.len() as u32;
+            for (k, tri) in t.triangles.iter().enumerate() {
+                let prim = first + k as u32;
+                if prim < last {
+                    self.out.smooth.add(prim, tri.map(|c| n[c]), negate);
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Adds one primitive as the next one (static triangles go to the mesh, as open or
@@ -188,6 +241,7 @@ impl PrimitivesBuilder {
         drop(self.candidates);
         let mut out = self.out;
         out.mesh.finish();
+        out.smooth.finish();
         out.index_slots();
         out.slots.shrink_to_fit();
         out.spheres.shrink_to_fit();

@@ -127,6 +127,12 @@ impl Mesh {
         }
     }
 
+    /// Whether `t`'s normal is the negated plane normal (a face of a mesh wound inside out).
+    #[inline]
+    pub fn is_flipped(t: &MeshTriangle) -> bool {
+        t.normal & FLIP != 0
+    }
+
     /// Whether `t` is a face of a closed transparent mesh.
     #[inline]
     pub fn is_solid(t: &MeshTriangle) -> bool {

@@ -12,17 +12,21 @@
 //!
 //! # Layout
 //! - [`mesh`]: the indexed triangle mesh.
+//! - [`smooth`]: the side table of smooth triangles' corner normals.
 //! - [`builder`]: objects to primitives (triangulation, closed transparent meshes, dropped
 //!   objects), one object at a time, so a model can be decoded as a stream.
 
 pub mod builder;
 pub mod mesh;
+pub mod smooth;
 
+use super::smooth::SmoothHit;
 use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
 use super::{Aabb, Primitive, PrimitiveKind, RayPre, Real, Vec3};
 pub use builder::PrimitivesBuilder;
 use mesh::Mesh;
+use smooth::SmoothTable;
 
 /// Slot kinds, in a slot's top two bits.
 const TRIANGLE: u32 = 0;
@@ -58,6 +62,8 @@ pub struct Primitives {
     /// Primitive numbers of `others`.
     other_prims: Vec<u32>,
     others: Vec<Primitive>,
+    /// Corner normals of the smooth triangles (of the mesh or among `others`), by primitive.
+    smooth: SmoothTable,
     /// Whether an accelerator's order was adopted ([`Primitives::adopt_order`]).
     ordered: bool,
 }
@@ -282,6 +288,44 @@ impl Primitives {
         }
     }
 
+    /// The hit at world point `p` (shutter time `time`) on primitive `i` if it is a smooth
+    /// triangle: its corners and their normals, turned to the side of [`Primitives::normal`];
+    /// `None` for every other primitive (at once when no triangle is smooth).
+    #[inline]
+    pub fn smooth_hit(&self, i: u32, p: Vec3, time: Real) -> Option<SmoothHit> {
+        if self.smooth.is_empty() {
+            return None;
+        }
+        let normals = self.smooth.get(i)?;
+        let slot = self.slot(i);
+        let k = (slot & !KIND) as usize;
+        match slot & KIND {
+            TRIANGLE => {
+                let t = &self.mesh.triangles[k];
+                let s = if Mesh::is_flipped(t) { -1.0 } else { 1.0 };
+                Some(SmoothHit::new(
+                    self.mesh.corners(t),
+                    normals.map(|n| n * s),
+                    p,
+                ))
+            }
+            OTHER => match &self.others[k].kind {
+                PrimitiveKind::Triangle { v, .. } => Some(SmoothHit::new(
+                    *v,
+                    normals,
+                    p - self.others[k].motion * time,
+                )),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
+    /// Smooth triangles, and the distinct corner normals they use.
+    pub fn smooth_counts(&self) -> (usize, usize) {
+        self.smooth.counts()
+    }
+
     /// Whether primitive `i` encloses a volume ([`Primitive::is_closed`]).
     #[inline]
     pub fn is_closed(&self, i: u32) -> bool {
@@ -325,6 +369,7 @@ impl Primitives {
     pub fn bytes(&self) -> usize {
         self.slots.capacity() * 4
             + self.mesh.bytes()
+            + self.smooth.bytes()
             + self.spheres.capacity() * std::mem::size_of::<StaticSphere>()
             + self.other_prims.capacity() * 4
             + self.others.capacity() * std::mem::size_of::<Primitive>()

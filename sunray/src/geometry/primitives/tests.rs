@@ -236,3 +236,100 @@ fn the_tables_hold_about_forty_bytes_a_triangle() {
     let per = scene.prims.bytes() as f64 / n as f64;
     assert!(per < 48.0, "{per} bytes a triangle");
 }
+
+#[test]
+fn smooth_polygons_keep_their_corner_normals_in_a_side_table() {
+    let mut w = mixed_world();
+    let flat = Primitives::from_list(Vec::new());
+    assert_eq!(flat.smooth_counts(), (0, 0));
+    let before = {
+        let mut b = PrimitivesBuilder::new();
+        for o in &w.objects {
+            b.add(&w.surfaces, o);
+        }
+        b.finish().0
+    };
+    assert_eq!(
+        before.smooth_counts(),
+        (0, 0),
+        "no vertex normals, no table"
+    );
+    // A static smooth quad (two triangles) with normals leaning out from its centre, given
+    // against its winding (they are turned over), and a moving smooth triangle.
+    let quad = vec![
+        Vec3::new(0.0, 0.0, 9.0),
+        Vec3::new(2.0, 0.0, 9.0),
+        Vec3::new(2.0, 2.0, 9.0),
+        Vec3::new(0.0, 2.0, 9.0),
+    ];
+    let lean = |x: f64, y: f64| -Vec3::new(x, y, 2.0);
+    let normals = vec![
+        lean(-1.0, -1.0),
+        lean(1.0, -1.0),
+        lean(1.0, 1.0),
+        lean(-1.0, 1.0),
+    ];
+    w.objects.push(Object {
+        shape: Shape::SmoothPolygon {
+            vertices: quad,
+            normals,
+        },
+        surface: 0,
+        motion: Vec3::ZERO,
+    });
+    w.objects.push(Object {
+        shape: Shape::SmoothPolygon {
+            vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: vec![Vec3::Z, Vec3::X + Vec3::Z, Vec3::Y + Vec3::Z],
+        },
+        surface: 0,
+        motion: Vec3::new(0.0, 0.0, 1.0),
+    });
+    let mut b = PrimitivesBuilder::new();
+    for o in &w.objects {
+        b.add(&w.surfaces, o);
+    }
+    let (mut prims, dropped) = b.finish();
+    assert!(dropped.is_empty());
+    let n = prims.len() as u32;
+    assert_eq!(n, before.len() as u32 + 3);
+    assert_eq!(prims.smooth_counts(), (3, 7));
+    // The quad's centre (on the diagonal shared by its two triangles): the normals average
+    // to +z there, from either triangle.
+    let (q0, q1) = (n - 3, n - 2);
+    for t in [q0, q1] {
+        let h = prims.smooth_hit(t, Vec3::new(1.0, 1.0, 9.0), 0.0).unwrap();
+        let g = prims.normal(t, Vec3::new(1.0, 1.0, 9.0), 0.0);
+        assert_eq!(g, Vec3::Z);
+        let s = h.normal().unwrap();
+        assert!((s - Vec3::Z).length() < 1e-12, "{s}");
+        // At a corner: that corner's normal, turned to +z.
+        let c = h.corners[0];
+        let hc = prims.smooth_hit(t, c, 0.0).unwrap();
+        let want = Vec3::new(c.x - 1.0, c.y - 1.0, 2.0).normalize();
+        assert!((hc.normal().unwrap() - want).length() < 1e-12);
+    }
+    // The moving triangle at time 1 is one unit up; its centroid's normal by hand:
+    // (z + (x+z)/sqrt2 + (y+z)/sqrt2) / 3, normalised.
+    let m = n - 1;
+    let h = prims
+        .smooth_hit(m, Vec3::new(1.0 / 3.0, 1.0 / 3.0, 1.0), 1.0)
+        .unwrap();
+    let r = 0.5f64.sqrt();
+    let want = Vec3::new(r, r, 1.0 + 2.0 * r).normalize();
+    assert!((h.normal().unwrap() - want).length() < 1e-12);
+    // Flat primitives have none; the accelerator's order (which moves triangles in the
+    // mesh) changes nothing: the table is keyed by primitive number.
+    assert!(prims.smooth_hit(0, Vec3::ZERO, 0.0).is_none());
+    let at = Vec3::new(0.5, 1.5, 9.0);
+    let was = prims
+        .smooth_hit(q1, at, 0.0)
+        .or(prims.smooth_hit(q0, at, 0.0));
+    let order: Vec<u32> = (0..n).rev().collect();
+    assert!(prims.adopt_order(&order));
+    let now = prims
+        .smooth_hit(q1, at, 0.0)
+        .or(prims.smooth_hit(q0, at, 0.0));
+    assert_eq!(was, now);
+    assert!(was.is_some());
+}
