@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# SunRay against POV-Ray 3.7, side by side: Haines's SPD tetra 6, mount 6 and balls 4 at
-# 512x512, one thread each, no antialiasing, ray tree depth 5. The POV-Ray scenes are written
+# SunRay against POV-Ray 3.7, side by side: every one of Haines's SPD scenes at his default
+# size (SCENES overrides the list, e.g. SCENES="tetra:6 teapot:12") at 512x512, one thread each, no antialiasing, ray tree depth 5. The POV-Ray scenes are written
 # by `sunray convert SCENE -o SCENE.pov` (yari::pov) from the same compiled world SunRay
 # renders. Prints a Markdown table: both trace times (POV-Ray's own "Trace Time"; SunRay's
 # render time), the CPU seconds of each (the fairer figure on a shared machine; SunRay's
 # includes building its BVH, POV-Ray's is its trace only), rays, and the ratios, best of REPEAT runs (default 3).
-# Usage: [REPEAT=3] [RES=512] [SUNRAY=path] bench/pov/run.sh [OUTDIR]   (default OUTDIR: target/pov-bench)
+# Usage: [REPEAT=3] [RES=512] [SCENES="db:size ..."] [SUNRAY=path] bench/pov/run.sh [OUTDIR]   (default OUTDIR: target/pov-bench)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 OUT=${1:-target/pov-bench}
@@ -22,7 +22,8 @@ fi
 RES=${RES:-512}
 echo "| scene | SunRay trace s | SunRay CPU s | SunRay rays | POV-Ray trace s | POV-Ray CPU s | POV-Ray rays | POV / SunRay (wall) | POV / SunRay (CPU) |"
 echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|"
-for spec in tetra:6 mount:6 balls:4; do
+SCENES=${SCENES:-tetra:6 mount:6 balls:4 gears:4 rings:7 tree:11 teapot:6 lattice:12 shells:5 jacks:1 sombrero:1}
+for spec in $SCENES; do
   db=${spec%:*}; size=${spec#*:}; name=$db$size
   "$SUNRAY" spd "$db" --size "$size" -o "$OUT/$name.yari"
   "$SUNRAY" convert "$OUT/$name.yari" -o "$OUT/$name.pov"
