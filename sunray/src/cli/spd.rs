@@ -5,7 +5,8 @@
 //! stdout) is YARI.
 
 use super::convert::{output_format, render_scene, write_output, OutputFormat};
-use clap::{Args, ValueEnum};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use yari::spd::{generate, Database};
@@ -14,8 +15,8 @@ use yari::spd::{generate, Database};
 #[derive(Args, Debug)]
 pub struct SpdArgs {
     /// Which database.
-    #[arg(value_enum)]
-    pub(crate) database: DatabaseName,
+    #[arg(value_parser = database_names())]
+    pub(crate) database: Database,
     /// Haines's size factor (default: tetra 6, mount 6, balls 4, gears 4, rings 7, tree 11,
     /// teapot 6, lattice 12, shells 5, jacks 1, sombrero 1; allowed: tetra 1 to 12, which is
     /// 4^size triangles, mount 0 to 7, balls 0 to 6, gears 1 to 25, rings 1 to 60, tree 1 to
@@ -30,37 +31,15 @@ pub struct SpdArgs {
     pub(crate) format: Option<OutputFormat>,
 }
 
-/// The databases `sunray spd` generates.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub(crate) enum DatabaseName {
-    Tetra,
-    Mount,
-    Balls,
-    Gears,
-    Rings,
-    Tree,
-    Teapot,
-    Lattice,
-    Shells,
-    Jacks,
-    Sombrero,
+/// The databases `sunray spd` generates, by their names in `yari::spd` (listed in the help).
+fn database_names() -> impl TypedValueParser<Value = Database> {
+    PossibleValuesParser::new(Database::ALL.map(Database::name))
+        .try_map(|name: String| Database::from_name(&name).ok_or("not a database"))
 }
 
 /// Generates the database and writes it (or prints it on stdout).
 pub fn run(args: SpdArgs) -> anyhow::Result<ExitCode> {
-    let db = match args.database {
-        DatabaseName::Tetra => Database::Tetra,
-        DatabaseName::Mount => Database::Mount,
-        DatabaseName::Balls => Database::Balls,
-        DatabaseName::Gears => Database::Gears,
-        DatabaseName::Rings => Database::Rings,
-        DatabaseName::Tree => Database::Tree,
-        DatabaseName::Teapot => Database::Teapot,
-        DatabaseName::Lattice => Database::Lattice,
-        DatabaseName::Shells => Database::Shells,
-        DatabaseName::Jacks => Database::Jacks,
-        DatabaseName::Sombrero => Database::Sombrero,
-    };
+    let db = args.database;
     let scene = generate(db, args.size.unwrap_or(db.default_size()))?;
     let format = output_format(args.format, args.output.as_deref());
     write_output(args.output.as_deref(), &render_scene(&scene, format))?;

@@ -147,6 +147,11 @@ impl Database {
             Database::Sombrero => "sombrero",
         }
     }
+
+    /// The database called `name` (as [`Database::name`] gives it), if any.
+    pub fn from_name(name: &str) -> Option<Database> {
+        Database::ALL.into_iter().find(|d| d.name() == name)
+    }
 }
 
 /// A size outside [`Database::sizes`].
