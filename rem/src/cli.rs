@@ -53,6 +53,11 @@ pub struct RemdArgs {
     /// other daemons there, without TLS.
     #[arg(long, env = "REMD_INSECURE")]
     pub insecure: bool,
+    /// Serve the web view (hosts, jobs, images filling in) on this address, plain HTTP, for
+    /// holders of a login token (`rem web-token`); off by default. Port 0 picks one (the bound
+    /// address is printed). Use a loopback address unless a proxy adds TLS.
+    #[arg(long, env = "REMD_WEB")]
+    pub web: Option<SocketAddr>,
     /// Directory for checkpoints.
     #[arg(long, env = "REMD_STATE_DIR")]
     pub state_dir: Option<PathBuf>,

@@ -13,6 +13,7 @@
 //! | `--limit NAME=VALUE` (repeatable) | `REMD_LIMITS` | `[limits]` table | see [`Limits`] |
 //! | `--run-as` | `REMD_RUN_AS` | `run_as` | remd's own user |
 //! | `--insecure` | `REMD_INSECURE` | `insecure` | false: plain HTTP/2 only on loopback |
+//! | `--web` | `REMD_WEB` | `web` | off (see [`crate::web`]) |
 //! | `--state-dir` | `REMD_STATE_DIR` | `state_dir` | a fresh temporary directory |
 //! | `--probe-ms` | `REMD_PROBE_MS` | `probe_ms` | 200 |
 //! | `--suspect-ms` | `REMD_SUSPECT_MS` | `suspect_ms` | 400 |
@@ -56,6 +57,7 @@ pub(crate) struct FileConfig {
     pub(crate) run_as: Option<String>,
     pub(crate) insecure: Option<bool>,
     pub(crate) state_dir: Option<PathBuf>,
+    pub(crate) web: Option<SocketAddr>,
     pub(crate) probe_ms: Option<u64>,
     pub(crate) suspect_ms: Option<u64>,
     pub(crate) max_message: Option<usize>,
@@ -91,6 +93,8 @@ pub struct DaemonSettings {
     pub insecure: bool,
     /// Directory for checkpoints [default: a temporary one].
     pub state_dir: Option<PathBuf>,
+    /// Where to serve the web view (`None`: no web view).
+    pub web: Option<SocketAddr>,
     /// The membership protocol's timing (probe period, suspicion timeout ...).
     pub swim: SwimConfig,
     /// Time between samples of this host's load.
@@ -131,6 +135,7 @@ impl DaemonSettings {
             run_as: None,
             insecure: false,
             state_dir: None,
+            web: None,
             swim: SwimConfig::default(),
             load_interval: Duration::from_secs(1),
             max_message: DEFAULT_MAX_MESSAGE,
@@ -193,6 +198,7 @@ impl DaemonSettings {
             .transpose()?;
         s.insecure = args.insecure || file.insecure.unwrap_or(false);
         s.state_dir = args.state_dir.or(file.state_dir);
+        s.web = args.web.or(file.web);
         if let Some(ms) = args.probe_ms.or(file.probe_ms) {
             if !(20..=60_000).contains(&ms) {
                 return Err(Error::Config(format!(

@@ -523,6 +523,13 @@ impl Daemon {
                 job_store::STATES.join(", ")
             )));
         }
+        if record.title.len() > job_store::MAX_TITLE {
+            return Err(Error::Invalid(format!(
+                "job title of {} bytes (at most {})",
+                record.title.len(),
+                job_store::MAX_TITLE
+            )));
+        }
         let limit = self.max_message.min(self.limits.checkpoint_bytes);
         let size = prost::Message::encoded_len(&record);
         if size > limit {

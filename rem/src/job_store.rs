@@ -33,6 +33,9 @@ pub const STATES: [&str; 6] = [
     "cancelled",
 ];
 
+/// Longest job title (`JobRecord.title`), in bytes.
+pub const MAX_TITLE: usize = 200;
+
 /// True for the states of a job that will not run again.
 pub fn is_ended(state: &str) -> bool {
     matches!(state, "finished" | "failed" | "cancelled")

@@ -84,6 +84,7 @@
 //! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
 //! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
 //!   [`raise_fd_limit`].
+//! - [`web`]: the web view (`remd --web`): the page, the JSON API, logins.
 //! - [`embedded`]: a remd inside the current process (the embedded default, tests).
 //! - [`wire`]: what client and daemon agree on (default address, limits, environment names).
 //! - [`rpc`]: the generated client with the secret attached, under both of:
@@ -130,6 +131,7 @@ mod service;
 pub mod swim;
 mod token;
 pub mod transport;
+pub mod web;
 pub mod wire;
 
 /// Generated from `proto/rem.proto`.

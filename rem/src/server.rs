@@ -37,12 +37,32 @@ use crate::wire::env;
 
 use crate::wire::FRAME_OVERHEAD;
 
-/// Runs a daemon on `listener` until `shutdown` completes, then shuts down cleanly.
+/// Runs a daemon on `listener` until `shutdown` completes, then shuts down cleanly; with
+/// `settings.web`, its web view too.
 pub async fn run(
     settings: DaemonSettings,
     listener: TcpListener,
     shutdown: impl Future<Output = ()>,
 ) -> Result<()> {
+    run_with_web(settings, listener, None, shutdown).await
+}
+
+/// [`run`], serving the web view on `web` (bound by the caller, to print its address) or,
+/// when that is `None`, on `settings.web` if set.
+pub async fn run_with_web(
+    settings: DaemonSettings,
+    listener: TcpListener,
+    web: Option<TcpListener>,
+    shutdown: impl Future<Output = ()>,
+) -> Result<()> {
+    let web = match (web, settings.web) {
+        (Some(l), _) => Some(l),
+        (None, Some(addr)) => Some(
+            crate::bind_listener(addr)
+                .map_err(|e| Error::Config(format!("cannot serve the web view on {addr}: {e}")))?,
+        ),
+        (None, None) => None,
+    };
     let bound = listener.local_addr()?;
     if settings.tls.is_none() && !bound.ip().is_loopback() {
         if !settings.insecure {
@@ -181,6 +201,14 @@ pub async fn run(
     });
 
     tokio::spawn(supervision(Arc::downgrade(&daemon), stop.clone()));
+    if let Some(web) = web {
+        let (daemon, secret, stop) = (daemon.clone(), settings.secret.clone(), stop.clone());
+        tokio::spawn(async move {
+            if let Err(e) = crate::web::serve(daemon, &secret, web, stop).await {
+                tracing::error!("web view: {e}");
+            }
+        });
+    }
     let service = Service(daemon);
     let auth = RequireSecret::new(&settings.secret)?;
     let rem = RemServer::new(service.clone())

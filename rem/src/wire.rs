@@ -26,6 +26,15 @@ pub fn listening_addr(line: &str) -> Option<&str> {
     line.trim().strip_prefix(LISTENING)
 }
 
+/// What remd prints on its second line of output when it serves the web view (`--web`),
+/// followed by the page's URL.
+pub const WEB_VIEW: &str = "remd web view on ";
+
+/// The URL in remd's web view line ([`WEB_VIEW`] URL), if it is that line.
+pub fn web_view_url(line: &str) -> Option<&str> {
+    line.trim().strip_prefix(WEB_VIEW)
+}
+
 /// Environment variables every spawned process receives (and the client reads).
 pub mod env {
     /// What every REM variable starts with (a spawn may not set these).

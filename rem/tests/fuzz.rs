@@ -253,6 +253,7 @@ impl Gen<'_> {
             app: self.data(),
             controller_spawn: self.rng.one_in(2).then(|| self.spawn_request()),
             message: self.string(),
+            title: self.string(),
         }
     }
 

@@ -227,6 +227,8 @@ impl ComposeCluster {
             .env("SUNRAY_SCENES", spd_dir())
             .env("SUNRAY_OUT", &self.out_dir)
             .env("REM_CREDENTIALS", self.dir.path().join("credentials"))
+            // ws1's web view on a free port of this machine's loopback (`web_url`).
+            .env("REM_WEB_PORT", "")
             .env("SUNRAY_USER", {
                 let (uid, gid) = daemon_user();
                 format!("{uid}:{gid}")
@@ -262,6 +264,27 @@ impl ComposeCluster {
         let mut c = self.compose();
         c.args(["exec", "-T", host]).args(args);
         c
+    }
+
+    /// ws1's web view as published on this machine (`http://127.0.0.1:PORT/`).
+    pub fn web_url(&self) -> String {
+        let o = self
+            .compose()
+            .args(["port", "ws1", "8080"])
+            .output()
+            .unwrap();
+        let addr = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        assert!(
+            o.status.success() && !addr.is_empty(),
+            "compose port ws1 8080: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        format!("http://{addr}/")
+    }
+
+    /// The cluster's secret (made by [`ComposeCluster::up`]).
+    pub fn secret(&self) -> rem::Secret {
+        rem::Secret::from_file(&self.dir.path().join("credentials/secret")).unwrap()
     }
 
     /// The container id of a workstation.

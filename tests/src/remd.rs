@@ -20,6 +20,8 @@ pub const SECRET: &str = "submit-test-secret";
 pub struct Remd {
     pub name: String,
     pub addr: String,
+    /// The web view's URL (`http://127.0.0.1:PORT/`) when it was started with one.
+    pub web: Option<String>,
     pub child: Child,
 }
 
@@ -52,6 +54,21 @@ impl LoopbackCluster {
     /// [`LoopbackCluster::start`], calling `prepare(name, state_dir)` before each daemon
     /// starts (to mount a file system at a part of its state directory, say).
     pub fn start_with(n: usize, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
+        LoopbackCluster::start_inner(n, false, prepare)
+    }
+
+    /// [`LoopbackCluster::start`], daemon `a` serving its web view too (`--web`, on a port the
+    /// OS picks; [`LoopbackCluster::web_url`]).
+    pub fn start_web(n: usize) -> LoopbackCluster {
+        LoopbackCluster::start_inner(n, true, |_, _| {})
+    }
+
+    /// The web view's URL of daemon `a` (started by [`LoopbackCluster::start_web`]).
+    pub fn web_url(&self) -> String {
+        self.daemons[0].web.clone().expect("started with start_web")
+    }
+
+    fn start_inner(n: usize, web: bool, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
         rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
@@ -64,7 +81,7 @@ impl LoopbackCluster {
             let name = ((b'a' + i as u8) as char).to_string();
             let join = c.daemons.first().map(|d| d.addr.clone());
             prepare(&name, &c.state_dir(&name));
-            let d = c.start_daemon(&name, join.as_deref());
+            let d = c.start_daemon(&name, join.as_deref(), web && i == 0);
             c.daemons.push(d);
         }
         c.converge(n);
@@ -82,7 +99,7 @@ impl LoopbackCluster {
             .unwrap_or_default()
     }
 
-    fn start_daemon(&self, name: &str, join: Option<&str>) -> Remd {
+    fn start_daemon(&self, name: &str, join: Option<&str>, web: bool) -> Remd {
         let log = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
@@ -107,16 +124,27 @@ impl LoopbackCluster {
         if let Some(j) = join {
             cmd.args(["--join", j]);
         }
+        if web {
+            cmd.args(["--web", "127.0.0.1:0"]);
+        }
         let mut child = cmd.spawn().expect("start remd");
-        let out = child.stdout.take().unwrap();
+        let mut out = BufReader::new(child.stdout.take().unwrap());
         let mut line = String::new();
-        BufReader::new(out).read_line(&mut line).unwrap();
+        out.read_line(&mut line).unwrap();
         let addr = listening_addr(&line)
             .unwrap_or_else(|| panic!("bad first line {line:?}"))
             .to_string();
+        let web = web.then(|| {
+            let mut line = String::new();
+            out.read_line(&mut line).unwrap();
+            rem::wire::web_view_url(&line)
+                .unwrap_or_else(|| panic!("bad second line {line:?}"))
+                .to_string()
+        });
         Remd {
             name: name.to_string(),
             addr,
+            web,
             child,
         }
     }

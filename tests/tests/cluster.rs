@@ -137,7 +137,29 @@ fn six_hosts_render_mount6_byte_identical_to_sunray_render() {
         table.contains("scanlines") && table.contains("ws6"),
         "{table}"
     );
+    web_view_from_this_machine(&cluster);
     a_quarter_million_triangles_on_six_hosts(&cluster);
+}
+
+/// ws1's web view, published on this machine's loopback: the page, 401 without a token, the
+/// six hosts and the finished job with the admin token.
+fn web_view_from_this_machine(cluster: &ComposeCluster) {
+    use sunray_e2e::web::{Auth, WebClient};
+    let web = WebClient::new(&cluster.web_url());
+    assert_eq!(web.get("/", &Auth::None).status, 200);
+    assert_eq!(web.get("/api/hosts", &Auth::None).status, 401);
+    let admin = Auth::Bearer(rem::web::login::admin_token(&cluster.secret()).unwrap());
+    let hosts = web.get("/api/hosts", &admin).json();
+    let alive: Vec<&str> = hosts["hosts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|h| h["alive"] == true)
+        .map(|h| h["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(alive.len(), 6, "{hosts}");
+    let jobs = web.get("/api/jobs", &admin);
+    assert_eq!(jobs.status, 200, "{}", jobs.text());
 }
 
 /// tetra at size 9 (262,144 triangles, a 26 MB model: more than one REM message) on the six

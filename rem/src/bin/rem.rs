@@ -85,6 +85,14 @@ enum Command {
     /// user run jobs (rem, sunray submit) as that user only, without being able to act as
     /// another user, an admin or a daemon. Reads no network.
     ClientKey,
+    /// Print a login token for the web view (`remd --web`): your client key (from the
+    /// cluster secret, or the client-key file itself), which shows your jobs; with `--admin`
+    /// (needs the secret) the admin token, which shows everyone's. Reads no network.
+    WebToken {
+        /// The admin token.
+        #[arg(long)]
+        admin: bool,
+    },
     /// Make a cluster's shared files in DIR, keeping any that exist: the secret (`secret`,
     /// mode 600) and one TLS certificate for every daemon (`cluster.pem`, for the name
     /// `rem.cluster`) with its key (`cluster.key`, mode 600). Reads no network.
@@ -149,6 +157,20 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
         let user = cli.user.clone().unwrap_or_else(rem::identity::default_user);
         println!("{}", secret.client_key_line(&user)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    if let Command::WebToken { admin } = cli.command {
+        let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
+        if admin {
+            println!("{}", rem::web::login::admin_token(&secret)?);
+        } else {
+            let (user, key) = secret.client_credential(cli.user.as_deref())?;
+            println!(
+                "{}{user}:{}",
+                rem::identity::CLIENT_KEY_PREFIX,
+                hex::encode(key)
+            );
+        }
         return Ok(ExitCode::SUCCESS);
     }
     if let Command::Credentials { dir, owner, names } = &cli.command {
@@ -280,7 +302,7 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 eprintln!("rem: (older output was dropped)");
             }
         }
-        Command::ClientKey | Command::Credentials { .. } => {}
+        Command::ClientKey | Command::WebToken { .. } | Command::Credentials { .. } => {}
     }
     Ok(ExitCode::SUCCESS)
 }

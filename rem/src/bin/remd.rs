@@ -1,4 +1,5 @@
-//! `remd`: the REM daemon. Parses settings, binds, prints `remd listening on ADDR`, runs until
+//! `remd`: the REM daemon. Parses settings, binds, prints `remd listening on ADDR` (and, with
+//! `--web`, `remd web view on http://ADDR/`), runs until
 //! SIGTERM or Ctrl-C, then shuts down cleanly (see `rem::server`).
 
 use std::io::Write;
@@ -51,6 +52,15 @@ async fn serve(settings: DaemonSettings) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("cannot listen on {}: {e}", settings.listen))?;
     let addr = listener.local_addr()?;
     println!("{}{addr}", rem::wire::LISTENING);
+    let web = match settings.web {
+        Some(at) => {
+            let web = rem::bind_listener(at)
+                .map_err(|e| anyhow::anyhow!("cannot serve the web view on {at}: {e}"))?;
+            println!("{}http://{}/", rem::wire::WEB_VIEW, web.local_addr()?);
+            Some(web)
+        }
+        None => None,
+    };
     std::io::stdout().flush()?;
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
     let shutdown = async move {
@@ -59,6 +69,6 @@ async fn serve(settings: DaemonSettings) -> anyhow::Result<()> {
             _ = tokio::signal::ctrl_c() => {}
         }
     };
-    rem::server::run(settings, listener, shutdown).await?;
+    rem::server::run_with_web(settings, listener, web, shutdown).await?;
     Ok(())
 }
