@@ -1,7 +1,9 @@
 //! The image being rendered and its output formats, chosen by file extension: `.png` (8-bit
 //! RGB), `.ppm` (binary P6) and `.pfm` (32-bit float RGB, for error measurement). Colours are
 //! linear; 8-bit output clamps to [0, 1] and rounds. Files are written to a temporary name in
-//! the same directory and renamed, so a failed write never leaves a half image.
+//! the same directory and renamed, so a failed write never leaves a half image. A PNG can
+//! also be made in memory, of the image or of a copy shrunk by box averaging (what a farm
+//! job shows on remd's web page).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -91,6 +93,50 @@ impl Film {
         self.pixels.iter().flat_map(|p| p.map(to_byte)).collect()
     }
 
+    /// The image as an 8-bit RGB PNG, in memory.
+    pub fn to_png(&self) -> Result<Vec<u8>, image::ImageError> {
+        let mut out = Vec::new();
+        let enc = image::codecs::png::PngEncoder::new(&mut out);
+        image::ImageEncoder::write_image(
+            enc,
+            &self.to_rgb8(),
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb8,
+        )?;
+        Ok(out)
+    }
+
+    /// The image shrunk by a whole `factor` each way (0 counts as 1): each pixel is the mean
+    /// of a `factor` x `factor` box of this one, over the pixels of the box inside the image
+    /// (the last column and row of boxes may be cut), so `width.div_ceil(factor)` by
+    /// `height.div_ceil(factor)`. Values are clamped to [0, 1] (NaN as 0) before averaging,
+    /// as 8-bit output shows them, so a highlight does not bleed into its box.
+    pub fn downscaled(&self, factor: u32) -> Film {
+        let f = factor.max(1) as usize;
+        let (sw, sh) = (self.width as usize, self.height as usize);
+        let (w, h) = (sw.div_ceil(f), sh.div_ceil(f));
+        let mut out = Film::new(w as u32, h as u32);
+        for (y, row) in self.pixels.chunks(sw.max(1)).enumerate() {
+            let Some(sums) = out.pixels.get_mut(y / f * w..(y / f + 1) * w) else {
+                break;
+            };
+            for (sum, cell) in sums.iter_mut().zip(row.chunks(f)) {
+                for p in cell {
+                    for (s, v) in sum.iter_mut().zip(p) {
+                        *s += to_unit(*v);
+                    }
+                }
+            }
+        }
+        for (i, p) in out.pixels.iter_mut().enumerate() {
+            let (x, y) = (i % w * f, i / w * f);
+            let n = (f.min(sw - x) * f.min(sh - y)) as f32;
+            *p = p.map(|v| v / n);
+        }
+        out
+    }
+
     /// Writes the image in the format its extension names, via a temporary file.
     pub fn write(&self, path: &Path) -> Result<(), FilmError> {
         let format = Format::from_path(path)?;
@@ -102,22 +148,10 @@ impl Film {
     pub fn encode(&self, format: Format, path: &Path) -> Result<Vec<u8>, FilmError> {
         let (w, h) = (self.width, self.height);
         Ok(match format {
-            Format::Png => {
-                let mut out = Vec::new();
-                let enc = image::codecs::png::PngEncoder::new(&mut out);
-                image::ImageEncoder::write_image(
-                    enc,
-                    &self.to_rgb8(),
-                    w,
-                    h,
-                    image::ExtendedColorType::Rgb8,
-                )
-                .map_err(|source| FilmError::Png {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
-                out
-            }
+            Format::Png => self.to_png().map_err(|source| FilmError::Png {
+                path: path.to_path_buf(),
+                source,
+            })?,
             Format::Ppm => {
                 let mut out = format!("P6\n{w} {h}\n255\n").into_bytes();
                 out.extend(self.to_rgb8());
@@ -140,10 +174,16 @@ impl Film {
 }
 
 fn to_byte(v: f32) -> u8 {
+    (to_unit(v) * 255.0).round() as u8
+}
+
+/// A linear value as 8-bit output shows it: clamped to [0, 1], NaN as 0.
+fn to_unit(v: f32) -> f32 {
     if v.is_nan() {
-        return 0;
+        0.0
+    } else {
+        v.clamp(0.0, 1.0)
     }
-    (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
@@ -212,6 +252,33 @@ mod tests {
         let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
         assert_eq!(left.len(), 3);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn downscaling_averages_whole_and_cut_boxes() {
+        // 3x3 by 2: the top-left box has four pixels, the right and bottom ones two, the
+        // corner one. Values are clamped first (2.0 counts as 1, -1 as 0).
+        let mut f = Film::new(3, 3);
+        let v = [0.0, 0.2, 2.0, 0.4, 0.6, 0.5, -1.0, 0.8, 0.3];
+        f.pixels = v.iter().map(|&x| [x, x, 1.0]).collect();
+        let small = f.downscaled(2);
+        assert_eq!((small.width, small.height), (2, 2));
+        let got: Vec<f32> = small.pixels.iter().map(|p| p[0]).collect();
+        let want = [
+            (0.0 + 0.2 + 0.4 + 0.6) / 4.0,
+            (1.0 + 0.5) / 2.0,
+            0.8 / 2.0,
+            0.3,
+        ];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "{got:?} != {want:?}");
+        }
+        assert!(small.pixels.iter().all(|p| p[2] == 1.0));
+        // Factor 1 (and 0) only clamps: the same bytes as the image's own.
+        assert_eq!(f.downscaled(1).to_rgb8(), f.to_rgb8());
+        assert_eq!(f.downscaled(0).to_rgb8(), f.to_rgb8());
+        let png = image::load_from_memory(&small.to_png().unwrap()).unwrap();
+        assert_eq!((png.width(), png.height()), (2, 2));
     }
 
     #[test]
