@@ -394,7 +394,7 @@ async fn run_plan(
     let epoch = jobs::next_epoch(&cluster.client, &plan.job)
         .await
         .unwrap_or(1);
-    record_update(cluster, &entry, epoch).await;
+    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
 
     let spawned = start_workers(cluster, req, &plan, allow_same_host, relay.id().clone()).await?;
     let workers = WorkerProc::placed(&spawned, &live);
@@ -414,6 +414,8 @@ async fn run_plan(
         finish_grace: Duration::from_secs(3),
         checkpointed: None,
         adopt: None,
+        // remd's web view shows farm jobs; this one ends with this process.
+        web: None,
     };
     let handle = controller::spawn(Start {
         cfg,
@@ -441,7 +443,7 @@ async fn run_plan(
         "failed"
     }
     .into();
-    record_update(cluster, &entry, epoch).await;
+    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
     if result.finished {
         result.film.write(&plan.output)?;
     }
@@ -561,8 +563,8 @@ async fn start_workers(
         .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
 }
 
-async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, epoch: u64) {
-    if let Err(e) = jobs::update(&cluster.client, entry, epoch).await {
+async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, width: u32, epoch: u64) {
+    if let Err(e) = jobs::update(&cluster.client, entry, width, epoch).await {
         eprintln!("sunray: warning: the job's record in REM: {e}");
     }
 }

@@ -8,8 +8,27 @@ use super::checkpoint::Store;
 use super::messages::proto::{CheckpointHeader, JobEntry};
 use prost::Message;
 
-/// REM's record of `entry` at `epoch`.
-pub fn to_record(entry: &JobEntry, epoch: u64) -> rem::JobRecord {
+/// The longest title REM takes, in bytes.
+pub const MAX_TITLE: usize = 200;
+
+/// What a job is, for people (REM's `JobRecord.title`, shown by `remd --web`): the scene
+/// file's name, not its path, and the image's size, as `mount6.nff 64x96`; a name too long
+/// for [`MAX_TITLE`] is cut.
+pub fn title(scene: &str, width: u32, height: u32) -> String {
+    let name = std::path::Path::new(scene)
+        .file_name()
+        .map_or_else(|| scene.into(), |n| n.to_string_lossy());
+    let size = format!(" {width}x{height}");
+    let mut name = name.into_owned();
+    while name.len() + size.len() > MAX_TITLE {
+        name.pop();
+    }
+    name + &size
+}
+
+/// REM's record of `entry` at `epoch`, for an image `width` pixels wide (the entry holds the
+/// height).
+pub fn to_record(entry: &JobEntry, width: u32, epoch: u64) -> rem::JobRecord {
     let app = JobEntry {
         epoch: 0,
         controller_host: String::new(),
@@ -24,6 +43,7 @@ pub fn to_record(entry: &JobEntry, epoch: u64) -> rem::JobRecord {
         progress_done: entry.lines_done.into(),
         progress_total: entry.height.into(),
         app: app.encode_to_vec(),
+        title: title(&entry.scene, width, entry.height),
         ..rem::JobRecord::default()
     }
 }
@@ -44,13 +64,17 @@ pub fn from_record(r: &rem::JobRecord) -> JobEntry {
     e
 }
 
-/// Stores the record of `entry` in REM at `epoch`.
+/// Stores the record of `entry` (an image `width` pixels wide) in REM at `epoch`.
 pub async fn update(
     client: &rem::RemClient,
     entry: &JobEntry,
+    width: u32,
     epoch: u64,
 ) -> Result<(), rem::Error> {
-    client.put_job(to_record(entry, epoch)).await.map(|_| ())
+    client
+        .put_job(to_record(entry, width, epoch))
+        .await
+        .map(|_| ())
 }
 
 /// The record of job `id`, if a live host holds one.
@@ -124,8 +148,9 @@ mod tests {
     fn an_entry_travels_in_a_record_and_the_checkpoint_counts_its_lines() {
         let mut e = entry("b", "running", 20);
         e.lines_done = 5;
-        let mut r = to_record(&e, 2);
+        let mut r = to_record(&e, 48, 2);
         assert_eq!((r.progress_done, r.progress_total, r.epoch), (5, 64, 2));
+        assert_eq!(r.title, "mount6.nff 48x64");
         r.updated_unix_ms = 1_000;
         let mut back = from_record(&r);
         assert_eq!(back.scene, "mount6.nff");
@@ -144,6 +169,17 @@ mod tests {
         // Garbage application bytes still list the job, with REM's fields.
         r.app = vec![0xff; 3];
         assert_eq!(from_record(&r).job, "b");
+    }
+
+    #[test]
+    fn a_title_names_the_scene_file_and_the_size_within_remds_limit() {
+        assert_eq!(title("/home/u/spd/mount6.nff", 64, 96), "mount6.nff 64x96");
+        assert_eq!(title("@example", 640, 480), "@example 640x480");
+        let long = title(&format!("/x/{}.nff", "é".repeat(150)), 4096, 4096);
+        assert!(
+            long.len() <= MAX_TITLE && long.ends_with("é 4096x4096"),
+            "{long}"
+        );
     }
 
     #[test]

@@ -20,6 +20,9 @@
 //! - [`jobs`]: SunRay jobs as REM's job records (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
+//! - [`web_view`]: what a farm job publishes for remd's web view (`JOB.web.json`, the
+//!   per-node table, the job's history and what the image is; `JOB.web.png`, the image so
+//!   far), and when.
 //! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
 //!   lines it holds.
 //! - [`model_chunks`]: the scene's model shipped as REM chunks and fetched by the workers.
@@ -42,5 +45,6 @@ pub mod nodes;
 pub mod pool;
 pub mod progress;
 pub mod strategy;
+pub mod web_view;
 pub mod window;
 pub mod worker;

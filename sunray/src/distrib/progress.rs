@@ -1,14 +1,18 @@
 //! What a running job shows: a progress bar (lines done, lines per second, workers alive,
 //! ETA), machine-readable events (`--events`: one JSON object per line on stderr, for
-//! scripts and tests), and the `--preview` image rewritten every few seconds.
+//! scripts and tests), the `--preview` image rewritten every few seconds, and for a farm
+//! job the history remd's web view shows ([`WebView`]).
 
+use crate::distrib::web_view::WebView;
 use crate::film::Film;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// The controller's progress output: the bar, the `--events` stream and the preview file.
+/// The controller's progress output: the bar, the `--events` stream, the preview file and
+/// the web view's history.
 pub struct ProgressView {
     bar: Option<indicatif::ProgressBar>,
+    web: Option<WebView>,
     events: bool,
     preview: Option<PathBuf>,
     preview_every: Duration,
@@ -40,6 +44,7 @@ impl ProgressView {
         });
         ProgressView {
             bar,
+            web: None,
             events,
             preview,
             preview_every,
@@ -47,8 +52,22 @@ impl ProgressView {
         }
     }
 
-    /// Prints an event when `--events` is on, stamped with the wall clock (`unix_ms`).
-    pub fn event(&self, mut value: serde_json::Value) {
+    /// Also keeps the job's history for remd's web view (`None`: no web view).
+    pub fn with_web(self, web: Option<WebView>) -> ProgressView {
+        ProgressView { web, ..self }
+    }
+
+    /// The web view, if the job has one.
+    pub fn web_mut(&mut self) -> Option<&mut WebView> {
+        self.web.as_mut()
+    }
+
+    /// Prints an event when `--events` is on, stamped with the wall clock (`unix_ms`), and
+    /// gives it to the web view.
+    pub fn event(&mut self, mut value: serde_json::Value) {
+        if let Some(web) = &mut self.web {
+            web.on_event(&value);
+        }
         if self.events {
             if let Some(map) = value.as_object_mut() {
                 map.insert(

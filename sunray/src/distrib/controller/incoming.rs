@@ -169,9 +169,10 @@ impl<L: WorkerLink> Controller<L> {
             i + 1,
             n.host
         ));
-        self.view
-            .event(json!({"event": "fault", "node": i + 1, "reason": why,
-            "given_back": held}));
+        self.view.event(
+            json!({"event": "fault", "node": i + 1, "host": n.host, "reason": why,
+            "given_back": held}),
+        );
         n.fault = Some(why);
     }
 }

@@ -16,6 +16,7 @@ use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, LineCounts, NodeStats, Outcome};
 use crate::distrib::progress::ProgressView;
 use crate::distrib::strategy::Strategy;
+use crate::distrib::web_view::{self, WebView};
 use crate::film::Film;
 use crate::stats::Counters;
 use link::{RemLink, WorkerLink};
@@ -59,6 +60,9 @@ pub struct ControllerConfig {
     /// The encoded Adopt message that workers taken over from a previous controller get
     /// instead of the Scene (they have it).
     pub adopt: Option<Vec<u8>>,
+    /// `Some(history)`: publish the job for remd's web view (a farm job), its events going on
+    /// from `history`; `None` (a job in this process, tests): publish nothing.
+    pub web: Option<Vec<web_view::Event>>,
 }
 
 /// A spawned worker.
@@ -312,7 +316,8 @@ impl<L: WorkerLink> Controller<L> {
             cfg.events,
             cfg.preview.clone(),
             cfg.preview_every,
-        );
+        )
+        .with_web(cfg.web.clone().map(|h| WebView::new(&cfg.job, h)));
         Controller {
             table: GrantTable::new(cfg.strategy, cfg.height, workers.len(), &finished),
             by_proc: workers
@@ -393,6 +398,7 @@ impl<L: WorkerLink> Controller<L> {
             json!({"event": if finished { "finished" } else { "failed" },
             "done": self.table.done()}),
         );
+        self.publish(true).await;
         let counts = self.table.counts();
         self.lines.requeued = counts.requeued;
         self.lines.released = counts.released;
@@ -446,8 +452,9 @@ impl<L: WorkerLink> Controller<L> {
             let n = &mut self.nodes[i];
             n.outcome = Outcome::Silent;
             n.lines_given_back += held as u64;
-            self.view
-                .event(json!({"event": "silent", "node": i + 1, "given_back": held}));
+            self.view.event(
+                json!({"event": "silent", "node": i + 1, "host": n.host, "given_back": held}),
+            );
         }
         if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every
             && self.checkpointer.has_pending()
@@ -456,6 +463,31 @@ impl<L: WorkerLink> Controller<L> {
         }
         self.view.preview(&self.film, false);
         self.view.set_workers(self.table.active_nodes());
+        self.publish(false).await;
+    }
+
+    /// Publishes the job for remd's web view if it has one and a publication is due (or
+    /// `last`; the first tick is the start). A failure never stops the job: the first is a
+    /// warning; a refusal for a newer epoch stands this controller down, as the checkpoint's.
+    async fn publish(&mut self, last: bool) {
+        let done = self.table.done();
+        let Some(web) = self.view.web_mut() else {
+            return;
+        };
+        match web
+            .publish(&self.link, &self.nodes, &self.film, done, last)
+            .await
+        {
+            Ok(()) => {}
+            Err(e) if e.is_fenced() => self.superseded = Some(e.to_string()),
+            Err(e) => {
+                let error = e.to_string();
+                self.view
+                    .note(&format!("sunray: warning: web view: {error}"));
+                self.view
+                    .event(json!({"event": "warning", "about": "web view", "error": error}));
+            }
+        }
     }
 
     async fn save_checkpoint(&mut self, state: &str) {

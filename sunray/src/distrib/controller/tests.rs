@@ -12,6 +12,8 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+mod web;
+
 const WIDTH: u32 = 4;
 const JOB: &str = "job-under-test";
 
@@ -104,6 +106,17 @@ impl Job {
     }
 
     fn start_on(link: FakeLink, height: u32, n: usize, restored: Option<Restored>) -> Job {
+        Job::launch(link, height, n, restored, None)
+    }
+
+    /// A job whose configuration's `web` is `web` (see [`ControllerConfig::web`]).
+    fn launch(
+        link: FakeLink,
+        height: u32,
+        n: usize,
+        restored: Option<Restored>,
+        web: Option<Vec<crate::distrib::web_view::Event>>,
+    ) -> Job {
         let procs: Vec<ProcId> = (0..n).map(|i| ProcId::new(&format!("h{i}"), 1)).collect();
         let workers = procs
             .iter()
@@ -130,6 +143,7 @@ impl Job {
             finish_grace: Duration::from_millis(200),
             checkpointed: None,
             adopt: None,
+            web,
         };
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);

@@ -17,6 +17,7 @@ use crate::distrib::job::{self, worker_env};
 use crate::distrib::jobs;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::strategy::Strategy;
+use crate::distrib::web_view;
 use crate::render::Settings;
 use prost::Message;
 use rem::RemClient;
@@ -104,6 +105,9 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     record.controller = me.to_string();
     record.controller_host = host.clone();
     record.progress_done = restored.lines.len() as u64;
+    if record.title.is_empty() {
+        record.title = jobs::title(&jobs::from_record(&record).scene, width, height);
+    }
     put_record(&client, &record, &job).await?;
 
     let all_in = restored.lines.len() as u32 >= height;
@@ -182,6 +186,8 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
             job: job.clone(),
             epoch,
         }))),
+        // What remd's web view shows, going on from the earlier controllers' history.
+        web: Some(web_view::history(&client, &job, &host, epoch).await),
     };
     let checkpointer = Checkpointer::new(
         &job,

@@ -8,8 +8,10 @@
 //!
 //! Keys in REM's store: `JOB` the checkpoint header and `JOB.sN` its segments (see
 //! [`checkpoint`](super::checkpoint)), `JOB.scene` the Scene message every worker gets,
-//! `JOB.stats` a finished job's statistics (JSON, as `--stats-json` writes them). A finished
-//! job's image is its last checkpoint (every line in it).
+//! `JOB.stats` a finished job's statistics (JSON, as `--stats-json` writes them), and what
+//! remd's web view (`remd --web`) shows ([`web_view`](super::web_view)): `JOB.web.json` the
+//! per-node table, the job's history and what the image is, `JOB.web.png` the image so far.
+//! A finished job's image is its last checkpoint (every line in it).
 //!
 //! # Layout
 //! - [`controller`]: the controller process.
@@ -26,6 +28,7 @@ use super::job::{self, JobError, JobRequest};
 use super::jobs;
 use super::messages::{self, proto};
 use super::model_chunks;
+use super::web_view;
 use crate::scene::load::LoadedScene;
 use prost::Message;
 
@@ -193,6 +196,14 @@ pub async fn submit(
         None,
     );
     checkpointer.save(&store, "queued").await?;
+    let (width, height) = (plan.settings.render.width, plan.settings.render.height);
+    let title = jobs::title(&plan.loaded.source.display_name(), width, height);
+    // remd's web view: the page of a job used again by this id starts afresh.
+    if let Err(e) =
+        web_view::submitted(&store, &plan.job, &title, plan.hosts, (width, height)).await
+    {
+        eprintln!("sunray: warning: the job's page for remd's web view: {e}");
+    }
     let entry = proto::JobEntry {
         job: plan.job.clone(),
         scene: plan.loaded.source.display_name(),
@@ -223,7 +234,7 @@ pub async fn submit(
         env: job::worker_env(std::env::vars()),
         ..rem::SpawnRequest::default()
     };
-    let mut record = jobs::to_record(&entry, 1);
+    let mut record = jobs::to_record(&entry, width, 1);
     record.controller_spawn = Some(spawn.to_proto());
     let stored = client.start_job(record, flags.anywhere).await?;
     Ok(Submitted {
