@@ -321,19 +321,32 @@ impl Page {
 
     /// The value of JavaScript expression `expr`.
     pub fn eval(&self, expr: &str) -> serde_json::Value {
-        self.rt
-            .block_on(self.client().execute(&format!("return ({expr});"), vec![]))
-            .unwrap()
+        self.try_eval(expr).unwrap()
     }
 
-    /// Waits (bounded) until `expr` is true in the page.
+    fn try_eval(&self, expr: &str) -> Result<serde_json::Value, String> {
+        self.rt
+            .block_on(self.client().execute(&format!("return ({expr});"), vec![]))
+            .map_err(|e| e.to_string())
+    }
+
+    /// Waits (bounded) until `expr` is true in the page (a script error counts as not yet);
+    /// on a timeout, leaves a screenshot `failed-WHAT.png` of what the page showed.
     pub fn wait_for(&self, expr: &str, what: &str, timeout: Duration) {
         let end = Instant::now() + timeout;
-        while self.eval(expr) != serde_json::Value::Bool(true) {
-            assert!(
-                Instant::now() < end,
-                "the page never showed {what} ({expr})"
-            );
+        loop {
+            let now = self.try_eval(expr);
+            if now == Ok(serde_json::Value::Bool(true)) {
+                return;
+            }
+            if Instant::now() > end {
+                let shot = self.screenshot(&format!("failed-{}.png", what.replace(' ', "-")));
+                let url = self.rt.block_on(self.client().current_url());
+                panic!(
+                    "the page never showed {what} ({expr}): last {now:?}; at {url:?}; see {}",
+                    shot.display()
+                );
+            }
             std::thread::sleep(Duration::from_millis(200));
         }
     }

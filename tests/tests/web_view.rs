@@ -215,8 +215,17 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
     let cancelled = web.post("/api/jobs/web2/cancel", &alice);
     assert_eq!(cancelled.status, 200, "{}", cancelled.text());
     assert_eq!(web.post("/api/jobs/web2/cancel", &alice).status, 409);
-    let r = cluster.wait_record("a", "web2", "cancelled", |r| r.state == "cancelled");
-    assert!(r.message.contains("web view"), "{}", r.message);
+    let r = web.wait_json(
+        "/api/jobs/web2",
+        &alice,
+        "web2 cancelled",
+        Duration::from_secs(10),
+        |v| v["job"]["state"] == "cancelled",
+    );
+    assert!(
+        r["job"]["message"].as_str().unwrap().contains("web view"),
+        "{r}"
+    );
     let end = Instant::now() + Duration::from_secs(15);
     while cluster
         .processes()

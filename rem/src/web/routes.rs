@@ -55,7 +55,7 @@ pub(super) fn router(state: WebState) -> Router {
         .with_state(state)
 }
 
-/// Headers on every response: no framing, no sniffing, no referrer, scripts and styles from
+/// Headers on every response: no framing, no sniffing, no referrer to other sites, scripts and styles from
 /// this origin only, nothing cached.
 async fn harden(mut res: Response) -> Response {
     let h = res.headers_mut();
@@ -67,7 +67,9 @@ async fn harden(mut res: Response) -> Response {
         ),
         (header::X_FRAME_OPTIONS, "DENY"),
         (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
-        (header::REFERRER_POLICY, "no-referrer"),
+        // `same-origin`, not `no-referrer`: with that, browsers send `Origin: null` on the login
+        // form's POST, which the same-origin check must refuse.
+        (header::REFERRER_POLICY, "same-origin"),
         (header::CACHE_CONTROL, "no-store"),
     ];
     for (name, value) in set {

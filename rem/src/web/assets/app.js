@@ -152,8 +152,9 @@ function renderJob(d) {
     shownVersion = p.version;
     $('job-image').src = url + '?v=' + p.version;
     const im = view.image;
-    $('job-image-caption').textContent = im.lines + ' of ' + im.height + ' lines' +
-      (im.full ? '' : ' (preview ' + im.png_width + '×' + im.png_height + ')');
+    const scaled = im.png_width && im.png_width !== im.width;
+    $('job-image-caption').textContent = im.width + '×' + im.height + ', ' + im.lines + ' of ' +
+      im.height + ' lines' + (scaled ? ' (shown at ' + im.png_width + '×' + im.png_height + ')' : '');
   }
   if (view.nodes) renderTable($('nodes'), view.nodes);
   const events = view.events || [];
