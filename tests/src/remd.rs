@@ -231,6 +231,14 @@ impl LoopbackCluster {
         })
     }
 
+    /// What REM's store keeps under `key` (the test user's), through daemon `via`.
+    pub fn stored(&self, via: &str, key: &str) -> Option<Vec<u8>> {
+        let key = key.to_string();
+        self.with_client_of(via, |client| async move {
+            client.get_checkpoint(&key).await.unwrap()
+        })
+    }
+
     /// Stores `record` through daemon `via` (as its user), as a successor controller would.
     pub fn put_record(&self, via: &str, record: rem::JobRecord) {
         self.with_client_of(via, |client| async move {

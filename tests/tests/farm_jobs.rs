@@ -146,6 +146,21 @@ fn a_controller_killed_mid_job_is_replaced_and_the_job_finishes_by_itself() {
         "taken over, they finish the job: {first:#?}"
     );
     assert!(exited_workers(&cluster, "b", "kill9.w2").is_empty());
+    // The page remd's web view shows tells the move, after the first controller's history.
+    let page: serde_json::Value =
+        serde_json::from_slice(&cluster.stored("c", "kill9.web.json").unwrap()).unwrap();
+    let events: Vec<(&str, &str)> = page["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| (e["kind"].as_str().unwrap(), e["text"].as_str().unwrap()))
+        .collect();
+    let at = |want: &str| events.iter().position(|(_, t)| t.contains(want));
+    let (started, moved) = (at("controller started on a, epoch 1"), at("epoch 2"));
+    assert!(started.is_some() && moved > started, "{events:#?}");
+    assert!(events[moved.unwrap()].1.contains("moved"), "{events:#?}");
+    assert_eq!(events.last().map(|e| e.0), Some("finished"), "{events:#?}");
+    assert_eq!(page["image"]["full"], true);
 }
 
 #[test]
