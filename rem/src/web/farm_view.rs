@@ -186,7 +186,8 @@ impl History {
             .iter()
             .filter(|p| p.state == "running" && p.job_record.is_empty())
         {
-            if let Some((job, _)) = p.job.split_once('.') {
+            // A job's processes are tagged `ID.SUFFIX` (SunRay: `ID.wEPOCH`); ids may hold dots.
+            if let Some((job, _)) = p.job.rsplit_once('.') {
                 *workers.entry(job).or_default() += 1;
             }
         }
@@ -399,6 +400,7 @@ mod tests {
             proc("j1.w1", "", "running"),
             proc("j1.w1", "", "exited"),
             proc("j1", "j1", "running"),
+            proc("j1.x.w1", "", "running"),
         ];
         let rows = h.jobs(
             vec![
