@@ -140,17 +140,19 @@ pub fn load_str(
     colours: &ColourTable,
 ) -> Result<Loaded, LoadError> {
     let src = Source::new(name, text);
+    // NFF and OFF readers warn too (a `pp` vertex with a zero normal, say): their warnings
+    // come first, then the compiler's, all pointing into the same text.
     let parsed = match kind {
-        InputKind::Yari => crate::parse::parse(&src),
-        InputKind::Nff => crate::nff::parse(&src),
-        InputKind::Off => crate::off::parse(&src),
+        InputKind::Yari => crate::parse::parse(&src).map(|s| (s, Diagnostics::default())),
+        InputKind::Nff => crate::nff::parse_with_warnings(&src),
+        InputKind::Off => crate::off::parse_with_warnings(&src),
         InputKind::Model => {
             return Err(LoadError::UnknownFormat {
                 path: PathBuf::from(name),
             })
         }
     };
-    let scene = match parsed {
+    let (scene, mut warnings) = match parsed {
         Ok(s) => s,
         Err(diagnostics) => {
             return Err(SceneError {
@@ -161,12 +163,15 @@ pub fn load_str(
         }
     };
     match compile(&scene, colours) {
-        Ok(c) => Ok(Loaded {
-            world: c.world,
-            kind,
-            warnings: c.warnings,
-            source: Some(src),
-        }),
+        Ok(c) => {
+            warnings.items.extend(c.warnings.items);
+            Ok(Loaded {
+                world: c.world,
+                kind,
+                warnings,
+                source: Some(src),
+            })
+        }
         Err(diagnostics) => Err(SceneError {
             source_text: src,
             diagnostics,
@@ -192,6 +197,18 @@ mod tests {
             e.to_string(),
             "bad.yari:2:33: error: expected `;` after `sphere(...)`, found `end`\n    sphere(center=0,0,0; radius=1)\n                                  ^"
         );
+    }
+
+    #[test]
+    fn nff_reader_warnings_reach_the_caller_with_their_place() {
+        let nff = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 30\nhither 1\nresolution 4 4\n\
+                   f 1 1 1 1.5 0 1 0 1\ns 0 0 0 1\n";
+        let loaded = load_str("w.nff", nff, InputKind::Nff, &ColourTable::builtin()).unwrap();
+        // The reader's (Kd out of range), then the compiler's (no light).
+        let shown = loaded.render_warnings();
+        assert_eq!(loaded.warnings.warnings().count(), 2, "{shown}");
+        assert!(shown.starts_with("w.nff:8:9: warning: Kd = 1.5"), "{shown}");
+        assert!(shown.contains("w.nff:1:1: warning: no `light`"), "{shown}");
     }
 
     #[test]
