@@ -36,8 +36,11 @@ pub const EVERY: Duration = Duration::from_secs(1);
 /// How long after a failed publication the next is tried (a remd that does not answer
 /// must not hold the controller up every second).
 pub const RETRY: Duration = Duration::from_secs(10);
-/// How long one write may take before the publication is given up.
-const PUT_TIMEOUT: Duration = Duration::from_secs(2);
+/// How long one write may take before the publication is given up. Short: the actor waits
+/// for it, and a write whose replica peer hangs (a frozen host) would otherwise add seconds
+/// to the checkpoint's own wait, until every worker looks silent (the compose cluster's
+/// hung-host test saw that once with 2 s).
+const PUT_TIMEOUT: Duration = Duration::from_millis(500);
 /// The longest event text, in characters (a worker's error message can be long).
 const MAX_TEXT: usize = 300;
 
