@@ -20,6 +20,10 @@ pub struct Counters {
     pub reflected: u64,
     /// Secondary rays cast through transmitting surfaces (Hall's global transmission term).
     pub refracted: u64,
+    /// Hits on a transmitting closed surface, with depth left, where total internal
+    /// reflection left no refracted ray. Haines's "refract rays" counts these too: his
+    /// figure is `refracted + total_internal` (docs/renderer.md, "SPD invariants").
+    pub total_internal: u64,
     /// Ray / primitive intersection tests performed.
     pub intersection_tests: u64,
     /// Octree voxels (leaves) visited; BVH nodes visited for the BVH.
@@ -38,6 +42,7 @@ impl AddAssign for Counters {
         self.shadow_behind += o.shadow_behind;
         self.reflected += o.reflected;
         self.refracted += o.refracted;
+        self.total_internal += o.total_internal;
         self.intersection_tests += o.intersection_tests;
         self.voxels += o.voxels;
         self.mailbox_hits += o.mailbox_hits;
@@ -67,6 +72,8 @@ pub struct Rays {
     pub reflected: u64,
     /// Refracted (transmitted) secondary rays.
     pub refracted: u64,
+    /// Refracted rays that total internal reflection stopped ([`Counters::total_internal`]).
+    pub total_internal: u64,
     /// The sum of eye, shadow, reflected and refracted rays ([`Counters::rays`]).
     pub total: u64,
 }
@@ -137,6 +144,7 @@ impl RenderStats {
             shadow_behind: c.shadow_behind,
             reflected: c.reflected,
             refracted: c.refracted,
+            total_internal: c.total_internal,
             total: c.rays(),
         };
         self.intersection_tests = c.intersection_tests;
@@ -178,6 +186,7 @@ impl RenderStats {
         row("  to lights behind", self.rays.shadow_behind.to_string());
         row("reflected rays", self.rays.reflected.to_string());
         row("refracted rays", self.rays.refracted.to_string());
+        row("  stopped by TIR", self.rays.total_internal.to_string());
         row("total rays", self.rays.total.to_string());
         row("intersection tests", self.intersection_tests.to_string());
         row("voxels visited", self.voxels.to_string());
@@ -250,6 +259,7 @@ mod tests {
             "/rays/shadow",
             "/rays/reflected",
             "/rays/refracted",
+            "/rays/total_internal",
             "/intersection_tests",
             "/voxels",
             "/mailbox_hits",

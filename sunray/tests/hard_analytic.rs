@@ -78,6 +78,10 @@ impl Probe {
         Probe { scene, accel }
     }
     fn trace(&self, ray: Ray, max_depth: u32) -> DVec3 {
+        self.trace_counted(ray, max_depth).0
+    }
+    /// The ray's colour and what tracing it counted.
+    fn trace_counted(&self, ray: Ray, max_depth: u32) -> (DVec3, Counters) {
         let mut scratch = Scratch::new(self.scene.prims.len(), true);
         let mut counters = Counters::default();
         let mut tracer = Tracer {
@@ -92,14 +96,15 @@ impl Probe {
             counters: &mut counters,
         };
         let mut rng = SampleStream::new(0, 0, 0);
-        tracer.trace(
+        let c = tracer.trace(
             ray,
             RayKind::Eye,
             1,
             1.0,
             sunray::shading::Media::AIR,
             &mut rng,
-        )
+        );
+        (c, counters)
     }
 }
 
@@ -307,10 +312,15 @@ ambient(color = 0,0,0);
 begin attribute(color = 1,1,1 ; kdr = 0 ; kdt = 0 ; ka = 0 ; refract = 1.5); sphere(center = 0,0,0 ; radius = 1); end",
     );
     // sin(incidence) = 0.9 > 1/1.5: every bounce inside a sphere has the same incidence.
-    let trapped = probe.trace(Ray::new(DVec3::new(0.0, 0.9, 0.0), DVec3::X), 30);
+    let (trapped, n) = probe.trace_counted(Ray::new(DVec3::new(0.0, 0.9, 0.0), DVec3::X), 30);
     assert_eq!(trapped, DVec3::ZERO, "TIR leaked {trapped}");
-    let escapes = probe.trace(Ray::new(DVec3::new(0.0, 0.3, 0.0), DVec3::X), 30);
+    // Every hit with depth left (depths 1 to 29) is a total internal reflection, counted
+    // whatever the weights (Haines's "refract rays" counts them).
+    assert_eq!((n.refracted, n.total_internal), (0, 29), "{n:?}");
+    let (escapes, n) = probe.trace_counted(Ray::new(DVec3::new(0.0, 0.3, 0.0), DVec3::X), 30);
     assert!(escapes.x > 0.95 && escapes.x <= 1.0 + 1e-12, "{escapes}");
+    assert_eq!(n.total_internal, 0, "{n:?}");
+    assert!(n.refracted > 0, "{n:?}");
 }
 
 /// NaN, infinity, a zero `up` and `at == position` are diagnosed by the compiler.

@@ -62,14 +62,20 @@ impl Tracer<'_> {
             result += c * w_refl;
         }
 
+        // Total internal reflection (F = 1) is counted whatever the weights, as Haines's
+        // "refract rays" counts it.
         let w_refr = kst * (1.0 - f);
-        if kst > 0.0 && (every || weight * w_refr > self.opts.min_weight) {
+        let spawn = every || weight * w_refr > self.opts.min_weight;
+        if kst > 0.0 && (spawn || f >= 1.0) {
             let bent = if at.closed {
                 refracted_direction(ray.dir, nf, ng, at.n_view / at.n_far)
             } else {
                 Some(ray.dir)
             };
-            if let Some(mut dir) = bent {
+            if bent.is_none() {
+                self.counters.total_internal += 1;
+            }
+            if let Some(mut dir) = bent.filter(|_| spawn) {
                 if surf.translucency > 0.0 && world.features.translucency {
                     let d = perturb(dir, surf.translucency, rng);
                     if d.dot(ng) < 0.0 {
