@@ -5,6 +5,10 @@ use modeler::cli::{commands::Cli, run};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    if let Err(e) = yari::cpu::check() {
+        eprintln!("modeler: error: {e}");
+        return ExitCode::FAILURE;
+    }
     let cli = Cli::parse();
     let mut stdout = std::io::stdout().lock();
     match run(cli, &mut stdout) {

@@ -4,6 +4,10 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    if let Err(e) = yari::cpu::check() {
+        eprintln!("sunray: error: {e}");
+        return ExitCode::FAILURE;
+    }
     let args = sunray::cli::Cli::parse();
     match sunray::cli::run(args) {
         Ok(code) => code,

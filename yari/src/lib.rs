@@ -10,6 +10,7 @@
 //! - [`parse`]: the parser from source text to [`ast::Scene`], with error recovery.
 //! - [`writer`]: the syntax tree (or a compiled world) printed back as YARI text.
 //! - [`colour`]: named colours, built in and from a user file.
+//! - [`cpu`]: the CPU features the build assumes, checked when a binary starts.
 //! - [`compile`]: the compiler (`yc`) from [`ast::Scene`] to [`model::World`].
 //! - [`modelfile`]: the compiled model in binary (`.srw`), for workers.
 //! - [`load`]: any scene file (YARI, NFF, OFF, model) to a compiled world.
@@ -34,6 +35,7 @@
 pub mod ast;
 pub mod colour;
 pub mod compile;
+pub mod cpu;
 pub mod diag;
 pub mod lexer;
 pub mod load;

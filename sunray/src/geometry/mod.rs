@@ -86,10 +86,10 @@ pub struct RayPre {
 impl RayPre {
     /// Computes the shear and inverse direction of `ray` once.
     pub fn new(ray: Ray) -> RayPre {
-        let ([kx, ky, kz], [sx, sy, sz]) = kernels::k64::shear(ray.dir);
+        let ([kx, ky, kz], [sx, sy, sz], inv_dir) = kernels::k64::shear_and_inverse(ray.dir);
         RayPre {
             ray,
-            inv_dir: kernels::k64::safe_inverse(ray.dir),
+            inv_dir,
             kx,
             ky,
             kz,

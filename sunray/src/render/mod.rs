@@ -111,7 +111,9 @@ pub fn render_line(
                 &mut rng,
             );
         }
-        let c = sum / n as Real;
+        // One sample needs no division (x / 1 is x; skipping it saves a dependent divide
+        // per pixel).
+        let c = if n == 1 { sum } else { sum / n as Real };
         pixels.push([c.x as f32, c.y as f32, c.z as f32]);
     }
     Line {
