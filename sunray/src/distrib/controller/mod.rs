@@ -378,7 +378,18 @@ impl<L: WorkerLink> Controller<L> {
                     Some(Input::Relay(Err(e))) => return Err(e.into()),
                     None => return Err(rem::Error::Closed.into()),
                 },
-                _ = tick.tick() => self.on_tick().await,
+                _ = tick.tick() => {
+                    // What came while the actor was busy (a checkpoint write held up by a
+                    // stopped replica can take seconds) is read before anyone is judged silent:
+                    // silence is the workers', not the controller's own stall.
+                    while let Ok(input) = inbox.try_recv() {
+                        match input {
+                            Input::Relay(Ok(incoming)) => self.on_incoming(incoming),
+                            Input::Relay(Err(e)) => return Err(e.into()),
+                        }
+                    }
+                    self.on_tick().await
+                }
             }
             self.dispatch().await?;
             if let Some(why) = self.superseded.take() {

@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+mod stall;
 mod web;
 
 const WIDTH: u32 = 4;
@@ -43,6 +44,8 @@ struct Record {
     sent: Vec<(String, Body)>,
     killed: Vec<String>,
     store: HashMap<String, Vec<u8>>,
+    /// How long each `put` takes (a store held up by a stopped replica).
+    put_takes: Duration,
 }
 
 #[derive(Clone, Default)]
@@ -50,6 +53,8 @@ struct FakeLink(Arc<Mutex<Record>>);
 
 impl Store for FakeLink {
     async fn put(&self, key: &str, data: Vec<u8>) -> Result<(), rem::Error> {
+        let takes = self.0.lock().unwrap().put_takes;
+        tokio::time::sleep(takes).await;
         self.0.lock().unwrap().store.insert(key.to_string(), data);
         Ok(())
     }
