@@ -18,15 +18,15 @@ async fn a_slow_checkpoint_write_does_not_make_working_workers_silent() {
         assert!(held.iter().all(|h| h.len() == 2), "{held:?}");
         // A line from each makes a checkpoint due (every 500 ms); from now on a write takes
         // 3 s, three times the workers' timeout.
-        for n in 0..2 {
-            job.done(n, held[n][0].line, held[n][0].grant).await;
+        for (n, h) in held.iter().enumerate() {
+            job.done(n, h[0].line, h[0].grant).await;
         }
         job.link.0.lock().unwrap().put_takes = Duration::from_secs(3);
         tokio::time::sleep(Duration::from_millis(700)).await;
         // The controller is inside the write; the workers go on and finish everything they
         // hold (the second line of their window and the one granted for the first).
-        for n in 0..2 {
-            let mut rest = vec![held[n][1].clone()];
+        for (n, h) in held.iter().enumerate() {
+            let mut rest = vec![h[1]];
             rest.extend(job.link.take_grants(&job.procs[n]));
             assert_eq!(rest.len(), 2, "{rest:?}");
             for g in rest {
