@@ -104,6 +104,42 @@ fn spd_nff_output_equals_haines_files() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// `sunray spd --patches` writes the library's patches text (Haines's `-t` output, which
+/// yari's reference tests check byte for byte); `--patch-resolution` needs `--patches`, and
+/// patches past the limit are refused.
+#[test]
+fn spd_patches_writes_the_patches_text() {
+    use yari::spd::{generate_with, CurveFormat, Database};
+    let dir = scratch("spd-patches");
+    let out_path = dir.join("jacks.nff");
+    let out = out_path.to_str().unwrap();
+    assert_ok(&sunray(&["spd", "jacks", "--patches", "-o", out]));
+    let want = yari::nff::write(&generate_with(Database::Jacks, 1, CurveFormat::PATCHES).unwrap());
+    assert!(std::fs::read_to_string(&out_path).unwrap() == want);
+    assert!(want.contains("pp 3\n") && !want.contains("\ns ") && !want.contains("\nc "));
+    let args = [
+        "spd",
+        "shells",
+        "-s",
+        "1",
+        "--patches",
+        "--patch-resolution",
+        "2",
+    ];
+    assert_ok(&sunray(&[&args[..], &["-o", out]].concat()));
+    let format = CurveFormat::Patches {
+        resolution: Some(2),
+    };
+    let want = yari::nff::write(&generate_with(Database::Shells, 1, format).unwrap());
+    assert!(std::fs::read_to_string(&out_path).unwrap() == want);
+    let bad = sunray(&["spd", "shells", "--patch-resolution", "2", "-o", out]);
+    assert!(!bad.status.success());
+    let bad = sunray(&["spd", "balls", "--size", "5", "--patches", "-o", out]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("7174441 polygons"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn spd_yari_output_parses_with_the_right_counts() {
     let dir = scratch("spd-yari");

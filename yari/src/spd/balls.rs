@@ -6,11 +6,13 @@ use super::haines_lib::{
     axis_rotate_matrix, cross, identity, normalize, rotate_matrix, transform_coord, Axis, Coord4,
     Matrix,
 };
+use super::haines_output::{sphere, CurveFormat};
 use crate::nff::{Entity, Fill, NffScene, View};
 use std::f64::consts::PI;
 
-/// The `balls` scene at `size` (0 or more).
-pub fn balls(size: u32) -> NffScene {
+/// The `balls` scene at `size` (0 or more), its spheres written as `format` says (the floor
+/// stays one polygon).
+pub fn balls(size: u32, format: CurveFormat) -> NffScene {
     let radius = 1.0;
     let mut s = NffScene::default();
     s.push(Entity::Background(super::UNC_SKY_BLUE));
@@ -53,6 +55,7 @@ pub fn balls(size: u32) -> NffScene {
     let objset = create_objset();
     output_object(
         &mut s,
+        format,
         &objset,
         size,
         [0.0, 0.0, 0.0, radius / 2.0],
@@ -65,15 +68,13 @@ pub fn balls(size: u32) -> NffScene {
 /// `direction` (w = the child radius ratio), depth first.
 fn output_object(
     s: &mut NffScene,
+    format: CurveFormat,
     objset: &[Coord4; 9],
     depth: u32,
     center: Coord4,
     direction: Coord4,
 ) {
-    s.push(Entity::Sphere {
-        center: [center[0], center[1], center[2]],
-        radius: center[3],
-    });
+    sphere(s, format, center);
     if depth == 0 {
         return;
     }
@@ -103,7 +104,7 @@ fn output_object(
             (child[2] - center[2]) / scale,
             direction[3],
         ];
-        output_object(s, objset, depth - 1, child, child_dir);
+        output_object(s, format, objset, depth - 1, child, child_dir);
     }
 }
 
@@ -138,13 +139,13 @@ mod tests {
     fn counts_follow_the_sum_of_powers_of_nine() {
         for size in 0..=3u32 {
             let spheres = (0..=size).map(|k| 9usize.pow(k)).sum::<usize>();
-            assert_eq!(balls(size).counts(), (spheres, 1, 0));
+            assert_eq!(balls(size, CurveFormat::Curves).counts(), (spheres, 1, 0));
         }
     }
 
     #[test]
     fn children_touch_their_parent() {
-        let s = balls(1);
+        let s = balls(1, CurveFormat::Curves);
         let spheres: Vec<_> = s
             .entities
             .iter()

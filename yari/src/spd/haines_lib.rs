@@ -150,6 +150,74 @@ pub fn transform_coord(v: Coord4, m: &Matrix) -> Coord4 {
     std::array::from_fn(|j| v[0] * m[0][j] + v[1] * m[1][j] + v[2] * m[2][j] + v[3] * m[3][j])
 }
 
+/// `lib_transform_normal`: x, y, z times the transpose of the upper 3x3 (give it the
+/// inverse of a transformation to carry normals through that transformation; the result is
+/// not normalized).
+pub fn transform_normal(v: [f64; 3], m: &Matrix) -> [f64; 3] {
+    [
+        v[0] * m[0][0] + v[1] * m[0][1] + v[2] * m[0][2],
+        v[0] * m[1][0] + v[1] * m[1][1] + v[2] * m[1][2],
+        v[0] * m[2][0] + v[1] * m[2][1] + v[2] * m[2][2],
+    ]
+}
+
+/// `det3x3` of `libvec.c`: the determinant of the matrix with columns (a1 a2 a3), (b1 b2 b3),
+/// (c1 c2 c3), in his order of operations.
+#[allow(clippy::too_many_arguments)]
+fn det3x3(a1: f64, a2: f64, a3: f64, b1: f64, b2: f64, b3: f64, c1: f64, c2: f64, c3: f64) -> f64 {
+    a1 * (b2 * c3 - b3 * c2) - b1 * (a2 * c3 - a3 * c2) + c1 * (a2 * b3 - a3 * b2)
+}
+
+/// `lib_invert_matrix`: the adjoint divided by the determinant (`adjoint` and
+/// `lib_matrix_det4x4` of `libvec.c`, term for term); the identity when the determinant is
+/// smaller than `EPSILON` (1e-8) in magnitude.
+pub fn invert_matrix(m: &Matrix) -> Matrix {
+    let [[a1, b1, c1, d1], [a2, b2, c2, d2], [a3, b3, c3, d3], [a4, b4, c4, d4]] = *m;
+    let mut out = [[0.0; 4]; 4];
+    out[0][0] = det3x3(b2, b3, b4, c2, c3, c4, d2, d3, d4);
+    out[1][0] = -det3x3(a2, a3, a4, c2, c3, c4, d2, d3, d4);
+    out[2][0] = det3x3(a2, a3, a4, b2, b3, b4, d2, d3, d4);
+    out[3][0] = -det3x3(a2, a3, a4, b2, b3, b4, c2, c3, c4);
+    out[0][1] = -det3x3(b1, b3, b4, c1, c3, c4, d1, d3, d4);
+    out[1][1] = det3x3(a1, a3, a4, c1, c3, c4, d1, d3, d4);
+    out[2][1] = -det3x3(a1, a3, a4, b1, b3, b4, d1, d3, d4);
+    out[3][1] = det3x3(a1, a3, a4, b1, b3, b4, c1, c3, c4);
+    out[0][2] = det3x3(b1, b2, b4, c1, c2, c4, d1, d2, d4);
+    out[1][2] = -det3x3(a1, a2, a4, c1, c2, c4, d1, d2, d4);
+    out[2][2] = det3x3(a1, a2, a4, b1, b2, b4, d1, d2, d4);
+    out[3][2] = -det3x3(a1, a2, a4, b1, b2, b4, c1, c2, c4);
+    out[0][3] = -det3x3(b1, b2, b3, c1, c2, c3, d1, d2, d3);
+    out[1][3] = det3x3(a1, a2, a3, c1, c2, c3, d1, d2, d3);
+    out[2][3] = -det3x3(a1, a2, a3, b1, b2, b3, d1, d2, d3);
+    out[3][3] = det3x3(a1, a2, a3, b1, b2, b3, c1, c2, c3);
+    let det = a1 * det3x3(b2, b3, b4, c2, c3, c4, d2, d3, d4)
+        - b1 * det3x3(a2, a3, a4, c2, c3, c4, d2, d3, d4)
+        + c1 * det3x3(a2, a3, a4, b2, b3, b4, d2, d3, d4)
+        - d1 * det3x3(a2, a3, a4, b2, b3, b4, c2, c3, c4);
+    if det.abs() < 1.0e-8 {
+        return identity();
+    }
+    for row in out.iter_mut() {
+        for x in row.iter_mut() {
+            *x /= det;
+        }
+    }
+    out
+}
+
+/// `lib_rotate_cube_face` with the major axis z: turns `v` 90 degrees to the next face of a
+/// cube; called with faces 0 to 5 in turn (cumulatively) it visits all six.
+pub fn rotate_cube_face(v: &mut [f64; 3], face: usize) {
+    let (a, b) = match (face + 2) % 3 {
+        0 => (0, 1),
+        1 => (1, 2),
+        _ => (0, 2),
+    };
+    let swap = v[a];
+    v[a] = -v[b];
+    v[b] = swap;
+}
+
 /// `lib_normalize_vector` (a zero vector is returned unchanged).
 pub fn normalize(v: [f64; 3]) -> [f64; 3] {
     let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -203,6 +271,38 @@ mod tests {
         let a = axis_rotate_matrix([0.0, 0.0, 1.0], std::f64::consts::FRAC_PI_2);
         let w = transform_vector([1.0, 0.0, 0.0], &a);
         assert!((w[1] - 1.0).abs() < 1e-15, "{w:?}");
+    }
+
+    #[test]
+    fn inverse_undoes_the_matrix() {
+        let m = matrix_multiply(
+            &axis_rotate_matrix(normalize([1.0, 2.0, 3.0]), 0.7),
+            &matrix_multiply(
+                &scale_matrix([0.5, 0.5, 0.5]),
+                &translate_matrix([1.0, -2.0, 3.0]),
+            ),
+        );
+        let p = matrix_multiply(&m, &invert_matrix(&m));
+        for (i, row) in p.iter().enumerate() {
+            for (j, x) in row.iter().enumerate() {
+                let id = if i == j { 1.0 } else { 0.0 };
+                assert!((x - id).abs() < 1e-12, "{p:?}");
+            }
+        }
+        assert_eq!(invert_matrix(&[[0.0; 4]; 4]), identity());
+    }
+
+    #[test]
+    fn six_cube_face_turns_visit_every_face() {
+        let mut v = [0.0, 0.0, 1.0];
+        let mut seen = Vec::new();
+        for face in 0..6 {
+            rotate_cube_face(&mut v, face);
+            seen.push(v.map(|x| x as i32));
+        }
+        seen.sort_unstable();
+        seen.dedup();
+        assert_eq!(seen.len(), 6, "{seen:?}");
     }
 
     #[test]

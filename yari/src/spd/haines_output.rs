@@ -3,13 +3,15 @@
 //! `lib_output_polygon` and `lib_output_polypatch` (`libply.c`), `lib_output_sphere` and
 //! `lib_output_cylcone` (`libpr2.c`) and the transformation stack of `libtx.c` (`jacks`).
 //!
-//! Only the "curves" output is kept (his default, `OUTPUT_CURVES`): spheres stay `s` and
-//! cylinders and cones stay `c`; nothing is tessellated.
+//! Spheres and cylinders/cones are written as his `curve_format` says ([`CurveFormat`]): as
+//! `s` and `c` (his default, `OUTPUT_CURVES`), or as `pp` triangles (`-t`, `OUTPUT_PATCHES`,
+//! made by [`super::haines_patches`]).
 
 use super::haines_lib::{
     matrix_multiply, normalize_len, rotate_matrix, scale_matrix, transform_point, translate_matrix,
     Axis, Coord4, Matrix,
 };
+use super::haines_patches::{polygon_cylcone, polygon_sphere, PatchTx};
 use crate::ast::Vec3;
 use crate::nff::{Entity, Fill, NffScene};
 use std::f64::consts::PI;
@@ -78,23 +80,74 @@ pub fn polypatch_triangle(s: &mut NffScene, vert: [[f64; 3]; 3], norm: [[f64; 3]
     });
 }
 
-/// `lib_output_sphere` without a transformation: `s x y z r` (w is the radius).
-pub fn sphere(s: &mut NffScene, center: Coord4) {
-    s.push(Entity::Sphere {
-        center: [center[0], center[1], center[2]],
-        radius: center[3],
-    });
+/// His programs' `curve_format`: how spheres, cylinders and cones are written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CurveFormat {
+    /// `OUTPUT_CURVES` (his default, `-c`): spheres as `s`, cylinders and cones as `c`.
+    #[default]
+    Curves,
+    /// `OUTPUT_PATCHES` (`-t [N]`): every sphere as 12 R^2 and every cylinder or cone as 8 R
+    /// `pp` triangles with vertex normals (`lib_output_polygon_sphere` and
+    /// `lib_output_polygon_cylcone`), R being the resolution.
+    Patches {
+        /// His `gU_resolution` = `gV_resolution`: `None` for his programs' own
+        /// ([`DEFAULT_RESOLUTION`], 3; `jacks` sets 2), or R for every database (his `-t R`;
+        /// his `jacks` ignores it and his `shells` refuses it).
+        resolution: Option<u32>,
+    },
+}
+
+impl CurveFormat {
+    /// `-t` alone: patches at his programs' resolutions (108 triangles a sphere and 24 a
+    /// cylinder or cone; in `jacks`, 48 and 16).
+    pub const PATCHES: CurveFormat = CurveFormat::Patches { resolution: None };
+
+    /// This format with `resolution` as the default (`lib_set_polygonalization` of a
+    /// program, which `jacks` calls with 2): patches without a resolution get it.
+    pub fn with_default_resolution(self, resolution: u32) -> CurveFormat {
+        match self {
+            CurveFormat::Patches { resolution: None } => CurveFormat::Patches {
+                resolution: Some(resolution),
+            },
+            f => f,
+        }
+    }
+}
+
+/// `OUTPUT_RESOLUTION` of `lib.h`: the default amount of polygonalization.
+pub const DEFAULT_RESOLUTION: u32 = 3;
+
+/// The resolution of patches: the one given, else [`DEFAULT_RESOLUTION`].
+fn res(resolution: Option<u32>) -> u32 {
+    resolution.unwrap_or(DEFAULT_RESOLUTION)
+}
+
+/// `lib_output_sphere` without a transformation: `s x y z r` (w is the radius), or its
+/// patches.
+pub fn sphere(s: &mut NffScene, format: CurveFormat, center: Coord4) {
+    match format {
+        CurveFormat::Curves => s.push(Entity::Sphere {
+            center: [center[0], center[1], center[2]],
+            radius: center[3],
+        }),
+        CurveFormat::Patches { resolution } => polygon_sphere(s, center, res(resolution), None),
+    }
 }
 
 /// `lib_output_cylcone` without a transformation: `c` from `base` to `apex` (w is the radius
-/// at each end).
-pub fn cylcone(s: &mut NffScene, base: Coord4, apex: Coord4) {
-    s.push(Entity::Cone {
-        base: [base[0], base[1], base[2]],
-        base_radius: base[3],
-        apex: [apex[0], apex[1], apex[2]],
-        apex_radius: apex[3],
-    });
+/// at each end), or its patches.
+pub fn cylcone(s: &mut NffScene, format: CurveFormat, base: Coord4, apex: Coord4) {
+    match format {
+        CurveFormat::Curves => s.push(Entity::Cone {
+            base: [base[0], base[1], base[2]],
+            base_radius: base[3],
+            apex: [apex[0], apex[1], apex[2]],
+            apex_radius: apex[3],
+        }),
+        CurveFormat::Patches { resolution } => {
+            polygon_cylcone(s, base, apex, res(resolution), None)
+        }
+    }
 }
 
 /// The transformation stack of `libtx.c` (`lib_tx_push`, `lib_tx_pop`, `lib_tx_rotate`,
@@ -169,29 +222,51 @@ impl TxStack {
     }
 
     /// `lib_output_sphere` under the current transformation: the centre transformed as a
-    /// point, the radius times the x scale ("this assumes uniform scaling").
-    pub fn sphere(&self, s: &mut NffScene, center: Coord4) {
+    /// point, the radius times the x scale ("this assumes uniform scaling"); in patches, the
+    /// sphere's triangles transformed (see [`super::haines_patches`]).
+    pub fn sphere(&self, s: &mut NffScene, format: CurveFormat, center: Coord4) {
         if !self.active() {
-            return sphere(s, center);
+            return sphere(s, format, center);
         }
-        let c = transform_point([center[0], center[1], center[2]], &self.current);
-        sphere(s, [c[0], c[1], c[2], center[3] * self.scale_x().abs()]);
+        match format {
+            CurveFormat::Curves => {
+                let c = transform_point([center[0], center[1], center[2]], &self.current);
+                sphere(
+                    s,
+                    format,
+                    [c[0], c[1], c[2], center[3] * self.scale_x().abs()],
+                );
+            }
+            CurveFormat::Patches { resolution } => {
+                let tx = PatchTx::new(&self.current);
+                polygon_sphere(s, center, res(resolution), Some(&tx));
+            }
+        }
     }
 
     /// `lib_output_cylcone` under the current transformation, as [`TxStack::sphere`] for
-    /// both ends.
-    pub fn cylcone(&self, s: &mut NffScene, base: Coord4, apex: Coord4) {
+    /// both ends; in patches, its triangles transformed.
+    pub fn cylcone(&self, s: &mut NffScene, format: CurveFormat, base: Coord4, apex: Coord4) {
         if !self.active() {
-            return cylcone(s, base, apex);
+            return cylcone(s, format, base, apex);
         }
-        let scale = self.scale_x().abs();
-        let b = transform_point([base[0], base[1], base[2]], &self.current);
-        let a = transform_point([apex[0], apex[1], apex[2]], &self.current);
-        cylcone(
-            s,
-            [b[0], b[1], b[2], base[3] * scale],
-            [a[0], a[1], a[2], apex[3] * scale],
-        );
+        match format {
+            CurveFormat::Curves => {
+                let scale = self.scale_x().abs();
+                let b = transform_point([base[0], base[1], base[2]], &self.current);
+                let a = transform_point([apex[0], apex[1], apex[2]], &self.current);
+                cylcone(
+                    s,
+                    format,
+                    [b[0], b[1], b[2], base[3] * scale],
+                    [a[0], a[1], a[2], apex[3] * scale],
+                );
+            }
+            CurveFormat::Patches { resolution } => {
+                let tx = PatchTx::new(&self.current);
+                polygon_cylcone(s, base, apex, res(resolution), Some(&tx));
+            }
+        }
     }
 }
 
@@ -231,7 +306,7 @@ mod tests {
         assert!(tx.active());
         let mut s = NffScene::default();
         // Scaled first, then moved: (2, 0, 0) r 1 becomes (2, 0, 0) r 0.5.
-        tx.sphere(&mut s, [2.0, 0.0, 0.0, 1.0]);
+        tx.sphere(&mut s, CurveFormat::Curves, [2.0, 0.0, 0.0, 1.0]);
         tx.pop();
         assert!(!tx.active());
         match s.entities[0].node {

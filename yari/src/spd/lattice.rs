@@ -4,14 +4,15 @@
 //! (size+1)^3 spheres and 3 size (size+1)^2 cylinders; size 12 gives Haines's 2197 spheres
 //! and 6084 cylinders.
 
-use super::haines_output::{color, cylcone, sphere};
+use super::haines_output::{color, cylcone, sphere, CurveFormat};
 use crate::nff::{Entity, NffScene, View};
 
 const RADIUS1: f64 = 1.0 / 4.0;
 const RADIUS2: f64 = 1.0 / 16.0;
 
-/// The `lattice` scene at `size` (1 or more).
-pub fn lattice(size: u32) -> NffScene {
+/// The `lattice` scene at `size` (1 or more), its spheres and cylinders written as `format`
+/// says.
+pub fn lattice(size: u32, format: CurveFormat) -> NffScene {
     let sf = size as f64;
     let inv_factor = 1.0 / sf;
     let radius1 = RADIUS1 / sf;
@@ -49,11 +50,12 @@ pub fn lattice(size: u32) -> NffScene {
             for z in 0..=size {
                 let z0 = z as f64 / sf;
                 color(&mut s, [0.9, 0.9, 0.9], 0.5, 0.5, 37.0, 0.0, 0.0);
-                sphere(&mut s, [x0, y0, z0, radius1]);
+                sphere(&mut s, format, [x0, y0, z0, radius1]);
                 if x != size {
                     color(&mut s, [0.9, 0.1, 0.1], 0.99, 0.0, 0.0, 0.0, 0.0);
                     cylcone(
                         &mut s,
+                        format,
                         [x0 + delta, y0, z0, radius2],
                         [x0 + inv_factor - delta, y0, z0, radius2],
                     );
@@ -62,6 +64,7 @@ pub fn lattice(size: u32) -> NffScene {
                     color(&mut s, [0.1, 0.9, 0.1], 0.99, 0.0, 0.0, 0.0, 0.0);
                     cylcone(
                         &mut s,
+                        format,
                         [x0, y0 + delta, z0, radius2],
                         [x0, y0 + inv_factor - delta, z0, radius2],
                     );
@@ -70,6 +73,7 @@ pub fn lattice(size: u32) -> NffScene {
                     color(&mut s, [0.1, 0.1, 0.9], 0.99, 0.0, 0.0, 0.0, 0.0);
                     cylcone(
                         &mut s,
+                        format,
                         [x0, y0, z0 + delta, radius2],
                         [x0, y0, z0 + inv_factor - delta, radius2],
                     );
@@ -89,7 +93,10 @@ mod tests {
         for size in 1..=4usize {
             let points = (size + 1).pow(3);
             let rods = 3 * size * (size + 1).pow(2);
-            assert_eq!(lattice(size as u32).counts(), (points, 0, rods));
+            assert_eq!(
+                lattice(size as u32, CurveFormat::Curves).counts(),
+                (points, 0, rods)
+            );
         }
     }
 }

@@ -5,12 +5,15 @@
 //! The generators follow Haines's C programs step for step (his matrix conventions, recursion
 //! order and random numbers), so `tetra(6)`, `mount(6)` and `balls(4)` reproduce the
 //! reference files `tetra6.nff`, `mount6.nff` and `balls4.nff`, and every database prints,
-//! at every size tested, the NFF text his program prints.
+//! at every size tested, the NFF text his program prints. [`generate_with`] also writes them
+//! as his programs do with `-t` ([`CurveFormat::PATCHES`]): every sphere, cylinder and cone as
+//! `pp` triangles with vertex normals, again byte for byte his text.
 //!
 //! # Layout
 //! - [`haines_lib`]: the matrix routines and Gaussian random numbers of Haines's `libvec.c`.
 //! - [`haines_output`]: his library's output routines (colour, polygon, patch, sphere,
 //!   cylinder/cone, transformation stack), NFF branch.
+//! - [`haines_patches`]: his polygonal patch output of spheres and cylinders/cones (`-t`).
 //! - [`tetra`]: the recursive tetrahedron.
 //! - [`mount`]: the fractal mountain and its four glass spheres.
 //! - [`balls`]: the sphereflake on a floor polygon.
@@ -29,6 +32,7 @@ pub mod checkerboard;
 pub mod gears;
 pub mod haines_lib;
 pub mod haines_output;
+pub mod haines_patches;
 pub mod jacks;
 pub mod lattice;
 pub mod mount;
@@ -40,6 +44,7 @@ pub mod tetra;
 pub mod tree;
 
 pub use checkerboard::{checkerboard, CheckerboardError, CheckerboardOptions};
+pub use haines_output::{CurveFormat, DEFAULT_RESOLUTION};
 
 use crate::ast::Vec3;
 use crate::nff::NffScene;
@@ -148,6 +153,25 @@ impl Database {
         }
     }
 
+    /// Whether the database has spheres, cylinders or cones, so that patches
+    /// ([`CurveFormat::Patches`]) change it: all but `tetra`, `gears`, `teapot` and
+    /// `sombrero`.
+    pub fn has_curves(self) -> bool {
+        !matches!(
+            self,
+            Database::Tetra | Database::Gears | Database::Teapot | Database::Sombrero
+        )
+    }
+
+    /// The patch resolution his program uses with `-t` ([`CurveFormat::PATCHES`]): 2 for
+    /// `jacks` (it sets its own), else [`DEFAULT_RESOLUTION`] (3).
+    pub fn patch_resolution(self) -> u32 {
+        match self {
+            Database::Jacks => jacks::RESOLUTION,
+            _ => DEFAULT_RESOLUTION,
+        }
+    }
+
     /// The database called `name` (as [`Database::name`] gives it), if any.
     pub fn from_name(name: &str) -> Option<Database> {
         Database::ALL.into_iter().find(|d| d.name() == name)
@@ -168,30 +192,109 @@ pub struct SizeError {
     pub max: u32,
 }
 
-/// Generates `db` at `size`.
+/// Generates `db` at `size` (his default output: spheres, cylinders and cones as curves).
 pub fn generate(db: Database, size: u32) -> Result<NffScene, SizeError> {
+    check_size(db, size)?;
+    Ok(build(db, size, CurveFormat::Curves))
+}
+
+/// The largest resolution [`generate_with`] accepts for [`CurveFormat::Patches`] (a sphere is
+/// then 120,000 triangles).
+pub const MAX_RESOLUTION: u32 = 100;
+
+/// The most triangles [`generate_with`] writes in [`CurveFormat::Patches`] (about 900 MB of
+/// NFF text), as the sizes keep the curved databases to about 5 million primitives.
+pub const MAX_PATCH_TRIANGLES: u64 = 5_000_000;
+
+/// Why [`generate_with`] refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum GenerateError {
+    /// The size is out of [`Database::sizes`].
+    #[error(transparent)]
+    Size(#[from] SizeError),
+    /// The patch resolution is 0 or above [`MAX_RESOLUTION`].
+    #[error("patch resolution {resolution} is out of range (allowed 1 to {MAX_RESOLUTION})")]
+    Resolution {
+        /// The resolution asked for.
+        resolution: u32,
+    },
+    /// The database in patches would have more than [`MAX_PATCH_TRIANGLES`] polygons.
+    #[error(
+        "`{name}` at size {size} in patches (resolution {resolution}) would be {polygons} \
+         polygons, more than the {MAX_PATCH_TRIANGLES} allowed; choose a smaller size"
+    )]
+    TooLarge {
+        /// The database, as [`Database::name`].
+        name: &'static str,
+        /// The size asked for.
+        size: u32,
+        /// The patch resolution asked for.
+        resolution: u32,
+        /// The polygons it would have (triangles, plus any polygons of the database).
+        polygons: u64,
+    },
+}
+
+/// Generates `db` at `size` with its spheres, cylinders and cones written as `format` says:
+/// [`CurveFormat::Curves`] is [`generate`]; [`CurveFormat::Patches`] is Haines's `-t [N]`
+/// output (for `tetra`, `gears`, `teapot` and `sombrero`, which have no curved primitives,
+/// the same as [`generate`]). Patches are refused beyond [`MAX_PATCH_TRIANGLES`] polygons.
+pub fn generate_with(
+    db: Database,
+    size: u32,
+    format: CurveFormat,
+) -> Result<NffScene, GenerateError> {
+    check_size(db, size)?;
+    if let CurveFormat::Patches { resolution } = format {
+        let resolution = resolution.unwrap_or(db.patch_resolution());
+        if !(1..=MAX_RESOLUTION).contains(&resolution) {
+            return Err(GenerateError::Resolution { resolution });
+        }
+        let (spheres, polygons, cones) = build(db, size, CurveFormat::Curves).counts();
+        let r = u64::from(resolution);
+        let polygons = polygons as u64 + spheres as u64 * 12 * r * r + cones as u64 * 8 * r;
+        if polygons > MAX_PATCH_TRIANGLES {
+            return Err(GenerateError::TooLarge {
+                name: db.name(),
+                size,
+                resolution,
+                polygons,
+            });
+        }
+    }
+    Ok(build(db, size, format))
+}
+
+/// Refuses a size outside [`Database::sizes`].
+fn check_size(db: Database, size: u32) -> Result<(), SizeError> {
     let range = db.sizes();
-    if !range.contains(&size) {
-        return Err(SizeError {
+    if range.contains(&size) {
+        Ok(())
+    } else {
+        Err(SizeError {
             name: db.name(),
             size,
             min: *range.start(),
             max: *range.end(),
-        });
+        })
     }
-    Ok(match db {
+}
+
+/// The generator of `db`, size already checked.
+fn build(db: Database, size: u32, format: CurveFormat) -> NffScene {
+    match db {
         Database::Tetra => tetra::tetra(size),
-        Database::Mount => mount::mount(size),
-        Database::Balls => balls::balls(size),
+        Database::Mount => mount::mount(size, format),
+        Database::Balls => balls::balls(size, format),
         Database::Gears => gears::gears(size),
-        Database::Rings => rings::rings(size),
-        Database::Tree => tree::tree(size),
+        Database::Rings => rings::rings(size, format),
+        Database::Tree => tree::tree(size, format),
         Database::Teapot => teapot::teapot(size),
-        Database::Lattice => lattice::lattice(size),
-        Database::Shells => shells::shells(size),
-        Database::Jacks => jacks::jacks(size),
+        Database::Lattice => lattice::lattice(size, format),
+        Database::Shells => shells::shells(size, format),
+        Database::Jacks => jacks::jacks(size, format),
         Database::Sombrero => sombrero::sombrero(size),
-    })
+    }
 }
 
 /// Haines's reference files: every database at its default size.
@@ -219,5 +322,7 @@ pub fn write_reference_files(dir: &std::path::Path) -> std::io::Result<()> {
 
 #[cfg(test)]
 mod reference_tests;
+#[cfg(test)]
+mod reference_tests_patches;
 #[cfg(test)]
 mod reference_tests_rest;

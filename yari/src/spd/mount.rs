@@ -8,6 +8,7 @@
 use super::haines_lib::{
     axis_rotate_matrix, gauss_rand, normalize, rotate_matrix, transform_vector, Axis, Coord4,
 };
+use super::haines_output::{sphere, CurveFormat};
 use crate::nff::{Entity, Fill, NffScene, View};
 use std::f64::consts::PI;
 
@@ -19,8 +20,9 @@ const X_CORNER: f64 = -1.0;
 const Y_CORNER: f64 = -1.0;
 const WIDTH: f64 = 2.0;
 
-/// The `mount` scene at `size` (0 to [`MAX_SIZE`]; larger sizes are clamped by the caller).
-pub fn mount(size: u32) -> NffScene {
+/// The `mount` scene at `size` (0 to [`MAX_SIZE`]; larger sizes are clamped by the caller),
+/// its four spheres written as `format` says.
+pub fn mount(size: u32, format: CurveFormat) -> NffScene {
     let size = size.min(MAX_SIZE);
     let mut s = NffScene::default();
     s.push(Entity::Background(super::UNC_SKY_BLUE));
@@ -44,7 +46,7 @@ pub fn mount(size: u32) -> NffScene {
         0.9,
         1.5,
     )));
-    create_spheres(&mut s, [-0.8, 0.8, 1.0, 0.17]);
+    create_spheres(&mut s, format, [-0.8, 0.8, 1.0, 0.17]);
     s.push(Entity::Fill(Fill::haines(
         [0.5, 0.45, 0.35],
         1.0,
@@ -65,23 +67,18 @@ pub fn mount(size: u32) -> NffScene {
 }
 
 /// `create_spheres`: one sphere above `center`, three around below it, touching.
-fn create_spheres(s: &mut NffScene, center: Coord4) {
+fn create_spheres(s: &mut NffScene, format: CurveFormat, center: Coord4) {
     let axis = normalize([1.0, 1.0, 0.0]);
     let angle = (-1.0f64 / 3.0).acos();
     let pt = [0.0, 0.0, center[3] * (3.0f64 / 2.0).sqrt()];
     let top = [center[0] + pt[0], center[1] + pt[1], center[2] + pt[2]];
-    s.push(Entity::Sphere {
-        center: top,
-        radius: center[3],
-    });
+    sphere(s, format, [top[0], top[1], top[2], center[3]]);
     let new_pt = transform_vector(pt, &axis_rotate_matrix(axis, angle));
     for i in 0..3 {
         let m = rotate_matrix(Axis::Z, i as f64 * 2.0 * PI / 3.0);
         let p = transform_vector(new_pt, &m);
-        s.push(Entity::Sphere {
-            center: [p[0] + center[0], p[1] + center[1], p[2] + center[2]],
-            radius: center[3],
-        });
+        let c = [p[0] + center[0], p[1] + center[1], p[2] + center[2]];
+        sphere(s, format, [c[0], c[1], c[2], center[3]]);
     }
 }
 
@@ -160,7 +157,10 @@ mod tests {
     #[test]
     fn counts_and_spheres() {
         for size in 0..=3 {
-            assert_eq!(mount(size).counts(), (4, 2 * 4usize.pow(size), 0));
+            assert_eq!(
+                mount(size, CurveFormat::Curves).counts(),
+                (4, 2 * 4usize.pow(size), 0)
+            );
         }
     }
 
@@ -168,7 +168,7 @@ mod tests {
     fn shared_edges_share_heights() {
         // Midpoints are hashed from grid coordinates, so neighbouring cells agree: every
         // (x, y) grid point has exactly one height.
-        let s = mount(3);
+        let s = mount(3, CurveFormat::Curves);
         let mut heights = std::collections::HashMap::new();
         for e in &s.entities {
             if let Entity::Polygon { vertices, .. } = &e.node {

@@ -5,7 +5,7 @@
 //! gives Haines's 4200 spheres and 4200 cylinders.
 
 use super::haines_lib::{rotate_matrix, transform_point, Axis};
-use super::haines_output::{color, cylcone, polygon, sphere};
+use super::haines_output::{color, cylcone, polygon, sphere, CurveFormat};
 use crate::nff::{Entity, NffScene, View};
 use std::f64::consts::PI;
 
@@ -14,8 +14,9 @@ const RADIUS: f64 = 0.07412;
 /// `SPREAD_OUT`: above 1, deeper layers spread out more.
 const SPREAD_OUT: f64 = 1.0;
 
-/// The `rings` scene at `size` (1 or more).
-pub fn rings(size: u32) -> NffScene {
+/// The `rings` scene at `size` (1 or more), its cylinders and spheres written as `format`
+/// says (the wall stays one polygon).
+pub fn rings(size: u32, format: CurveFormat) -> NffScene {
     let spread = 1.0 / (PI / 8.0).sin();
     let (y_diff, xz_diff) = if SPREAD_OUT <= spread {
         (spread / SPREAD_OUT, 1.0)
@@ -84,8 +85,8 @@ pub fn rings(size: u32) -> NffScene {
                     };
                     let p = dodec[prev];
                     let apex = [p[0] + ox, p[1] + oy, p[2] + oz, RADIUS];
-                    cylcone(&mut s, base, apex);
-                    sphere(&mut s, base);
+                    cylcone(&mut s, format, base, apex);
+                    sphere(&mut s, format, base);
                 }
             }
         }
@@ -123,7 +124,10 @@ mod tests {
     fn counts_follow_the_pyramid() {
         for size in 1..=3u32 {
             let n = 5 * size * (size + 1) * (2 * size + 1);
-            assert_eq!(rings(size).counts(), (n as usize, 1, n as usize));
+            assert_eq!(
+                rings(size, CurveFormat::Curves).counts(),
+                (n as usize, 1, n as usize)
+            );
         }
     }
 }

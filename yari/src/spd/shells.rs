@@ -3,7 +3,7 @@
 //! tiny, overlapping spheres).
 //! 180 * 2^size + 1 spheres; size 5 gives Haines's default (5761).
 
-use super::haines_output::{color, sphere};
+use super::haines_output::{color, sphere, CurveFormat};
 use crate::nff::{Entity, NffScene, View};
 use std::f64::consts::PI;
 
@@ -16,8 +16,8 @@ const A: f64 = 0.15;
 /// The relative size.
 const K: f64 = 1.0;
 
-/// The `shells` scene at `size` (1 or more).
-pub fn shells(size: u32) -> NffScene {
+/// The `shells` scene at `size` (1 or more), its spheres written as `format` says.
+pub fn shells(size: u32, format: CurveFormat) -> NffScene {
     let mut s = NffScene::default();
     s.push(Entity::Background(super::UNC_SKY_BLUE));
     s.push(Entity::View(View {
@@ -43,7 +43,11 @@ pub fn shells(size: u32) -> NffScene {
         } else {
             BETA * r
         };
-        sphere(&mut s, [r * angle.sin(), r * angle.cos(), z, r / GAMMA]);
+        sphere(
+            &mut s,
+            format,
+            [r * angle.sin(), r * angle.cos(), z, r / GAMMA],
+        );
     }
     s
 }
@@ -55,7 +59,10 @@ mod tests {
     #[test]
     fn counts_double_with_each_size() {
         for size in 1..=3u32 {
-            assert_eq!(shells(size).counts(), (180 * (1 << size) + 1, 0, 0));
+            assert_eq!(
+                shells(size, CurveFormat::Curves).counts(),
+                (180 * (1 << size) + 1, 0, 0)
+            );
         }
     }
 }

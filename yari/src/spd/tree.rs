@@ -4,7 +4,7 @@
 //! of each.
 
 use super::haines_lib::{identity, matrix_multiply, rotate_matrix, transform_point, Axis, Matrix};
-use super::haines_output::{color, cylcone, polygon, sphere};
+use super::haines_output::{color, cylcone, polygon, sphere, CurveFormat};
 use crate::nff::{Entity, NffScene, View};
 use std::f64::consts::PI;
 
@@ -16,8 +16,9 @@ const BR_DIAMETER: f64 = 0.67;
 const DIV_ANGLE: f64 = 140.0;
 const WIDTH_HEIGHTH_RATIO: f64 = 0.15;
 
-/// The `tree` scene at `size` (0 or more: the trunk, then `size` levels of branches).
-pub fn tree(size: u32) -> NffScene {
+/// The `tree` scene at `size` (0 or more: the trunk, then `size` levels of branches), its
+/// cones and spheres written as `format` says (the field stays one polygon).
+pub fn tree(size: u32, format: CurveFormat) -> NffScene {
     let mut s = NffScene::default();
     s.push(Entity::Background(super::UNC_SKY_BLUE));
     s.push(Entity::View(View {
@@ -54,7 +55,7 @@ pub fn tree(size: u32) -> NffScene {
     // The tree, brown.
     color(&mut s, [0.55, 0.4, 0.2], 1.0, 0.0, 0.0, 0.0, 0.0);
     let rst = branch_matrices();
-    grow_tree(&mut s, &rst, &identity(), 1.0, size);
+    grow_tree(&mut s, format, &rst, &identity(), 1.0, size);
     s
 }
 
@@ -81,17 +82,24 @@ fn branch_matrices() -> [Matrix; 2] {
 
 /// `grow_tree`: the branch (a cone from the origin to z = 1 in `cur`'s frame) with a sphere
 /// at its tip, then its two sub-branches, depth first.
-fn grow_tree(s: &mut NffScene, rst: &[Matrix; 2], cur: &Matrix, scale: f64, depth: u32) {
+fn grow_tree(
+    s: &mut NffScene,
+    format: CurveFormat,
+    rst: &[Matrix; 2],
+    cur: &Matrix,
+    scale: f64,
+    depth: u32,
+) {
     let b = transform_point([0.0, 0.0, 0.0], cur);
     let base = [b[0], b[1], b[2], scale * WIDTH_HEIGHTH_RATIO];
     let a = transform_point([0.0, 0.0, 1.0], cur);
     let apex = [a[0], a[1], a[2], base[3] * BR_DIAMETER];
-    cylcone(s, base, apex);
-    sphere(s, apex);
+    cylcone(s, format, base, apex);
+    sphere(s, format, apex);
     if depth > 0 {
         for m in rst {
             let new = matrix_multiply(m, cur);
-            grow_tree(s, rst, &new, scale * BR_DIAMETER, depth - 1);
+            grow_tree(s, format, rst, &new, scale * BR_DIAMETER, depth - 1);
         }
     }
 }
@@ -104,7 +112,7 @@ mod tests {
     fn counts_double_with_each_level() {
         for size in 0..=4u32 {
             let n = 2usize.pow(size + 1) - 1;
-            assert_eq!(tree(size).counts(), (n, 1, n));
+            assert_eq!(tree(size, CurveFormat::Curves).counts(), (n, 1, n));
         }
     }
 }
