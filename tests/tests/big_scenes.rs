@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use sunray_e2e::bins::sunray;
-use sunray_e2e::reference::{accel_figures, reference, scene_figures};
+use sunray_e2e::reference::{accel_figures, reference, scene_figures, succeed};
 use sunray_e2e::remd::LoopbackCluster;
 
 const FLAGS: [&str; 2] = ["--resolution", "48x32"];
@@ -72,20 +72,15 @@ fn submit_with(
     out: &Path,
 ) -> serde_json::Value {
     let json = out.with_extension("json");
-    let run = submit
-        .args(args)
-        .args(["-q", "-o"])
-        .arg(out)
-        .arg("--stats-json")
-        .arg(&json)
-        .args(flags)
-        .arg(scene)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    succeed(
+        submit
+            .args(args)
+            .args(["-q", "-o"])
+            .arg(out)
+            .arg("--stats-json")
+            .arg(&json)
+            .args(flags)
+            .arg(scene),
     );
     serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
 }

@@ -14,7 +14,7 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 use sunray_e2e::bins::signal;
 use sunray_e2e::fixtures::spd;
-use sunray_e2e::reference::reference;
+use sunray_e2e::reference::{reference, succeed};
 use sunray_e2e::remd::LoopbackCluster;
 use sunray_e2e::submit_run::SubmitRun;
 
@@ -23,28 +23,15 @@ const LINES: u64 = 96;
 
 /// Submits mount6 detached through daemon a (the controller starts there): the job id.
 fn submit(cluster: &LoopbackCluster, job: &str, delay_ms: u32) -> String {
-    let out = cluster
-        .submit()
-        .env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
-        .args([
-            "--detach",
-            "--hosts",
-            "2",
-            "--checkpoint-ms",
-            "200",
-            "--job",
-            job,
-        ])
-        .args(FLAGS)
-        .arg(spd("mount6"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let id = succeed(
+        cluster
+            .submit()
+            .env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
+            .args(["--detach", "--hosts", "2", "--checkpoint-ms", "200"])
+            .args(["--job", job])
+            .args(FLAGS)
+            .arg(spd("mount6")),
     );
-    let id = String::from_utf8(out.stdout).unwrap();
     assert_eq!(id.trim(), job, "--detach prints the job id alone");
     id.trim().to_string()
 }
@@ -284,23 +271,13 @@ fn controller_anywhere_starts_the_controller_on_the_least_loaded_host() {
         .unwrap();
     // Submitted through a busy host, the controller goes to the idle one.
     let via = worker_hosts[0].as_str();
-    let out = cluster
-        .sunray_via(via)
-        .args([
-            "submit",
-            "--detach",
-            "--controller-anywhere",
-            "--job",
-            "anywhere",
-        ])
-        .args(FLAGS)
-        .arg(spd("mount6"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        cluster
+            .sunray_via(via)
+            .args(["submit", "--detach", "--controller-anywhere"])
+            .args(["--job", "anywhere"])
+            .args(FLAGS)
+            .arg(spd("mount6")),
     );
     let r = cluster.wait_record(via, "anywhere", "got its controller", |r| {
         !r.controller_host.is_empty()

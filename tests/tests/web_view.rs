@@ -6,25 +6,20 @@
 
 use std::time::{Duration, Instant};
 use sunray_e2e::fixtures::spd;
-use sunray_e2e::reference::reference;
+use sunray_e2e::reference::{reference, succeed};
 use sunray_e2e::remd::{LoopbackCluster, SECRET};
 use sunray_e2e::web::{chromedriver, chromium, Auth, Page, WebClient};
 
 /// A detached job of alice's on mount6, each line taking at least `delay_ms`.
 fn submit(cluster: &LoopbackCluster, job: &str, size: &str, delay_ms: u32) {
-    let out = cluster
-        .submit()
-        .env("REM_USER", "alice")
-        .env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
-        .args(["--detach", "--hosts", "2", "--checkpoint-ms", "200"])
-        .args(["--job", job, "--resolution", size])
-        .arg(spd("mount6"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        cluster
+            .submit()
+            .env("REM_USER", "alice")
+            .env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
+            .args(["--detach", "--hosts", "2", "--checkpoint-ms", "200"])
+            .args(["--job", job, "--resolution", size])
+            .arg(spd("mount6")),
     );
 }
 
