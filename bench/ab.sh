@@ -18,7 +18,7 @@ echo "|---|---:|---:|---:|---|"
 for spec in $SCENES; do
   db=${spec%:*}; size=${spec#*:}; name=$db$size
   "$B" spd "$db" --size "$size" -o "$OUT/$name.nff"
-  best_a=inf; best_b=inf
+  best_a=1e99; best_b=1e99
   for _ in $(seq "${RUNS:-5}"); do
     for side in A B; do
       bin=$A; [ "$side" = B ] && bin=$B
