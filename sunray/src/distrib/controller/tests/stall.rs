@@ -14,7 +14,9 @@ async fn a_slow_checkpoint_write_does_not_make_working_workers_silent() {
         let job = Job::start_on(FakeLink::default(), 8, 2, None);
         job.ready(0, 2).await;
         job.ready(1, 2).await;
-        let held: Vec<_> = (0..2).map(|n| job.link.take_grants(&job.procs[n])).collect();
+        let held: Vec<_> = (0..2)
+            .map(|n| job.link.take_grants(&job.procs[n]))
+            .collect();
         assert!(held.iter().all(|h| h.len() == 2), "{held:?}");
         // A line from each makes a checkpoint due (every 500 ms); from now on a write takes
         // 3 s, three times the workers' timeout.
