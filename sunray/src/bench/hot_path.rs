@@ -22,13 +22,8 @@ macro_rules! hot_path {
 
             /// The per-ray constants of a ray from `o` along `d`.
             pub fn pre(o: V, d: V) -> Pre {
-                let (k, s) = $k::shear(d);
-                Pre {
-                    o,
-                    inv: $k::safe_inverse(d),
-                    k,
-                    s,
-                }
+                let (k, s, inv) = $k::shear_and_inverse(d);
+                Pre { o, inv, k, s }
             }
 
             /// The nearest `t > 0` where the ray crosses triangle `v`.

@@ -13,16 +13,11 @@ macro_rules! kernels {
             /// The vector type.
             pub type V = $V;
 
-            /// Woop's shear of a direction `d`: the axis along which `d` is largest goes last
-            /// (`k = [kx, ky, kz]`, swapped to keep the winding when `d[kz] < 0`), and
-            /// `s = [d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]]`.
-            #[inline]
-            pub fn shear(d: V) -> ([usize; 3], [R; 3]) {
-                let (k, s, _) = shear_and_inverse(d);
-                (k, s)
-            }
-
-            /// [`shear`] and [`safe_inverse`] at once, bit for bit the same: their six
+            /// Woop's shear of a direction `d`, and its inverse for the slab test: the axis
+            /// along which `d` is largest goes last (`k = [kx, ky, kz]`, swapped to keep the
+            /// winding when `d[kz] < 0`), `s = [d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]]`, and
+            /// `1 / d` per component with an infinite quotient replaced by a huge finite one
+            /// of the same sign (so the slab test never computes `0 * inf`). The six
             /// quotients are five (`1 / d[kz]` is one of `1 / d`), four of them in one array
             /// the compiler divides with one vector instruction. Every eye and secondary ray
             /// pays this, so on a scene that is mostly background it is a fair part of the
@@ -59,23 +54,8 @@ macro_rules! kernels {
                 )
             }
 
-            /// `1 / d` per component, with an infinite quotient replaced by a huge finite one
-            /// of the same sign, so that the slab test never computes `0 * inf`.
-            #[inline]
-            pub fn safe_inverse(d: V) -> V {
-                let f = |x: R| {
-                    let i = 1.0 / x;
-                    if i.is_finite() {
-                        i
-                    } else {
-                        ($huge as R).copysign(i)
-                    }
-                };
-                V::new(f(d.x), f(d.y), f(d.z))
-            }
-
             /// Watertight ray / triangle (Woop, Benthin and Wald, JCGT 2013): the nearest `t`
-            /// in `(t_min, t_max)` where the ray from `o` sheared by `(k, s)` ([`shear`])
+            /// in `(t_min, t_max)` where the ray from `o` sheared by `(k, s)` ([`shear_and_inverse`])
             /// crosses triangle `v`.
             #[inline(always)]
             pub fn triangle(
@@ -175,7 +155,7 @@ macro_rules! kernels {
             }
 
             /// The slab test: where the ray from `o` with inverse direction `inv`
-            /// ([`safe_inverse`]) is inside the box `lo..hi`, clipped to `[t_min, t_max]`.
+            /// ([`shear_and_inverse`]) is inside the box `lo..hi`, clipped to `[t_min, t_max]`.
             #[inline]
             pub fn slab(lo: V, hi: V, o: V, inv: V, t_min: R, t_max: R) -> Option<(R, R)> {
                 let a = (lo - o) * inv;
