@@ -373,20 +373,15 @@ impl<L: WorkerLink> Controller<L> {
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
         while !self.table.is_finished() {
             tokio::select! {
-                input = inbox.recv() => match input {
-                    Some(Input::Relay(Ok(incoming))) => self.on_incoming(incoming),
-                    Some(Input::Relay(Err(e))) => return Err(e.into()),
-                    None => return Err(rem::Error::Closed.into()),
-                },
+                input = inbox.recv() => {
+                    self.on_input(input.ok_or(rem::Error::Closed)?)?;
+                }
                 _ = tick.tick() => {
                     // What came while the actor was busy (a checkpoint write held up by a
                     // stopped replica can take seconds) is read before anyone is judged silent:
                     // silence is the workers', not the controller's own stall.
                     while let Ok(input) = inbox.try_recv() {
-                        match input {
-                            Input::Relay(Ok(incoming)) => self.on_incoming(incoming),
-                            Input::Relay(Err(e)) => return Err(e.into()),
-                        }
+                        self.on_input(input)?;
                     }
                     self.on_tick().await
                 }
@@ -425,6 +420,15 @@ impl<L: WorkerLink> Controller<L> {
             finished,
             cost,
         })
+    }
+
+    /// One item of the inbox: a relay item is handled; the relay's failure ends the job.
+    fn on_input(&mut self, input: Input) -> Result<(), ControllerError> {
+        match input {
+            Input::Relay(Ok(incoming)) => self.on_incoming(incoming),
+            Input::Relay(Err(e)) => return Err(e.into()),
+        }
+        Ok(())
     }
 
     fn cost(&self) -> ControllerCost {
