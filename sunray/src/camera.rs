@@ -57,6 +57,26 @@ impl Camera {
         self.forward + self.right * x + self.up * y
     }
 
+    /// Where point `p` appears on the image, in the pixel units of [`Camera::direction`], or
+    /// None unless it lies clearly in front of the eye.
+    pub fn project(&self, p: Vec3) -> Option<(Real, Real)> {
+        let v = p - self.position;
+        let z = v.dot(self.forward);
+        let in_front = z > 1e-9 * v.length();
+        if !in_front || !v.is_finite() {
+            return None;
+        }
+        let x = v.dot(self.right) / (z * self.pixel);
+        let y = v.dot(self.up) / (z * self.pixel);
+        Some((x + self.width as Real * 0.5, self.height as Real * 0.5 - y))
+    }
+
+    /// True when every eye ray starts at the eye point (no lens), so that the ray through
+    /// (px, py) is the eye point plus a multiple of [`Camera::direction`].
+    pub fn is_pinhole(&self) -> bool {
+        !(self.aperture > 0.0 && self.focus_distance > 0.0)
+    }
+
     /// The eye ray through (px, py); with an aperture, from a point on the lens (using two
     /// numbers of `rng`) towards the same point on the plane in focus.
     pub fn ray(&self, px: Real, py: Real, time: Real, rng: Option<&mut SampleStream>) -> Ray {
@@ -105,6 +125,21 @@ mod tests {
         assert!((angle - 45.0).abs() < 1e-9, "{angle}");
         assert!(top.y > 0.0, "scanline 0 is at the top");
         assert!(cam.direction(10.5, 5.5).x > 0.0, "x grows to the right");
+    }
+
+    #[test]
+    fn project_inverts_direction() {
+        let mut m = model(30.0);
+        m.position = Vec3::new(1.0, 2.0, 3.0);
+        m.at = Vec3::new(-2.0, 0.5, -4.0);
+        let cam = Camera::new(&m, 64, 48);
+        for (px, py) in [(0.0, 0.0), (10.25, 40.5), (63.9, 1.0), (-5.0, 100.0)] {
+            let p = cam.position + cam.direction(px, py) * 7.5;
+            let (x, y) = cam.project(p).unwrap();
+            assert!((x - px).abs() < 1e-9 && (y - py).abs() < 1e-9, "{x} {y}");
+        }
+        assert_eq!(cam.project(cam.position - cam.direction(3.0, 3.0)), None);
+        assert_eq!(cam.project(cam.position), None);
     }
 
     #[test]

@@ -118,6 +118,15 @@ pub fn bounded(prims: &Primitives) -> impl Iterator<Item = (u32, crate::geometry
     (0..prims.len() as u32).filter_map(|i| prims.bounds(i).map(|b| (i, b)))
 }
 
+/// See [`Accel::outer_boxes`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct OuterBoxes {
+    /// A ray whose slab test misses every one of these hits nothing.
+    pub boxes: Vec<crate::geometry::Aabb>,
+    /// What such a ray adds to [`Counters::voxels`] all the same.
+    pub voxels_on_miss: u64,
+}
+
 /// Per-thread scratch state of queries (the mailbox). It only saves work: results never
 /// depend on it.
 #[derive(Clone, Debug)]
@@ -163,6 +172,23 @@ impl Accel {
             Structure::Exhaustive(_) => 0,
             Structure::Octree(o) => o.node_count(),
             Structure::Bvh(b) => b.node_count(),
+        }
+    }
+
+    /// Boxes that every ray meeting anything enters, and the voxels a ray that misses them
+    /// all still counts: for the BVH the boxes of the root's children (such a ray visits the
+    /// root only). None when no such boxes are known: unbounded primitives (every ray may hit
+    /// them), the octree and the exhaustive list (whose misses count differently).
+    pub fn outer_boxes(&self) -> Option<OuterBoxes> {
+        if !self.unbounded.is_empty() {
+            return None;
+        }
+        match &self.structure {
+            Structure::Bvh(b) => Some(OuterBoxes {
+                voxels_on_miss: u64::from(b.node_count() > 0),
+                boxes: b.root_boxes(),
+            }),
+            Structure::Exhaustive(_) | Structure::Octree(_) => None,
         }
     }
 

@@ -2,8 +2,9 @@
 //! options) -> pixels + counters ([`render_line`]); [`render_image`] runs it on all cores by
 //! pulling line numbers from a shared atomic counter, the same request-render-complete loop a
 //! SunRay III worker runs against its controller. [`settings`] holds what decides the
-//! pixels besides the scene.
+//! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything.
 
+pub mod footprint;
 pub mod parallel;
 pub mod settings;
 
@@ -15,6 +16,7 @@ use crate::scene::Scene;
 use crate::shading::hall::RayKind;
 use crate::shading::{TraceOptions, Tracer};
 use crate::stats::Counters;
+use footprint::Footprint;
 
 pub use parallel::{render_image, Progress};
 pub use settings::{Overrides, Settings};
@@ -95,9 +97,24 @@ pub fn render_line(
         scratch,
         counters: &mut counters,
     };
+    // Pixels outside the scene's footprint are background, counted as the eye rays the
+    // tracer would have sent (each visits the root and misses).
+    let footprint = Footprint::new(&camera, accel);
+    let may_hit = footprint.as_ref().map(|f| f.row(y, opts.width));
+    let mut spans = may_hit.as_deref().unwrap_or_default().iter().peekable();
     for x in 0..opts.width {
+        while spans.next_if(|r| r.end <= x).is_some() {}
+        let outside = footprint
+            .as_ref()
+            .filter(|_| spans.peek().is_none_or(|r| r.start > x));
         let mut sum = glam::DVec3::ZERO;
         for s in 0..n {
+            if let Some(f) = outside {
+                tracer.counters.eye += 1;
+                tracer.counters.voxels += f.voxels_on_miss;
+                sum += scene.world.background;
+                continue;
+            }
             let mut rng = SampleStream::stratified(x, y, s, s, n);
             let (dx, dy) = pixel_offset(n, s, &mut rng);
             let time = if motion { rng.next_real() } else { 0.0 };
@@ -120,5 +137,120 @@ pub fn render_line(
         y,
         pixels,
         counters,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{AccelKind, AccelOptions};
+
+    /// Nine small spheres in the middle of the picture, one reflecting: most pixels are
+    /// outside the footprint.
+    const SPHERES: &str = "background(color = 0.2,0.05,0.2);
+camera(position = 0,0,-8; at = 0,0,0; up = 0,1,0; angle = 20);
+light(position = -10,3,-20; color = 1,1,1);
+begin
+  attribute(color = 1,0.5,0.5; kdr = 0.6; ka = 0.2; phong = 20);
+  sphere(center = 0,0,0; radius = 0.4);
+  sphere(center = 0.9,0.2,0.3; radius = 0.2);
+  sphere(center = -0.9,-0.3,0.2; radius = 0.25);
+  sphere(center = 0.2,0.9,-0.2; radius = 0.2);
+  sphere(center = -0.3,-0.9,0.4; radius = 0.2);
+  sphere(center = 0.6,-0.6,0; radius = 0.15);
+  sphere(center = -0.6,0.6,0; radius = 0.15);
+  sphere(center = 1.5,1.1,1; radius = 0.3);
+  sphere(center = -1.2,1.2,-1; radius = 0.1);
+end
+";
+
+    fn scene(motion: bool) -> (Scene, Accel) {
+        let table = yari::colour::ColourTable::default();
+        let text = if motion {
+            SPHERES.replace(
+                "  sphere(center = 0.6",
+                "  motion(0.2,0,0);\n  sphere(center = 0.6",
+            )
+        } else {
+            SPHERES.to_string()
+        };
+        let loaded =
+            yari::load::load_str("t.yari", &text, yari::load::InputKind::Yari, &table).unwrap();
+        let mut scene = Scene::new(loaded.world);
+        let opts = AccelOptions {
+            kind: AccelKind::Bvh,
+            ..AccelOptions::default()
+        };
+        let accel = Accel::build(&mut scene.prims, &opts);
+        (scene, accel)
+    }
+
+    /// The render loop before the footprint: every sample of every pixel traced.
+    fn trace_every_pixel(scene: &Scene, accel: &Accel, y: u32, opts: &RenderOptions) -> Line {
+        let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
+        let mut counters = Counters::default();
+        let mut scratch = Scratch::new(scene.prims.len(), false);
+        let n = opts.samples;
+        let motion = scene.world.features.motion_blur;
+        let mut tracer = Tracer {
+            scene,
+            accel,
+            opts: opts.trace,
+            scratch: &mut scratch,
+            counters: &mut counters,
+        };
+        let pixels = (0..opts.width)
+            .map(|x| {
+                let mut sum = glam::DVec3::ZERO;
+                for s in 0..n {
+                    let mut rng = SampleStream::stratified(x, y, s, s, n);
+                    let (dx, dy) = pixel_offset(n, s, &mut rng);
+                    let time = if motion { rng.next_real() } else { 0.0 };
+                    let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));
+                    let media = crate::shading::Media::AIR;
+                    sum += tracer.trace(ray, RayKind::Eye, 1, 1.0, media, &mut rng);
+                }
+                let c = if n == 1 { sum } else { sum / n as Real };
+                [c.x as f32, c.y as f32, c.z as f32]
+            })
+            .collect();
+        Line {
+            y,
+            pixels,
+            counters,
+        }
+    }
+
+    #[test]
+    fn pixels_outside_the_footprint_are_what_tracing_them_gives() {
+        for (samples, motion) in [(1, false), (4, false), (3, true)] {
+            let (scene, accel) = scene(motion);
+            assert_eq!(scene.world.features.motion_blur, motion);
+            let opts = RenderOptions {
+                width: 40,
+                height: 30,
+                samples,
+                trace: TraceOptions::default(),
+            };
+            let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
+            let footprint = Footprint::new(&camera, &accel).unwrap();
+            let mut scratch = Scratch::new(scene.prims.len(), false);
+            let mut left_out = 0;
+            for y in 0..opts.height {
+                let covered: u32 = footprint
+                    .row(y, opts.width)
+                    .iter()
+                    .map(|r| r.len() as u32)
+                    .sum();
+                left_out += opts.width - covered;
+                let got = render_line(&scene, &accel, y, &opts, &mut scratch);
+                let want = trace_every_pixel(&scene, &accel, y, &opts);
+                assert_eq!(got, want, "line {y}, {samples} samples");
+            }
+            assert!(
+                left_out > opts.width * opts.height / 3,
+                "{left_out} pixels left out"
+            );
+        }
     }
 }

@@ -56,6 +56,18 @@ impl Bvh {
         self.nodes.len()
     }
 
+    /// The boxes of the root's children: a ray whose slab test misses all of them visits the
+    /// root alone (one voxel) and hits nothing. Empty for an empty tree.
+    pub fn root_boxes(&self) -> Vec<crate::geometry::Aabb> {
+        let Some(root) = self.nodes.first() else {
+            return Vec::new();
+        };
+        (0..WIDTH)
+            .filter(|&k| root.used(k))
+            .map(|k| root.child_box(k))
+            .collect()
+    }
+
     /// Closest hit of `r` before `t_max`, improving on `best` (from the unbounded list); uses AVX2
     /// when the CPU has it.
     pub fn closest(

@@ -76,6 +76,18 @@ impl Node {
         self.planes[0][0][k] != Real::INFINITY
     }
 
+    /// The box of slot `k`.
+    pub fn child_box(&self, k: usize) -> Aabb {
+        let corner = |m: usize| {
+            crate::geometry::Vec3::new(
+                self.planes[m][0][k],
+                self.planes[m][1][k],
+                self.planes[m][2][k],
+            )
+        };
+        Aabb::new(corner(0), corner(1))
+    }
+
     fn set(&mut self, k: usize, b: &Aabb, child: Child) {
         for axis in 0..3 {
             self.planes[0][axis][k] = b.min[axis];

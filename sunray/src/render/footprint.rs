@@ -1,0 +1,228 @@
+//! Where on the image an eye ray can meet anything: the screen rectangles of the boxes every
+//! hitting ray enters ([`Accel::outer_boxes`]). A pixel outside all of them is background
+//! without a ray being traced: on small SPD scenes most pixels are, and their eye rays were
+//! a third of the render.
+//!
+//! The rectangles are conservative: each is the bounding rectangle of a box's eight projected
+//! corners (a box wholly in front of the eye projects inside the hull of its corners), grown
+//! by [`MARGIN`] pixels, far more than the rounding of a ray's set-up or slab test. A box not
+//! wholly in front of the eye covers the whole image. So a pixel left out is one whose every
+//! eye ray misses every outer box: the ray the tracer would have traced visits the root, hits
+//! nothing and returns the background, which is exactly what the pixel gets, with the same
+//! counts.
+
+use crate::accel::{Accel, OuterBoxes};
+use crate::camera::Camera;
+use crate::geometry::{Aabb, Real, Vec3};
+use std::ops::Range;
+
+/// Pixels a rectangle is grown by on every side.
+pub const MARGIN: Real = 1.0;
+
+/// The screen rectangles of a scene's outer boxes for one camera.
+#[derive(Clone, Debug)]
+pub struct Footprint {
+    /// `[x0, x1, y0, y1]` in the pixel units of [`Camera::direction`], grown by [`MARGIN`].
+    rects: Vec<[Real; 4]>,
+    /// What an eye ray outside every rectangle adds to the voxel count.
+    pub voxels_on_miss: u64,
+}
+
+impl Footprint {
+    /// The footprint of `accel`'s outer boxes seen by `camera`, or None when no pixel can be
+    /// left out: the accelerator knows no outer boxes, or the camera has a lens (its rays do
+    /// not share an origin).
+    pub fn new(camera: &Camera, accel: &Accel) -> Option<Footprint> {
+        if !camera.is_pinhole() {
+            return None;
+        }
+        let OuterBoxes {
+            boxes,
+            voxels_on_miss,
+        } = accel.outer_boxes()?;
+        let rects = boxes.iter().map(|b| rectangle(camera, b)).collect();
+        Some(Footprint {
+            rects,
+            voxels_on_miss,
+        })
+    }
+
+    /// The pixels of row `y` (of `width`) whose eye rays may meet something, as sorted,
+    /// disjoint ranges. A pixel's rays pass through points of the square [x, x+1] x [y, y+1].
+    pub fn row(&self, y: u32, width: u32) -> Vec<Range<u32>> {
+        let (top, bottom) = (y as Real, y as Real + 1.0);
+        let mut spans: Vec<Range<u32>> = self
+            .rects
+            .iter()
+            .filter(|r| r[2] <= bottom && r[3] >= top)
+            .filter_map(|r| {
+                let start = r[0].floor().max(0.0);
+                let end = (r[1].floor() + 1.0).min(width as Real);
+                (start < end).then_some(start as u32..end as u32)
+            })
+            .collect();
+        spans.sort_by_key(|s| s.start);
+        let mut merged: Vec<Range<u32>> = Vec::with_capacity(spans.len());
+        for s in spans {
+            match merged.last_mut() {
+                Some(last) if s.start <= last.end => last.end = last.end.max(s.end),
+                _ => merged.push(s),
+            }
+        }
+        merged
+    }
+}
+
+/// The grown screen rectangle of `b`, or the whole plane when a corner is not in front.
+fn rectangle(camera: &Camera, b: &Aabb) -> [Real; 4] {
+    const EVERYWHERE: [Real; 4] = [
+        Real::NEG_INFINITY,
+        Real::INFINITY,
+        Real::NEG_INFINITY,
+        Real::INFINITY,
+    ];
+    let mut r = [
+        Real::INFINITY,
+        Real::NEG_INFINITY,
+        Real::INFINITY,
+        Real::NEG_INFINITY,
+    ];
+    for k in 0..8 {
+        let corner = Vec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        let Some((x, y)) = camera.project(corner) else {
+            return EVERYWHERE;
+        };
+        r = [r[0].min(x), r[1].max(x), r[2].min(y), r[3].max(y)];
+    }
+    [r[0] - MARGIN, r[1] + MARGIN, r[2] - MARGIN, r[3] + MARGIN]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{AccelKind, AccelOptions, Scratch};
+    use crate::geometry::{Primitive, PrimitiveKind, Primitives, RayPre};
+    use crate::stats::Counters;
+
+    fn camera(w: u32, h: u32) -> Camera {
+        let m = yari::model::Camera {
+            position: Vec3::new(0.3, -0.2, 6.0),
+            at: Vec3::ZERO,
+            up: Vec3::Y,
+            half_angle_deg: 20.0,
+            aperture: 0.0,
+            focus_distance: 1.0,
+        };
+        Camera::new(&m, w, h)
+    }
+
+    fn spheres(centres: &[(Real, Real, Real)], radius: Real) -> Vec<Primitive> {
+        centres
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y, z))| Primitive {
+                kind: PrimitiveKind::Sphere {
+                    centre: Vec3::new(x, y, z),
+                    radius,
+                },
+                object: i as u32,
+                surface: 0,
+                motion: Vec3::ZERO,
+            })
+            .collect()
+    }
+
+    fn bvh(list: Vec<Primitive>) -> (Primitives, Accel) {
+        let mut prims = Primitives::from_list(list);
+        let opts = AccelOptions {
+            kind: AccelKind::Bvh,
+            ..AccelOptions::default()
+        };
+        let accel = Accel::build(&mut prims, &opts);
+        (prims, accel)
+    }
+
+    /// Every ray through every pixel corner and centre left out of the footprint misses
+    /// everything, visiting the root only.
+    #[test]
+    fn pixels_left_out_see_nothing() {
+        let (prims, accel) = bvh(spheres(
+            &[
+                (-1.0, -0.5, 0.0),
+                (1.2, 0.4, -1.0),
+                (0.0, 1.0, 1.0),
+                (0.3, 0.0, -3.0),
+                (-0.8, 0.9, -0.5),
+                (0.9, -1.1, 0.5),
+                (0.0, 0.0, 0.0),
+                (-1.5, 1.3, -2.0),
+                (1.4, 1.4, 0.2),
+            ],
+            0.35,
+        ));
+        let (w, h) = (48, 40);
+        let cam = camera(w, h);
+        let fp = Footprint::new(&cam, &accel).unwrap();
+        assert_eq!(fp.voxels_on_miss, 1);
+        let mut scratch = Scratch::new(prims.len(), false);
+        let (mut inside, mut outside) = (0, 0);
+        for y in 0..h {
+            let row = fp.row(y, w);
+            for x in 0..w {
+                if row.iter().any(|r| r.contains(&x)) {
+                    inside += 1;
+                    continue;
+                }
+                outside += 1;
+                for (dx, dy) in [(0.0, 0.0), (0.5, 0.5), (1.0, 1.0), (0.0, 1.0), (1.0, 0.0)] {
+                    let ray = cam.ray(x as Real + dx, y as Real + dy, 0.0, None);
+                    let mut c = Counters::default();
+                    let hit = accel.closest(
+                        &prims,
+                        &RayPre::new(ray),
+                        Real::INFINITY,
+                        &mut scratch,
+                        &mut c,
+                    );
+                    assert_eq!(hit, None, "pixel {x},{y}");
+                    assert_eq!(c.voxels, 1, "pixel {x},{y}");
+                }
+            }
+        }
+        assert!(
+            inside > 0 && outside > w * h / 4,
+            "{inside} in, {outside} out"
+        );
+    }
+
+    #[test]
+    fn a_box_around_the_eye_covers_the_image() {
+        let mut list = spheres(&[(0.3, -0.2, 6.0), (5.0, 5.0, 5.0)], 1.0);
+        list.extend(spheres(&[(0.0, 0.0, 0.0); 8], 0.1));
+        let (_, accel) = bvh(list);
+        let fp = Footprint::new(&camera(16, 16), &accel).unwrap();
+        for y in 0..16 {
+            assert_eq!(fp.row(y, 16), vec![0..16]);
+        }
+    }
+
+    #[test]
+    fn rows_merge_overlapping_rectangles() {
+        let fp = Footprint {
+            rects: vec![
+                [2.5, 4.2, 0.0, 3.0],
+                [-3.0, 1.0, 0.5, 0.9],
+                [4.0, 7.0, 0.0, 2.0],
+                [12.0, 30.0, 0.0, 9.0],
+            ],
+            voxels_on_miss: 1,
+        };
+        assert_eq!(fp.row(0, 20), vec![0..8, 12..20]);
+        assert_eq!(fp.row(5, 20), vec![12..20]);
+        assert_eq!(fp.row(10, 20), vec![]);
+    }
+}
