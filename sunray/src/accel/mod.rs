@@ -4,6 +4,8 @@
 //! - [`octree`]: Glassner's adaptive octree with voxel-by-voxel traversal (thesis 4.2.1).
 //! - [`bvh`]: a binned-SAH bounding volume hierarchy, collapsed to 4 children per node.
 //! - [`cache`]: built BVHs kept on the host, so each host builds one per scene once.
+//! - [`mailbox`] and [`occluders`]: per-thread state that saves work and never changes a
+//!   result (the intersection buffer; the last occluder of each light).
 //!
 //! All of them return the same closest hit: the smallest `t`, ties broken by the lower
 //! primitive index, and every primitive's `t` comes from the same function; so the images of
@@ -14,11 +16,13 @@ pub mod bvh;
 pub mod cache;
 pub mod exhaustive;
 pub mod mailbox;
+pub mod occluders;
 pub mod octree;
 
 use crate::geometry::{Primitives, RayPre, Real};
 use crate::stats::Counters;
 pub use mailbox::Mailbox;
+pub use occluders::Occluders;
 
 /// The closest hit of a ray: parameter and primitive index.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,12 +131,14 @@ pub struct OuterBoxes {
     pub voxels_on_miss: u64,
 }
 
-/// Per-thread scratch state of queries (the mailbox). It only saves work: results never
+/// Per-thread scratch state of queries (the mailbox, the occluder cache). It only saves work: results never
 /// depend on it.
 #[derive(Clone, Debug)]
 pub struct Scratch {
     /// The per-primitive mailbox (a no-op when the mailbox is off).
     pub mailbox: Mailbox,
+    /// The last opaque occluder of each light (shadow rays test it first).
+    pub occluders: Occluders,
 }
 
 impl Scratch {
@@ -140,6 +146,7 @@ impl Scratch {
     pub fn new(prims: usize, mailbox: bool) -> Scratch {
         Scratch {
             mailbox: Mailbox::new(prims, mailbox),
+            occluders: Occluders::default(),
         }
     }
 }

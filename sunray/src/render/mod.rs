@@ -90,6 +90,8 @@ pub fn render_line(
     let n = opts.samples.max(1);
     let motion = scene.world.features.motion_blur;
     let mut pixels = Vec::with_capacity(opts.width as usize);
+    // A line's counts must not depend on the lines its thread rendered before.
+    scratch.occluders.clear();
     let mut tracer = Tracer {
         scene,
         accel,

@@ -43,7 +43,7 @@ impl Tracer<'_> {
         let (ksr, kst) = (surf.ksr(), surf.kst());
         let mut result = world.ambient * colour * surf.ka;
 
-        for light in &world.lights {
+        for (index, light) in world.lights.iter().enumerate() {
             let mut lp = light.position;
             if light.radius > 0.0 && world.features.area_lights {
                 let axis = (lp - p).normalize_or_zero();
@@ -61,7 +61,7 @@ impl Tracer<'_> {
             let l = to_light / dist;
             let ndl = nf.dot(l);
             if ndl > 0.0 {
-                let i = light.color * self.light_reaching(at, true, lp, l, dist, ray);
+                let i = light.color * self.light_reaching(at, true, index, lp, l, dist, ray);
                 if i == Vec3::ZERO {
                     continue;
                 }
@@ -71,7 +71,7 @@ impl Tracer<'_> {
                 }
             } else if ndl < 0.0 && kst > 0.0 {
                 self.counters.shadow_behind += 1;
-                let i = light.color * self.light_reaching(at, false, lp, l, dist, ray);
+                let i = light.color * self.light_reaching(at, false, index, lp, l, dist, ray);
                 if i == Vec3::ZERO {
                     continue;
                 }
@@ -83,8 +83,9 @@ impl Tracer<'_> {
         result
     }
 
-    /// The filter of the shadow ray from `at` to the light point `lp` (direction `l`, distance
-    /// `dist` from the hit point) on the viewer's side (`front`) or the far side. On a flat
+    /// The filter of the shadow ray from `at` to the light point `lp` of light number `light`
+    /// (direction `l`, distance `dist` from the hit point) on the viewer's side (`front`) or
+    /// the far side. On a flat
     /// surface the ray starts at the hit point and leaves along the normal; on a smooth
     /// triangle it starts at the point lifted by the shadow-terminator fix
     /// ([`SurfacePoint::shadow_origin`]), aims at `lp` from there, and leaves along the
@@ -94,6 +95,7 @@ impl Tracer<'_> {
         &mut self,
         at: &SurfacePoint,
         front: bool,
+        light: usize,
         lp: Vec3,
         l: Vec3,
         dist: Real,
@@ -101,14 +103,14 @@ impl Tracer<'_> {
     ) -> Vec3 {
         let side = if front { at.ng } else { -at.ng };
         if at.smooth.is_none() {
-            return self.shadow(at.p, side, l, dist, ray);
+            return self.shadow(at.p, side, light, l, dist, ray);
         }
         let q = at.shadow_origin(front);
         let to_light = lp - q;
         let d = to_light.length();
         if !(d > 0.0 && d.is_finite()) {
-            return self.shadow(at.p, side, l, dist, ray);
+            return self.shadow(at.p, side, light, l, dist, ray);
         }
-        self.shadow(q, side, to_light / d, d, ray)
+        self.shadow(q, side, light, to_light / d, d, ray)
     }
 }

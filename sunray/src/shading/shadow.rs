@@ -124,12 +124,21 @@ fn roots(
 }
 
 impl Tracer<'_> {
-    /// The filter a shadow ray from `p` (leaving on the side of `side`) towards a light at
-    /// distance `dist` in direction `l` receives: 1 if unblocked, 0 if an opaque surface is in
-    /// the way, and the product of `kst * colour` of every transparent surface crossed.
-    /// `ray` is the ray that found `p` (its origin scales the offset, its time is the shadow
-    /// ray's).
-    pub(super) fn shadow(&mut self, p: Vec3, side: Vec3, l: Vec3, dist: Real, ray: &Ray) -> Vec3 {
+    /// The filter a shadow ray from `p` (leaving on the side of `side`) towards light number
+    /// `light`, at distance `dist` in direction `l`, receives: 1 if unblocked, 0 if an opaque
+    /// surface is in the way, and the product of `kst * colour` of every transparent surface
+    /// crossed. `ray` is the ray that found `p` (its origin scales the offset, its time is the
+    /// shadow ray's). The light's last opaque occluder is tried before the tree
+    /// ([`crate::accel::Occluders`]).
+    pub(super) fn shadow(
+        &mut self,
+        p: Vec3,
+        side: Vec3,
+        light: usize,
+        l: Vec3,
+        dist: Real,
+        ray: &Ray,
+    ) -> Vec3 {
         self.counters.shadow += 1;
         let origin = offset_from(p, side, ray.origin);
         let t_max = (p + l * dist - origin).dot(l);
@@ -140,30 +149,39 @@ impl Tracer<'_> {
         });
         let scene = self.scene;
         let prims = &scene.prims;
+        if let Some(i) = self.scratch.occluders.get(light) {
+            self.counters.intersection_tests += 1;
+            if prims.intersect(i, &pre, 0.0, t_max).is_some() {
+                return Vec3::ZERO;
+            }
+        }
         if !scene.world.features.transparency {
             let hit = self
                 .accel
                 .any(prims, &pre, t_max, &|_| true, self.scratch, self.counters);
-            return if hit.is_some() { Vec3::ZERO } else { Vec3::ONE };
+            let Some(hit) = hit else { return Vec3::ONE };
+            self.scratch.occluders.set(light, hit.prim);
+            return Vec3::ZERO;
         }
         let walk = Crossings::new(scene, &pre, t_max);
-        let blocked = self
-            .accel
-            .any(
-                prims,
-                &pre,
-                t_max,
-                &|i| walk.meets(i),
-                self.scratch,
-                self.counters,
-            )
-            .is_some();
+        let blocker = self.accel.any(
+            prims,
+            &pre,
+            t_max,
+            &|i| walk.meets(i),
+            self.scratch,
+            self.counters,
+        );
         self.counters.intersection_tests += walk.tests();
-        if blocked {
-            Vec3::ZERO
-        } else {
-            walk.filter()
+        let Some(hit) = blocker else {
+            return walk.filter();
+        };
+        // The walk also ends at glass that leaves too little light; only an opaque surface
+        // is sure to block the next ray it meets.
+        if scene.surface(hit.prim).kst() <= 0.0 {
+            self.scratch.occluders.set(light, hit.prim);
         }
+        Vec3::ZERO
     }
 }
 

@@ -213,6 +213,7 @@ impl PrimitivesBuilder {
             }
             _ if self.out.others.len() < MAX_PER_KIND => {
                 self.out.other_prims.push(prim);
+                self.out.other_bounds.push(p.bounds());
                 self.out.others.push(p);
                 OTHER | (self.out.others.len() - 1) as u32
             }
@@ -247,6 +248,7 @@ impl PrimitivesBuilder {
         out.spheres.shrink_to_fit();
         out.others.shrink_to_fit();
         out.other_prims.shrink_to_fit();
+        out.other_bounds.shrink_to_fit();
         (out, self.dropped)
     }
 }

@@ -62,6 +62,8 @@ pub struct Primitives {
     /// Primitive numbers of `others`.
     other_prims: Vec<u32>,
     others: Vec<Primitive>,
+    /// The bounds of `others` (a clipped quadric's take a while to find), None if unbounded.
+    other_bounds: Vec<Option<Aabb>>,
     /// Corner normals of the smooth triangles (of the mesh or among `others`), by primitive.
     smooth: SmoothTable,
     /// Whether an accelerator's order was adopted ([`Primitives::adopt_order`]).
@@ -234,7 +236,7 @@ impl Primitives {
                 let r = Vec3::splat(s.radius);
                 Some(Aabb::new(s.centre - r, s.centre + r).padded())
             }
-            _ => self.others[k].bounds(),
+            _ => self.other_bounds[k],
         }
     }
 
@@ -259,17 +261,17 @@ impl Primitives {
     /// The primitives with no bounds (quadrics without a bounding clip), in order. Only the
     /// plain primitives can be unbounded, so the mesh and the sphere table are not looked at.
     pub fn unbounded(&self) -> Vec<u32> {
-        self.others
+        self.other_bounds
             .iter()
             .zip(&self.other_prims)
-            .filter(|(p, _)| p.bounds().is_none())
+            .filter(|(b, _)| b.is_none())
             .map(|(_, &i)| i)
             .collect()
     }
 
     /// How many primitives have no bounds.
     pub fn unbounded_count(&self) -> usize {
-        self.others.iter().filter(|p| p.bounds().is_none()).count()
+        self.other_bounds.iter().filter(|b| b.is_none()).count()
     }
 
     /// The geometric unit normal of primitive `i` at world point `p` reached at shutter time
@@ -373,6 +375,7 @@ impl Primitives {
             + self.spheres.capacity() * std::mem::size_of::<StaticSphere>()
             + self.other_prims.capacity() * 4
             + self.others.capacity() * std::mem::size_of::<Primitive>()
+            + self.other_bounds.capacity() * std::mem::size_of::<Option<Aabb>>()
     }
 }
 
