@@ -110,7 +110,7 @@ impl BinaryBvh {
         if slice.len() <= MAX_LEAF {
             return node;
         }
-        let Some((axis, split)) = best_split(slice, &bounds) else {
+        let Some((axis, split, bins)) = best_split(slice, &bounds) else {
             if slice.len() <= u16::MAX as usize && slice.len() <= 16 {
                 return node;
             }
@@ -120,8 +120,7 @@ impl BinaryBvh {
             self.finish_interior(node, items, start, mid, end);
             return node;
         };
-        let range = centre_range(slice, axis);
-        let mid = start + partition(slice, |i| bin_of(i.centre(axis), &range) < split);
+        let mid = start + partition(slice, |i| bins.of(i.centre(axis)) < split);
         let mid = if mid == start || mid == end {
             start + (end - start) / 2
         } else {
@@ -147,33 +146,52 @@ impl BinaryBvh {
     }
 }
 
-fn centre_range(items: &[BuildItem], axis: usize) -> (Real, Real) {
-    items
-        .iter()
-        .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), i| {
-            (lo.min(i.centre(axis)), hi.max(i.centre(axis)))
-        })
-}
-
-#[inline]
-fn bin_of(x: Real, range: &(Real, Real)) -> usize {
-    let (lo, hi) = *range;
-    let f = (x - lo) / (hi - lo) * BINS as Real;
-    (f as usize).min(BINS - 1)
-}
-
-/// The best (axis, bin boundary) by SAH, or None when a leaf is cheaper or centres coincide.
-fn best_split(items: &[BuildItem], bounds: &Aabb) -> Option<(usize, usize)> {
-    let mut best: Option<(Real, usize, usize)> = None;
-    for axis in 0..3 {
-        let range = centre_range(items, axis);
-        if range.1.is_nan() || range.1 <= range.0 {
-            continue;
+/// The range of the items' centres on each axis.
+fn centre_ranges(items: &[BuildItem]) -> [(Real, Real); 3] {
+    let mut r = [(Real::INFINITY, Real::NEG_INFINITY); 3];
+    for i in items {
+        for (axis, (lo, hi)) in r.iter_mut().enumerate() {
+            let c = i.centre(axis);
+            (*lo, *hi) = (lo.min(c), hi.max(c));
         }
+    }
+    r
+}
+
+/// The bins of one axis: `BINS` equal slices of the centres' range.
+#[derive(Clone, Copy)]
+struct Bins {
+    lo: Real,
+    /// Bins per unit length.
+    scale: Real,
+}
+
+impl Bins {
+    /// The bins over `(lo, hi)`, or None when the range is empty or a point.
+    fn over((lo, hi): (Real, Real)) -> Option<Bins> {
+        let scale = BINS as Real / (hi - lo);
+        (hi > lo && scale.is_finite()).then_some(Bins { lo, scale })
+    }
+
+    /// The bin of centre coordinate `x`.
+    #[inline]
+    fn of(&self, x: Real) -> usize {
+        (((x - self.lo) * self.scale) as usize).min(BINS - 1)
+    }
+}
+
+/// The best (axis, bin boundary) by SAH and that axis's bins, or None when a leaf is cheaper
+/// or centres coincide.
+fn best_split(items: &[BuildItem], bounds: &Aabb) -> Option<(usize, usize, Bins)> {
+    let mut best: Option<(Real, usize, usize, Bins)> = None;
+    for (axis, range) in centre_ranges(items).into_iter().enumerate() {
+        let Some(bins) = Bins::over(range) else {
+            continue;
+        };
         let mut boxes = [Aabb::EMPTY; BINS];
         let mut counts = [0usize; BINS];
         for i in items {
-            let b = bin_of(i.centre(axis), &range);
+            let b = bins.of(i.centre(axis));
             boxes[b] = boxes[b].union(i.bounds());
             counts[b] += 1;
         }
@@ -195,19 +213,19 @@ fn best_split(items: &[BuildItem], bounds: &Aabb) -> Option<(usize, usize)> {
                 continue;
             }
             let cost = acc.surface_area() * n as Real + right_area[b] * right_count[b] as Real;
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, b));
+            if best.is_none_or(|(c, ..)| cost < c) {
+                best = Some((cost, axis, b, bins));
             }
         }
     }
-    let (cost, axis, split) = best?;
+    let (cost, axis, split, bins) = best?;
     let area = bounds.surface_area().max(1e-300);
     let split_cost = TRAVERSAL_COST + cost / area;
     let leaf_cost = items.len() as Real;
     if split_cost >= leaf_cost && items.len() <= 16 {
         return None;
     }
-    Some((axis, split))
+    Some((axis, split, bins))
 }
 
 /// Moves the items for which `left` holds to the front; returns how many there are.
