@@ -2,7 +2,7 @@
 //! failure-detection time. Run with `cargo bench -p rem --bench relay`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../tests/daemon/common.rs"]
 mod common;
 
 use std::time::{Duration, Instant};

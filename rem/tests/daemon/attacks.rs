@@ -3,11 +3,9 @@
 //! results before and after.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::time::Duration;
 
-use common::*;
+use crate::common::*;
 use rem::proto::{self, peer_client::PeerClient, peer_item, PeerBatch, PeerItem};
 use rem::{ConnectOptions, Error, RemClient, Secret, SpawnRequest};
 use tonic::Code;

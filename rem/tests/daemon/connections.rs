@@ -1,13 +1,11 @@
 //! Connection caps: a flood of idle connections from one address leaves remd answering others.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::net::SocketAddr;
 use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
 
-use common::*;
+use crate::common::*;
 use tokio::net::{TcpSocket, TcpStream};
 use tokio::task::JoinSet;
 

@@ -1,11 +1,9 @@
 //! Three real remd processes on loopback: membership, load, placement, processes.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::time::Duration;
 
-use common::*;
+use crate::common::*;
 use rem::{EventKind, ProcId, SpawnRequest};
 
 const T: Duration = Duration::from_secs(10);

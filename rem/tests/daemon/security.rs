@@ -1,11 +1,9 @@
 //! Security: secret, allow-list, size limit, malformed requests, health without a secret, TLS.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::time::Duration;
 
-use common::*;
+use crate::common::*;
 use rem::client::ConnectOptions;
 use rem::proto::{
     self, client_frame, rem_client::RemClient as RawClient, ClientFrame, Envelope, EnvelopeBatch,

@@ -1,11 +1,9 @@
 //! Failures: a killed daemon, a hung (SIGSTOPped) daemon, a restart, SIGTERM.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::time::{Duration, Instant};
 
-use common::*;
+use crate::common::*;
 use rem::{EventKind, SpawnRequest};
 
 const T: Duration = Duration::from_secs(10);

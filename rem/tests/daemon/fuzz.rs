@@ -13,18 +13,16 @@
 //! keys, made-up process tokens, forged or stale proofs, the client key on `Peer`).
 //!
 //! `cargo test` sends 20,000 inputs; `REM_FUZZ_INPUTS=1000000` sends a million
-//! (`cargo test --release -p rem --test fuzz -- --nocapture` prints the figures).
+//! (`cargo test --release -p rem --test daemon fuzz:: -- --nocapture` prints the figures).
 //! `REM_FUZZ_SEED` changes the seed; `REM_FUZZ_ONLY=I,J,...` replays single inputs one at a
 //! time (to minimise one that harmed a daemon: its index is printed).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
-
-mod common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use common::*;
+use crate::common::*;
 use hmac::{Mac, SimpleHmac};
 use prost::bytes::{Buf, BufMut};
 use prost::Message;

@@ -2,11 +2,9 @@
 //! (with their checkpoints) some time after the job ended.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::time::Duration;
 
-use common::*;
+use crate::common::*;
 use rem::embedded::EmbeddedRemd;
 use rem::{ConnectOptions, JobRecord, RemClient, Secret};
 use tonic::Code;

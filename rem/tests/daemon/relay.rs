@@ -2,11 +2,9 @@
 //! survive the writing host.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
-mod common;
-
 use std::time::{Duration, Instant};
 
-use common::*;
+use crate::common::*;
 use rem::{EventKind, Incoming, SpawnRequest};
 
 const T: Duration = Duration::from_secs(10);
