@@ -71,6 +71,19 @@ impl Camera {
         Some((x + self.width as Real * 0.5, self.height as Real * 0.5 - y))
     }
 
+    /// How far in front of the eye `p` is, along the view direction.
+    pub fn depth(&self, p: Vec3) -> Real {
+        (p - self.position).dot(self.forward)
+    }
+
+    /// An upper bound on how far an eye ray through the image (or up to two pixels beyond
+    /// its edges) strays from the view direction per unit of depth.
+    pub fn max_slope(&self) -> Real {
+        let half_w = self.width as Real * 0.5 + 2.0;
+        let half_h = self.height as Real * 0.5 + 2.0;
+        (half_w + half_h) * self.pixel
+    }
+
     /// True when every eye ray starts at the eye point (no lens), so that the ray through
     /// (px, py) is the eye point plus a multiple of [`Camera::direction`].
     pub fn is_pinhole(&self) -> bool {

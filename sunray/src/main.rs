@@ -12,7 +12,7 @@ fn main() -> ExitCode {
     match sunray::cli::run(args) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("sunray: error: {e:#}");
+            eprintln!("sunray: error: {}", sunray::cli::error_line(&e));
             ExitCode::FAILURE
         }
     }

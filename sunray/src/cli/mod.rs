@@ -90,3 +90,42 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Controller(args) => farm::controller(args),
     }
 }
+
+/// What `sunray` prints for an error: its message and its causes', joined by ": ", leaving
+/// out a cause whose message is already in the line (several errors put their cause in their
+/// own message and also report it as their source; printed as a plain chain, a bad scene's
+/// diagnostics came out three times).
+pub fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(text.trim()) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_line;
+    use crate::scene::load::SceneLoadError;
+    use yari::load::LoadError;
+
+    #[test]
+    fn a_cause_already_in_the_message_is_printed_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::from(SceneLoadError::Scene(LoadError::Io {
+            path: "a.yari".into(),
+            source: io,
+        }));
+        assert_eq!(e.chain().count(), 3);
+        assert_eq!(error_line(&e), "cannot read a.yari: no such file");
+        let e = anyhow::Error::new(std::io::Error::other("disk full")).context("writing out.png");
+        assert_eq!(error_line(&e), "writing out.png: disk full");
+    }
+}

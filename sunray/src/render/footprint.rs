@@ -3,10 +3,11 @@
 //! without a ray being traced: on small SPD scenes most pixels are, and their eye rays were
 //! a third of the render.
 //!
-//! The rectangles are conservative: each is the bounding rectangle of a box's eight projected
-//! corners (a box wholly in front of the eye projects inside the hull of its corners), grown
-//! by [`MARGIN`] pixels, far more than the rounding of a ray's set-up or slab test. A box not
-//! wholly in front of the eye covers the whole image. So a pixel left out is one whose every
+//! The rectangles are conservative: each is the bounding rectangle of the projected corners of
+//! the part of a box in front of a near depth no ray through the image can meet it before (a
+//! convex solid in front of the eye projects inside the hull of its corners), grown by
+//! [`MARGIN`] pixels, far more than the rounding of a ray's set-up or slab test. A box holding
+//! the eye covers the whole image. So a pixel left out is one whose every
 //! eye ray misses every outer box: the ray the tracer would have traced visits the root, hits
 //! nothing and returns the background, which is exactly what the pixel gets, with the same
 //! counts.
@@ -73,7 +74,11 @@ impl Footprint {
     }
 }
 
-/// The grown screen rectangle of `b`, or the whole plane when a corner is not in front.
+/// The grown screen rectangle of `b`: the bounding rectangle of the projected corners of the
+/// part of `b` at least `near` in front of the eye. `near` is half the depth below which no
+/// ray through the image can meet the box (a point it meets that close would be nearer the
+/// eye than the box is), so a box reaching behind the eye (a floor under the camera) still
+/// leaves out the sky above it. The whole plane when the eye is in the box.
 fn rectangle(camera: &Camera, b: &Aabb) -> [Real; 4] {
     const EVERYWHERE: [Real; 4] = [
         Real::NEG_INFINITY,
@@ -81,23 +86,50 @@ fn rectangle(camera: &Camera, b: &Aabb) -> [Real; 4] {
         Real::NEG_INFINITY,
         Real::INFINITY,
     ];
+    let eye = camera.position;
+    let distance = (b.min - eye).max(eye - b.max).max(Vec3::ZERO).length();
+    let near = distance / (2.0 * (1.0 + camera.max_slope()));
+    if !(near > 0.0 && near.is_finite()) {
+        return EVERYWHERE;
+    }
+    let corner = |k: usize| {
+        Vec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    };
+    // The clipped box's corners: the box's own in front of `near`, and where its edges
+    // (corners differing in one coordinate) cross the depth `near`.
+    let mut points: Vec<Vec3> = (0..8)
+        .map(corner)
+        .filter(|&c| camera.depth(c) >= near)
+        .collect();
+    for k in 0..8 {
+        for bit in [1, 2, 4] {
+            if k & bit != 0 {
+                continue;
+            }
+            let (a, c) = (corner(k), corner(k | bit));
+            let (da, dc) = (camera.depth(a), camera.depth(c));
+            if (da < near) != (dc < near) {
+                points.push(a + (c - a) * ((near - da) / (dc - da)));
+            }
+        }
+    }
     let mut r = [
         Real::INFINITY,
         Real::NEG_INFINITY,
         Real::INFINITY,
         Real::NEG_INFINITY,
     ];
-    for k in 0..8 {
-        let corner = Vec3::new(
-            if k & 1 == 0 { b.min.x } else { b.max.x },
-            if k & 2 == 0 { b.min.y } else { b.max.y },
-            if k & 4 == 0 { b.min.z } else { b.max.z },
-        );
-        let Some((x, y)) = camera.project(corner) else {
+    for p in points {
+        let Some((x, y)) = camera.project(p) else {
             return EVERYWHERE;
         };
         r = [r[0].min(x), r[1].max(x), r[2].min(y), r[3].max(y)];
     }
+    // No point in front: the box is behind the eye, and the rectangle stays empty.
     [r[0] - MARGIN, r[1] + MARGIN, r[2] - MARGIN, r[3] + MARGIN]
 }
 
@@ -146,11 +178,36 @@ mod tests {
         (prims, accel)
     }
 
-    /// Every ray through every pixel corner and centre left out of the footprint misses
-    /// everything, visiting the root only.
-    #[test]
-    fn pixels_left_out_see_nothing() {
-        let (prims, accel) = bvh(spheres(
+    /// Checks that every ray through every pixel corner and centre left out of the footprint
+    /// misses everything, visiting the root only; returns the pixels left out.
+    fn left_out_see_nothing(prims: &Primitives, accel: &Accel, (w, h): (u32, u32)) -> u32 {
+        let cam = camera(w, h);
+        let fp = Footprint::new(&cam, accel).unwrap();
+        assert_eq!(fp.voxels_on_miss, 1);
+        let mut scratch = Scratch::new(prims.len(), false);
+        let mut outside = 0;
+        for y in 0..h {
+            let row = fp.row(y, w);
+            for x in 0..w {
+                if row.iter().any(|r| r.contains(&x)) {
+                    continue;
+                }
+                outside += 1;
+                for (dx, dy) in [(0.0, 0.0), (0.5, 0.5), (1.0, 1.0), (0.0, 1.0), (1.0, 0.0)] {
+                    let ray = cam.ray(x as Real + dx, y as Real + dy, 0.0, None);
+                    let mut c = Counters::default();
+                    let pre = RayPre::new(ray);
+                    let hit = accel.closest(prims, &pre, Real::INFINITY, &mut scratch, &mut c);
+                    assert_eq!(hit, None, "pixel {x},{y}");
+                    assert_eq!(c.voxels, 1, "pixel {x},{y}");
+                }
+            }
+        }
+        outside
+    }
+
+    fn nine_spheres() -> Vec<Primitive> {
+        spheres(
             &[
                 (-1.0, -0.5, 0.0),
                 (1.2, 0.4, -1.0),
@@ -163,40 +220,54 @@ mod tests {
                 (1.4, 1.4, 0.2),
             ],
             0.35,
-        ));
-        let (w, h) = (48, 40);
-        let cam = camera(w, h);
-        let fp = Footprint::new(&cam, &accel).unwrap();
-        assert_eq!(fp.voxels_on_miss, 1);
-        let mut scratch = Scratch::new(prims.len(), false);
-        let (mut inside, mut outside) = (0, 0);
-        for y in 0..h {
-            let row = fp.row(y, w);
-            for x in 0..w {
-                if row.iter().any(|r| r.contains(&x)) {
-                    inside += 1;
-                    continue;
-                }
-                outside += 1;
-                for (dx, dy) in [(0.0, 0.0), (0.5, 0.5), (1.0, 1.0), (0.0, 1.0), (1.0, 0.0)] {
-                    let ray = cam.ray(x as Real + dx, y as Real + dy, 0.0, None);
-                    let mut c = Counters::default();
-                    let hit = accel.closest(
-                        &prims,
-                        &RayPre::new(ray),
-                        Real::INFINITY,
-                        &mut scratch,
-                        &mut c,
-                    );
-                    assert_eq!(hit, None, "pixel {x},{y}");
-                    assert_eq!(c.voxels, 1, "pixel {x},{y}");
-                }
-            }
+        )
+    }
+
+    #[test]
+    fn pixels_left_out_see_nothing() {
+        let (prims, accel) = bvh(nine_spheres());
+        let outside = left_out_see_nothing(&prims, &accel, (48, 40));
+        assert!(outside > 48 * 40 / 4, "{outside} left out");
+    }
+
+    /// A floor under the eye reaching far behind it (its box holds points beside and behind
+    /// the eye): the sky above the floor's horizon and the spheres is still left out.
+    #[test]
+    fn a_floor_behind_the_eye_leaves_out_the_sky() {
+        let mut list = nine_spheres();
+        let (y, far) = (-2.0, 50.0);
+        let floor = [
+            Vec3::new(-far, y, -far),
+            Vec3::new(far, y, -far),
+            Vec3::new(far, y, far),
+            Vec3::new(-far, y, far),
+        ];
+        for v in [
+            [floor[0], floor[1], floor[2]],
+            [floor[0], floor[2], floor[3]],
+        ] {
+            list.push(Primitive {
+                kind: PrimitiveKind::Triangle {
+                    v,
+                    normal: Vec3::Y,
+                    solid: false,
+                },
+                object: 9,
+                surface: 0,
+                motion: Vec3::ZERO,
+            });
         }
-        assert!(
-            inside > 0 && outside > w * h / 4,
-            "{inside} in, {outside} out"
+        let (prims, accel) = bvh(list);
+        let (w, h) = (48, 40);
+        let outside = left_out_see_nothing(&prims, &accel, (w, h));
+        assert!(outside > w * 4, "{outside} left out");
+        // The floor's own box, seen alone, covers the rows below its horizon only.
+        let cam = camera(w, h);
+        let r = rectangle(
+            &cam,
+            &Aabb::new(Vec3::new(-far, y, -far), Vec3::new(far, y, far)),
         );
+        assert!(r[2] > 0.0 && r[2] < h as Real && r[3] > h as Real, "{r:?}");
     }
 
     #[test]
