@@ -13,10 +13,8 @@ use super::plot::{loglog, Labels, PlotError, Series};
 use crate::accel::{Accel, AccelOptions, Scratch};
 use crate::camera::Camera;
 use crate::geometry::{Real, Vec3};
-use crate::render::RenderOptions;
-use crate::sampler::{pixel_offset, SampleStream};
+use crate::render::{trace_sample, RenderOptions};
 use crate::scene::Scene;
-use crate::shading::hall::RayKind;
 use crate::shading::Tracer;
 use crate::stats::Counters;
 use std::path::Path;
@@ -152,23 +150,8 @@ pub fn render_streams(
                                 let n = opts.samples;
                                 let mut sum = Vec3::ZERO;
                                 for k in 0..n {
-                                    let mut rng =
-                                        SampleStream::stratified(x, y, first_stream + k, k, n);
-                                    let (dx, dy) = pixel_offset(n, k, &mut rng);
-                                    let ray = camera.ray(
-                                        x as Real + dx,
-                                        y as Real + dy,
-                                        0.0,
-                                        Some(&mut rng),
-                                    );
-                                    sum += tracer.trace(
-                                        ray,
-                                        RayKind::Eye,
-                                        1,
-                                        1.0,
-                                        crate::shading::Media::AIR,
-                                        &mut rng,
-                                    );
+                                    let stream = first_stream + k;
+                                    sum += trace_sample(&mut tracer, &camera, (x, y), stream, k, n);
                                 }
                                 sum / n as Real
                             })

@@ -90,14 +90,21 @@ impl Primitive {
     /// Whether the primitive may touch box `b` (conservative: true when unsure). Exact for
     /// static triangles and spheres, by bounds for the rest.
     pub fn overlaps_box(&self, b: &Aabb) -> bool {
+        self.overlaps_box_with(b, || self.bounds())
+    }
+
+    /// [`Primitive::overlaps_box`], asking `bounds` for the primitive's bounds when it needs
+    /// them (a caller that keeps them saves finding a quadric's again).
+    pub fn overlaps_box_with(&self, b: &Aabb, bounds: impl FnOnce() -> Option<Aabb>) -> bool {
         let b = b.padded();
+        let by_bounds = |bounds: Option<Aabb>| bounds.is_none_or(|pb| pb.overlaps(&b));
         if self.motion != Vec3::ZERO {
-            return self.bounds().is_none_or(|pb| pb.overlaps(&b));
+            return by_bounds(bounds());
         }
         match &self.kind {
             PrimitiveKind::Triangle { v, .. } => triangle_overlaps(v, &b),
             PrimitiveKind::Sphere { centre, radius } => sphere_overlaps(*centre, *radius, &b),
-            _ => self.bounds().is_none_or(|pb| pb.overlaps(&b)),
+            _ => by_bounds(bounds()),
         }
     }
 

@@ -88,7 +88,6 @@ pub fn render_line(
     let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
     let mut counters = Counters::default();
     let n = opts.samples.max(1);
-    let motion = scene.world.features.motion_blur;
     let mut pixels = Vec::with_capacity(opts.width as usize);
     // A line's counts must not depend on the lines its thread rendered before.
     scratch.occluders.clear();
@@ -117,18 +116,7 @@ pub fn render_line(
                 sum += scene.world.background;
                 continue;
             }
-            let mut rng = SampleStream::stratified(x, y, s, s, n);
-            let (dx, dy) = pixel_offset(n, s, &mut rng);
-            let time = if motion { rng.next_real() } else { 0.0 };
-            let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));
-            sum += tracer.trace(
-                ray,
-                RayKind::Eye,
-                1,
-                1.0,
-                crate::shading::Media::AIR,
-                &mut rng,
-            );
+            sum += trace_sample(&mut tracer, &camera, (x, y), s, s, n);
         }
         // One sample needs no division (x / 1 is x; skipping it saves a dependent divide
         // per pixel).
@@ -140,6 +128,30 @@ pub fn render_line(
         pixels,
         counters,
     }
+}
+
+/// The colour seen by sample `index` of `count` of pixel `(x, y)`, its random numbers keyed
+/// by `stream` ([`SampleStream::stratified`]; the render uses `stream = index`): the eye ray
+/// through the sample's point of the pixel, at its shutter time if the scene moves, from its
+/// point of the lens if the camera has one, traced.
+pub fn trace_sample(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    stream: u32,
+    index: u32,
+    count: u32,
+) -> glam::DVec3 {
+    let mut rng = SampleStream::stratified(x, y, stream, index, count);
+    let (dx, dy) = pixel_offset(count, index, &mut rng);
+    let time = if tracer.scene.world.features.motion_blur {
+        rng.next_real()
+    } else {
+        0.0
+    };
+    let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));
+    let air = crate::shading::Media::AIR;
+    tracer.trace(ray, RayKind::Eye, 1, 1.0, air, &mut rng)
 }
 
 #[cfg(test)]
@@ -193,7 +205,6 @@ end
         let mut counters = Counters::default();
         let mut scratch = Scratch::new(scene.prims.len(), false);
         let n = opts.samples;
-        let motion = scene.world.features.motion_blur;
         let mut tracer = Tracer {
             scene,
             accel,
@@ -205,12 +216,7 @@ end
             .map(|x| {
                 let mut sum = glam::DVec3::ZERO;
                 for s in 0..n {
-                    let mut rng = SampleStream::stratified(x, y, s, s, n);
-                    let (dx, dy) = pixel_offset(n, s, &mut rng);
-                    let time = if motion { rng.next_real() } else { 0.0 };
-                    let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));
-                    let media = crate::shading::Media::AIR;
-                    sum += tracer.trace(ray, RayKind::Eye, 1, 1.0, media, &mut rng);
+                    sum += trace_sample(&mut tracer, &camera, (x, y), s, s, n);
                 }
                 let c = if n == 1 { sum } else { sum / n as Real };
                 [c.x as f32, c.y as f32, c.z as f32]

@@ -254,7 +254,7 @@ impl Primitives {
                 let s = &self.spheres[k];
                 super::primitive::sphere_overlaps(s.centre, s.radius, &b.padded())
             }
-            _ => self.others[k].overlaps_box(b),
+            _ => self.others[k].overlaps_box_with(b, || self.other_bounds[k]),
         }
     }
 

@@ -241,25 +241,20 @@ fn the_last_occluder_never_changes_a_shadow() {
                 (lights[index] - p).length(),
             );
             let ray = Ray::new(p + Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
-            let mut fresh = Scratch::new(scene.prims.len(), mailbox);
-            let mut fresh_c = Counters::default();
-            let want = Tracer {
-                scene: &scene,
-                accel: &accel,
-                opts: TraceOptions::default(),
-                scratch: &mut fresh,
-                counters: &mut fresh_c,
-            }
-            .shadow(p, Vec3::Z, index, l, dist, &ray);
+            let shadow = |scratch: &mut Scratch, counters: &mut Counters| {
+                Tracer {
+                    scene: &scene,
+                    accel: &accel,
+                    opts: TraceOptions::default(),
+                    scratch,
+                    counters,
+                }
+                .shadow(p, Vec3::Z, index, l, dist, &ray)
+            };
+            let fresh = &mut Scratch::new(scene.prims.len(), mailbox);
+            let want = shadow(fresh, &mut Counters::default());
             let before = c.intersection_tests;
-            let got = Tracer {
-                scene: &scene,
-                accel: &accel,
-                opts: TraceOptions::default(),
-                scratch: &mut kept,
-                counters: &mut c,
-            }
-            .shadow(p, Vec3::Z, index, l, dist, &ray);
+            let got = shadow(&mut kept, &mut c);
             assert_eq!(got, want, "{kind:?}: from {p} to light {index}");
             if c.intersection_tests == before + 1 && got == Vec3::ZERO {
                 answered_by_cache += 1;
