@@ -9,10 +9,14 @@
 //! a systemd slice with `CPUQuota=`), the host-wide figures say nothing about this daemon's
 //! share, so the group's own are used (see [`crate::cgroup`]): `capacity` is the limit in
 //! cores (fractional), `cores` its ceiling, `cpu_busy` the group's CPU use over the last
-//! sample divided by the capacity, and
+//! [`GROUP_WINDOW`] divided by the capacity, and
 //! `load_per_core = (cores used by the group + rem_processes) / capacity`.
+//! The group's use is averaged over that window, as the load average is, so that a second's
+//! burst (a controller reading its scene) or a second's starvation (the host's cores taken by
+//! something outside the group) does not reorder the hosts.
 //! `load_avg_1m` stays the host's figure, for information.
 
+use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -33,7 +37,7 @@ pub struct Sample {
     pub mem_total_bytes: u64,
     /// The cgroup's CPU limit in cores, when it is below the host's cores.
     pub capacity: Option<f64>,
-    /// Cores the cgroup used over the last sample (with `capacity`).
+    /// Cores the cgroup used over the last [`GROUP_WINDOW`] (with `capacity`).
     pub group_busy_cores: f64,
 }
 
@@ -102,11 +106,39 @@ pub fn to_load(s: &Sample, rem_processes: u32) -> proto::Load {
     }
 }
 
+/// How far back a control group's CPU use is averaged.
+pub const GROUP_WINDOW: Duration = Duration::from_secs(10);
+
+/// The control group's usage samples of the last [`GROUP_WINDOW`], oldest first.
+#[derive(Debug, Default)]
+struct UsageWindow {
+    samples: VecDeque<UsageSample>,
+}
+
+impl UsageWindow {
+    /// Adds `now` and returns the cores used since the oldest sample kept (0 with only one).
+    /// The oldest kept is the newest one at least [`GROUP_WINDOW`] old, so the average spans
+    /// the whole window once the daemon has run that long.
+    fn push(&mut self, now: UsageSample) -> f64 {
+        while self.samples.len() >= 2
+            && now.at.saturating_duration_since(self.samples[1].at) >= GROUP_WINDOW
+        {
+            self.samples.pop_front();
+        }
+        let busy = self
+            .samples
+            .front()
+            .map_or(0.0, |oldest| CpuGroup::busy_cores(oldest, &now));
+        self.samples.push_back(now);
+        busy
+    }
+}
+
 /// What the sampling thread keeps between samples.
 struct Meter {
     sys: System,
     group: Option<CpuGroup>,
-    last_usage: Option<UsageSample>,
+    usage: UsageWindow,
 }
 
 impl Meter {
@@ -114,12 +146,11 @@ impl Meter {
         let mut sys = System::new();
         sys.refresh_cpu_usage();
         let group = CpuGroup::detect(host_cores(&sys)).filter(|g| g.capacity.is_some());
-        let last_usage = group.as_ref().and_then(CpuGroup::usage);
-        Meter {
-            sys,
-            group,
-            last_usage,
+        let mut usage = UsageWindow::default();
+        if let Some(first) = group.as_ref().and_then(CpuGroup::usage) {
+            usage.push(first);
         }
+        Meter { sys, group, usage }
     }
 
     fn measure(&mut self) -> Sample {
@@ -127,14 +158,8 @@ impl Meter {
         sys.refresh_cpu_usage();
         sys.refresh_memory_specifics(MemoryRefreshKind::nothing().with_ram());
         let mut group_busy_cores = 0.0;
-        if let Some(group) = &self.group {
-            let now = group.usage();
-            if let (Some(before), Some(after)) = (&self.last_usage, &now) {
-                group_busy_cores = CpuGroup::busy_cores(before, after);
-            }
-            if now.is_some() {
-                self.last_usage = now;
-            }
+        if let Some(now) = self.group.as_ref().and_then(CpuGroup::usage) {
+            group_busy_cores = self.usage.push(now);
         }
         Sample {
             cores: host_cores(sys),
@@ -195,6 +220,30 @@ mod tests {
             ..Sample::default()
         };
         assert_eq!(to_load(&big, 0).cores, 3);
+    }
+
+    #[test]
+    fn a_groups_use_is_averaged_over_the_window() {
+        let t0 = std::time::Instant::now();
+        let at = |s: u64, cpu_s: f64| UsageSample {
+            at: t0 + Duration::from_secs(s),
+            cpu_ns: (cpu_s * 1e9) as u64,
+        };
+        let mut w = UsageWindow::default();
+        assert_eq!(w.push(at(0, 0.0)), 0.0);
+        // Idle for 9 s, then a 1 s burst of a whole core: a tenth of a core over the window.
+        let mut busy = 0.0;
+        for s in 1..=9 {
+            busy = w.push(at(s, 0.0));
+        }
+        assert_eq!(busy, 0.0);
+        assert!((w.push(at(10, 1.0)) - 0.1).abs() < 1e-9);
+        // Half a core from then on: after a whole window the average is exactly that.
+        for s in 11..=20 {
+            busy = w.push(at(s, 1.0 + 0.5 * (s - 10) as f64));
+        }
+        assert!((busy - 0.5).abs() < 1e-9, "{busy}");
+        assert!(w.samples.len() <= 11, "{} samples kept", w.samples.len());
     }
 
     #[test]
