@@ -44,7 +44,8 @@ impl Bvh {
     /// Builds over the primitives of `prims` that have bounds, and has `prims` adopt the
     /// leaves' order ([`Primitives::adopt_order`]; the first accelerator built does).
     pub fn build(prims: &mut Primitives) -> Bvh {
-        let bin = BinaryBvh::build(super::bounded(prims));
+        let costed = super::bounded(prims).map(|(i, b)| (i, b, prims.test_cost(i)));
+        let bin = BinaryBvh::build(costed);
         prims.adopt_order(&bin.items);
         let nodes = wide::collapse(&bin);
         let items = LeafItems::new(prims, &bin.items);

@@ -225,7 +225,7 @@ mod tests {
     #[test]
     fn collapse_keeps_every_item_once() {
         for n in [1, 2, 3, 5, 17, 200] {
-            let bin = BinaryBvh::build(unit_boxes(n).into_iter());
+            let bin = BinaryBvh::build(unit_boxes(n).into_iter().map(|(i, b)| (i, b, 1.0)));
             let nodes = collapse(&bin);
             check(&nodes, &bin, n);
             if n > 16 {
