@@ -13,17 +13,36 @@ macro_rules! kernels {
             /// The vector type.
             pub type V = $V;
 
-            /// Woop's shear of a direction `d`, and its inverse for the slab test: the axis
-            /// along which `d` is largest goes last (`k = [kx, ky, kz]`, swapped to keep the
-            /// winding when `d[kz] < 0`), `s = [d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]]`, and
-            /// `1 / d` per component with an infinite quotient replaced by a huge finite one
-            /// of the same sign (so the slab test never computes `0 * inf`). The six
-            /// quotients are five (`1 / d[kz]` is one of `1 / d`), four of them in one array
-            /// the compiler divides with one vector instruction. Every eye and secondary ray
-            /// pays this, so on a scene that is mostly background it is a fair part of the
-            /// ray's cost.
+            /// Woop's shear of a direction `d`, and its inverse for the slab test
+            /// ([`shear`] and [`inverse`]: the renderer computes the shear only for rays that
+            /// meet a triangle).
             #[inline]
             pub fn shear_and_inverse(d: V) -> ([usize; 3], [R; 3], V) {
+                let (k, s) = shear(d);
+                (k, s, inverse(d))
+            }
+
+            /// `1 / d` per component with an infinite quotient replaced by a huge finite one
+            /// of the same sign (so the slab test never computes `0 * inf`), in one vector
+            /// division. Every ray pays this.
+            #[inline]
+            pub fn inverse(d: V) -> V {
+                let finite = |i: R| {
+                    if i.is_finite() {
+                        i
+                    } else {
+                        ($huge as R).copysign(i)
+                    }
+                };
+                let q = V::ONE / d;
+                V::new(finite(q.x), finite(q.y), finite(q.z))
+            }
+
+            /// Woop's shear of a direction `d`: the axis along which `d` is largest goes last
+            /// (`k = [kx, ky, kz]`, swapped to keep the winding when `d[kz] < 0`), and
+            /// `s = [d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]]`.
+            #[inline]
+            pub fn shear(d: V) -> ([usize; 3], [R; 3]) {
                 let a = d.abs();
                 let kz = if a.x >= a.y && a.x >= a.z {
                     0
@@ -37,21 +56,8 @@ macro_rules! kernels {
                 if d[kz] < 0.0 {
                     std::mem::swap(&mut kx, &mut ky);
                 }
-                let num: [R; 4] = [1.0, 1.0, 1.0, d[kx]];
-                let den: [R; 4] = [d.x, d.y, d.z, d[kz]];
-                let q: [R; 4] = std::array::from_fn(|i| num[i] / den[i]);
-                let finite = |i: R| {
-                    if i.is_finite() {
-                        i
-                    } else {
-                        ($huge as R).copysign(i)
-                    }
-                };
-                (
-                    [kx, ky, kz],
-                    [q[3], d[ky] / d[kz], q[kz]],
-                    V::new(finite(q[0]), finite(q[1]), finite(q[2])),
-                )
+                let q = V::new(d[kx], d[ky], 1.0) / d[kz];
+                ([kx, ky, kz], [q.x, q.y, q.z])
             }
 
             /// Watertight ray / triangle (Woop, Benthin and Wald, JCGT 2013): the nearest `t`

@@ -112,9 +112,8 @@ impl Primitive {
     #[inline]
     pub fn intersect(&self, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
         if self.motion != Vec3::ZERO {
-            let mut moved = r.ray;
-            moved.origin -= self.motion * r.ray.time;
-            return self.intersect_static(&RayPre { ray: moved, ..*r }, t_min, t_max);
+            let moved = r.from_origin(r.ray.origin - self.motion * r.ray.time);
+            return self.intersect_static(&moved, t_min, t_max);
         }
         self.intersect_static(r, t_min, t_max)
     }

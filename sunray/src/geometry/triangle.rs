@@ -10,9 +10,8 @@ use super::{RayPre, Real, Vec3};
 /// ([`super::kernels::k64::triangle`]).
 #[inline]
 pub fn intersect_triangle(r: &RayPre, v: &[Vec3; 3], t_min: Real, t_max: Real) -> Option<Real> {
-    let k = [r.kx, r.ky, r.kz];
-    let s = [r.sx, r.sy, r.sz];
-    super::kernels::k64::triangle(r.ray.origin, k, s, v, t_min, t_max)
+    let shear = r.shear();
+    super::kernels::k64::triangle(r.ray.origin, shear.k, shear.s, v, t_min, t_max)
 }
 
 #[cfg(test)]
