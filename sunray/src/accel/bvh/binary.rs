@@ -115,7 +115,7 @@ impl BinaryBvh {
     fn build_node(&mut self, items: &mut [BuildItem], start: usize, end: usize) -> usize {
         let node = self.nodes.len();
         let slice = &mut items[start..end];
-        let bounds = slice.iter().fold(Aabb::EMPTY, |b, i| b.union(i.bounds()));
+        let (bounds, centres) = summary(slice);
         self.nodes.push(Node {
             bounds,
             index: start as u32,
@@ -130,7 +130,7 @@ impl BinaryBvh {
                 None => node,
             };
         }
-        let Some((axis, split, bins)) = best_split(slice) else {
+        let Some((axis, split, bins)) = best_split(slice, centres) else {
             // All centres equal: split in the middle of the list.
             let mid = start + slice.len() / 2;
             self.finish_interior(node, items, start, mid, end);
@@ -162,16 +162,51 @@ impl BinaryBvh {
     }
 }
 
-/// The range of the items' centres on each axis.
-fn centre_ranges(items: &[BuildItem]) -> [(Real, Real); 3] {
-    let mut r = [(Real::INFINITY, Real::NEG_INFINITY); 3];
-    for i in items {
-        for (axis, (lo, hi)) in r.iter_mut().enumerate() {
-            let c = i.centre(axis);
-            (*lo, *hi) = (lo.min(c), hi.max(c));
+/// A box in `f32`, as the items' are: unions of them are exact, so a box made here and
+/// widened to `f64` is the one `f64` unions of the items' boxes give.
+#[derive(Clone, Copy)]
+struct Box32 {
+    lo: [f32; 3],
+    hi: [f32; 3],
+}
+
+impl Box32 {
+    const EMPTY: Box32 = Box32 {
+        lo: [f32::INFINITY; 3],
+        hi: [f32::NEG_INFINITY; 3],
+    };
+
+    #[inline(always)]
+    fn grow(&mut self, lo: &[f32; 3], hi: &[f32; 3]) {
+        for a in 0..3 {
+            self.lo[a] = if lo[a] < self.lo[a] {
+                lo[a]
+            } else {
+                self.lo[a]
+            };
+            self.hi[a] = if hi[a] > self.hi[a] {
+                hi[a]
+            } else {
+                self.hi[a]
+            };
         }
     }
-    r
+
+    fn aabb(&self) -> Aabb {
+        let v = |a: [f32; 3]| Vec3::new(a[0].into(), a[1].into(), a[2].into());
+        Aabb::new(v(self.lo), v(self.hi))
+    }
+}
+
+/// The box around the items and the range of their centres on each axis, in one pass.
+fn summary(items: &[BuildItem]) -> (Aabb, [(Real, Real); 3]) {
+    let (mut b, mut c) = (Box32::EMPTY, Box32::EMPTY);
+    for i in items {
+        b.grow(&i.lo, &i.hi);
+        c.grow(&i.centre, &i.centre);
+    }
+    let range = |a: usize| (Real::from(c.lo[a]), Real::from(c.hi[a]));
+    (b.aabb(), [range(0), range(1), range(2)])
 }
 
 /// The bins of one axis: `BINS` equal slices of the centres' range.
@@ -197,38 +232,46 @@ impl Bins {
 }
 
 /// The best (axis, bin boundary) by SAH and that axis's bins, or None when the centres
-/// coincide.
-fn best_split(items: &[BuildItem]) -> Option<(usize, usize, Bins)> {
+/// coincide. `centres` are the items' centre ranges. The items are binned on the three axes
+/// in one pass.
+fn best_split(items: &[BuildItem], centres: [(Real, Real); 3]) -> Option<(usize, usize, Bins)> {
+    let bins = centres.map(Bins::over);
+    let mut boxes = [[Box32::EMPTY; BINS]; 3];
+    let mut counts = [[0usize; BINS]; 3];
+    for i in items {
+        for axis in 0..3 {
+            if let Some(bins) = &bins[axis] {
+                let b = bins.of(i.centre(axis));
+                boxes[axis][b].grow(&i.lo, &i.hi);
+                counts[axis][b] += 1;
+            }
+        }
+    }
     let mut best: Option<(Real, usize, usize, Bins)> = None;
-    for (axis, range) in centre_ranges(items).into_iter().enumerate() {
-        let Some(bins) = Bins::over(range) else {
+    for axis in 0..3 {
+        let Some(bins) = bins[axis] else {
             continue;
         };
-        let mut boxes = [Aabb::EMPTY; BINS];
-        let mut counts = [0usize; BINS];
-        for i in items {
-            let b = bins.of(i.centre(axis));
-            boxes[b] = boxes[b].union(i.bounds());
-            counts[b] += 1;
-        }
+        let (boxes, counts) = (&boxes[axis], &counts[axis]);
         // Sweep from the right to get suffix areas, then from the left.
         let mut right_area = [0.0; BINS];
         let mut right_count = [0usize; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let (mut acc, mut n) = (Box32::EMPTY, 0);
         for b in (1..BINS).rev() {
-            acc = acc.union(boxes[b]);
+            acc.grow(&boxes[b].lo, &boxes[b].hi);
             n += counts[b];
-            right_area[b] = acc.surface_area();
+            right_area[b] = acc.aabb().surface_area();
             right_count[b] = n;
         }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0);
+        let (mut acc, mut n) = (Box32::EMPTY, 0);
         for b in 1..BINS {
-            acc = acc.union(boxes[b - 1]);
+            acc.grow(&boxes[b - 1].lo, &boxes[b - 1].hi);
             n += counts[b - 1];
             if n == 0 || right_count[b] == 0 {
                 continue;
             }
-            let cost = acc.surface_area() * n as Real + right_area[b] * right_count[b] as Real;
+            let cost =
+                acc.aabb().surface_area() * n as Real + right_area[b] * right_count[b] as Real;
             if best.is_none_or(|(c, ..)| cost < c) {
                 best = Some((cost, axis, b, bins));
             }
@@ -376,12 +419,30 @@ mod tests {
     }
 
     #[test]
+    fn the_f32_summary_is_the_f64_union() {
+        let mut seed = 5u64;
+        let mut rnd = || (crate::sampler::splitmix64(&mut seed) >> 11) as f64 / 9e15 - 0.5;
+        let items: Vec<BuildItem> = (0..200)
+            .map(|k| {
+                let (x, y, z) = (rnd() * 1e3, rnd(), rnd() * 1e-3);
+                item(k, [x, y, z], [x + rnd().abs(), y + 0.1, z + 1e-4], 1.0)
+            })
+            .collect();
+        let (bounds, centres) = summary(&items);
+        let want = items.iter().fold(Aabb::EMPTY, |b, i| b.union(i.bounds()));
+        assert_eq!(bounds, want);
+        for (axis, (lo, hi)) in centres.into_iter().enumerate() {
+            let c = items.iter().map(|i| i.centre(axis));
+            assert_eq!(lo, c.clone().fold(Real::INFINITY, Real::min));
+            assert_eq!(hi, c.fold(Real::NEG_INFINITY, Real::max));
+        }
+    }
+
+    #[test]
     fn big_nodes_are_split_and_leaves_stay_small() {
         // Seventeen coinciding boxes: no split is better than another, and still no leaf holds
         // more than the exact split's limit.
-        let same: Vec<_> = (0..17)
-            .map(|k| item(k, [0.0; 3], [1.0; 3], 1.0))
-            .collect();
+        let same: Vec<_> = (0..17).map(|k| item(k, [0.0; 3], [1.0; 3], 1.0)).collect();
         let bvh = build(same);
         assert!(bvh.nodes.iter().all(|n| usize::from(n.count) <= EXACT));
         let mut all: Vec<u32> = bvh.items.clone();
