@@ -43,8 +43,7 @@ pub struct BinaryBvh {
 struct BuildItem {
     prim: u32,
     cost: f32,
-    lo: [f32; 3],
-    hi: [f32; 3],
+    bounds: Box32,
     centre: [f32; 3],
 }
 
@@ -54,16 +53,12 @@ impl BuildItem {
         BuildItem {
             prim,
             cost,
-            lo: b.min.to_array().map(round_down),
-            hi: b.max.to_array().map(round_up),
+            bounds: Box32 {
+                lo: b.min.to_array().map(round_down),
+                hi: b.max.to_array().map(round_up),
+            },
             centre: [c.x as f32, c.y as f32, c.z as f32],
         }
-    }
-
-    #[inline]
-    fn bounds(&self) -> Aabb {
-        let v = |a: [f32; 3]| Vec3::new(a[0].into(), a[1].into(), a[2].into());
-        Aabb::new(v(self.lo), v(self.hi))
     }
 
     #[inline]
@@ -177,7 +172,8 @@ impl Box32 {
     };
 
     #[inline(always)]
-    fn grow(&mut self, lo: &[f32; 3], hi: &[f32; 3]) {
+    fn grow(&mut self, other: &Box32) {
+        let (lo, hi) = (&other.lo, &other.hi);
         for a in 0..3 {
             self.lo[a] = if lo[a] < self.lo[a] {
                 lo[a]
@@ -202,8 +198,11 @@ impl Box32 {
 fn summary(items: &[BuildItem]) -> (Aabb, [(Real, Real); 3]) {
     let (mut b, mut c) = (Box32::EMPTY, Box32::EMPTY);
     for i in items {
-        b.grow(&i.lo, &i.hi);
-        c.grow(&i.centre, &i.centre);
+        b.grow(&i.bounds);
+        c.grow(&Box32 {
+            lo: i.centre,
+            hi: i.centre,
+        });
     }
     let range = |a: usize| (Real::from(c.lo[a]), Real::from(c.hi[a]));
     (b.aabb(), [range(0), range(1), range(2)])
@@ -236,14 +235,13 @@ impl Bins {
 /// in one pass.
 fn best_split(items: &[BuildItem], centres: [(Real, Real); 3]) -> Option<(usize, usize, Bins)> {
     let bins = centres.map(Bins::over);
-    let mut boxes = [[Box32::EMPTY; BINS]; 3];
-    let mut counts = [[0usize; BINS]; 3];
+    let mut rows = [[(Box32::EMPTY, 0.0); BINS]; 3];
     for i in items {
         for axis in 0..3 {
             if let Some(bins) = &bins[axis] {
-                let b = bins.of(i.centre(axis));
-                boxes[axis][b].grow(&i.lo, &i.hi);
-                counts[axis][b] += 1;
+                let bin = &mut rows[axis][bins.of(i.centre(axis))];
+                bin.0.grow(&i.bounds);
+                bin.1 += 1.0;
             }
         }
     }
@@ -252,32 +250,45 @@ fn best_split(items: &[BuildItem], centres: [(Real, Real); 3]) -> Option<(usize,
         let Some(bins) = bins[axis] else {
             continue;
         };
-        let (boxes, counts) = (&boxes[axis], &counts[axis]);
-        // Sweep from the right to get suffix areas, then from the left.
-        let mut right_area = [0.0; BINS];
-        let mut right_count = [0usize; BINS];
-        let (mut acc, mut n) = (Box32::EMPTY, 0);
-        for b in (1..BINS).rev() {
-            acc.grow(&boxes[b].lo, &boxes[b].hi);
-            n += counts[b];
-            right_area[b] = acc.aabb().surface_area();
-            right_count[b] = n;
-        }
-        let (mut acc, mut n) = (Box32::EMPTY, 0);
-        for b in 1..BINS {
-            acc.grow(&boxes[b - 1].lo, &boxes[b - 1].hi);
-            n += counts[b - 1];
-            if n == 0 || right_count[b] == 0 {
-                continue;
-            }
-            let cost =
-                acc.aabb().surface_area() * n as Real + right_area[b] * right_count[b] as Real;
+        if let Some((cost, b)) = cheapest_cut(&rows[axis]) {
             if best.is_none_or(|(c, ..)| cost < c) {
                 best = Some((cost, axis, b, bins));
             }
         }
     }
     best.map(|(_, axis, split, bins)| (axis, split, bins))
+}
+
+/// The cheapest place to cut a row of boxes, each with a weight (items in a bin, cost of a
+/// test), in two by the SAH: `(area of the boxes before k * their weight + area of the
+/// boxes from k on * theirs, k)` for the first least such sum, `0 < k < len`, where neither
+/// side weighs nothing. Used for bins ([`best_split`]) and for items ([`exact_split`]),
+/// both at most 16 long.
+fn cheapest_cut(row: &[(Box32, Real)]) -> Option<(Real, usize)> {
+    const LONGEST: usize = if BINS > EXACT { BINS } else { EXACT };
+    let n = row.len().min(LONGEST);
+    // The area and weight of the boxes from k on.
+    let mut right = [(0.0, 0.0); LONGEST];
+    let (mut acc, mut weight) = (Box32::EMPTY, 0.0);
+    for k in (1..n).rev() {
+        acc.grow(&row[k].0);
+        weight += row[k].1;
+        right[k] = (acc.aabb().surface_area(), weight);
+    }
+    let mut best: Option<(Real, usize)> = None;
+    let (mut acc, mut weight) = (Box32::EMPTY, 0.0);
+    for k in 1..n {
+        acc.grow(&row[k - 1].0);
+        weight += row[k - 1].1;
+        if weight == 0.0 || right[k].1 == 0.0 {
+            continue;
+        }
+        let cost = acc.aabb().surface_area() * weight + right[k].0 * right[k].1;
+        if best.is_none_or(|(c, _)| cost < c) {
+            best = Some((cost, k));
+        }
+    }
+    best
 }
 
 /// The exact SAH split of a small node, each item weighed by its test cost: on each axis the
@@ -300,21 +311,13 @@ fn exact_split(items: &mut [BuildItem], bounds: &Aabb) -> Option<usize> {
     };
     let total: Real = items.iter().map(|i| Real::from(i.cost)).sum();
     let mut best: Option<(Real, usize, usize)> = None;
-    // The area and cost of the items from k on.
-    let mut right = [(0.0, 0.0); EXACT];
+    let mut row = [(Box32::EMPTY, 0.0); EXACT];
     for axis in 0..3 {
         items.sort_unstable_by(order(axis));
-        let (mut acc, mut cost) = (Aabb::EMPTY, 0.0);
-        for k in (1..n).rev() {
-            acc = acc.union(items[k].bounds());
-            cost += Real::from(items[k].cost);
-            right[k] = (acc.surface_area(), cost);
+        for (r, i) in row.iter_mut().zip(items.iter()) {
+            *r = (i.bounds, Real::from(i.cost));
         }
-        let (mut acc, mut left) = (Aabb::EMPTY, 0.0);
-        for k in 1..n {
-            acc = acc.union(items[k - 1].bounds());
-            left += Real::from(items[k - 1].cost);
-            let cost = acc.surface_area() * left + right[k].0 * right[k].1;
+        if let Some((cost, k)) = cheapest_cut(&row[..n]) {
             if best.is_none_or(|(c, ..)| cost < c) {
                 best = Some((cost, axis, k));
             }
@@ -356,7 +359,7 @@ mod tests {
             assert!(Real::from(round_up(x)) >= x, "{x}");
         }
         let b = Aabb::new(Vec3::new(-0.1, 0.3, 1e-7), Vec3::new(0.7, 1.1, 2.0 / 3.0));
-        let r = BuildItem::new(0, b, 1.0).bounds();
+        let r = BuildItem::new(0, b, 1.0).bounds.aabb();
         assert!(
             r.min.cmple(b.min).all() && r.max.cmpge(b.max).all(),
             "{r:?}"
@@ -385,7 +388,7 @@ mod tests {
     }
 
     fn build(items: Vec<BuildItem>) -> BinaryBvh {
-        let list = items.iter().map(|i| (i.prim, i.bounds(), i.cost));
+        let list = items.iter().map(|i| (i.prim, i.bounds.aabb(), i.cost));
         BinaryBvh::build(list.collect::<Vec<_>>().into_iter())
     }
 
@@ -429,7 +432,9 @@ mod tests {
             })
             .collect();
         let (bounds, centres) = summary(&items);
-        let want = items.iter().fold(Aabb::EMPTY, |b, i| b.union(i.bounds()));
+        let want = items
+            .iter()
+            .fold(Aabb::EMPTY, |b, i| b.union(i.bounds.aabb()));
         assert_eq!(bounds, want);
         for (axis, (lo, hi)) in centres.into_iter().enumerate() {
             let c = items.iter().map(|i| i.centre(axis));
