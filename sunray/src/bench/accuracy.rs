@@ -12,8 +12,8 @@
 use super::plot::{loglog, Labels, PlotError, Series};
 use crate::accel::{Accel, AccelOptions, Scratch};
 use crate::camera::Camera;
-use crate::geometry::{Real, Vec3};
-use crate::render::{trace_sample, RenderOptions};
+use crate::geometry::Vec3;
+use crate::render::{trace_pixel, RenderOptions};
 use crate::scene::Scene;
 use crate::shading::Tracer;
 use crate::stats::Counters;
@@ -147,13 +147,13 @@ pub fn render_streams(
                         };
                         let row: Vec<Vec3> = (0..w)
                             .map(|x| {
-                                let n = opts.samples;
-                                let mut sum = Vec3::ZERO;
-                                for k in 0..n {
-                                    let stream = first_stream + k;
-                                    sum += trace_sample(&mut tracer, &camera, (x, y), stream, k, n);
-                                }
-                                sum / n as Real
+                                trace_pixel(
+                                    &mut tracer,
+                                    &camera,
+                                    (x, y),
+                                    first_stream,
+                                    opts.samples,
+                                )
                             })
                             .collect();
                         done.push((y, row));

@@ -108,25 +108,48 @@ pub fn render_line(
         let outside = footprint
             .as_ref()
             .filter(|_| spans.peek().is_none_or(|r| r.start > x));
-        let mut sum = glam::DVec3::ZERO;
-        for s in 0..n {
-            if let Some(f) = outside {
-                tracer.counters.eye += 1;
-                tracer.counters.voxels += f.voxels_on_miss;
-                sum += scene.world.background;
-                continue;
+        let c = match outside {
+            Some(f) => {
+                tracer.counters.eye += u64::from(n);
+                tracer.counters.voxels += f.voxels_on_miss * u64::from(n);
+                mean_of(n, |_| scene.world.background)
             }
-            sum += trace_sample(&mut tracer, &camera, (x, y), s, s, n);
-        }
-        // One sample needs no division (x / 1 is x; skipping it saves a dependent divide
-        // per pixel).
-        let c = if n == 1 { sum } else { sum / n as Real };
+            None => trace_pixel(&mut tracer, &camera, (x, y), 0, n),
+        };
         pixels.push([c.x as f32, c.y as f32, c.z as f32]);
     }
     Line {
         y,
         pixels,
         counters,
+    }
+}
+
+/// The mean colour of samples `0..count` of pixel `(x, y)`, their random numbers keyed by
+/// streams `first_stream..` ([`trace_sample`]; the render uses `first_stream = 0`).
+pub fn trace_pixel(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    first_stream: u32,
+    count: u32,
+) -> glam::DVec3 {
+    mean_of(count, |k| {
+        trace_sample(tracer, camera, (x, y), first_stream + k, k, count)
+    })
+}
+
+/// The mean of `sample(k)` for `k` in `0..count`, summed in that order. One sample needs no
+/// division (x / 1 is x; skipping it saves a dependent divide per pixel).
+fn mean_of(count: u32, mut sample: impl FnMut(u32) -> glam::DVec3) -> glam::DVec3 {
+    let mut sum = glam::DVec3::ZERO;
+    for k in 0..count {
+        sum += sample(k);
+    }
+    if count == 1 {
+        sum
+    } else {
+        sum / count as Real
     }
 }
 
@@ -204,7 +227,6 @@ end
         let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
         let mut counters = Counters::default();
         let mut scratch = Scratch::new(scene.prims.len(), false);
-        let n = opts.samples;
         let mut tracer = Tracer {
             scene,
             accel,
@@ -214,11 +236,7 @@ end
         };
         let pixels = (0..opts.width)
             .map(|x| {
-                let mut sum = glam::DVec3::ZERO;
-                for s in 0..n {
-                    sum += trace_sample(&mut tracer, &camera, (x, y), s, s, n);
-                }
-                let c = if n == 1 { sum } else { sum / n as Real };
+                let c = trace_pixel(&mut tracer, &camera, (x, y), 0, opts.samples);
                 [c.x as f32, c.y as f32, c.z as f32]
             })
             .collect();

@@ -115,6 +115,17 @@ fn glass_objects() -> Vec<(Shape, Surface)> {
     objects
 }
 
+/// The accelerator of `kind` over `scene`, octree leaves of at most two primitives (so rays
+/// cross many voxels).
+fn build(scene: &mut Scene, kind: AccelKind) -> Accel {
+    let opts = AccelOptions {
+        kind,
+        max_per_voxel: 2,
+        ..AccelOptions::default()
+    };
+    Accel::build(&mut scene.prims, &opts)
+}
+
 /// Every accelerator, and the octree with and without the mailbox.
 fn setups() -> Vec<(AccelKind, bool)> {
     vec![
@@ -129,12 +140,7 @@ fn setups() -> Vec<(AccelKind, bool)> {
 fn one_walk_filters_as_the_crossing_loop_did_with_fewer_tests() {
     let mut scene = Scene::new(glass_world());
     for (kind, mailbox) in setups() {
-        let opts = AccelOptions {
-            kind,
-            max_per_voxel: 2,
-            ..AccelOptions::default()
-        };
-        let accel = Accel::build(&mut scene.prims, &opts);
+        let accel = build(&mut scene, kind);
         let mut scratch = Scratch::new(scene.prims.len(), mailbox);
         let (mut new_c, mut old_c) = (Counters::default(), Counters::default());
         let mut rng = SampleStream::new(7, 3, 0);
@@ -221,12 +227,7 @@ fn the_last_occluder_never_changes_a_shadow() {
     ];
     let mut scene = Scene::new(world(objects, lights.map(white_light).to_vec()));
     for (kind, mailbox) in setups() {
-        let opts = AccelOptions {
-            kind,
-            max_per_voxel: 2,
-            ..AccelOptions::default()
-        };
-        let accel = Accel::build(&mut scene.prims, &opts);
+        let accel = build(&mut scene, kind);
         let mut kept = Scratch::new(scene.prims.len(), mailbox);
         let (mut c, mut answered_by_cache) = (Counters::default(), 0);
         for step in 0..3000 {
