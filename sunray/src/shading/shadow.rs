@@ -15,6 +15,7 @@ use super::hall::Tracer;
 use crate::geometry::{offset_from, Primitives, Ray, RayPre, Real, Vec3, OFFSET_RELATIVE};
 use crate::scene::Scene;
 use arrayvec::ArrayVec;
+use smallvec::SmallVec;
 use std::cell::{Cell, RefCell};
 
 /// A shadow ray whose light is filtered below this (in every channel) is blocked: it could
@@ -24,6 +25,10 @@ pub const NEGLIGIBLE: Real = 1e-6;
 /// The most roots a primitive has along a line (a quadric's two; a polygon's one), with room.
 const MAX_ROOTS: usize = 4;
 
+/// Crossings a walk keeps without allocating: a shadow ray through two glass spheres
+/// crosses four surfaces; one that meets more spills to the heap.
+const INLINE: usize = 8;
+
 /// The state of one shadow ray's walk: the filter so far, the transparent primitives already
 /// counted (an octree without the mailbox can offer a primitive once per voxel) and where
 /// the crossings counted are along the ray.
@@ -32,8 +37,8 @@ pub struct Crossings<'a> {
     ray: &'a RayPre,
     t_max: Real,
     filter: Cell<Vec3>,
-    counted: RefCell<Vec<u32>>,
-    at: RefCell<Vec<Real>>,
+    counted: RefCell<SmallVec<[u32; INLINE]>>,
+    at: RefCell<SmallVec<[Real; INLINE]>>,
     /// Intersection tests made to find a primitive's further crossings.
     tests: Cell<u64>,
 }
@@ -46,8 +51,8 @@ impl<'a> Crossings<'a> {
             ray,
             t_max,
             filter: Cell::new(Vec3::ONE),
-            counted: RefCell::new(Vec::new()),
-            at: RefCell::new(Vec::new()),
+            counted: RefCell::new(SmallVec::new()),
+            at: RefCell::new(SmallVec::new()),
             tests: Cell::new(0),
         }
     }
