@@ -105,11 +105,14 @@ impl Default for Surface {
 }
 
 impl Surface {
-    /// Specular reflection weight ksr = 1 - kdr (0 when opaque-diffuse).
+    /// Specular reflection weight ksr = 1 - kdr (0 when opaque-diffuse). Inline: the
+    /// tracer asks at every hit and every shadow ray's crossing, from another crate.
+    #[inline]
     pub fn ksr(&self) -> f64 {
         (1.0 - self.kdr).clamp(0.0, 1.0)
     }
     /// Specular transmission weight kst = 1 - kdt (0 when solid).
+    #[inline]
     pub fn kst(&self) -> f64 {
         (1.0 - self.kdt).clamp(0.0, 1.0)
     }
