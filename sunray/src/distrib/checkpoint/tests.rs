@@ -1,0 +1,258 @@
+use super::*;
+use crate::distrib::messages::proto::RenderSettings;
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+/// A store in memory with a small limit.
+#[derive(Default)]
+pub struct MemStore {
+    pub map: Mutex<HashMap<String, Vec<u8>>>,
+    pub limit: usize,
+    pub puts: Mutex<usize>,
+}
+
+impl Store for MemStore {
+    async fn put(&self, key: &str, data: Vec<u8>) -> Result<(), rem::Error> {
+        if data.len() > self.limit {
+            return Err(rem::Error::TooLarge {
+                size: data.len(),
+                limit: self.limit,
+            });
+        }
+        *self.puts.lock().unwrap() += 1;
+        self.map.lock().unwrap().insert(key.to_string(), data);
+        Ok(())
+    }
+    async fn get(&self, key: &str) -> Result<Option<Vec<u8>>, rem::Error> {
+        Ok(self.map.lock().unwrap().get(key).cloned())
+    }
+    fn max_bytes(&self) -> usize {
+        self.limit
+    }
+}
+
+fn line(y: u32) -> FinishedLine {
+    FinishedLine {
+        line: y,
+        pixels: vec![y as u8; 120],
+        counters: None,
+    }
+}
+
+/// Render settings of a `width` x `height` image (what a header carries).
+fn settings(width: u32, height: u32) -> RenderSettings {
+    RenderSettings {
+        width,
+        height,
+        samples: 1,
+        max_depth: 5,
+        min_weight: 0.001,
+        accel: "auto".into(),
+        max_per_voxel: 10,
+        octree_max_depth: 8,
+        mailbox: true,
+        spawn_all: false,
+    }
+}
+
+/// The spec of a 10 x 16 image: `line` writes 10 pixels (120 bytes).
+fn spec() -> JobSpec {
+    JobSpec {
+        scene: "/scenes/a.yari".into(),
+        settings: Some(settings(10, 16)),
+        hosts: 3,
+        strategy: "dynamic".into(),
+        ..Default::default()
+    }
+}
+
+fn rt() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_current_thread()
+        .build()
+        .unwrap()
+}
+
+#[test]
+fn saves_incrementally_and_restores_every_line() {
+    rt().block_on(async {
+        let store = MemStore {
+            limit: 1024 + 400,
+            ..Default::default()
+        };
+        assert!(load(&store, "j1").await.unwrap().is_none());
+        let mut c = Checkpointer::new("j1", spec(), 77, None);
+        for y in [3, 1, 4] {
+            c.record(line(y));
+        }
+        c.save(&store, "running").await.unwrap();
+        // 3 lines of ~130 bytes fit one 400-byte segment.
+        assert_eq!(*store.puts.lock().unwrap(), 2);
+        for y in [0, 2, 5, 6, 7] {
+            c.record(line(y));
+        }
+        c.save(&store, "running").await.unwrap();
+        let r = load(&store, "j1").await.unwrap().unwrap();
+        assert_eq!(r.header.lines_done, 8);
+        assert!(r.header.segments >= 3, "split under the limit");
+        assert_eq!(r.header.model_hash, 77);
+        assert_eq!(r.header.spec.as_ref().unwrap().hosts, 3);
+        assert_eq!(
+            r.lines.keys().copied().collect::<Vec<_>>(),
+            (0..8).collect::<Vec<_>>()
+        );
+        assert_eq!(r.lines[&5].pixels, vec![5u8; 120]);
+
+        // A resumed job continues the segment numbering.
+        let mut c2 = Checkpointer::new("j1", spec(), 77, Some(&r));
+        c2.record(line(8));
+        c2.save(&store, "finished").await.unwrap();
+        let r2 = load(&store, "j1").await.unwrap().unwrap();
+        assert_eq!(r2.lines.len(), 9);
+        assert_eq!(r2.header.state, "finished");
+    });
+}
+
+#[test]
+fn a_missing_or_corrupt_segment_is_an_error() {
+    rt().block_on(async {
+        let store = MemStore {
+            limit: 1 << 20,
+            ..Default::default()
+        };
+        let mut c = Checkpointer::new("j2", spec(), 1, None);
+        c.record(line(0));
+        c.save(&store, "running").await.unwrap();
+        store
+            .map
+            .lock()
+            .unwrap()
+            .insert(segment_key("j2", 0), vec![0xff, 0xff]);
+        assert!(matches!(
+            load(&store, "j2").await,
+            Err(CheckpointError::Corrupt { .. })
+        ));
+        store.map.lock().unwrap().remove(&segment_key("j2", 0));
+        assert!(matches!(
+            load(&store, "j2").await,
+            Err(CheckpointError::MissingSegment { segment: 0, .. })
+        ));
+    });
+}
+
+#[test]
+fn a_line_larger_than_the_limit_is_refused() {
+    rt().block_on(async {
+        let store = MemStore {
+            limit: 1024 + 50,
+            ..Default::default()
+        };
+        let mut c = Checkpointer::new("j3", spec(), 1, None);
+        c.record(line(0));
+        assert!(matches!(
+            c.save(&store, "running").await,
+            Err(CheckpointError::TooLarge { .. })
+        ));
+    });
+}
+
+/// Saves `lines` under `job` with header spec `spec`, in a fresh store.
+fn saved(spec: JobSpec, lines: &[FinishedLine]) -> MemStore {
+    let store = MemStore {
+        limit: 1 << 20,
+        ..Default::default()
+    };
+    rt().block_on(async {
+        let mut c = Checkpointer::new("j4", spec, 1, None);
+        for l in lines {
+            c.record(l.clone());
+        }
+        c.save(&store, "running").await.unwrap();
+    });
+    store
+}
+
+fn load_error(store: &MemStore) -> CheckpointError {
+    rt().block_on(load(store, "j4")).unwrap_err()
+}
+
+#[test]
+fn a_header_without_settings_or_out_of_bounds_is_refused() {
+    let none = saved(
+        JobSpec {
+            settings: None,
+            ..spec()
+        },
+        &[line(0)],
+    );
+    let e = load_error(&none);
+    assert!(matches!(e, CheckpointError::NoSettings { .. }), "{e}");
+
+    for (bad, field) in [
+        (settings(u32::MAX, 16), "width"),
+        (settings(10, 0), "height"),
+        (
+            RenderSettings {
+                max_depth: 1_000_000_000,
+                ..settings(10, 16)
+            },
+            "max_depth",
+        ),
+        (
+            RenderSettings {
+                min_weight: -1.0,
+                ..settings(10, 16)
+            },
+            "min_weight",
+        ),
+    ] {
+        let store = saved(
+            JobSpec {
+                settings: Some(bad),
+                ..spec()
+            },
+            &[line(0)],
+        );
+        let e = load_error(&store);
+        assert!(matches!(e, CheckpointError::Settings { .. }), "{e}");
+        let text = e.to_string();
+        assert!(text.contains(field) && !text.contains('\n'), "{text}");
+    }
+}
+
+#[test]
+fn lines_that_disagree_with_the_header_are_refused() {
+    // A line beyond the image's 16 lines.
+    let e = load_error(&saved(spec(), &[line(0), line(16)]));
+    assert!(
+        e.to_string().contains("line 16 of an image of 16 lines"),
+        "{e}"
+    );
+    // A line of 11 pixels in an image 10 wide.
+    let wide = FinishedLine {
+        line: 2,
+        pixels: vec![0; 132],
+        counters: None,
+    };
+    let e = load_error(&saved(spec(), &[line(0), wide]));
+    assert!(
+        e.to_string().contains("132 bytes of pixels, not 120"),
+        "{e}"
+    );
+    // A header naming more segments than the image has lines.
+    let store = saved(spec(), &[line(0)]);
+    let header = CheckpointHeader {
+        segments: 17,
+        ..CheckpointHeader::decode(store.map.lock().unwrap()["j4"].as_slice()).unwrap()
+    };
+    store
+        .map
+        .lock()
+        .unwrap()
+        .insert("j4".into(), header.encode_to_vec());
+    let e = load_error(&store);
+    assert!(matches!(e, CheckpointError::Inconsistent { .. }), "{e}");
+    // The same lines under a matching header are read back.
+    let ok = saved(spec(), &[line(0), line(15)]);
+    let r = rt().block_on(load(&ok, "j4")).unwrap().unwrap();
+    assert_eq!(r.lines.len(), 2);
+}
