@@ -1,115 +1,26 @@
-//! The daemon's operations, in library terms (typed errors): what the gRPC services call.
+//! Processes: spawning them on the least-loaded hosts, starting them here, and killing,
+//! adopting, listing them and reading their output wherever they run.
 
 use std::collections::{BTreeMap, HashSet};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use tokio::task::JoinSet;
-use tokio_util::sync::CancellationToken;
 
-use crate::checkpoint::CheckpointStore;
+use super::{Daemon, JobTag};
 use crate::error::{Error, Result};
 use crate::identity::Identity;
 use crate::ids::{is_valid_name, shown, ProcId};
-use crate::job_store::{self, JobStore};
-use crate::jobs::Jobs;
-use crate::limits::Limits;
-use crate::membership::Membership;
 use crate::peer_auth::method;
 use crate::peers::PeerPool;
 use crate::placement::{self, Candidate};
-use crate::policy::SpawnPolicy;
-use crate::process::{ProcessTable, StartSpec};
+use crate::process::StartSpec;
 use crate::proto::{
-    job_event, AdoptLocalRequest, Checkpoint, FetchReplicaRequest, JobEvent, JobRecord,
-    KillLocalRequest, ListJobsLocalRequest, LogsLocalRequest, LogsReply, Placement, ProcessInfo,
-    PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
+    job_event, AdoptLocalRequest, JobEvent, KillLocalRequest, LogsLocalRequest, LogsReply,
+    Placement, ProcessInfo, PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,
 };
-use crate::relay::Router;
 use crate::wire::MAX_AVOID_HOSTS;
 
-/// The job epoch a checkpoint write carries (0: none), and the job record it belongs to
-/// (empty: the checkpoint's own key).
-#[derive(Clone, Debug, Default)]
-pub struct Fence {
-    pub epoch: u64,
-    pub job: String,
-}
-
-/// Which job record and epoch a spawned controller runs (empty for other processes).
-#[derive(Clone, Debug, Default)]
-pub struct JobTag {
-    pub record: String,
-    pub epoch: u64,
-}
-
-/// Shared state of one running daemon.
-pub struct Daemon {
-    pub name: String,
-    pub max_message: usize,
-    pub policy: SpawnPolicy,
-    pub limits: Limits,
-    pub membership: Membership,
-    pub router: Router,
-    pub processes: ProcessTable,
-    pub jobs: Jobs,
-    pub checkpoints: CheckpointStore,
-    pub chunks: crate::chunks::ChunkStore,
-    pub job_store: JobStore,
-    pub peers: PeerPool,
-    pub accepting: Arc<AtomicBool>,
-    /// Numbers process ids (spawned and attached-only alike).
-    pub seq: Arc<AtomicU64>,
-    /// Fires when the daemon shuts down (ends relay streams).
-    pub stop: CancellationToken,
-}
-
 impl Daemon {
-    fn check_accepting(&self) -> Result<()> {
-        if self.accepting.load(Ordering::Relaxed) {
-            Ok(())
-        } else {
-            Err(Error::ShuttingDown)
-        }
-    }
-
-    /// The other hosts alive now.
-    pub(crate) fn live_peers(&self) -> impl Iterator<Item = crate::proto::HostInfo> {
-        self.membership
-            .hosts()
-            .into_iter()
-            .skip(1)
-            .filter(|h| h.alive)
-    }
-
-    /// Asks every live peer the same thing at once; the replies of those that answered.
-    async fn ask_live_peers<T, R, F, Fut>(&self, method: &'static str, msg: T, call: F) -> Vec<R>
-    where
-        T: prost::Message + Clone + 'static,
-        R: prost::Message + 'static,
-        F: FnOnce(crate::peers::PeerRpc, tonic::Request<T>) -> Fut + Clone + Send + 'static,
-        Fut: std::future::Future<Output = std::result::Result<tonic::Response<R>, tonic::Status>>
-            + Send,
-    {
-        let mut tasks = JoinSet::new();
-        for h in self.live_peers() {
-            let (peers, msg, call) = (self.peers.clone(), msg.clone(), call.clone());
-            tasks.spawn(async move { peers.call(&h.name, &h.addr, method, msg, call).await });
-        }
-        let mut replies = Vec::new();
-        while let Some(r) = tasks.join_next().await {
-            if let Ok(Ok(reply)) = r {
-                replies.push(reply);
-            }
-        }
-        replies
-    }
-
-    /// A fresh process id on this host.
-    pub fn new_proc_id(&self) -> ProcId {
-        ProcId::new(&self.name, self.seq.fetch_add(1, Ordering::Relaxed))
-    }
-
     /// Places and starts `req.count` processes for `who`, who owns them.
     pub async fn spawn(&self, who: &Identity, req: SpawnRequest) -> Result<SpawnReply> {
         self.spawn_tagged(who, req, &JobTag::default()).await
@@ -400,212 +311,6 @@ impl Daemon {
         out.extend(replies.into_iter().flat_map(|r| r.processes));
         out.sort_by(|a, b| (&a.host, &a.proc_id).cmp(&(&b.host, &b.proc_id)));
         Ok(out)
-    }
-
-    /// Stores `who`'s checkpoint of `job` here and on one more live host; returns (version,
-    /// hosts). Checkpoints are kept per user: nobody writes over another user's.
-    pub async fn put_checkpoint(
-        &self,
-        who: &Identity,
-        job: String,
-        data: Vec<u8>,
-        fence: Fence,
-    ) -> Result<(u64, Vec<String>)> {
-        let limit = self.max_message.min(self.limits.checkpoint_bytes);
-        if data.len() > limit {
-            return Err(Error::TooLarge {
-                size: data.len(),
-                limit,
-            });
-        }
-        if !is_valid_name(&job) {
-            return Err(Error::Invalid(format!("bad job id {}", shown(&job))));
-        }
-        if fence.epoch > 0 {
-            let record = if fence.job.is_empty() {
-                &job
-            } else {
-                &fence.job
-            };
-            if let Some(kept) = self.job_store.get(&who.user, record).await? {
-                if kept.epoch > fence.epoch {
-                    return Err(Error::Fenced(format!(
-                        "job {record} belongs to a newer controller (epoch {} > {})",
-                        kept.epoch, fence.epoch
-                    )));
-                }
-            }
-        }
-        let mut cp = Checkpoint {
-            job,
-            data,
-            version: self.checkpoints.next_version(),
-            written_by: self.name.clone(),
-            mac: Vec::new(),
-            user: who.user.clone(),
-            epoch: fence.epoch,
-        };
-        self.checkpoints.seal(&mut cp);
-        self.checkpoints.put(&cp).await?;
-        let stored = self
-            .replicate(&cp, method::STORE, |mut c, r| async move {
-                c.store_replica(r).await
-            })
-            .await?;
-        Ok((cp.version, stored))
-    }
-
-    /// Sends `cp` (stored here already) to one more live host, the first in the key's
-    /// rendezvous order that takes it; the hosts that hold it. An error when there are peers and none took it.
-    async fn replicate<F, Fut>(
-        &self,
-        cp: &Checkpoint,
-        method: &'static str,
-        call: F,
-    ) -> Result<Vec<String>>
-    where
-        F: FnOnce(crate::peers::PeerRpc, tonic::Request<Checkpoint>) -> Fut
-            + Clone
-            + Send
-            + 'static,
-        Fut: std::future::Future<
-                Output = std::result::Result<
-                    tonic::Response<crate::proto::StoreReplicaReply>,
-                    tonic::Status,
-                >,
-            > + Send,
-    {
-        let mut stored = vec![self.name.clone()];
-        let mut others: Vec<_> = self.live_peers().collect();
-        // The same peer for the same key every time (see `replicas`).
-        others.sort_by(|a, b| {
-            let (wa, wb) = (
-                crate::replicas::weight(&cp.job, &a.name),
-                crate::replicas::weight(&cp.job, &b.name),
-            );
-            wb.cmp(&wa).then_with(|| a.name.cmp(&b.name))
-        });
-        let had_peers = !others.is_empty();
-        for h in others {
-            let stored_there = self
-                .peers
-                .call(&h.name, &h.addr, method, cp.clone(), call.clone())
-                .await;
-            match stored_there {
-                Ok(_) => {
-                    stored.push(h.name);
-                    break;
-                }
-                // A newer epoch is kept there: the writer has been superseded.
-                Err(e) if e.code() == tonic::Code::Aborted => return Err(e),
-                Err(_) => {}
-            }
-        }
-        if had_peers && stored.len() < 2 {
-            return Err(Error::Unreachable {
-                host: "any peer".into(),
-                reason: "stored only on this host: no live peer took a replica".into(),
-            });
-        }
-        Ok(stored)
-    }
-
-    /// Stores `who`'s job record here and on one more live host (REM sets its user and
-    /// time); refused if a record of a newer epoch is kept here.
-    pub async fn put_job(&self, who: &Identity, mut record: JobRecord) -> Result<Vec<String>> {
-        if !is_valid_name(&record.id) {
-            return Err(Error::Invalid(format!("bad job id {}", shown(&record.id))));
-        }
-        if !job_store::STATES.contains(&record.state.as_str()) {
-            return Err(Error::Invalid(format!(
-                "bad job state {} (one of {})",
-                shown(&record.state),
-                job_store::STATES.join(", ")
-            )));
-        }
-        if record.title.len() > job_store::MAX_TITLE {
-            return Err(Error::Invalid(format!(
-                "job title of {} bytes (at most {})",
-                record.title.len(),
-                job_store::MAX_TITLE
-            )));
-        }
-        let limit = self.max_message.min(self.limits.checkpoint_bytes);
-        let size = prost::Message::encoded_len(&record);
-        if size > limit {
-            return Err(Error::TooLarge { size, limit });
-        }
-        record.user = who.user.clone();
-        record.updated_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
-        let cp = self.job_store.seal(&record, &self.name);
-        self.job_store.put(&cp).await?;
-        self.replicate(&cp, method::STORE_JOB, |mut c, r| async move {
-            c.store_job(r).await
-        })
-        .await
-    }
-
-    /// The newest record of each of `who`'s jobs (every user's for an admin) on this and the
-    /// live hosts.
-    pub async fn list_jobs(&self, who: &Identity) -> Result<Vec<JobRecord>> {
-        let user = (!who.admin).then(|| who.user.clone());
-        let mut all = self.job_store.list(user.as_deref()).await?;
-        let req = ListJobsLocalRequest {
-            user: user.clone().unwrap_or_default(),
-            all: user.is_none(),
-        };
-        let replies = self
-            .ask_live_peers(method::LIST_JOBS, req, |mut c, r| async move {
-                c.list_jobs_local(r).await
-            })
-            .await;
-        all.extend(replies.into_iter().flat_map(|r| r.records));
-        type Rank = (u64, bool, u64);
-        let mut newest: BTreeMap<(String, String), (Rank, JobRecord)> = BTreeMap::new();
-        for cp in all {
-            let wanted = user.as_ref().is_none_or(|u| *u == cp.user);
-            if !wanted || !self.job_store.believe(&cp) {
-                continue;
-            }
-            let Ok(record) = job_store::decode(&cp) else {
-                continue;
-            };
-            // The highest epoch wins, then an ended record (ended is final at its epoch),
-            // then the newest write: a superseded controller's late write on a host that had
-            // not heard of its successor does not show.
-            let rank = (record.epoch, job_store::is_ended(&record.state), cp.version);
-            let key = (cp.user.clone(), cp.job.clone());
-            if newest.get(&key).is_none_or(|(best, _)| rank > *best) {
-                newest.insert(key, (rank, record));
-            }
-        }
-        Ok(newest.into_values().map(|(_, r)| r).collect())
-    }
-
-    /// The newest of `who`'s checkpoints of `job` on this or any live host.
-    pub async fn get_checkpoint(&self, who: &Identity, job: String) -> Result<Option<Checkpoint>> {
-        let user = who.user.clone();
-        let mut best = self.checkpoints.get(&user, &job).await?;
-        let req = FetchReplicaRequest {
-            job: job.clone(),
-            user: user.clone(),
-        };
-        let replies = self
-            .ask_live_peers(method::FETCH, req, |mut c, r| async move {
-                c.fetch_replica(r).await
-            })
-            .await;
-        // The highest epoch wins, then the newest write: a superseded controller's late write
-        // on a host that had not heard of its successor is not read back.
-        for cp in replies.into_iter().filter_map(|r| r.checkpoint) {
-            let newer = best
-                .as_ref()
-                .is_none_or(|b| (cp.epoch, cp.version) > (b.epoch, b.version));
-            if newer && self.checkpoints.believe(&cp, &user, &job) {
-                best = Some(cp);
-            }
-        }
-        Ok(best)
     }
 }
 
