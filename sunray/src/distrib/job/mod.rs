@@ -2,8 +2,15 @@
 //! resume), the first checkpoint and the job-index entry, the workers REM starts, the
 //! controller actor, and the statistics of the whole image. `sunray submit` turns its flags
 //! into a [`JobRequest`], calls [`run`] and prints the [`JobOutcome`].
+//!
+//! - [`plan`]: what is decided before the workers start, for a new job or a resumed one.
 
-use super::checkpoint::{self, CheckpointError, Checkpointer, Restored};
+mod plan;
+
+use plan::resume_plan;
+pub(crate) use plan::{new_plan, Plan};
+
+use super::checkpoint::{self, CheckpointError, Checkpointer};
 use super::connection::{ConnectionError, RemConnection};
 use super::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
 use super::jobs;
@@ -11,10 +18,10 @@ use super::messages::{self, proto, Body, MessageError};
 use super::model_chunks;
 use super::nodes::{self, JobStats};
 use super::strategy::Strategy;
-use crate::film::{FilmError, Format};
+use crate::film::FilmError;
 use crate::render::settings::SettingsError;
-use crate::render::{Overrides, Settings};
-use crate::scene::load::{self, LoadedScene, SceneLoadError, SceneSource};
+use crate::render::Overrides;
+use crate::scene::load::{LoadedScene, SceneLoadError};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -193,21 +200,6 @@ pub fn worker_env(
         .collect()
 }
 
-/// Everything decided before the workers start.
-pub(crate) struct Plan {
-    pub(crate) job: String,
-    pub(crate) loaded: LoadedScene,
-    pub(crate) settings: Settings,
-    pub(crate) model: Vec<u8>,
-    pub(crate) output: PathBuf,
-    pub(crate) colours: Option<PathBuf>,
-    pub(crate) strategy: Strategy,
-    pub(crate) hosts: u32,
-    pub(crate) nice: bool,
-    pub(crate) threads: Option<usize>,
-    pub(crate) restored: Option<Restored>,
-}
-
 impl JobRequest {
     /// Checks what can be checked before anything is loaded or started.
     pub fn check(&self) -> Result<(), JobError> {
@@ -233,98 +225,6 @@ pub async fn run(
         JobScene::Resume { job, scene } => resume_plan(req, cluster, job, scene).await?,
     };
     run_plan(cluster, req, plan).await
-}
-
-pub(crate) fn new_plan(req: &JobRequest, mut loaded: LoadedScene) -> Result<Plan, JobError> {
-    let settings = req.overrides.settings(&loaded.scene)?;
-    let output = req
-        .output
-        .clone()
-        .unwrap_or_else(|| loaded.source.default_output());
-    Format::from_path(&output)?;
-    let job = req.job.clone().unwrap_or_else(|| {
-        format!(
-            "sunray-{}-{}",
-            checkpoint::unix_ms() / 1000,
-            std::process::id()
-        )
-    });
-    Ok(Plan {
-        job,
-        model: loaded.take_model()?,
-        settings,
-        output,
-        colours: req.colours.clone(),
-        strategy: req.strategy.unwrap_or(Strategy::Dynamic),
-        hosts: req.hosts.unwrap_or(1),
-        nice: req.nice,
-        threads: req.threads.filter(|&t| t > 0),
-        restored: None,
-        loaded,
-    })
-}
-
-async fn resume_plan(
-    req: &JobRequest,
-    cluster: &RemConnection,
-    job: String,
-    scene: Option<PathBuf>,
-) -> Result<Plan, JobError> {
-    check_job_id(&job)?;
-    let restored = checkpoint::load(&cluster.client, &job)
-        .await
-        .map_err(|source| JobError::ReadCheckpoint {
-            job: job.clone(),
-            source,
-        })?
-        .ok_or_else(|| JobError::NoCheckpoint {
-            job: job.clone(),
-            addr: cluster.addr.clone(),
-        })?;
-    let spec = restored.header.spec.clone().unwrap_or_default();
-    let source = match scene {
-        Some(p) => SceneSource::File(p),
-        None => SceneSource::from_remembered(&spec.scene),
-    };
-    let colours = (!spec.colours.is_empty()).then(|| PathBuf::from(&spec.colours));
-    let mut loaded = load::load_with_model(&source, colours.as_deref())?;
-    let model = loaded.take_model()?;
-    if messages::fnv1a(&model) != restored.header.model_hash {
-        return Err(JobError::SceneChanged(job));
-    }
-    let settings = match spec.settings.as_ref().map(Settings::from_proto) {
-        Some(Ok(s)) => s,
-        Some(Err(e)) => {
-            return Err(JobError::BadSettings {
-                job,
-                reason: Some(e),
-            })
-        }
-        None => return Err(JobError::BadSettings { job, reason: None }),
-    };
-    let output = req
-        .output
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(&spec.output));
-    Format::from_path(&output)?;
-    Ok(Plan {
-        job,
-        loaded,
-        settings,
-        model,
-        output,
-        colours,
-        strategy: req
-            .strategy
-            .or_else(|| Strategy::from_name(&spec.strategy))
-            .unwrap_or(Strategy::Dynamic),
-        hosts: req.hosts.unwrap_or(spec.hosts.max(1)),
-        nice: req.nice || spec.nice,
-        threads: req
-            .threads
-            .or((spec.threads > 0).then_some(spec.threads as usize)),
-        restored: Some(restored),
-    })
 }
 
 async fn run_plan(
