@@ -73,6 +73,10 @@ pub struct RayPre {
     /// `1 / dir` per component, infinities replaced by huge finite values (for the slab test).
     pub inv_dir: Vec3,
     shear: Cell<Shear>,
+    /// Primitive numbers `skip[0]..skip[1]` the ray cannot meet (empty unless set by
+    /// [`RayPre::leaving`]): their tests return no hit at once
+    /// ([`Primitives::intersect_slot`]).
+    skip: [u32; 2],
 }
 
 /// Woop et al.'s (2013) shear of a ray's direction ([`kernels::k64::shear`]).
@@ -101,7 +105,24 @@ impl RayPre {
             ray,
             inv_dir: kernels::k64::inverse(ray.dir),
             shear: Cell::new(Shear::UNSET),
+            skip: [0, 0],
         }
+    }
+
+    /// The same ray, known to miss primitives `prims[0]..prims[1]`: the triangles of the flat
+    /// polygon it leaves ([`Primitives::flat_face`]), when it starts on the polygon's side
+    /// it moves away from. Skipping their tests changes no hit, since a ray that starts off a
+    /// plane and moves away from it never reaches it (tree11's shadow rays from the ground
+    /// tested its two triangles every time).
+    pub fn leaving(mut self, prims: [u32; 2]) -> RayPre {
+        self.skip = prims;
+        self
+    }
+
+    /// Whether primitive `i` is one this ray is known to miss ([`RayPre::leaving`]).
+    #[inline(always)]
+    pub fn skips(&self, i: u32) -> bool {
+        i.wrapping_sub(self.skip[0]) < self.skip[1].wrapping_sub(self.skip[0])
     }
 
     /// The same ray from another origin (what depends on the direction is kept).

@@ -103,14 +103,14 @@ impl Tracer<'_> {
     ) -> Vec3 {
         let side = if front { at.ng } else { -at.ng };
         if at.smooth.is_none() {
-            return self.shadow(at.p, side, light, l, dist, ray);
+            return self.shadow(at.face.as_ref(), at.p, side, light, l, dist, ray);
         }
         let q = at.shadow_origin(front);
         let to_light = lp - q;
         let d = to_light.length();
         if !(d > 0.0 && d.is_finite()) {
-            return self.shadow(at.p, side, light, l, dist, ray);
+            return self.shadow(at.face.as_ref(), at.p, side, light, l, dist, ray);
         }
-        self.shadow(q, side, light, to_light / d, d, ray)
+        self.shadow(None, q, side, light, to_light / d, d, ray)
     }
 }

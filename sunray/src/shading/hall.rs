@@ -13,6 +13,7 @@
 //! ```
 
 use super::media::{Media, Medium};
+use super::shadow::FlatFace;
 use crate::accel::{Accel, Scratch};
 use crate::geometry::smooth::SmoothHit;
 use crate::geometry::{Ray, RayPre, Real, Vec3};
@@ -162,7 +163,8 @@ impl<'a> Tracer<'a> {
         let surf = scene.surface(prim_index);
         let p = ray.at(t);
         let mut n = prims.normal(prim_index, p, ray.time);
-        if n == Vec3::ZERO || !n.is_finite() {
+        let valid_normal = n != Vec3::ZERO && n.is_finite();
+        if !valid_normal {
             n = -ray.dir;
         }
         let entering = ray.dir.dot(n) < 0.0;
@@ -170,6 +172,10 @@ impl<'a> Tracer<'a> {
         // geometric one); everything else with the geometric normal.
         let smooth = prims.smooth_hit(prim_index, p, ray.time);
         let geometric = n;
+        let face = match (&smooth, prims.flat_face(prim_index)) {
+            (None, Some(prims)) if valid_normal => Some(FlatFace { prims, normal: n }),
+            _ => None,
+        };
         if let Some(s) = &smooth {
             n = s.normal().unwrap_or(n);
         }
@@ -222,6 +228,7 @@ impl<'a> Tracer<'a> {
             nf,
             ng,
             smooth: smooth.map(|s| (s, facing)),
+            face,
             v: -ray.dir,
             colour,
             surf,
@@ -247,6 +254,9 @@ pub(super) struct SurfacePoint<'a> {
     /// On a smooth triangle, the hit on it and the side of its normals the viewer is on
     /// (+1 or -1), for the shadow rays' origins ([`SurfacePoint::shadow_origin`]).
     pub smooth: Option<(SmoothHit, Real)>,
+    /// The flat face the point is on, if it is on one (not on a smooth triangle): shadow
+    /// rays that leave it skip its primitives ([`crate::geometry::RayPre::leaving`]).
+    pub face: Option<FlatFace>,
     /// Towards the viewer.
     pub v: Vec3,
     /// The surface colour there (textured).

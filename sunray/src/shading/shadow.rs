@@ -128,6 +128,26 @@ fn roots(
     found
 }
 
+/// The flat face a point is on ([`crate::geometry::Primitives::flat_face`]): its primitives and
+/// its geometric unit normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlatFace {
+    /// Primitive numbers `[first, end)`.
+    pub prims: [u32; 2],
+    /// The plane's unit normal (either side).
+    pub normal: Vec3,
+}
+
+impl FlatFace {
+    /// Whether a ray that starts at a point of the face, offset along `side`, and goes along
+    /// `dir` moves away from the face's plane: the offset and the direction on the same side
+    /// of it. `side` must be close to the normal (a bump-mapped normal may not be).
+    pub fn left_by(&self, side: Vec3, dir: Vec3) -> bool {
+        let (s, d) = (self.normal.dot(side), self.normal.dot(dir));
+        (s > 0.5 && d > 0.0) || (s < -0.5 && d < 0.0)
+    }
+}
+
 impl Tracer<'_> {
     /// The filter a shadow ray from `p` (leaving on the side of `side`) towards light number
     /// `light`, at distance `dist` in direction `l`, receives: 1 if unblocked, 0 if an opaque
@@ -135,8 +155,10 @@ impl Tracer<'_> {
     /// crossed. `ray` is the ray that found `p` (its origin scales the offset, its time is the
     /// shadow ray's). The light's last opaque occluder is tried before the tree
     /// ([`crate::accel::Occluders`]).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn shadow(
         &mut self,
+        face: Option<&FlatFace>,
         p: Vec3,
         side: Vec3,
         light: usize,
@@ -147,14 +169,17 @@ impl Tracer<'_> {
         self.counters.shadow += 1;
         let origin = offset_from(p, side, ray.origin);
         let t_max = (p + l * dist - origin).dot(l);
-        let pre = RayPre::new(Ray {
+        let mut pre = RayPre::new(Ray {
             origin,
             dir: l,
             time: ray.time,
         });
+        if let Some(face) = face.filter(|f| f.left_by(side, l)) {
+            pre = pre.leaving(face.prims);
+        }
         let scene = self.scene;
         let prims = &scene.prims;
-        if let Some(i) = self.scratch.occluders.get(light) {
+        if let Some(i) = self.scratch.occluders.get(light).filter(|&i| !pre.skips(i)) {
             self.counters.intersection_tests += 1;
             if prims.intersect(i, &pre, 0.0, t_max).is_some() {
                 return Vec3::ZERO;

@@ -151,6 +151,14 @@ impl PrimitivesBuilder {
             self.out
                 .slots
                 .extend(range.clone().map(|k| TRIANGLE | k as u32));
+            if range.len() > 1 {
+                let end = first + range.len() as u32;
+                if super::flat(vertices, t.normal) {
+                    self.out.flat_polygons.push([first, end]);
+                } else {
+                    self.out.warped_polygons.push([first, end]);
+                }
+            }
             let transparent = surfaces
                 .get(obj.surface as usize)
                 .is_some_and(|s| s.kst() > 0.0);
@@ -249,6 +257,8 @@ impl PrimitivesBuilder {
         out.others.shrink_to_fit();
         out.other_prims.shrink_to_fit();
         out.other_bounds.shrink_to_fit();
+        out.flat_polygons.shrink_to_fit();
+        out.warped_polygons.shrink_to_fit();
         (out, self.dropped)
     }
 }

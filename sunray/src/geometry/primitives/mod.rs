@@ -66,8 +66,32 @@ pub struct Primitives {
     other_bounds: Vec<Option<Aabb>>,
     /// Corner normals of the smooth triangles (of the mesh or among `others`), by primitive.
     smooth: SmoothTable,
+    /// The static polygons of more than one triangle that are flat ([`flat`]), as ranges
+    /// of primitive numbers `[first, end)`, in order.
+    flat_polygons: Vec<[u32; 2]>,
+    /// The same for those that are not: their triangles are shaded with the polygon's
+    /// normal, not their own, so a ray leaving one along it may meet it again.
+    warped_polygons: Vec<[u32; 2]>,
     /// Whether an accelerator's order was adopted ([`Primitives::adopt_order`]).
     ordered: bool,
+}
+
+/// Whether polygon `vertices` with unit plane normal `normal` is flat: every corner within
+/// 1e-12 of its size from the plane through the first. A ray that leaves such a polygon
+/// (from the offset secondary rays start at, 1e-9 of the coordinates) cannot meet it again;
+/// a warped one may shadow itself.
+pub fn flat(vertices: &[Vec3], normal: Vec3) -> bool {
+    let Some(&v0) = vertices.first() else {
+        return false;
+    };
+    let (lo, hi) = vertices
+        .iter()
+        .fold((v0, v0), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let size = (hi - lo).length();
+    size.is_finite()
+        && vertices
+            .iter()
+            .all(|v| (*v - v0).dot(normal).abs() <= 1e-12 * size)
 }
 
 /// Moves `items[k]` to `new[k]`.
@@ -109,6 +133,28 @@ impl Primitives {
         self.slots[i as usize]
     }
 
+    /// The primitives of the flat face primitive `i` lies on, `[first, end)`: every triangle
+    /// of its polygon when the polygon is static and flat, the triangle alone when it was a
+    /// polygon of its own; None for everything else (a warped polygon's triangles, spheres,
+    /// quadrics, moving triangles). A ray leaving the face's plane misses them all
+    /// ([`RayPre::leaving`]).
+    pub fn flat_face(&self, i: u32) -> Option<[u32; 2]> {
+        if self.slots.get(i as usize)? & KIND != TRIANGLE {
+            return None;
+        }
+        let holding = |ranges: &[[u32; 2]]| {
+            let k = ranges.partition_point(|r| r[1] <= i);
+            ranges.get(k).filter(|r| r[0] <= i).copied()
+        };
+        if let Some(r) = holding(&self.flat_polygons) {
+            return Some(r);
+        }
+        match holding(&self.warped_polygons) {
+            Some(_) => None,
+            None => Some([i, i + 1]),
+        }
+    }
+
     /// The primitive number of `slot`.
     #[inline(always)]
     pub fn prim_of(&self, slot: Slot) -> u32 {
@@ -126,14 +172,19 @@ impl Primitives {
         self.intersect_slot(self.slot(i), r, t_min, t_max)
     }
 
-    /// The nearest `t` in `(t_min, t_max)` of the primitive in `slot`.
+    /// The nearest `t` in `(t_min, t_max)` of the primitive in `slot`; None at once for a
+    /// triangle the ray is known to miss ([`RayPre::leaving`]: only triangles of the mesh
+    /// are ever skipped, [`Primitives::flat_face`]).
     #[inline(always)]
     pub fn intersect_slot(&self, slot: Slot, r: &RayPre, t_min: Real, t_max: Real) -> Option<Real> {
         let k = (slot & !KIND) as usize;
         match slot & KIND {
             TRIANGLE => {
-                let v = self.mesh.corners(&self.mesh.triangles[k]);
-                intersect_triangle(r, &v, t_min, t_max)
+                let t = &self.mesh.triangles[k];
+                if r.skips(t.prim) {
+                    return None;
+                }
+                intersect_triangle(r, &self.mesh.corners(t), t_min, t_max)
             }
             SPHERE => {
                 let s = &self.spheres[k];
@@ -391,6 +442,7 @@ impl Primitives {
             + self.other_prims.capacity() * 4
             + self.others.capacity() * std::mem::size_of::<Primitive>()
             + self.other_bounds.capacity() * std::mem::size_of::<Option<Aabb>>()
+            + (self.flat_polygons.capacity() + self.warped_polygons.capacity()) * 8
     }
 }
 

@@ -333,3 +333,128 @@ fn smooth_polygons_keep_their_corner_normals_in_a_side_table() {
     assert_eq!(was, now);
     assert!(was.is_some());
 }
+
+#[test]
+fn flat_faces_are_a_flat_polygons_triangles_or_a_triangle_alone() {
+    let surfaces: Vec<Surface> = Vec::new();
+    let mut b = PrimitivesBuilder::new();
+    let poly = |vertices: Vec<Vec3>, motion: Vec3| Object {
+        shape: Shape::Polygon { vertices },
+        surface: 0,
+        motion,
+    };
+    let square = |z: f64| {
+        vec![
+            Vec3::new(-1.0, -1.0, z),
+            Vec3::new(1.0, -1.0, z),
+            Vec3::new(1.0, 1.0, z),
+            Vec3::new(-1.0, 1.0, z),
+        ]
+    };
+    // A triangle (0); a square in a tilted plane (1, 2); a quad with one corner lifted by a
+    // millionth of its size (3, 4: warped, shaded with the quad's normal, not their own); a
+    // sphere (5); a moving square (6, 7); a flat pentagon (8, 9, 10).
+    let tilt = DAffine3::from_rotation_x(0.3) * DAffine3::from_rotation_z(0.7);
+    let objects = vec![
+        poly(vec![Vec3::ZERO, Vec3::X, Vec3::Y], Vec3::ZERO),
+        poly(
+            square(3.0)
+                .iter()
+                .map(|&v| tilt.transform_point3(v))
+                .collect(),
+            Vec3::ZERO,
+        ),
+        poly(
+            {
+                let mut q = square(0.0);
+                q[3].z += 2e-6;
+                q
+            },
+            Vec3::ZERO,
+        ),
+        Object {
+            shape: Shape::Sphere {
+                center: Vec3::ZERO,
+                radius: 1.0,
+            },
+            surface: 0,
+            motion: Vec3::ZERO,
+        },
+        poly(square(1.0), Vec3::X),
+        poly(
+            (0..5)
+                .map(|k| {
+                    let a = k as f64 * std::f64::consts::TAU / 5.0;
+                    Vec3::new(a.cos(), 5.0, a.sin())
+                })
+                .collect(),
+            Vec3::ZERO,
+        ),
+    ];
+    for o in &objects {
+        b.add(&surfaces, o);
+    }
+    let (mut prims, dropped) = b.finish();
+    assert!(dropped.is_empty());
+    assert_eq!(prims.len(), 11);
+    let want = [
+        Some([0, 1]),
+        Some([1, 3]),
+        Some([1, 3]),
+        None,
+        None,
+        None,
+        None,
+        None,
+        Some([8, 11]),
+        Some([8, 11]),
+        Some([8, 11]),
+    ];
+    let got: Vec<_> = (0..11).map(|i| prims.flat_face(i)).collect();
+    assert_eq!(got, want);
+    // The accelerator's order moves the mesh's triangles, not the primitive numbers.
+    assert!(prims.adopt_order(&(0..11).rev().collect::<Vec<u32>>()));
+    assert_eq!(
+        (0..11).map(|i| prims.flat_face(i)).collect::<Vec<_>>(),
+        want
+    );
+    assert_eq!(prims.flat_face(11), None);
+}
+
+#[test]
+fn a_ray_leaving_a_face_misses_its_triangles_and_nothing_else() {
+    let mut b = PrimitivesBuilder::new();
+    let surfaces: Vec<Surface> = Vec::new();
+    for z in [0.0, 1.0] {
+        b.add(
+            &surfaces,
+            &Object {
+                shape: Shape::Polygon {
+                    vertices: vec![
+                        Vec3::new(-1.0, -1.0, z),
+                        Vec3::new(1.0, -1.0, z),
+                        Vec3::new(1.0, 1.0, z),
+                        Vec3::new(-1.0, 1.0, z),
+                    ],
+                },
+                surface: 0,
+                motion: Vec3::ZERO,
+            },
+        );
+    }
+    let prims = b.finish().0;
+    // A ray up through both squares, from below: it meets each at one of its two triangles.
+    let r = RayPre::new(Ray::new(Vec3::new(0.3, 0.1, -1.0), Vec3::Z));
+    let hits = |r: &RayPre| -> Vec<u32> {
+        (0..4)
+            .filter(|&i| prims.intersect(i, r, 0.0, 10.0).is_some())
+            .collect()
+    };
+    let all = hits(&r);
+    assert_eq!(all.len(), 2, "{all:?}");
+    assert!(all[0] < 2 && all[1] >= 2);
+    let skipping = r.clone().leaving(prims.flat_face(all[0]).unwrap());
+    assert!(skipping.skips(0) && skipping.skips(1) && !skipping.skips(2));
+    assert_eq!(hits(&skipping), vec![all[1]]);
+    assert!(!r.skips(0), "a new ray skips nothing");
+}

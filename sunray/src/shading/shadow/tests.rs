@@ -3,6 +3,7 @@
 //! the last crossing), on glass slabs and glass spheres with every accelerator.
 
 use super::super::tests::{square, white_light, world, Fixture};
+use super::FlatFace;
 use crate::accel::{Accel, AccelKind, AccelOptions, Scratch};
 use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
 use crate::sampler::SampleStream;
@@ -159,7 +160,7 @@ fn one_walk_filters_as_the_crossing_loop_did_with_fewer_tests() {
                 counters: &mut new_c,
             };
             let ray = Ray::new(p + Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
-            let new = tracer.shadow(p, Vec3::Z, 0, l, dist, &ray);
+            let new = tracer.shadow(None, p, Vec3::Z, 0, l, dist, &ray);
             tracer.counters = &mut old_c;
             let old = shadow_by_crossings(&mut tracer, p, Vec3::Z, l, dist, &ray);
             assert!(
@@ -250,7 +251,7 @@ fn the_last_occluder_never_changes_a_shadow() {
                     scratch,
                     counters,
                 }
-                .shadow(p, Vec3::Z, index, l, dist, &ray)
+                .shadow(None, p, Vec3::Z, index, l, dist, &ray)
             };
             let fresh = &mut Scratch::new(scene.prims.len(), mailbox);
             let want = shadow(fresh, &mut Counters::default());
@@ -284,10 +285,18 @@ fn a_glass_sphere_filters_twice_and_once_from_inside() {
     let once = color * (1.0 - kdt);
     let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
     // From below the sphere: in and out.
-    let f = tracer.shadow(Vec3::ZERO, Vec3::Z, 0, Vec3::Z, 10.0, &up);
+    let f = tracer.shadow(None, Vec3::ZERO, Vec3::Z, 0, Vec3::Z, 10.0, &up);
     assert!((f - once * once).abs().max_element() < 1e-12, "{f}");
     // From its centre: out only.
-    let f = tracer.shadow(Vec3::new(0.0, 0.0, 3.0), Vec3::Z, 0, Vec3::Z, 7.0, &up);
+    let f = tracer.shadow(
+        None,
+        Vec3::new(0.0, 0.0, 3.0),
+        Vec3::Z,
+        0,
+        Vec3::Z,
+        7.0,
+        &up,
+    );
     assert!((f - once).abs().max_element() < 1e-12, "{f}");
 }
 
@@ -302,13 +311,113 @@ fn a_stack_of_dark_glass_is_blocked_once_the_light_left_is_negligible() {
     let mut tracer = fixture.tracer(TraceOptions::default());
     let up = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
     assert_eq!(
-        tracer.shadow(Vec3::ZERO, Vec3::Z, 0, Vec3::Z, 10.0, &up),
+        tracer.shadow(None, Vec3::ZERO, Vec3::Z, 0, Vec3::Z, 10.0, &up),
         Vec3::ZERO
     );
     // The ten above z = 4.9 pass 0.5^10.
-    let f = tracer.shadow(Vec3::new(0.0, 0.0, 4.9), Vec3::Z, 0, Vec3::Z, 5.1, &up);
+    let f = tracer.shadow(
+        None,
+        Vec3::new(0.0, 0.0, 4.9),
+        Vec3::Z,
+        0,
+        Vec3::Z,
+        5.1,
+        &up,
+    );
     assert!(
         (f - Vec3::splat(0.5f64.powi(10))).abs().max_element() < 1e-15,
         "{f}"
     );
+}
+
+/// Shadow rays leaving a flat face skip its triangles ([`FlatFace`]) and get exactly the
+/// shadow they got testing them, from a square floor under a sphere. A quad folded into a
+/// valley is no flat face: its triangles shadow each other (and themselves, shaded with the
+/// quad's normal), and skipping the quad would light points that are in its shadow.
+#[test]
+fn leaving_a_flat_face_changes_no_shadow() {
+    let valley = Shape::Polygon {
+        vertices: vec![
+            Vec3::new(2.0, -1.0, 0.0),
+            Vec3::new(4.0, -1.0, 0.0),
+            Vec3::new(4.0, 1.0, 0.0),
+            Vec3::new(2.0, 1.0, 2.0),
+        ],
+    };
+    let ball = Shape::Sphere {
+        center: Vec3::new(0.2, -0.1, 0.8),
+        radius: 0.4,
+    };
+    let objects = vec![
+        (square(0.0), Surface::default()),
+        (valley, Surface::default()),
+        (ball, Surface::default()),
+    ];
+    let mut scene = Scene::new(world(objects, vec![white_light(Vec3::Z)]));
+    let prims = [0u32, 1, 2, 3].map(|i| (i, scene.prims.get(i)));
+    let corners = |p: &crate::geometry::Primitive| match p.kind {
+        crate::geometry::PrimitiveKind::Triangle { v, .. } => v,
+        _ => unreachable!("the floor and the valley are triangles"),
+    };
+    assert_eq!(scene.prims.flat_face(0), Some([0, 2]));
+    assert_eq!(scene.prims.flat_face(2), None, "the valley is not flat");
+    for (kind, mailbox) in setups() {
+        let accel = build(&mut scene, kind);
+        let mut scratch = Scratch::new(scene.prims.len(), mailbox);
+        let mut rng = SampleStream::new(11, 5, 0);
+        let (mut floor_shaded, mut valley_shaded) = (0, 0);
+        for _ in 0..4000 {
+            let (i, prim) = &prims[(rng.next_2d().0 * 4.0) as usize % 4];
+            let v = corners(prim);
+            let (mut a, mut b) = rng.next_2d();
+            if a + b > 1.0 {
+                (a, b) = (1.0 - a, 1.0 - b);
+            }
+            let p = v[0] + (v[1] - v[0]) * a + (v[2] - v[0]) * b;
+            let (c, d) = rng.next_2d();
+            let (azimuth, height) = (c * std::f64::consts::TAU, 0.1 + d * 4.0);
+            let light = Vec3::new(3.0 + azimuth.cos() * 4.0, azimuth.sin() * 4.0, height);
+            let (l, dist) = ((light - p).normalize(), (light - p).length());
+            let n = scene.prims.normal(*i, p, 0.0);
+            let side = if n.dot(l) > 0.0 { n } else { -n };
+            let face = scene
+                .prims
+                .flat_face(*i)
+                .map(|prims| FlatFace { prims, normal: n });
+            let ray = Ray::new(p + side, -side);
+            let mut tracer = Tracer {
+                scene: &scene,
+                accel: &accel,
+                opts: TraceOptions::default(),
+                scratch: &mut scratch,
+                counters: &mut Counters::default(),
+            };
+            let tested = tracer.shadow(None, p, side, 0, l, dist, &ray);
+            let skipped = tracer.shadow(face.as_ref(), p, side, 0, l, dist, &ray);
+            assert_eq!(skipped, tested, "{kind:?}: from {p} on {i} to {light}");
+            if tested == Vec3::ZERO {
+                if *i < 2 {
+                    floor_shaded += 1;
+                } else if scene
+                    .prims
+                    .intersect(4, &RayPre::new(Ray::new(p, l)), 0.0, dist)
+                    .is_none()
+                {
+                    valley_shaded += 1;
+                    // Not the ball: only the valley's other triangle is in the way, and
+                    // skipping the whole quad would light the point.
+                    let whole = FlatFace {
+                        prims: [2, 4],
+                        normal: n,
+                    };
+                    let wrong = tracer.shadow(Some(&whole), p, side, 0, l, dist, &ray);
+                    assert_eq!(wrong, Vec3::ONE, "{kind:?}: from {p} on {i} to {light}");
+                }
+            }
+        }
+        assert!(
+            floor_shaded > 20 && valley_shaded > 20,
+            "{kind:?}: {floor_shaded} {valley_shaded}"
+        );
+    }
 }
