@@ -103,12 +103,26 @@ impl<'a> Tracer<'a> {
         media: Media,
         rng: &mut SampleStream,
     ) -> Vec3 {
+        self.trace_pre(RayPre::new(ray), kind, depth, weight, media, rng)
+    }
+
+    /// [`Tracer::trace`] of a prepared ray (a secondary ray may know a face it leaves,
+    /// [`RayPre::leaving`]).
+    pub(super) fn trace_pre(
+        &mut self,
+        pre: RayPre,
+        kind: RayKind,
+        depth: u32,
+        weight: Real,
+        media: Media,
+        rng: &mut SampleStream,
+    ) -> Vec3 {
+        let ray = pre.ray;
         match kind {
             RayKind::Eye => self.counters.eye += 1,
             RayKind::Reflected => self.counters.reflected += 1,
             RayKind::Refracted => self.counters.refracted += 1,
         }
-        let pre = RayPre::new(ray);
         let hit = self.accel.closest(
             &self.scene.prims,
             &pre,
@@ -172,8 +186,10 @@ impl<'a> Tracer<'a> {
         // geometric one); everything else with the geometric normal.
         let smooth = prims.smooth_hit(prim_index, p, ray.time);
         let geometric = n;
-        let face = match (&smooth, prims.flat_face(prim_index)) {
-            (None, Some(prims)) if valid_normal => Some(FlatFace { prims, normal: n }),
+        let face = match smooth {
+            None if valid_normal => prims
+                .flat_face(prim_index)
+                .map(|prims| FlatFace { prims, normal: n }),
             _ => None,
         };
         if let Some(s) = &smooth {

@@ -8,7 +8,7 @@
 
 use super::hall::{RayKind, SurfacePoint, Tracer};
 use super::optics::{fresnel, reflect, refract};
-use crate::geometry::{offset_from, Ray, Real, Vec3};
+use crate::geometry::{offset_from, Ray, RayPre, Real, Vec3};
 use crate::sampler::SampleStream;
 
 impl Tracer<'_> {
@@ -51,8 +51,8 @@ impl Tracer<'_> {
                 dir,
                 time: ray.time,
             };
-            let c = self.trace(
-                r,
+            let c = self.trace_pre(
+                leaving(at, ng, r),
                 RayKind::Reflected,
                 depth + 1,
                 weight * w_refl,
@@ -87,8 +87,8 @@ impl Tracer<'_> {
                     dir,
                     time: ray.time,
                 };
-                let c = self.trace(
-                    r,
+                let c = self.trace_pre(
+                    leaving(at, -ng, r),
                     RayKind::Refracted,
                     depth + 1,
                     weight * w_refr,
@@ -99,6 +99,16 @@ impl Tracer<'_> {
             }
         }
         result
+    }
+}
+
+/// Secondary ray `r` from `at`, offset along `side`, prepared: it skips the flat face it
+/// leaves ([`super::shadow::FlatFace`]), as shadow rays do.
+fn leaving(at: &SurfacePoint, side: Vec3, r: Ray) -> RayPre {
+    let pre = RayPre::new(r);
+    match &at.face {
+        Some(face) if face.left_by(side, r.dir) => pre.leaving(face.prims),
+        _ => pre,
     }
 }
 

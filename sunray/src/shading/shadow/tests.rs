@@ -421,3 +421,28 @@ fn leaving_a_flat_face_changes_no_shadow() {
         );
     }
 }
+
+/// A ray leaves a face when it starts on one side of the plane (the offset along `side`)
+/// and moves further to that side: reflected and shadow rays on the viewer's side, refracted
+/// rays on the far side; not a ray going back through the plane, nor one offset along a
+/// normal far from the face's (a bump-mapped one).
+#[test]
+fn a_ray_leaves_a_face_when_offset_and_direction_agree() {
+    let face = FlatFace {
+        prims: [0, 2],
+        normal: Vec3::Z,
+    };
+    let up = Vec3::new(0.3, 0.1, 0.2).normalize();
+    assert!(face.left_by(Vec3::Z, up));
+    assert!(face.left_by(-Vec3::Z, -up), "the far side");
+    assert!(!face.left_by(Vec3::Z, -up), "back through the plane");
+    assert!(!face.left_by(-Vec3::Z, up));
+    assert!(!face.left_by(Vec3::Z, Vec3::X), "along the plane");
+    let bumped = Vec3::new(1.0, 0.0, 0.5).normalize();
+    assert!(!face.left_by(bumped, up), "offset mostly along the plane");
+    let flipped = FlatFace {
+        normal: -Vec3::Z,
+        ..face
+    };
+    assert!(flipped.left_by(Vec3::Z, up), "either normal of the plane");
+}
