@@ -85,10 +85,28 @@ pub fn render_line(
     opts: &RenderOptions,
     scratch: &mut Scratch,
 ) -> Line {
+    let mut pixels = vec![[0.0; 3]; opts.width as usize];
+    let counters = render_line_into(scene, accel, y, opts, scratch, &mut pixels);
+    Line {
+        y,
+        pixels,
+        counters,
+    }
+}
+
+/// [`render_line`] into `pixels` (the row of a film, `opts.width` long), returning the
+/// line's counts: a whole image is rendered in place, with no line allocated and copied.
+pub fn render_line_into(
+    scene: &Scene,
+    accel: &Accel,
+    y: u32,
+    opts: &RenderOptions,
+    scratch: &mut Scratch,
+    pixels: &mut [[f32; 3]],
+) -> Counters {
     let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
     let mut counters = Counters::default();
     let n = opts.samples.max(1);
-    let mut pixels = Vec::with_capacity(opts.width as usize);
     // A line's counts must not depend on the lines its thread rendered before.
     scratch.occluders.clear();
     let mut tracer = Tracer {
@@ -103,7 +121,7 @@ pub fn render_line(
     let footprint = Footprint::new(&camera, accel);
     let may_hit = footprint.as_ref().map(|f| f.row(y, opts.width));
     let mut spans = may_hit.as_deref().unwrap_or_default().iter().peekable();
-    for x in 0..opts.width {
+    for (x, pixel) in (0..opts.width).zip(pixels.iter_mut()) {
         while spans.next_if(|r| r.end <= x).is_some() {}
         let outside = footprint
             .as_ref()
@@ -116,13 +134,9 @@ pub fn render_line(
             }
             None => trace_pixel(&mut tracer, &camera, (x, y), 0, n),
         };
-        pixels.push([c.x as f32, c.y as f32, c.z as f32]);
+        *pixel = [c.x as f32, c.y as f32, c.z as f32];
     }
-    Line {
-        y,
-        pixels,
-        counters,
-    }
+    counters
 }
 
 /// The mean colour of samples `0..count` of pixel `(x, y)`, their random numbers keyed by

@@ -1,12 +1,13 @@
-//! All cores on one image: threads pull scanline numbers from a shared atomic counter,
-//! render them with [`super::render_line`] and keep their own counters, summed at the end.
+//! All cores on one image: threads take the film's rows in order from a shared queue,
+//! render into them with [`super::render_line_into`] and keep their own counters, summed at
+//! the end.
 
-use super::{render_line, Line, RenderOptions};
+use super::{render_line_into, RenderOptions};
 use crate::accel::{Accel, Scratch};
 use crate::film::Film;
 use crate::scene::Scene;
 use crate::stats::Counters;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Mutex;
 
 /// Whether to draw a progress bar (only sensible when stderr is a terminal).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,7 +28,6 @@ pub fn render_image(
     mailbox: bool,
     progress: Progress,
 ) -> (Film, Counters) {
-    let next = AtomicU32::new(0);
     let bar = match progress {
         Progress::Bar => {
             let b = indicatif::ProgressBar::new(u64::from(opts.height));
@@ -41,25 +41,27 @@ pub fn render_image(
         }
         Progress::Hidden => None,
     };
+    // Threads take the film's rows in order and render into them.
+    let mut film = Film::new(opts.width, opts.height);
+    let rows = Mutex::new(
+        film.pixels
+            .chunks_mut(opts.width.max(1) as usize)
+            .zip(0..opts.height),
+    );
     let worker = || {
         let mut scratch = Scratch::new(scene.prims.len(), mailbox);
-        let mut lines: Vec<Line> = Vec::new();
         let mut counters = Counters::default();
         loop {
-            let y = next.fetch_add(1, Ordering::Relaxed);
-            if y >= opts.height {
-                break;
-            }
-            let mut line = render_line(scene, accel, y, opts, &mut scratch);
-            counters += std::mem::take(&mut line.counters);
-            lines.push(line);
+            let next = rows.lock().unwrap_or_else(|e| e.into_inner()).next();
+            let Some((row, y)) = next else { break };
+            counters += render_line_into(scene, accel, y, opts, &mut scratch, row);
             if let Some(b) = &bar {
                 b.inc(1);
             }
         }
-        (lines, counters)
+        counters
     };
-    let results: Vec<(Vec<Line>, Counters)> = if threads <= 1 {
+    let results: Vec<Counters> = if threads <= 1 {
         vec![worker()]
     } else {
         std::thread::scope(|s| {
@@ -73,13 +75,9 @@ pub fn render_image(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let mut film = Film::new(opts.width, opts.height);
     let mut total = Counters::default();
-    for (lines, counters) in results {
+    for counters in results {
         total += counters;
-        for line in lines {
-            film.set_line(line.y, &line.pixels);
-        }
     }
     (film, total)
 }
