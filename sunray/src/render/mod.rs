@@ -1,7 +1,7 @@
 //! The render loop. A scanline is rendered by a pure function of (scene, accelerator, line,
-//! options) -> pixels + counters ([`render_line`]); [`render_image`] runs it on all cores by
-//! pulling line numbers from a shared atomic counter, the same request-render-complete loop a
-//! SunRay III worker runs against its controller. [`settings`] holds what decides the
+//! options) -> pixels + counters ([`render_line`]); [`render_image`] runs it on all cores,
+//! each taking the film's next row, the same request-render-complete loop a SunRay III
+//! worker runs against its controller. [`settings`] holds what decides the
 //! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything.
 
 pub mod footprint;
@@ -86,7 +86,8 @@ pub fn render_line(
     scratch: &mut Scratch,
 ) -> Line {
     let mut pixels = vec![[0.0; 3]; opts.width as usize];
-    let counters = render_line_into(scene, accel, y, opts, scratch, &mut pixels);
+    let frame = Frame::new(scene, accel, opts);
+    let counters = render_line_into(scene, accel, y, opts, scratch, &frame, &mut pixels);
     Line {
         y,
         pixels,
@@ -94,17 +95,35 @@ pub fn render_line(
     }
 }
 
-/// [`render_line`] into `pixels` (the row of a film, `opts.width` long), returning the
-/// line's counts: a whole image is rendered in place, with no line allocated and copied.
+/// What every line of one image shares: the camera and the scene's footprint on the image.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    camera: Camera,
+    footprint: Option<Footprint>,
+}
+
+impl Frame {
+    /// The frame of `scene` rendered with `opts`.
+    pub fn new(scene: &Scene, accel: &Accel, opts: &RenderOptions) -> Frame {
+        let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
+        let footprint = Footprint::new(&camera, accel);
+        Frame { camera, footprint }
+    }
+}
+
+/// [`render_line`] into `pixels` (the row of a film, `opts.width` long) in `frame` (made
+/// for the same scene and options), returning the line's counts: a whole image is rendered
+/// in place, with no line allocated and copied and the frame made once.
 pub fn render_line_into(
     scene: &Scene,
     accel: &Accel,
     y: u32,
     opts: &RenderOptions,
     scratch: &mut Scratch,
+    frame: &Frame,
     pixels: &mut [[f32; 3]],
 ) -> Counters {
-    let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
+    let Frame { camera, footprint } = frame;
     let mut counters = Counters::default();
     let n = opts.samples.max(1);
     // A line's counts must not depend on the lines its thread rendered before.
@@ -118,7 +137,6 @@ pub fn render_line_into(
     };
     // Pixels outside the scene's footprint are background, counted as the eye rays the
     // tracer would have sent (each visits the root and misses).
-    let footprint = Footprint::new(&camera, accel);
     let may_hit = footprint.as_ref().map(|f| f.row(y, opts.width));
     let mut spans = may_hit.as_deref().unwrap_or_default().iter().peekable();
     for (x, pixel) in (0..opts.width).zip(pixels.iter_mut()) {
@@ -132,7 +150,7 @@ pub fn render_line_into(
                 tracer.counters.voxels += f.voxels_on_miss * u64::from(n);
                 mean_of(n, |_| scene.world.background)
             }
-            None => trace_pixel(&mut tracer, &camera, (x, y), 0, n),
+            None => trace_pixel(&mut tracer, camera, (x, y), 0, n),
         };
         *pixel = [c.x as f32, c.y as f32, c.z as f32];
     }

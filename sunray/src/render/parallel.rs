@@ -2,7 +2,7 @@
 //! render into them with [`super::render_line_into`] and keep their own counters, summed at
 //! the end.
 
-use super::{render_line_into, RenderOptions};
+use super::{render_line_into, Frame, RenderOptions};
 use crate::accel::{Accel, Scratch};
 use crate::film::Film;
 use crate::scene::Scene;
@@ -43,6 +43,7 @@ pub fn render_image(
     };
     // Threads take the film's rows in order and render into them.
     let mut film = Film::new(opts.width, opts.height);
+    let frame = Frame::new(scene, accel, opts);
     let rows = Mutex::new(
         film.pixels
             .chunks_mut(opts.width.max(1) as usize)
@@ -54,7 +55,7 @@ pub fn render_image(
         loop {
             let next = rows.lock().unwrap_or_else(|e| e.into_inner()).next();
             let Some((row, y)) = next else { break };
-            counters += render_line_into(scene, accel, y, opts, &mut scratch, row);
+            counters += render_line_into(scene, accel, y, opts, &mut scratch, &frame, row);
             if let Some(b) = &bar {
                 b.inc(1);
             }
