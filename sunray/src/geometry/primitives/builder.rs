@@ -151,13 +151,9 @@ impl PrimitivesBuilder {
             self.out
                 .slots
                 .extend(range.clone().map(|k| TRIANGLE | k as u32));
-            if range.len() > 1 {
+            if range.len() > 1 && super::flat(vertices, t.normal) {
                 let end = first + range.len() as u32;
-                if super::flat(vertices, t.normal) {
-                    self.out.flat_polygons.push([first, end]);
-                } else {
-                    self.out.warped_polygons.push([first, end]);
-                }
+                self.out.flat_polygons.push([first, end]);
             }
             let transparent = surfaces
                 .get(obj.surface as usize)
@@ -258,7 +254,6 @@ impl PrimitivesBuilder {
         out.other_prims.shrink_to_fit();
         out.other_bounds.shrink_to_fit();
         out.flat_polygons.shrink_to_fit();
-        out.warped_polygons.shrink_to_fit();
         (out, self.dropped)
     }
 }

@@ -127,6 +127,12 @@ impl Mesh {
         }
     }
 
+    /// Whether `t`'s normal is its own plane's, recomputed from its corners (not a larger or
+    /// warped polygon's, nor one given with the triangle).
+    pub fn has_plane_normal(t: &MeshTriangle) -> bool {
+        t.normal & RECOMPUTED == RECOMPUTED
+    }
+
     /// Whether `t`'s normal is the negated plane normal (a face of a mesh wound inside out).
     #[inline]
     pub fn is_flipped(t: &MeshTriangle) -> bool {

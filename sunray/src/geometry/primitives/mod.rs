@@ -69,9 +69,6 @@ pub struct Primitives {
     /// The static polygons of more than one triangle that are flat ([`flat`]), as ranges
     /// of primitive numbers `[first, end)`, in order.
     flat_polygons: Vec<[u32; 2]>,
-    /// The same for those that are not: their triangles are shaded with the polygon's
-    /// normal, not their own, so a ray leaving one along it may meet it again.
-    warped_polygons: Vec<[u32; 2]>,
     /// Whether an accelerator's order was adopted ([`Primitives::adopt_order`]).
     ordered: bool,
 }
@@ -134,24 +131,21 @@ impl Primitives {
     }
 
     /// The primitives of the flat face primitive `i` lies on, `[first, end)`: every triangle
-    /// of its polygon when the polygon is static and flat, the triangle alone when it was a
-    /// polygon of its own; None for everything else (a warped polygon's triangles, spheres,
-    /// quadrics, moving triangles). A ray leaving the face's plane misses them all
-    /// ([`RayPre::leaving`]).
+    /// of its polygon when the polygon is static and flat, the triangle alone when its normal
+    /// is its own plane's; None for everything else (a warped polygon's triangles and others
+    /// shaded with a normal not their plane's, spheres, quadrics, moving triangles). A ray
+    /// leaving the face's plane misses them all ([`RayPre::leaving`]).
     pub fn flat_face(&self, i: u32) -> Option<[u32; 2]> {
-        if self.slots.get(i as usize)? & KIND != TRIANGLE {
+        let slot = *self.slots.get(i as usize)?;
+        if slot & KIND != TRIANGLE {
             return None;
         }
-        let holding = |ranges: &[[u32; 2]]| {
-            let k = ranges.partition_point(|r| r[1] <= i);
-            ranges.get(k).filter(|r| r[0] <= i).copied()
-        };
-        if let Some(r) = holding(&self.flat_polygons) {
-            return Some(r);
-        }
-        match holding(&self.warped_polygons) {
-            Some(_) => None,
-            None => Some([i, i + 1]),
+        let polygons = &self.flat_polygons;
+        let k = polygons.partition_point(|r| r[1] <= i);
+        match polygons.get(k) {
+            Some(r) if r[0] <= i => Some(*r),
+            _ => Mesh::has_plane_normal(&self.mesh.triangles[(slot & !KIND) as usize])
+                .then_some([i, i + 1]),
         }
     }
 
@@ -442,7 +436,7 @@ impl Primitives {
             + self.other_prims.capacity() * 4
             + self.others.capacity() * std::mem::size_of::<Primitive>()
             + self.other_bounds.capacity() * std::mem::size_of::<Option<Aabb>>()
-            + (self.flat_polygons.capacity() + self.warped_polygons.capacity()) * 8
+            + self.flat_polygons.capacity() * 8
     }
 }
 

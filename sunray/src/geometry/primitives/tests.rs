@@ -394,9 +394,22 @@ fn flat_faces_are_a_flat_polygons_triangles_or_a_triangle_alone() {
     for o in &objects {
         b.add(&surfaces, o);
     }
+    // Triangles given with a normal: their plane's (11), another (12).
+    for normal in [Vec3::Z, Vec3::new(0.0, 0.6, 0.8)] {
+        b.add_primitive(Primitive {
+            kind: PrimitiveKind::Triangle {
+                v: [Vec3::ZERO, Vec3::X, Vec3::Y],
+                normal,
+                solid: false,
+            },
+            object: 6,
+            surface: 0,
+            motion: Vec3::ZERO,
+        });
+    }
     let (mut prims, dropped) = b.finish();
     assert!(dropped.is_empty());
-    assert_eq!(prims.len(), 11);
+    assert_eq!(prims.len(), 13);
     let want = [
         Some([0, 1]),
         Some([1, 3]),
@@ -409,16 +422,18 @@ fn flat_faces_are_a_flat_polygons_triangles_or_a_triangle_alone() {
         Some([8, 11]),
         Some([8, 11]),
         Some([8, 11]),
+        Some([11, 12]),
+        None,
     ];
-    let got: Vec<_> = (0..11).map(|i| prims.flat_face(i)).collect();
+    let got: Vec<_> = (0..13).map(|i| prims.flat_face(i)).collect();
     assert_eq!(got, want);
     // The accelerator's order moves the mesh's triangles, not the primitive numbers.
-    assert!(prims.adopt_order(&(0..11).rev().collect::<Vec<u32>>()));
+    assert!(prims.adopt_order(&(0..13).rev().collect::<Vec<u32>>()));
     assert_eq!(
-        (0..11).map(|i| prims.flat_face(i)).collect::<Vec<_>>(),
+        (0..13).map(|i| prims.flat_face(i)).collect::<Vec<_>>(),
         want
     );
-    assert_eq!(prims.flat_face(11), None);
+    assert_eq!(prims.flat_face(13), None);
 }
 
 #[test]
