@@ -13,7 +13,6 @@
 //! ```
 
 use super::media::{Media, Medium};
-use super::shadow::FlatFace;
 use crate::accel::{Accel, Scratch};
 use crate::geometry::smooth::SmoothHit;
 use crate::geometry::{Ray, RayPre, Real, Vec3};
@@ -254,6 +253,26 @@ impl<'a> Tracer<'a> {
             n_view,
             n_far,
         }
+    }
+}
+
+/// The flat face a point is on ([`crate::geometry::Primitives::flat_face`]): its primitives and
+/// its geometric unit normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlatFace {
+    /// Primitive numbers `[first, end)`.
+    pub prims: [u32; 2],
+    /// The plane's unit normal (either side).
+    pub normal: Vec3,
+}
+
+impl FlatFace {
+    /// Whether a ray that starts at a point of the face, offset along `side`, and goes along
+    /// `dir` moves away from the face's plane: the offset and the direction on the same side
+    /// of it. `side` must be close to the normal (a bump-mapped normal may not be).
+    pub fn left_by(&self, side: Vec3, dir: Vec3) -> bool {
+        let (s, d) = (self.normal.dot(side), self.normal.dot(dir));
+        (s > 0.5 && d > 0.0) || (s < -0.5 && d < 0.0)
     }
 }
 

@@ -103,7 +103,7 @@ impl Tracer<'_> {
 }
 
 /// Secondary ray `r` from `at`, offset along `side`, prepared: it skips the flat face it
-/// leaves ([`super::shadow::FlatFace`]), as shadow rays do.
+/// leaves ([`super::hall::FlatFace`]), as shadow rays do.
 fn leaving(at: &SurfacePoint, side: Vec3, r: Ray) -> RayPre {
     let pre = RayPre::new(r);
     match &at.face {

@@ -11,7 +11,7 @@
 //! just past the last crossing: gears' shadow rays cost 41M intersection tests instead of
 //! 8.4M opaque.)
 
-use super::hall::Tracer;
+use super::hall::{FlatFace, Tracer};
 use crate::geometry::{offset_from, Primitives, Ray, RayPre, Real, Vec3, OFFSET_RELATIVE};
 use crate::scene::Scene;
 use arrayvec::ArrayVec;
@@ -126,26 +126,6 @@ fn roots(
         }
     }
     found
-}
-
-/// The flat face a point is on ([`crate::geometry::Primitives::flat_face`]): its primitives and
-/// its geometric unit normal.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FlatFace {
-    /// Primitive numbers `[first, end)`.
-    pub prims: [u32; 2],
-    /// The plane's unit normal (either side).
-    pub normal: Vec3,
-}
-
-impl FlatFace {
-    /// Whether a ray that starts at a point of the face, offset along `side`, and goes along
-    /// `dir` moves away from the face's plane: the offset and the direction on the same side
-    /// of it. `side` must be close to the normal (a bump-mapped normal may not be).
-    pub fn left_by(&self, side: Vec3, dir: Vec3) -> bool {
-        let (s, d) = (self.normal.dot(side), self.normal.dot(dir));
-        (s > 0.5 && d > 0.0) || (s < -0.5 && d < 0.0)
-    }
 }
 
 impl Tracer<'_> {
