@@ -1,7 +1,7 @@
 //! The pieces of Haines's output library the generators need, NFF branch only, kept step for
 //! step so the entities (and thus the printed text) are his: `lib_output_color` (`libpr1.c`),
-//! `lib_output_polygon` and `lib_output_polypatch` (`libply.c`), `lib_output_sphere` and
-//! `lib_output_cylcone` (`libpr2.c`) and the transformation stack of `libtx.c` (`jacks`).
+//! `lib_output_polygon` (`libply.c`), `lib_output_sphere` and `lib_output_cylcone`
+//! (`libpr2.c`) and the transformation stack of `libtx.c` (`jacks`).
 //!
 //! Spheres and cylinders/cones are written as his `curve_format` says ([`CurveFormat`]): as
 //! `s` and `c` (his default, `OUTPUT_CURVES`), or as `pp` triangles (`-t`, `OUTPUT_PATCHES`,
@@ -68,15 +68,6 @@ pub fn polygon(s: &mut NffScene, vert: &mut [[f64; 3]]) {
     s.push(Entity::Polygon {
         vertices: vert[..tot_vert].to_vec(),
         normals: None,
-    });
-}
-
-/// `lib_output_polypatch` for a triangle: his polygon splitter returns a triangle as it is,
-/// so this is one `pp 3` with the vertices and normals in order.
-pub fn polypatch_triangle(s: &mut NffScene, vert: [[f64; 3]; 3], norm: [[f64; 3]; 3]) {
-    s.push(Entity::Polygon {
-        vertices: vert.to_vec(),
-        normals: Some(norm.to_vec()),
     });
 }
 

@@ -1,7 +1,8 @@
 //! Haines's polygonal patch output (his `-t` option, `OUTPUT_PATCHES`), NFF branch, kept step
 //! for step so the triangles print as his programs print them: `lib_output_polygon_sphere`
 //! and `lib_output_polygon_cylcone` of `libply.c`, each triangle written through
-//! `lib_output_polypatch` as a `pp 3` (vertices and unit normals, in his order).
+//! `lib_output_polypatch` ([`polypatch_triangle`], also used by `teapot`) as a `pp 3`
+//! (vertices and unit normals, in his order).
 //!
 //! Under a transformation (`jacks`) the shapes are made in object space and each triangle is
 //! then transformed as his `split_polygon` does: vertices as points by the current matrix,
@@ -12,8 +13,7 @@ use super::haines_lib::{
     axis_rotate_matrix, cross, invert_matrix, normalize, normalize_len, rotate_cube_face,
     rotate_matrix, transform_normal, transform_point, transform_vector, Axis, Coord4, Matrix,
 };
-use super::haines_output::polypatch_triangle;
-use crate::nff::NffScene;
+use crate::nff::{Entity, NffScene};
 use std::f64::consts::PI;
 
 /// `EPSILON2` of `def.h`: a cylinder axis this close to z is crossed with x instead.
@@ -35,6 +35,15 @@ impl PatchTx {
             inverse: invert_matrix(matrix),
         }
     }
+}
+
+/// `lib_output_polypatch` for a triangle: his polygon splitter returns a triangle as it is,
+/// so this is one `pp 3` with the vertices and normals in order.
+pub fn polypatch_triangle(s: &mut NffScene, vert: [[f64; 3]; 3], norm: [[f64; 3]; 3]) {
+    s.push(Entity::Polygon {
+        vertices: vert.to_vec(),
+        normals: Some(norm.to_vec()),
+    });
 }
 
 /// `lib_output_polypatch` for a triangle, under `tx` if any: his splitter returns a triangle

@@ -11,9 +11,10 @@
 //!
 //! # Layout
 //! - [`haines_lib`]: the matrix routines and Gaussian random numbers of Haines's `libvec.c`.
-//! - [`haines_output`]: his library's output routines (colour, polygon, patch, sphere,
+//! - [`haines_output`]: his library's output routines (colour, polygon, sphere,
 //!   cylinder/cone, transformation stack), NFF branch.
-//! - [`haines_patches`]: his polygonal patch output of spheres and cylinders/cones (`-t`).
+//! - [`haines_patches`]: his polygonal patch output: one patch (`lib_output_polypatch`), and
+//!   spheres and cylinders/cones as patches (`-t`).
 //! - [`tetra`]: the recursive tetrahedron.
 //! - [`mount`]: the fractal mountain and its four glass spheres.
 //! - [`balls`]: the sphereflake on a floor polygon.

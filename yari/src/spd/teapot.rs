@@ -6,7 +6,8 @@
 //! supported - use at your own risk"; it is generated all the same, as his program does.)
 
 use super::haines_lib::{matrix_multiply, normalize, transform_coord, transpose, Coord4, Matrix};
-use super::haines_output::{color, polygon, polypatch_triangle};
+use super::haines_output::{color, polygon};
+use super::haines_patches::polypatch_triangle;
 use crate::nff::{Entity, NffScene, View};
 
 /// The `teapot` scene at `size` (1 or more).
