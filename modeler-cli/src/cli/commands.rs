@@ -142,11 +142,6 @@ pub(crate) struct ShowArgs {
 }
 
 #[derive(Args, Debug)]
-pub(crate) struct NameArg {
-    pub name: String,
-}
-
-#[derive(Args, Debug)]
 pub(crate) struct TranslateArgs {
     pub name: String,
     #[arg(value_parser = args::vec3, allow_hyphen_values = true)]

@@ -1,11 +1,18 @@
 //! The arguments of the commands that build geometry: skeletons, primitives, revolve and
-//! extrude (re-exported by [`super::commands`]).
+//! extrude, and the one-name argument that they share with the object commands (all
+//! re-exported by [`super::commands`]).
 
 use super::args::{self, Axis};
-use super::commands::NameArg;
 use crate::project::V3;
 use crate::skeleton::{Plane, SkeletonKind};
 use clap::{Args, Subcommand};
+
+// A command's one argument: an object's or skeleton's name (no doc comment: clap would
+// show it as the command's help).
+#[derive(Args, Debug)]
+pub(crate) struct NameArg {
+    pub name: String,
+}
 
 #[derive(Subcommand, Debug)]
 pub enum SkeletonCmd {
