@@ -1,108 +1,189 @@
 #!/usr/bin/env python3
 """Finds import cycles between modules of the workspace's library crates.
 
-A file's module path comes from where it lies under `src/` (`src/distrib/controller/mod.rs`
-is `distrib::controller`). Every `crate::a::b::...` path in code (comments and `#[cfg(test)]
-mod tests` blocks left out, `tests.rs` files skipped) is an edge from that file's module to the
-longest module prefix of the path; `super::` paths are resolved the same way. An edge between
-two modules counts between their ancestors that are siblings (children of the lowest common
-ancestor), so a child using its parent's items is no cycle, but `distrib -> cli -> distrib` is.
-Prints every cycle (strongly connected set of siblings) and exits 1 if there is one.
+A crate's modules are those its `src/lib.rs` declares, followed through `mod` declarations
+(`foo.rs` and `foo/mod.rs` alike, `#[path]`, inline `mod x { ... }` blocks), `#[cfg(test)]`
+items left out. Every path a module's code names is resolved to the module it lands in:
+`crate::`, `self::`, `super::` (any number), `$crate::`, `use` trees with groups nested to any
+depth, `pub use`, and bare `use child::...` / `use name::...` where `child` is a submodule or
+`name` an import of the same module. A path through a name that its module imports from
+elsewhere (`use` or `pub use`, not globs) is followed to where the name comes from, so
+`super::Thing` re-exported by the parent from a sibling counts as using the sibling.
 
-    python3 scripts/module_cycles.py            # every library crate of the workspace
-    python3 scripts/module_cycles.py rem sunray # some of them
+An edge between two modules counts between their ancestors that are siblings (children of the
+lowest common ancestor), so a child using its parent's items is no cycle, but
+`distrib -> cli -> distrib` is. Prints every cycle (strongly connected set of siblings) with
+the lines that make it, and exits 1 if there is one.
+
+    python3 scripts/module_cycles.py                    # every library crate of the workspace
+    python3 scripts/module_cycles.py rem sunray         # some of them
+    python3 scripts/module_cycles.py --root /other/tree # another checkout's crates
 """
 import os
 import re
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import rust_source  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CRATES = ["yari", "sunray", "rem", "modeler-cli"]
-PATH_RE = re.compile(r"\b(crate|super)((?:::\s*[A-Za-z_][A-Za-z0-9_]*)+)")
-USE_GROUP_RE = re.compile(r"\buse\s+(crate|super)((?:::[A-Za-z_][A-Za-z0-9_]*)*)::\{([^;]*)\}\s*;", re.S)
+
+_USE_RE = re.compile(r"(?<![\w$])use\s+([^;]*);")
+_PATH_RE = re.compile(r"(?<![\w])(\$crate|crate|self|super)((?:\s*::\s*[A-Za-z_]\w*)+)")
+_TOKEN_RE = re.compile(r"::|[{},*]|[A-Za-z_]\w*")
 
 
-def module_of(rel):
-    """src-relative file path -> module path tuple."""
-    parts = rel[:-3].split(os.sep)
-    if parts[-1] in ("mod", "lib"):
-        parts = parts[:-1]
-    return tuple(parts)
-
-
-def strip(text):
-    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
+def use_tree_paths(tree):
+    """The paths a `use` tree names: [(segments, alias)]; `*` and `self` kept as segments."""
+    tokens = _TOKEN_RE.findall(tree)
     out = []
-    for line in text.splitlines():
-        if re.match(r"\s*#\[cfg\(test\)\]", line):
-            break  # test modules sit at a file's end by our convention
-        out.append(re.sub(r"//.*", "", line))
-    return "\n".join(out)
 
+    def parse(i, prefix):
+        path = list(prefix)
+        if i < len(tokens) and tokens[i] == "::":
+            path.append("::")
+            i += 1
+        while i < len(tokens):
+            t = tokens[i]
+            if t == "{":
+                i += 1
+                while i < len(tokens) and tokens[i] != "}":
+                    i = parse(i, path)
+                    if i < len(tokens) and tokens[i] == ",":
+                        i += 1
+                return i + 1
+            if t == "*":
+                out.append((path + ["*"], None))
+                return i + 1
+            if t in ("}", ","):
+                return i
+            path.append(t)
+            i += 1
+            if i < len(tokens) and tokens[i] == "::":
+                i += 1
+                continue
+            alias = None
+            if i + 1 < len(tokens) and tokens[i] == "as":
+                alias = tokens[i + 1]
+                i += 2
+            out.append((path, alias))
+            return i
+        return i
 
-def targets(text, here):
-    """Module-path prefixes (unresolved) that the file refers to."""
-    found = []
-    for m in USE_GROUP_RE.finditer(text):
-        base = [p for p in m.group(2).split("::") if p]
-        for item in re.split(r",", m.group(3)):
-            name = item.strip().split("::")[0].split(" ")[0].strip("{} \n")
-            if name and name != "self":
-                found.append((m.group(1), base + [name] + [p for p in item.strip().split("::")[1:] if p]))
-            elif name == "self":
-                found.append((m.group(1), base))
-    text = USE_GROUP_RE.sub("", text)
-    for m in PATH_RE.finditer(text):
-        found.append((m.group(1), [p.strip() for p in m.group(2).split("::") if p.strip()]))
-    out = []
-    for root, path in found:
-        if root == "crate":
-            out.append(tuple(path))
-        else:
-            base = list(here)
-            while path and path[0] == "super":
-                path = path[1:]
-                base = base[:-1]
-            out.append(tuple(base[:-1] + path))
+    parse(0, [])
     return out
 
 
-def crate_graph(crate):
-    src = os.path.join(ROOT, crate, "src")
-    files = {}
-    for dirpath, _, names in os.walk(src):
-        if os.path.join(src, "bin") in dirpath:
-            continue
-        for n in names:
-            if not n.endswith(".rs") or n == "tests.rs" or n == "main.rs":
-                continue
-            rel = os.path.relpath(os.path.join(dirpath, n), src)
-            files[module_of(rel)] = os.path.join(dirpath, n)
-    modules = set(files)
-    edges = set()
-    for mod, path in files.items():
-        with open(path, encoding="utf-8") as f:
-            text = strip(f.read())
-        # `super` inside a file is relative to the file's module: `super::x` of a::b is a::x.
-        for target in targets(text, mod + ("_",)):
-            best = None
-            for k in range(len(target), 0, -1):
-                if target[:k] in modules:
-                    best = target[:k]
-                    break
-            if best is None or best == mod:
-                continue
-            # Lift to the children of the lowest common ancestor.
-            k = 0
-            while k < min(len(mod), len(best)) and mod[k] == best[k]:
-                k += 1
-            if k == len(mod) or k == len(best):
-                continue  # ancestor / descendant
-            edges.add((mod[: k + 1], best[: k + 1]))
-    return modules, edges
+def _split(path_text):
+    return [p.strip() for p in path_text.split("::") if p.strip()]
 
 
-def cycles(edges):
+class Crate:
+    """A crate's modules and the paths each names, resolved to absolute module paths."""
+
+    def __init__(self, src_root, root_file="lib.rs"):
+        self.src_root = src_root
+        self.modules = rust_source.module_tree(os.path.join(src_root, root_file))
+        # Per module: [(absolute path, offset)] of what it names; and {name: absolute path}
+        # of what it imports (where a path through `module::name` really goes).
+        self.refs = {}
+        self.imports = {}
+        for path, module in self.modules.items():
+            self._read(path, module)
+
+    def _resolve(self, segs, here, scope):
+        """Absolute path tuple for `segs` named in module `here`, or None (another crate)."""
+        if not segs:
+            return None
+        first = segs[0]
+        if first in ("crate", "$crate"):
+            return tuple(segs[1:])
+        if first in ("self", "super"):
+            base, rest = here, list(segs)
+            while rest and rest[0] in ("self", "super"):
+                if rest[0] == "super":
+                    if not base:
+                        return None
+                    base = base[:-1]
+                rest = rest[1:]
+            return tuple(base) + tuple(rest)
+        if first == "::":
+            return None
+        if first in self.modules[here].children:
+            return tuple(here) + tuple(segs)
+        if first in scope:
+            return scope[first] + tuple(segs[1:])
+        return None
+
+    def _read(self, here, module):
+        code = module.code
+        refs = []
+        imports = {}
+        uses = []
+        for m in _USE_RE.finditer(code):
+            for segs, alias in use_tree_paths(m.group(1)):
+                uses.append((segs, alias, m.start()))
+        # Two passes: `use name::x` may go through a name another `use` brought in.
+        for rooted_only in (True, False):
+            for segs, alias, at in uses:
+                rooted = segs[0] in ("crate", "$crate", "self", "super")
+                if rooted != rooted_only:
+                    continue
+                abs_path = self._resolve(segs, here, imports)
+                if abs_path is None:
+                    continue
+                glob = abs_path and abs_path[-1] == "*"
+                while abs_path and abs_path[-1] in ("*", "self"):
+                    abs_path = abs_path[:-1]
+                refs.append((abs_path, at))
+                if not glob and abs_path:
+                    name = alias or (segs[-2] if segs[-1] == "self" else segs[-1])
+                    if name != "_":
+                        imports[name] = abs_path
+        rest = _USE_RE.sub(lambda m: " " * len(m.group(0)), code)
+        for m in _PATH_RE.finditer(rest):
+            abs_path = self._resolve([m.group(1)] + _split(m.group(2)), here, imports)
+            if abs_path is not None:
+                refs.append((abs_path, m.start()))
+        self.refs[here] = refs
+        self.imports[here] = imports
+
+    def target(self, path, seen=()):
+        """The module an absolute path lands in, following imports of the names it goes through."""
+        for k in range(len(path), -1, -1):
+            mod = path[:k]
+            if mod in self.modules:
+                if k < len(path):
+                    key = (mod, path[k])
+                    via = self.imports.get(mod, {}).get(path[k])
+                    if via is not None and key not in seen and via != path[: k + 1]:
+                        return self.target(via + path[k + 1 :], seen + (key,))
+                return mod
+        return ()
+
+    def sibling_edges(self):
+        """{(from, to): (file, line)} between siblings, each with the first line that makes it."""
+        edges = {}
+        for here in sorted(self.modules):
+            module = self.modules[here]
+            for abs_path, at in self.refs[here]:
+                best = self.target(abs_path)
+                k = 0
+                while k < min(len(here), len(best)) and here[k] == best[k]:
+                    k += 1
+                if k == len(here) or k == len(best):
+                    continue  # the same module, an ancestor or a descendant
+                edge = (here[: k + 1], best[: k + 1])
+                if edge not in edges:
+                    with open(module.file, encoding="utf-8") as f:
+                        line = rust_source.line_of(f.read(), at)
+                    edges[edge] = (module.file, line)
+        return edges
+
+
+def find_cycles(edges):
+    """Strongly connected sets (more than one module) of the graph `edges`, each sorted."""
     graph = {}
     for a, b in edges:
         graph.setdefault(a, set()).add(b)
@@ -115,7 +196,7 @@ def cycles(edges):
         counter[0] += 1
         stack.append(v)
         on.add(v)
-        for w in graph[v]:
+        for w in sorted(graph[v]):
             if w not in index:
                 visit(w)
                 low[v] = min(low[v], low[w])
@@ -133,30 +214,46 @@ def cycles(edges):
                 out.append(sorted(comp))
 
     sys.setrecursionlimit(10000)
-    for v in list(graph):
+    for v in sorted(graph):
         if v not in index:
             visit(v)
-    return out, graph
+    return sorted(out)
 
 
-def main():
-    crates = sys.argv[1:] or CRATES
+def check(src_root):
+    """(modules, edges, cycles) of the library crate whose sources lie in `src_root`."""
+    crate = Crate(src_root)
+    edges = crate.sibling_edges()
+    return crate.modules, edges, find_cycles(edges)
+
+
+def _name(path):
+    return "::".join(path) or "crate"
+
+
+def report(label, src_root, out=sys.stdout):
+    """Prints the crate's verdict; returns how many cycles it has."""
+    modules, edges, cycles = check(src_root)
+    if not cycles:
+        print(f"{label}: {len(modules)} modules, {len(edges)} sibling imports, no cycle", file=out)
+    for comp in cycles:
+        print(f"{label}: cycle among {', '.join(_name(c) for c in comp)}", file=out)
+        for (a, b), (file, line) in sorted(edges.items()):
+            if a in comp and b in comp:
+                rel = os.path.relpath(file, os.path.dirname(os.path.dirname(src_root)))
+                print(f"    {_name(a)} -> {_name(b)}  ({rel}:{line})", file=out)
+    return len(cycles)
+
+
+def main(argv):
+    root = ROOT
+    if argv[:1] == ["--root"]:
+        root, argv = argv[1], argv[2:]
     bad = 0
-    for crate in crates:
-        modules, edges = crate_graph(crate)
-        found, graph = cycles(edges)
-        if not found:
-            print(f"{crate}: {len(modules)} modules, {len(edges)} sibling imports, no cycle")
-        for comp in found:
-            bad += 1
-            names = ["::".join(c) for c in comp]
-            print(f"{crate}: cycle among {', '.join(names)}")
-            for a in comp:
-                for b in sorted(graph[a]):
-                    if b in comp:
-                        print(f"    {'::'.join(a)} -> {'::'.join(b)}")
-    sys.exit(1 if bad else 0)
+    for crate in argv or CRATES:
+        bad += report(crate, os.path.join(root, crate, "src"))
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main(sys.argv[1:]))
