@@ -218,38 +218,10 @@ impl<'a> Lexer<'a> {
             let what = &self.text[start..self.pos];
             return self.error(start, format!("`{what}` is not a number"));
         }
-        let mut exponent: i64 = 0;
-        if p < b.len() && (b[p] == b'e' || b[p] == b'E') {
-            let mut q = p + 1;
-            let exp_negative = q < b.len() && b[q] == b'-';
-            if q < b.len() && (b[q] == b'-' || b[q] == b'+') {
-                q += 1;
-            }
-            let exp_start = q;
-            while q < b.len() && b[q].is_ascii_digit() {
-                if q - exp_start < 6 {
-                    exponent = exponent * 10 + i64::from(b[q] - b'0');
-                } else {
-                    exact = false;
-                }
-                q += 1;
-            }
-            if q == exp_start {
-                self.pos = q;
-                while self.pos < b.len() && is_ident_byte(b[self.pos]) {
-                    self.pos += 1;
-                }
-                let what = &self.text[start..self.pos];
-                return self.error(
-                    start,
-                    format!("malformed number `{what}`: exponent has no digits"),
-                );
-            }
-            if exp_negative {
-                exponent = -exponent;
-            }
-            p = q;
-        }
+        let (exponent, p) = match self.exponent(start, p, &mut exact) {
+            Ok(e) => e,
+            Err(error) => return error,
+        };
         self.pos = p;
         if p < b.len() && (is_ident_byte(b[p]) || b[p] == b'.') {
             while self.pos < b.len() && (is_ident_byte(b[self.pos]) || b[self.pos] == b'.') {
@@ -288,6 +260,52 @@ impl<'a> Lexer<'a> {
             ),
             Err(_) => self.error(start, format!("malformed number `{text}`")),
         }
+    }
+
+    /// The exponent of the number at `start` whose digits end at `p` (`e` or `E`, a sign,
+    /// digits), if it has one: its value (of six digits at most; more make the number
+    /// inexact for the fast path) and where the number ends; or the error for an exponent
+    /// without digits.
+    fn exponent(
+        &mut self,
+        start: usize,
+        p: usize,
+        exact: &mut bool,
+    ) -> Result<(i64, usize), Token> {
+        let b = self.bytes;
+        let mut exponent: i64 = 0;
+        if !(p < b.len() && (b[p] == b'e' || b[p] == b'E')) {
+            return Ok((exponent, p));
+        }
+        let mut q = p + 1;
+        let exp_negative = q < b.len() && b[q] == b'-';
+        if q < b.len() && (b[q] == b'-' || b[q] == b'+') {
+            q += 1;
+        }
+        let exp_start = q;
+        while q < b.len() && b[q].is_ascii_digit() {
+            if q - exp_start < 6 {
+                exponent = exponent * 10 + i64::from(b[q] - b'0');
+            } else {
+                *exact = false;
+            }
+            q += 1;
+        }
+        if q == exp_start {
+            self.pos = q;
+            while self.pos < b.len() && is_ident_byte(b[self.pos]) {
+                self.pos += 1;
+            }
+            let what = &self.text[start..self.pos];
+            return Err(self.error(
+                start,
+                format!("malformed number `{what}`: exponent has no digits"),
+            ));
+        }
+        if exp_negative {
+            exponent = -exponent;
+        }
+        Ok((exponent, q))
     }
 }
 

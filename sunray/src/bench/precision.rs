@@ -37,126 +37,18 @@ pub fn run() -> String {
     out
 }
 
+/// The hot path's speed in f64 and f32, on the inputs of [`SpeedInputs::tetra`].
 fn speed(out: &mut String) {
-    // SPD tetra 6's 4096 triangles, 2000 rays from its camera through them: every ray against
-    // every triangle (8.2M tests), and against 1000 spheres and 4096 boxes.
-    let Ok(world) = super::spd_world(yari::spd::Database::Tetra, 6) else {
+    let Some(inputs) = SpeedInputs::tetra() else {
         out.push_str("(could not generate tetra 6)\n");
         return;
     };
-    let tris: Vec<[glam::DVec3; 3]> = world
-        .objects
-        .iter()
-        .filter_map(|o| match &o.shape {
-            yari::model::Shape::Polygon { vertices } if vertices.len() == 3 => {
-                Some([vertices[0], vertices[1], vertices[2]])
-            }
-            _ => None,
-        })
-        .collect();
-    let eye = world.camera.position;
-    let mut seed = 42;
-    let rays: Vec<(glam::DVec3, glam::DVec3)> = (0..2000)
-        .map(|_| {
-            let t = &tris[(rng(&mut seed) * tris.len() as f64) as usize % tris.len()];
-            let target = (t[0] + t[1] + t[2]) / 3.0 + unit(&mut seed) * 0.02;
-            (eye, (target - eye).normalize())
-        })
-        .collect();
-    let spheres: Vec<(glam::DVec3, f64)> = (0..1000)
-        .map(|_| {
-            (
-                unit(&mut seed) * rng(&mut seed),
-                0.01 + 0.05 * rng(&mut seed),
-            )
-        })
-        .collect();
-    let t32: Vec<[glam::Vec3; 3]> = tris.iter().map(|t| t.map(v32)).collect();
-    let s32: Vec<(glam::Vec3, f32)> = spheres.iter().map(|s| (v32(s.0), s.1 as f32)).collect();
-    let boxes: Vec<(glam::DVec3, glam::DVec3)> = tris
-        .iter()
-        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
-        .collect();
-    let b32: Vec<(glam::Vec3, glam::Vec3)> = boxes.iter().map(|b| (v32(b.0), v32(b.1))).collect();
-    let time = |f: &mut dyn FnMut() -> usize| {
-        let mut best = f64::MAX;
-        let mut hits = 0;
-        for _ in 0..3 {
-            let t = Instant::now();
-            hits = std::hint::black_box(f());
-            best = best.min(t.elapsed().as_secs_f64());
-        }
-        (best, hits)
-    };
-    let tri64 = time(&mut || {
-        let mut n = 0;
-        for (o, d) in &rays {
-            let p = p64::pre(*o, *d);
-            n += tris
-                .iter()
-                .filter(|t| p64::triangle(&p, t).is_some())
-                .count();
-        }
-        n
-    });
-    let tri32 = time(&mut || {
-        let mut n = 0;
-        for (o, d) in &rays {
-            let p = p32::pre(v32(*o), v32(*d));
-            n += t32
-                .iter()
-                .filter(|t| p32::triangle(&p, t).is_some())
-                .count();
-        }
-        n
-    });
-    let sph64 = time(&mut || {
-        let mut n = 0;
-        for (o, d) in &rays {
-            n += spheres
-                .iter()
-                .filter(|s| p64::sphere(*o, *d, s.0, s.1).is_some())
-                .count();
-        }
-        n
-    });
-    let sph32 = time(&mut || {
-        let mut n = 0;
-        for (o, d) in &rays {
-            let (o, d) = (v32(*o), v32(*d));
-            n += s32
-                .iter()
-                .filter(|s| p32::sphere(o, d, s.0, s.1).is_some())
-                .count();
-        }
-        n
-    });
-    let box64 = time(&mut || {
-        let mut n = 0;
-        for (o, d) in &rays {
-            let p = p64::pre(*o, *d);
-            n += boxes.iter().filter(|b| p64::slab(&p, b.0, b.1)).count();
-        }
-        n
-    });
-    let box32 = time(&mut || {
-        let mut n = 0;
-        for (o, d) in &rays {
-            let p = p32::pre(v32(*o), v32(*d));
-            n += b32.iter().filter(|b| p32::slab(&p, b.0, b.1)).count();
-        }
-        n
-    });
     let _ = writeln!(
         out,
         "### Speed of the hot path (one thread, best of 3)\n\n\
          | test | count | f64 (ns/test) | f32 (ns/test) | f32 speed-up | hits f64 / f32 |\n|---|---:|---:|---:|---:|---|"
     );
-    for (name, count, a, b) in [
-        ("triangle (Woop)", rays.len() * tris.len(), tri64, tri32),
-        ("sphere (stable)", rays.len() * spheres.len(), sph64, sph32),
-        ("box (slabs)", rays.len() * boxes.len(), box64, box32),
-    ] {
+    for (name, count, a, b) in inputs.time_kernels() {
         let _ = writeln!(
             out,
             "| {name} | {count} | {:.2} | {:.2} | {:.2}x | {} / {} |",
@@ -167,6 +59,153 @@ fn speed(out: &mut String) {
             b.1
         );
     }
+}
+
+/// What the speed test runs: SPD tetra 6's 4096 triangles, 2000 rays from its camera through
+/// them, 1000 spheres and the triangles' 4096 boxes, in f64 and f32.
+struct SpeedInputs {
+    rays: Vec<(glam::DVec3, glam::DVec3)>,
+    tris: Vec<[glam::DVec3; 3]>,
+    spheres: Vec<(glam::DVec3, f64)>,
+    boxes: Vec<(glam::DVec3, glam::DVec3)>,
+    t32: Vec<[glam::Vec3; 3]>,
+    s32: Vec<(glam::Vec3, f32)>,
+    b32: Vec<(glam::Vec3, glam::Vec3)>,
+}
+
+impl SpeedInputs {
+    /// The inputs, or None if tetra 6 cannot be generated.
+    fn tetra() -> Option<SpeedInputs> {
+        let world = super::spd_world(yari::spd::Database::Tetra, 6).ok()?;
+        let tris: Vec<[glam::DVec3; 3]> = world
+            .objects
+            .iter()
+            .filter_map(|o| match &o.shape {
+                yari::model::Shape::Polygon { vertices } if vertices.len() == 3 => {
+                    Some([vertices[0], vertices[1], vertices[2]])
+                }
+                _ => None,
+            })
+            .collect();
+        let eye = world.camera.position;
+        let mut seed = 42;
+        let rays: Vec<(glam::DVec3, glam::DVec3)> = (0..2000)
+            .map(|_| {
+                let t = &tris[(rng(&mut seed) * tris.len() as f64) as usize % tris.len()];
+                let target = (t[0] + t[1] + t[2]) / 3.0 + unit(&mut seed) * 0.02;
+                (eye, (target - eye).normalize())
+            })
+            .collect();
+        let spheres: Vec<(glam::DVec3, f64)> = (0..1000)
+            .map(|_| {
+                (
+                    unit(&mut seed) * rng(&mut seed),
+                    0.01 + 0.05 * rng(&mut seed),
+                )
+            })
+            .collect();
+        let t32: Vec<[glam::Vec3; 3]> = tris.iter().map(|t| t.map(v32)).collect();
+        let s32: Vec<(glam::Vec3, f32)> = spheres.iter().map(|s| (v32(s.0), s.1 as f32)).collect();
+        let boxes: Vec<(glam::DVec3, glam::DVec3)> = tris
+            .iter()
+            .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+            .collect();
+        let b32: Vec<(glam::Vec3, glam::Vec3)> =
+            boxes.iter().map(|b| (v32(b.0), v32(b.1))).collect();
+        Some(SpeedInputs {
+            rays,
+            tris,
+            spheres,
+            boxes,
+            t32,
+            s32,
+            b32,
+        })
+    }
+
+    /// Every ray against every triangle, sphere and box, in f64 and f32: per kernel its
+    /// name, the number of tests, and (best seconds, hits) in f64 and in f32.
+    #[allow(clippy::type_complexity)]
+    fn time_kernels(&self) -> [(&'static str, usize, (f64, usize), (f64, usize)); 3] {
+        let (rays, tris, spheres, boxes) = (&self.rays, &self.tris, &self.spheres, &self.boxes);
+        let (t32, s32, b32) = (&self.t32, &self.s32, &self.b32);
+        let tri64 = best_of_3(&mut || {
+            let mut n = 0;
+            for (o, d) in rays {
+                let p = p64::pre(*o, *d);
+                n += tris
+                    .iter()
+                    .filter(|t| p64::triangle(&p, t).is_some())
+                    .count();
+            }
+            n
+        });
+        let tri32 = best_of_3(&mut || {
+            let mut n = 0;
+            for (o, d) in rays {
+                let p = p32::pre(v32(*o), v32(*d));
+                n += t32
+                    .iter()
+                    .filter(|t| p32::triangle(&p, t).is_some())
+                    .count();
+            }
+            n
+        });
+        let sph64 = best_of_3(&mut || {
+            let mut n = 0;
+            for (o, d) in rays {
+                n += spheres
+                    .iter()
+                    .filter(|s| p64::sphere(*o, *d, s.0, s.1).is_some())
+                    .count();
+            }
+            n
+        });
+        let sph32 = best_of_3(&mut || {
+            let mut n = 0;
+            for (o, d) in rays {
+                let (o, d) = (v32(*o), v32(*d));
+                n += s32
+                    .iter()
+                    .filter(|s| p32::sphere(o, d, s.0, s.1).is_some())
+                    .count();
+            }
+            n
+        });
+        let box64 = best_of_3(&mut || {
+            let mut n = 0;
+            for (o, d) in rays {
+                let p = p64::pre(*o, *d);
+                n += boxes.iter().filter(|b| p64::slab(&p, b.0, b.1)).count();
+            }
+            n
+        });
+        let box32 = best_of_3(&mut || {
+            let mut n = 0;
+            for (o, d) in rays {
+                let p = p32::pre(v32(*o), v32(*d));
+                n += b32.iter().filter(|b| p32::slab(&p, b.0, b.1)).count();
+            }
+            n
+        });
+        [
+            ("triangle (Woop)", rays.len() * tris.len(), tri64, tri32),
+            ("sphere (stable)", rays.len() * spheres.len(), sph64, sph32),
+            ("box (slabs)", rays.len() * boxes.len(), box64, box32),
+        ]
+    }
+}
+
+/// The best time of three runs of `f`, in seconds, and what the last returned (its hits).
+fn best_of_3(f: &mut dyn FnMut() -> usize) -> (f64, usize) {
+    let mut best = f64::MAX;
+    let mut hits = 0;
+    for _ in 0..3 {
+        let t = Instant::now();
+        hits = std::hint::black_box(f());
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    (best, hits)
 }
 
 /// Relative distance of computed sphere hits from the true surface.
