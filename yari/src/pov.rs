@@ -21,7 +21,7 @@
 //! Not carried over: solid textures (the base colour is written), motion blur and depth of
 //! field (noted in a comment).
 
-use crate::model::{Shape, Surface, World};
+use crate::model::{Object, Quadric, Shape, Surface, World};
 use glam::DVec3;
 use std::fmt::Write;
 
@@ -48,6 +48,25 @@ pub fn write_pov(world: &World) -> String {
     );
     let _ = writeln!(out, "background {{ color rgb {} }}", v(world.background));
     write_camera(&mut out, world, w, h);
+    write_lights(&mut out, world);
+    write_surfaces(&mut out, world);
+    // Triangles, gathered per surface into meshes.
+    let mut meshes: Vec<String> = vec![String::new(); world.surfaces.len().max(1)];
+    for obj in &world.objects {
+        write_object(&mut out, &mut meshes, world, obj);
+    }
+    for (k, body) in meshes.iter().enumerate() {
+        if body.is_empty() {
+            continue;
+        }
+        let (tex, int) = surface_ref(world, k as u32);
+        let _ = writeln!(out, "mesh {{\n{body}  {tex}{int}\n}}");
+    }
+    out
+}
+
+/// The lights as `light_source`s (an area light with 5x5 jittered samples).
+fn write_lights(out: &mut String, world: &World) {
     for l in &world.lights {
         if l.radius > 0.0 && world.features.area_lights {
             let _ = writeln!(
@@ -66,6 +85,10 @@ pub fn write_pov(world: &World) -> String {
             );
         }
     }
+}
+
+/// Every surface as `#declare SurfaceI` (its texture) and, if it transmits, `InteriorI`.
+fn write_surfaces(out: &mut String, world: &World) {
     for (i, s) in world.surfaces.iter().enumerate() {
         let _ = writeln!(out, "#declare Surface{i} = {};", texture(s));
         if s.kst() > 0.0 {
@@ -76,104 +99,101 @@ pub fn write_pov(world: &World) -> String {
             );
         }
     }
-    let surface_ref = |i: u32| -> (String, String) {
-        let i = (i as usize).min(world.surfaces.len().saturating_sub(1));
-        let tex = if world.surfaces.is_empty() {
-            "texture { pigment { color rgb 1 } }".to_string()
-        } else {
-            format!("texture {{ Surface{i} }}")
-        };
-        let int = match world.surfaces.get(i) {
-            Some(s) if s.kst() > 0.0 => format!(" interior {{ Interior{i} }}"),
-            _ => String::new(),
-        };
-        (tex, int)
+}
+
+/// The texture and interior (empty unless it transmits) an object of surface `i` refers to.
+fn surface_ref(world: &World, i: u32) -> (String, String) {
+    let i = (i as usize).min(world.surfaces.len().saturating_sub(1));
+    let tex = if world.surfaces.is_empty() {
+        "texture { pigment { color rgb 1 } }".to_string()
+    } else {
+        format!("texture {{ Surface{i} }}")
     };
-    // Triangles, gathered per surface into meshes.
-    let mut meshes: Vec<String> = vec![String::new(); world.surfaces.len().max(1)];
-    for obj in &world.objects {
-        let (tex, int) = surface_ref(obj.surface);
-        let moving = if obj.motion != DVec3::ZERO {
-            " // motion blur not carried over"
-        } else {
-            ""
-        };
-        match &obj.shape {
-            Shape::Sphere { center, radius } => {
-                let _ = writeln!(
-                    out,
-                    "sphere {{ {}, {radius} {tex}{int} }}{moving}",
-                    v(*center)
-                );
-            }
-            Shape::Ellipsoid { to_world } => {
-                let m = to_world.matrix3;
-                let t = to_world.translation;
-                let _ = writeln!(
-                    out,
-                    "sphere {{ 0, 1 matrix <{}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}> {tex}{int} }}{moving}",
-                    m.x_axis.x, m.x_axis.y, m.x_axis.z, m.y_axis.x, m.y_axis.y, m.y_axis.z,
-                    m.z_axis.x, m.z_axis.y, m.z_axis.z, t.x, t.y, t.z
-                );
-            }
-            Shape::Polygon { vertices } if vertices.len() == 3 => {
-                let k = (obj.surface as usize).min(meshes.len() - 1);
-                let _ = writeln!(
-                    meshes[k],
-                    "  triangle {{ {}, {}, {} }}",
-                    v(vertices[0]),
-                    v(vertices[1]),
-                    v(vertices[2])
-                );
-            }
-            Shape::SmoothPolygon { vertices, normals } => {
-                let k = (obj.surface as usize).min(meshes.len() - 1);
-                smooth_triangles(&mut meshes[k], vertices, normals);
-            }
-            Shape::Polygon { vertices } => {
-                let pts: Vec<String> = vertices
-                    .iter()
-                    .chain(vertices.first())
-                    .map(|p| v(*p))
-                    .collect();
-                let _ = writeln!(
-                    out,
-                    "polygon {{ {}, {} {tex}{int} }}{moving}",
-                    pts.len(),
-                    pts.join(", ")
-                );
-            }
-            Shape::Quadric(q) => {
-                let [a, b, c, d, e, f, g, hh, i, j] = q.q;
-                let _ = write!(
-                    out,
-                    "quadric {{ <{a}, {e}, {hh}>, <{}, {}, {}>, <{}, {}, {}>, {j}",
-                    2.0 * b,
-                    2.0 * c,
-                    2.0 * f,
-                    2.0 * d,
-                    2.0 * g,
-                    2.0 * i
-                );
-                if !q.clip.is_empty() {
-                    out.push_str(" clipped_by {");
-                    for hs in &q.clip {
-                        let _ = write!(out, " plane {{ {}, {} }}", v(hs.normal), hs.offset);
-                    }
-                    out.push_str(" }");
-                }
-                let _ = writeln!(out, " {tex}{int} }}{moving}");
-            }
+    let int = match world.surfaces.get(i) {
+        Some(s) if s.kst() > 0.0 => format!(" interior {{ Interior{i} }}"),
+        _ => String::new(),
+    };
+    (tex, int)
+}
+
+/// One object: written to `out`, or, a triangle or smooth polygon, to its surface's mesh.
+fn write_object(out: &mut String, meshes: &mut [String], world: &World, obj: &Object) {
+    let (tex, int) = surface_ref(world, obj.surface);
+    let moving = if obj.motion != DVec3::ZERO {
+        " // motion blur not carried over"
+    } else {
+        ""
+    };
+    match &obj.shape {
+        Shape::Sphere { center, radius } => {
+            let _ = writeln!(
+                out,
+                "sphere {{ {}, {radius} {tex}{int} }}{moving}",
+                v(*center)
+            );
         }
-    }
-    for (k, body) in meshes.iter().enumerate() {
-        if body.is_empty() {
-            continue;
+        Shape::Ellipsoid { to_world } => {
+            let m = to_world.matrix3;
+            let t = to_world.translation;
+            let _ = writeln!(
+                out,
+                "sphere {{ 0, 1 matrix <{}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}> {tex}{int} }}{moving}",
+                m.x_axis.x, m.x_axis.y, m.x_axis.z, m.y_axis.x, m.y_axis.y, m.y_axis.z,
+                m.z_axis.x, m.z_axis.y, m.z_axis.z, t.x, t.y, t.z
+            );
         }
-        let (tex, int) = surface_ref(k as u32);
-        let _ = writeln!(out, "mesh {{\n{body}  {tex}{int}\n}}");
+        Shape::Polygon { vertices } if vertices.len() == 3 => {
+            let k = (obj.surface as usize).min(meshes.len() - 1);
+            let _ = writeln!(
+                meshes[k],
+                "  triangle {{ {}, {}, {} }}",
+                v(vertices[0]),
+                v(vertices[1]),
+                v(vertices[2])
+            );
+        }
+        Shape::SmoothPolygon { vertices, normals } => {
+            let k = (obj.surface as usize).min(meshes.len() - 1);
+            smooth_triangles(&mut meshes[k], vertices, normals);
+        }
+        Shape::Polygon { vertices } => {
+            let pts: Vec<String> = vertices
+                .iter()
+                .chain(vertices.first())
+                .map(|p| v(*p))
+                .collect();
+            let _ = writeln!(
+                out,
+                "polygon {{ {}, {} {tex}{int} }}{moving}",
+                pts.len(),
+                pts.join(", ")
+            );
+        }
+        Shape::Quadric(q) => write_quadric(out, q, &tex, &int, moving),
     }
-    out
+}
+
+/// A quadric as POV's `quadric`, clipped by its half-spaces' `plane`s.
+fn write_quadric(out: &mut String, q: &Quadric, tex: &str, int: &str, moving: &str) {
+    let [a, b, c, d, e, f, g, hh, i, j] = q.q;
+    let _ = write!(
+        out,
+        "quadric {{ <{a}, {e}, {hh}>, <{}, {}, {}>, <{}, {}, {}>, {j}",
+        2.0 * b,
+        2.0 * c,
+        2.0 * f,
+        2.0 * d,
+        2.0 * g,
+        2.0 * i
+    );
+    if !q.clip.is_empty() {
+        out.push_str(" clipped_by {");
+        for hs in &q.clip {
+            let _ = write!(out, " plane {{ {}, {} }}", v(hs.normal), hs.offset);
+        }
+        out.push_str(" }");
+    }
+    let _ = writeln!(out, " {tex}{int} }}{moving}");
 }
 
 /// A smooth polygon as `smooth_triangle`s of a mesh: cut as the renderer cuts it
