@@ -24,18 +24,17 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// Builds the camera for an image of `width x height` pixels. A degenerate view (eye at the
-    /// look-at point, up parallel to the view) falls back to sane axes instead of NaNs.
+    /// Builds the camera for an image of `width x height` pixels, on the view frame of
+    /// [`yari::model::Camera::frame`] (which the POV-Ray export writes too). A degenerate view
+    /// (eye at the look-at point, up parallel to the view) falls back to sane axes instead of
+    /// NaNs.
     pub fn new(c: &yari::model::Camera, width: u32, height: u32) -> Camera {
-        let forward = (c.at - c.position).try_normalize().unwrap_or(Vec3::NEG_Z);
-        let right = forward
-            .cross(c.up)
-            .try_normalize()
-            .unwrap_or_else(|| forward.any_orthonormal_vector());
-        let up = right.cross(forward);
-        let half = c.half_angle_deg.clamp(1e-6, 89.999).to_radians();
-        let rows_between_centres = (height.max(2) - 1) as Real;
-        let pixel = 2.0 * half.tan() / rows_between_centres;
+        let yari::model::CameraFrame {
+            forward,
+            right,
+            up,
+            pixel,
+        } = c.frame(height);
         Camera {
             position: c.position,
             forward,

@@ -5,7 +5,8 @@
 //! - [`span`]: byte spans and source texts (line/column lookup).
 //! - [`diag`]: diagnostics rendered as `file:line:col: error: ...` with a caret.
 //! - [`ast`]: the syntax tree as written.
-//! - [`model`]: the compiled world-space model a renderer loads.
+//! - [`model`]: the compiled world-space model a renderer loads, and the camera's view frame
+//!   ([`model::Camera::frame`]) that the renderer and the POV-Ray export both use.
 //! - [`lexer`]: the byte scanner (numbers, names, punctuation, `/* */` comments).
 //! - [`parse`]: the parser from source text to [`ast::Scene`], with error recovery.
 //! - [`writer`]: the syntax tree (or a compiled world) printed back as YARI text.

@@ -5,6 +5,8 @@
 //! becomes an [`Shape::Ellipsoid`] with its exact affine map, never a mesh.
 //! A polygon with vertex normals is a [`Shape::SmoothPolygon`].
 //! [`Features`] says what the scene uses so the renderer sets up only that.
+//! [`Camera::frame`] is the view frame the renderer shoots its eye rays from and the POV-Ray
+//! export writes.
 
 use glam::{DAffine3, DVec3};
 use serde::{Deserialize, Serialize};
@@ -48,6 +50,47 @@ pub struct Camera {
     pub aperture: f64,
     /// Distance to the plane in focus.
     pub focus_distance: f64,
+}
+
+impl Camera {
+    /// The view frame for an image `height` pixels high: what the renderer
+    /// (`sunray::camera`) makes its eye rays from and the POV-Ray export ([`crate::pov`])
+    /// writes, computed here once so that the two cannot drift apart. A degenerate view (eye
+    /// at the look-at point, up parallel to the view) falls back to sane axes instead of NaNs.
+    pub fn frame(&self, height: u32) -> CameraFrame {
+        let forward = (self.at - self.position)
+            .try_normalize()
+            .unwrap_or(DVec3::NEG_Z);
+        let right = forward
+            .cross(self.up)
+            .try_normalize()
+            .unwrap_or_else(|| forward.any_orthonormal_vector());
+        let up = right.cross(forward);
+        let half = self.half_angle_deg.clamp(1e-6, 89.999).to_radians();
+        let rows_between_centres = (height.max(2) - 1) as f64;
+        let pixel = 2.0 * half.tan() / rows_between_centres;
+        CameraFrame {
+            forward,
+            right,
+            up,
+            pixel,
+        }
+    }
+}
+
+/// A camera's orthonormal view frame and pixel size ([`Camera::frame`]). The half angle spans
+/// from the image centre to the centre of the top pixel row; pixels are square; x grows to
+/// the right as seen by the eye, y upwards.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraFrame {
+    /// The view direction (unit).
+    pub forward: DVec3,
+    /// The image's x direction (unit).
+    pub right: DVec3,
+    /// The image's upward direction (unit).
+    pub up: DVec3,
+    /// Image-plane size of a pixel at distance 1.
+    pub pixel: f64,
 }
 
 /// A light in world space.

@@ -219,24 +219,18 @@ fn smooth_triangles(mesh: &mut String, vertices: &[DVec3], normals: &[DVec3]) {
     }
 }
 
-/// SunRay's camera (see `sunray::camera`) as explicit POV vectors.
+/// SunRay's camera (see `sunray::camera`) as explicit POV vectors: the view frame both
+/// make from the world's camera ([`crate::model::Camera::frame`]).
 fn write_camera(out: &mut String, world: &World, w: u32, h: u32) {
     let c = &world.camera;
-    let forward = (c.at - c.position).try_normalize().unwrap_or(DVec3::NEG_Z);
-    let right = forward
-        .cross(c.up)
-        .try_normalize()
-        .unwrap_or_else(|| forward.any_orthonormal_vector());
-    let up = right.cross(forward);
-    let half = c.half_angle_deg.clamp(1e-6, 89.999).to_radians();
-    let pixel = 2.0 * half.tan() / (h.max(2) - 1) as f64;
+    let frame = c.frame(h);
     let _ = writeln!(
         out,
         "camera {{ perspective location {} direction {} right {} up {} }}",
         v(c.position),
-        v(forward),
-        v(right * (pixel * w as f64)),
-        v(up * (pixel * h as f64))
+        v(frame.forward),
+        v(frame.right * (frame.pixel * w as f64)),
+        v(frame.up * (frame.pixel * h as f64))
     );
     if c.aperture > 0.0 {
         let _ = writeln!(
