@@ -17,7 +17,7 @@
 //! - [`grants`]: the grant table (assign, complete, first completion wins, faults, timeouts,
 //!   duplication of stragglers).
 //! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
-//! - [`jobs`]: SunRay jobs as REM's job records (behind `sunray jobs`).
+//! - [`job_record`]: a SunRay job as REM's job record (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
 //! - [`web_view`]: what a farm job publishes for remd's web view (`JOB.web.json`, the
@@ -38,7 +38,7 @@ pub mod embedded;
 pub mod farm;
 pub mod grants;
 pub mod job;
-pub mod jobs;
+pub mod job_record;
 pub mod messages;
 pub mod model_chunks;
 pub mod nodes;

@@ -13,7 +13,7 @@ pub(crate) use plan::{new_plan, Plan};
 use super::checkpoint::{self, CheckpointError, Checkpointer};
 use super::connection::{ConnectionError, RemConnection};
 use super::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
-use super::jobs;
+use super::job_record;
 use super::messages::{self, proto, Body, MessageError};
 use super::model_chunks;
 use super::nodes::{self, JobStats};
@@ -291,7 +291,7 @@ async fn run_plan(
         output: plan.output.display().to_string(),
         ..Default::default()
     };
-    let epoch = jobs::next_epoch(&cluster.client, &plan.job)
+    let epoch = job_record::next_epoch(&cluster.client, &plan.job)
         .await
         .unwrap_or(1);
     record_update(cluster, &entry, plan.settings.render.width, epoch).await;
@@ -464,7 +464,7 @@ async fn start_workers(
 }
 
 async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, width: u32, epoch: u64) {
-    if let Err(e) = jobs::update(&cluster.client, entry, width, epoch).await {
+    if let Err(e) = job_record::update(&cluster.client, entry, width, epoch).await {
         eprintln!("sunray: warning: the job's record in REM: {e}");
     }
 }

@@ -14,7 +14,7 @@ use super::{scene_key, stats_key, FarmError};
 use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Store};
 use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
 use crate::distrib::job::{self, worker_env};
-use crate::distrib::jobs;
+use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::strategy::Strategy;
 use crate::distrib::web_view;
@@ -106,7 +106,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     record.controller_host = host.clone();
     record.progress_done = restored.lines.len() as u64;
     if record.title.is_empty() {
-        record.title = jobs::title(&jobs::from_record(&record).scene, width, height);
+        record.title = job_record::title(&job_record::from_record(&record).scene, width, height);
     }
     put_record(&client, &record, &job).await?;
 
@@ -221,7 +221,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     }
     // The scene's part of the totals, as `sunray render` and the in-process job give it,
     // from the counts `submit` stored (the model is not decoded here).
-    let entry = jobs::from_record(&record);
+    let entry = job_record::from_record(&record);
     let header = settings.stats_header_of(
         &entry.scene,
         entry.scene_objects as usize,
@@ -270,7 +270,7 @@ async fn own_record(
 ) -> Result<rem::JobRecord, FarmError> {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
     loop {
-        match jobs::find(client, job).await? {
+        match job_record::find(client, job).await? {
             Some(r) if r.epoch > epoch => {
                 return Err(FarmError::Superseded {
                     job: job.to_string(),
