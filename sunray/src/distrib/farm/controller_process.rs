@@ -4,18 +4,21 @@
 //! predecessors that still run (an Adopt message; they keep rendering the lines they hold),
 //! starts more on the live hosts up to the count asked (never failing for too few: as many
 //! as there are, at least one), runs the controller actor
-//! unchanged in its rules, and keeps its record fresh (state, lines in the checkpoint, its
+//! unchanged in its rules ([`drive`], as the in-process job does, with this process as the
+//! [`ControllerSite`]), and keeps its record fresh (state, lines in the checkpoint, its
 //! own process and host) every [`LEASE_WRITE`]: REM restarts a controller that stops writing.
 //!
 //! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
 //! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
 
 use super::{scene_key, stats_key, FarmError};
-use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Store};
-use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
-use crate::distrib::job::{self, worker_env};
+use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Restored, Store};
+use crate::distrib::controller::{self, ControllerConfig, ControllerError, WorkerProc};
+use crate::distrib::job::drive::{self, ControllerSite, Drive, Ran, Totals};
+use crate::distrib::job::worker_env;
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::nodes::JobStats;
 use crate::distrib::strategy::Strategy;
 use crate::distrib::web_view;
 use crate::render::Settings;
@@ -72,85 +75,227 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let (job, epoch) = job_from_env()?;
     let client = RemClient::from_env().await?;
     let relay = RemClient::attach_from_env().await?;
-    let me = relay.id().clone();
     let host = relay.host().to_string();
     let mut record = own_record(&client, &job, epoch).await?;
-    let stored = |reason: &str| FarmError::Stored {
-        job: job.clone(),
-        reason: reason.to_string(),
-    };
-    let scene_bytes = client
-        .get_checkpoint(&scene_key(&job))
-        .await?
-        .ok_or_else(|| stored("its scene is not in REM's store"))?;
-    let scene = proto::Scene::decode(scene_bytes.as_slice())
-        .map_err(|e| stored(&format!("its stored scene does not decode: {e}")))?;
-    let restored = checkpoint::load(&client, &job)
-        .await?
-        .ok_or_else(|| stored("it has no checkpoint"))?;
-    if scene.model_hash != restored.header.model_hash {
-        return Err(stored("its stored scene is not the checkpoint's"));
-    }
-    let spec = restored.header.spec.clone().unwrap_or_default();
-    let settings = scene
-        .settings
-        .as_ref()
-        .map(Settings::from_proto)
-        .transpose()
-        .map_err(|e| stored(&e.to_string()))?
-        .ok_or_else(|| stored("its stored scene has no render settings"))?;
-    let (width, height) = (settings.render.width, settings.render.height);
+    let stored = StoredJob::load(&client, &job).await?;
+    let (width, height) = (stored.settings.render.width, stored.settings.render.height);
+    let lines_in = stored.restored.lines.len() as u32;
 
     record.state = "running".into();
-    record.controller = me.to_string();
+    record.controller = relay.id().to_string();
     record.controller_host = host.clone();
-    record.progress_done = restored.lines.len() as u64;
+    record.progress_done = u64::from(lines_in);
     if record.title.is_empty() {
         record.title = job_record::title(&job_record::from_record(&record).scene, width, height);
     }
     put_record(&client, &record, &job).await?;
 
-    let all_in = restored.lines.len() as u32 >= height;
     let live: Vec<rem::HostInfo> = client
         .hosts()
         .await?
         .into_iter()
         .filter(|h| h.alive && h.accepting)
         .collect();
+    let spec = stored.restored.header.spec.clone().unwrap_or_default();
+    let count = worker_count(&spec, live.len());
+    let checkpointed = Arc::new(AtomicU32::new(lines_in));
+    let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
+    // What remd's web view shows, going on from the earlier controllers' history.
+    let history = web_view::history(&client, &job, &host, epoch).await;
+    let cfg = controller_config(
+        &opts,
+        (&job, epoch),
+        (strategy, (width, height)),
+        stored.scene,
+        (checkpointed.clone(), history),
+    );
+    let checkpointer = Checkpointer::new(
+        &job,
+        spec.clone(),
+        stored.restored.header.model_hash,
+        Some(&stored.restored),
+    );
+    // The scene's part of the totals, as `sunray render` and the in-process job give it,
+    // from the counts `submit` stored (the model is not decoded here).
+    let entry = job_record::from_record(&record);
+    let totals = Totals {
+        header: stored.settings.stats_header_of(
+            &entry.scene,
+            entry.scene_objects as usize,
+            entry.scene_primitives as usize,
+            entry.scene_unbounded as usize,
+        ),
+        hosts: count,
+        scene_bytes_sent: entry.scene_bytes_sent,
+    };
+    let all_in = lines_in >= height;
+    let start = Drive {
+        cfg,
+        client: client.clone(),
+        relay,
+        restored: Some(stored.restored),
+        checkpointer,
+        epoch,
+    };
+    let mut site = FarmSite {
+        client: &client,
+        opts: &opts,
+        spec,
+        job: &job,
+        epoch,
+        live,
+        count,
+        all_in,
+        record,
+        checkpointed,
+    };
+    let ended = match drive::run_controller(&mut site, start, totals).await? {
+        Ran::Superseded(why) => return Ok(ControllerEnd::Superseded(why)),
+        Ran::Ended(ended) if !ended.finished => return Ok(ControllerEnd::Unfinished),
+        Ran::Ended(ended) => ended,
+    };
+    store_finished(
+        &client,
+        &mut site.record,
+        (&job, epoch),
+        height,
+        &ended.stats,
+    )
+    .await?;
+    Ok(ControllerEnd::Finished)
+}
+
+/// The controller's settings: its events go to REM's log of this process (`rem logs`), the
+/// workers it takes over get Adopt (at `epoch`), and the job is published for remd's web
+/// view, its events going on from `history`.
+fn controller_config(
+    opts: &ControllerOptions,
+    (job, epoch): (&str, u64),
+    (strategy, size): (Strategy, (u32, u32)),
+    scene: proto::Scene,
+    (checkpointed, history): (Arc<AtomicU32>, Vec<web_view::Event>),
+) -> ControllerConfig {
+    ControllerConfig {
+        events: true,
+        checkpointed: Some(checkpointed),
+        adopt: Some(messages::encode(Body::Adopt(proto::Adopt {
+            job: job.to_string(),
+            epoch,
+        }))),
+        web: Some(history),
+        ..drive::controller_config(
+            job,
+            strategy,
+            size,
+            messages::encode(Body::Scene(proto::Scene { epoch, ..scene })),
+            opts.worker_timeout,
+            opts.checkpoint_every,
+        )
+    }
+}
+
+/// How many workers the job is to have: as many as it asked for, or as there are `live`
+/// hosts (never "too few hosts" here), at least one.
+fn worker_count(spec: &proto::JobSpec, live: usize) -> u32 {
     let want = spec.hosts.max(1);
-    // Never "too few hosts" here: as many workers as there are live hosts, at least one.
-    let count = if spec.same_host {
+    if spec.same_host {
         want
     } else {
-        want.min(live.len().max(1) as u32)
-    };
-    // The previous controllers' workers that still run are taken over (they keep their
-    // lines and their scene, and REM sends their events here now); new ones make up the
-    // rest, on other hosts than theirs.
-    let mut workers = if all_in {
-        Vec::new()
-    } else {
-        take_over_workers(&client, &job, epoch, &me, &live).await
-    };
-    let more = count.saturating_sub(workers.len() as u32);
-    if !all_in && more > 0 {
+        want.min(live.max(1) as u32)
+    }
+}
+
+/// What `submit` stored of a job: its Scene message, its checkpoint and render settings.
+struct StoredJob {
+    scene: proto::Scene,
+    restored: Restored,
+    settings: Settings,
+}
+
+impl StoredJob {
+    /// Reads `JOB.scene` and the checkpoint, which must be of the same model.
+    async fn load(client: &RemClient, job: &str) -> Result<StoredJob, FarmError> {
+        let stored = |reason: &str| FarmError::Stored {
+            job: job.to_string(),
+            reason: reason.to_string(),
+        };
+        let scene_bytes = client
+            .get_checkpoint(&scene_key(job))
+            .await?
+            .ok_or_else(|| stored("its scene is not in REM's store"))?;
+        let scene = proto::Scene::decode(scene_bytes.as_slice())
+            .map_err(|e| stored(&format!("its stored scene does not decode: {e}")))?;
+        let restored = checkpoint::load(client, job)
+            .await?
+            .ok_or_else(|| stored("it has no checkpoint"))?;
+        if scene.model_hash != restored.header.model_hash {
+            return Err(stored("its stored scene is not the checkpoint's"));
+        }
+        let settings = scene
+            .settings
+            .as_ref()
+            .map(Settings::from_proto)
+            .transpose()
+            .map_err(|e| stored(&e.to_string()))?
+            .ok_or_else(|| stored("its stored scene has no render settings"))?;
+        Ok(StoredJob {
+            scene,
+            restored,
+            settings,
+        })
+    }
+}
+
+/// This process as the controller's site: it takes over the workers of earlier
+/// controllers, starts more, and holds the job's lease (its record, written every
+/// [`LEASE_WRITE`]).
+struct FarmSite<'a> {
+    client: &'a RemClient,
+    opts: &'a ControllerOptions,
+    spec: proto::JobSpec,
+    job: &'a str,
+    epoch: u64,
+    live: Vec<rem::HostInfo>,
+    /// Workers the job is to have.
+    count: u32,
+    /// Every line is in the checkpoint: no worker is needed.
+    all_in: bool,
+    record: rem::JobRecord,
+    checkpointed: Arc<AtomicU32>,
+}
+
+impl ControllerSite for FarmSite<'_> {
+    type Error = FarmError;
+
+    /// The previous controllers' workers that still run are taken over (they keep their
+    /// lines and their scene, and REM sends their events here now); new ones make up the
+    /// rest, on other hosts than theirs.
+    async fn workers(&mut self, me: &rem::ProcId) -> Result<Vec<WorkerProc>, FarmError> {
+        if self.all_in {
+            return Ok(Vec::new());
+        }
+        let (client, job, epoch) = (self.client, self.job, self.epoch);
+        let mut workers = take_over_workers(client, job, epoch, me, &self.live).await;
+        let more = self.count.saturating_sub(workers.len() as u32);
+        if more == 0 {
+            return Ok(workers);
+        }
         let avoid: Vec<String> = workers.iter().map(|w| w.host.clone()).collect();
-        let free = live.iter().filter(|h| !avoid.contains(&h.name)).count() as u32;
-        let more = if spec.same_host { more } else { more.min(free) };
+        let free = self
+            .live
+            .iter()
+            .filter(|h| !avoid.contains(&h.name))
+            .count() as u32;
+        let more = if self.spec.same_host {
+            more
+        } else {
+            more.min(free)
+        };
         let placed = match more {
             0 => Ok(Vec::new()),
             _ => {
-                start_workers(
-                    &client,
-                    &opts,
-                    &spec,
-                    (&job, epoch),
-                    more,
-                    &me,
-                    &live,
-                    avoid,
-                )
-                .await
+                let spawn = (&self.spec, (job, epoch), more, me);
+                start_workers(client, self.opts, spawn, &self.live, avoid).await
             }
         };
         match placed {
@@ -161,104 +306,54 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
             }
             Err(e) => return Err(e),
         }
+        Ok(workers)
     }
-    let checkpointed = Arc::new(AtomicU32::new(restored.lines.len() as u32));
-    let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
-    let cfg = ControllerConfig {
-        job: job.clone(),
-        strategy,
-        width,
-        height,
-        scene: messages::encode(Body::Scene(proto::Scene {
-            epoch,
-            ..scene.clone()
-        })),
-        worker_timeout: opts.worker_timeout,
-        checkpoint_every: opts.checkpoint_every,
-        preview: None,
-        preview_every: Duration::from_secs(3600),
-        show_bar: false,
-        // Its events go to REM's log of this process (`rem logs`): what happened, when.
-        events: true,
-        finish_grace: Duration::from_secs(3),
-        checkpointed: Some(checkpointed.clone()),
-        adopt: Some(messages::encode(Body::Adopt(proto::Adopt {
-            job: job.clone(),
-            epoch,
-        }))),
-        // What remd's web view shows, going on from the earlier controllers' history.
-        web: Some(web_view::history(&client, &job, &host, epoch).await),
-    };
-    let checkpointer = Checkpointer::new(
-        &job,
-        spec.clone(),
-        restored.header.model_hash,
-        Some(&restored),
-    );
-    let (sender, receiver) = relay.split();
-    let handle = controller::spawn(Start {
-        cfg,
-        client: client.clone(),
-        sender,
-        receiver,
-        workers,
-        restored: Some(restored),
-        checkpointer,
-        epoch,
-    });
-    let lease = keep_lease(&client, &mut record, &checkpointed, &job);
-    let result = tokio::select! {
-        r = handle.join() => r,
-        e = lease => return Ok(ControllerEnd::Superseded(e.to_string())),
-    };
-    let result = match result {
-        Ok(r) => r,
-        Err(ControllerError::Superseded(why)) => return Ok(ControllerEnd::Superseded(why)),
-        Err(e) => return Err(stored(&e.to_string())),
-    };
-    if !result.finished {
-        return Ok(ControllerEnd::Unfinished);
+
+    async fn hold(&mut self) -> String {
+        keep_lease(self.client, &mut self.record, &self.checkpointed, self.job)
+            .await
+            .to_string()
     }
-    // The scene's part of the totals, as `sunray render` and the in-process job give it,
-    // from the counts `submit` stored (the model is not decoded here).
-    let entry = job_record::from_record(&record);
-    let header = settings.stats_header_of(
-        &entry.scene,
-        entry.scene_objects as usize,
-        entry.scene_primitives as usize,
-        entry.scene_unbounded as usize,
-    );
-    let stats = job::job_stats(
-        &job,
-        strategy,
-        count,
-        header,
-        result,
-        entry.scene_bytes_sent,
-    );
-    let json = serde_json::to_vec_pretty(&stats).map_err(|e| stored(&e.to_string()))?;
-    Fenced {
-        client: &client,
-        epoch,
-        job: &job,
-    }
-    .put(&stats_key(&job), json)
-    .await
-    .map_err(|e| match e {
-        e if e.is_fenced() => FarmError::Superseded {
-            job: job.clone(),
+
+    fn controller_failed(&self, e: ControllerError) -> FarmError {
+        FarmError::Stored {
+            job: self.job.to_string(),
             reason: e.to_string(),
-        },
-        e => FarmError::Rem(e),
+        }
+    }
+}
+
+/// Stores a finished job's statistics under `JOB.stats` (fenced at `epoch`) and marks its
+/// record finished, with the summary `watch` prints.
+async fn store_finished(
+    client: &RemClient,
+    record: &mut rem::JobRecord,
+    (job, epoch): (&str, u64),
+    height: u32,
+    stats: &JobStats,
+) -> Result<(), FarmError> {
+    let entry = job_record::from_record(record);
+    let json = serde_json::to_vec_pretty(stats).map_err(|e| FarmError::Stored {
+        job: job.to_string(),
+        reason: e.to_string(),
     })?;
+    Fenced { client, epoch, job }
+        .put(&stats_key(job), json)
+        .await
+        .map_err(|e| match e {
+            e if e.is_fenced() => FarmError::Superseded {
+                job: job.to_string(),
+                reason: e.to_string(),
+            },
+            e => FarmError::Rem(e),
+        })?;
     let mut entry = entry;
     entry.summary = stats.summary();
     record.app = entry.encode_to_vec();
     record.state = "finished".into();
     record.progress_done = u64::from(height);
     record.message.clear();
-    put_record(&client, &record, &job).await?;
-    Ok(ControllerEnd::Finished)
+    put_record(client, record, job).await
 }
 
 /// The job's record at this epoch, waiting briefly for the write of whoever started this
@@ -367,15 +462,11 @@ async fn take_over_workers(
     workers
 }
 
-/// Starts `count` workers owned by this controller (`me`), not on `avoid_hosts`.
-#[allow(clippy::too_many_arguments)]
+/// Starts `count` workers of `spec` owned by this controller (`me`), not on `avoid_hosts`.
 async fn start_workers(
     client: &RemClient,
     opts: &ControllerOptions,
-    spec: &proto::JobSpec,
-    (job, epoch): (&str, u64),
-    count: u32,
-    me: &rem::ProcId,
+    (spec, (job, epoch), count, me): (&proto::JobSpec, (&str, u64), u32, &rem::ProcId),
     live: &[rem::HostInfo],
     avoid_hosts: Vec<String>,
 ) -> Result<Vec<WorkerProc>, FarmError> {
