@@ -37,13 +37,23 @@ pub fn run() -> String {
     out
 }
 
-fn speed(out: &mut String) {
+/// What the hot-path speed test runs: rays, and triangles, spheres and boxes in f64 and f32.
+struct SpeedInputs {
+    rays: Vec<(glam::DVec3, glam::DVec3)>,
+    tris: Vec<[glam::DVec3; 3]>,
+    t32: Vec<[glam::Vec3; 3]>,
+    spheres: Vec<(glam::DVec3, f64)>,
+    s32: Vec<(glam::Vec3, f32)>,
+    boxes: Vec<(glam::DVec3, glam::DVec3)>,
+    b32: Vec<(glam::Vec3, glam::Vec3)>,
+}
+
+/// SPD tetra 6's 4096 triangles, 2000 rays from its camera through them, 1000 spheres and
+/// the triangles' 4096 boxes (`None` when tetra 6 cannot be generated).
+fn speed_inputs() -> Option<SpeedInputs> {
     // SPD tetra 6's 4096 triangles, 2000 rays from its camera through them: every ray against
     // every triangle (8.2M tests), and against 1000 spheres and 4096 boxes.
-    let Ok(world) = super::spd_world(yari::spd::Database::Tetra, 6) else {
-        out.push_str("(could not generate tetra 6)\n");
-        return;
-    };
+    let world = super::spd_world(yari::spd::Database::Tetra, 6).ok()?;
     let tris: Vec<[glam::DVec3; 3]> = world
         .objects
         .iter()
@@ -78,6 +88,33 @@ fn speed(out: &mut String) {
         .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
         .collect();
     let b32: Vec<(glam::Vec3, glam::Vec3)> = boxes.iter().map(|b| (v32(b.0), v32(b.1))).collect();
+    Some(SpeedInputs {
+        rays,
+        tris,
+        t32,
+        spheres,
+        s32,
+        boxes,
+        b32,
+    })
+}
+
+/// The hot path's speed in f64 and f32, one thread, best of 3.
+fn speed(out: &mut String) {
+    // Every ray against every triangle (8.2M tests), and against 1000 spheres and 4096 boxes.
+    let Some(SpeedInputs {
+        rays,
+        tris,
+        t32,
+        spheres,
+        s32,
+        boxes,
+        b32,
+    }) = speed_inputs()
+    else {
+        out.push_str("(could not generate tetra 6)\n");
+        return;
+    };
     let time = |f: &mut dyn FnMut() -> usize| {
         let mut best = f64::MAX;
         let mut hits = 0;
@@ -147,16 +184,27 @@ fn speed(out: &mut String) {
         }
         n
     });
+    write_speed(
+        out,
+        [
+            ("triangle (Woop)", rays.len() * tris.len(), tri64, tri32),
+            ("sphere (stable)", rays.len() * spheres.len(), sph64, sph32),
+            ("box (slabs)", rays.len() * boxes.len(), box64, box32),
+        ],
+    );
+}
+
+/// One test's best time in seconds and its hits.
+type Timed = (f64, usize);
+
+/// The speed table: per test its name, count, and its f64 and f32 timings.
+fn write_speed(out: &mut String, rows: [(&str, usize, Timed, Timed); 3]) {
     let _ = writeln!(
         out,
         "### Speed of the hot path (one thread, best of 3)\n\n\
          | test | count | f64 (ns/test) | f32 (ns/test) | f32 speed-up | hits f64 / f32 |\n|---|---:|---:|---:|---:|---|"
     );
-    for (name, count, a, b) in [
-        ("triangle (Woop)", rays.len() * tris.len(), tri64, tri32),
-        ("sphere (stable)", rays.len() * spheres.len(), sph64, sph32),
-        ("box (slabs)", rays.len() * boxes.len(), box64, box32),
-    ] {
+    for (name, count, a, b) in rows {
         let _ = writeln!(
             out,
             "| {name} | {count} | {:.2} | {:.2} | {:.2}x | {} / {} |",
