@@ -11,6 +11,7 @@
 //! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
 //! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
 
+use super::lease::{keep_lease, own_record, put_record};
 use super::{scene_key, stats_key, FarmError};
 use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Restored, Store};
 use crate::distrib::controller::{self, ControllerConfig, ControllerError, WorkerProc};
@@ -25,12 +26,11 @@ use crate::render::Settings;
 use prost::Message;
 use rem::RemClient;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::AtomicU32;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// How often the controller writes its record (REM's lease is several times longer).
-pub const LEASE_WRITE: Duration = Duration::from_secs(1);
+pub use super::lease::LEASE_WRITE;
 
 /// How the controller runs (its command line).
 #[derive(Clone, Debug)]
@@ -354,73 +354,6 @@ async fn store_finished(
     record.progress_done = u64::from(height);
     record.message.clear();
     put_record(client, record, job).await
-}
-
-/// The job's record at this epoch, waiting briefly for the write of whoever started this
-/// process; a newer epoch means this controller is not needed.
-async fn own_record(
-    client: &RemClient,
-    job: &str,
-    epoch: u64,
-) -> Result<rem::JobRecord, FarmError> {
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
-    loop {
-        match job_record::find(client, job).await? {
-            Some(r) if r.epoch > epoch => {
-                return Err(FarmError::Superseded {
-                    job: job.to_string(),
-                    reason: format!(
-                        "the job is at epoch {}, this controller's is {epoch}",
-                        r.epoch
-                    ),
-                })
-            }
-            Some(mut r) if r.epoch == epoch || tokio::time::Instant::now() > deadline => {
-                r.epoch = epoch;
-                return Ok(r);
-            }
-            None if tokio::time::Instant::now() > deadline => {
-                return Err(FarmError::NoRecord(job.to_string()))
-            }
-            _ => tokio::time::sleep(Duration::from_millis(100)).await,
-        }
-    }
-}
-
-/// Writes the record; a refusal for a newer epoch (or an ended job) is [`FarmError::Superseded`].
-async fn put_record(
-    client: &RemClient,
-    record: &rem::JobRecord,
-    job: &str,
-) -> Result<(), FarmError> {
-    match client.put_job(record.clone()).await {
-        Ok(_) => Ok(()),
-        Err(e) if e.is_fenced() => Err(FarmError::Superseded {
-            job: job.to_string(),
-            reason: e.to_string(),
-        }),
-        Err(e) => Err(e.into()),
-    }
-}
-
-/// Writes the record with the checkpoint's progress every [`LEASE_WRITE`]; returns only when
-/// REM refuses it for a newer epoch or an ended job (a cancel).
-async fn keep_lease(
-    client: &RemClient,
-    record: &mut rem::JobRecord,
-    checkpointed: &AtomicU32,
-    job: &str,
-) -> FarmError {
-    loop {
-        tokio::time::sleep(LEASE_WRITE).await;
-        record.progress_done = u64::from(checkpointed.load(Ordering::Relaxed));
-        match put_record(client, record, job).await {
-            Err(e @ FarmError::Superseded { .. }) => return e,
-            // A daemon that does not answer now may later: the lease is REM's to judge.
-            Err(e) => eprintln!("sunray controller: warning: the job's record: {e}"),
-            Ok(()) => {}
-        }
-    }
 }
 
 /// The running workers of this job's earlier controllers (REM jobs `JOB.wE`, E < `epoch`),

@@ -17,10 +17,12 @@
 //! - [`controller_process`]: `sunray controller`, the process REM keeps running for a farm
 //!   job; it runs the [controller actor](super::controller) of the job.
 //! - [`follow`]: `watch`, `fetch` and `cancel`.
+//! - [`lease`]: the controller's lease on its job (its record, written at its epoch).
 //! - [`tail`]: the controller's output, read through REM as it is written.
 
 pub mod controller_process;
 pub mod follow;
+mod lease;
 pub mod tail;
 
 use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
