@@ -27,7 +27,8 @@
 //!   lines it holds.
 //! - [`model_chunks`]: the scene's model shipped as REM chunks and fetched by the workers.
 //! - [`connection`]: reaching REM; [`embedded`]: the private remd of the default set-up.
-//! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals).
+//! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals),
+//!   one path wherever its controller runs: in `submit` (`--in-process`) or in the farm.
 //! - [`farm`]: jobs owned by the farm (`submit --detach`, the controller process REM keeps
 //!   running, `watch`, `fetch`, `cancel`).
 

@@ -125,7 +125,9 @@ async fn run_plan(
     };
     let ended = match drive::run_controller(&mut site, start, totals).await? {
         Ran::Ended(ended) => ended,
-        Ran::Superseded(why) => return Err(JobError::Controller(ControllerError::Superseded(why))),
+        Ran::Superseded(why) => {
+            return Err(JobError::Controller(ControllerError::Superseded(why)));
+        }
     };
 
     let stats = ended.stats;
