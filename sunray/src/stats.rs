@@ -1,81 +1,124 @@
 //! Render statistics, counted (never estimated): per-thread [`Counters`] summed at the end, and
 //! the [`RenderStats`] table / JSON.
+//!
+//! Every counter is named once, in [`with_counters!`]: the [`Counters`] fields, their sum,
+//! the statistics' [`Rays`] and [`Work`], the table's rows and the conversion to and from
+//! the wire's `Counters` message (`distrib::messages`) come from that list. Adding a counter
+//! is a line there and a field in `proto/sunray.proto`.
 
 use serde::Serialize;
 use std::ops::AddAssign;
 
-/// Event counts of one thread, one scanline or a whole render.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
-pub struct Counters {
-    /// Primary rays cast from the camera, one per pixel sample.
-    pub eye: u64,
-    /// Of `eye`, those that hit a primitive (the rest see the background).
-    pub eye_hits: u64,
-    /// Shadow rays cast towards point lights from shaded points.
-    pub shadow: u64,
-    /// Of `shadow`, those cast to lights behind a transmitting surface (Hall's diffuse and
-    /// specular transmission terms).
-    pub shadow_behind: u64,
-    /// Secondary rays cast in the mirror direction (Hall's global reflection term).
-    pub reflected: u64,
-    /// Secondary rays cast through transmitting surfaces (Hall's global transmission term).
-    pub refracted: u64,
-    /// Hits on a transmitting closed surface, with depth left, where total internal
-    /// reflection left no refracted ray. Haines's "refract rays" counts these too: his
-    /// figure is `refracted + total_internal` (docs/renderer.md, "SPD invariants").
-    pub total_internal: u64,
-    /// Ray / primitive intersection tests performed.
-    pub intersection_tests: u64,
-    /// Octree voxels (leaves) visited; BVH nodes visited for the BVH.
-    pub voxels: u64,
-    /// Tests skipped because the mailbox already held the answer for this ray.
-    pub mailbox_hits: u64,
-    /// Mailbox look-ups.
-    pub mailbox_uses: u64,
+/// Calls `$then!` with every counter, in the order of the JSON keys and the table's rows:
+/// the ray counts (`rays` in the statistics) and the work counts (at their top level), each
+/// as `name: "row label"` with its doc; an empty label continues the row before (`hits /
+/// uses`).
+macro_rules! with_counters {
+    ($then:ident) => {
+        $then! {
+            rays {
+                /// Primary rays cast from the camera, one per pixel sample.
+                eye: "eye rays",
+                /// Of `eye`, those that hit a primitive (the rest see the background).
+                eye_hits: "eye rays that hit",
+                /// Shadow rays cast towards point lights from shaded points.
+                shadow: "shadow rays",
+                /// Of `shadow`, those cast to lights behind a transmitting surface (Hall's
+                /// diffuse and specular transmission terms).
+                shadow_behind: "  to lights behind",
+                /// Secondary rays cast in the mirror direction (Hall's global reflection term).
+                reflected: "reflected rays",
+                /// Secondary rays cast through transmitting surfaces (Hall's global
+                /// transmission term).
+                refracted: "refracted rays",
+                /// Hits on a transmitting closed surface, with depth left, where total
+                /// internal reflection left no refracted ray. Haines's "refract rays" counts
+                /// these too: his figure is `refracted + total_internal` (docs/renderer.md,
+                /// "SPD invariants").
+                total_internal: "  stopped by TIR",
+            }
+            work {
+                /// Ray / primitive intersection tests performed.
+                intersection_tests: "intersection tests",
+                /// Octree voxels (leaves) visited; BVH nodes visited for the BVH.
+                voxels: "voxels visited",
+                /// Tests skipped because the mailbox already held the answer for this ray.
+                mailbox_hits: "mailbox hits / uses",
+                /// Mailbox look-ups.
+                mailbox_uses: "",
+            }
+        }
+    };
 }
+pub(crate) use with_counters;
 
-impl AddAssign for Counters {
-    fn add_assign(&mut self, o: Counters) {
-        self.eye += o.eye;
-        self.eye_hits += o.eye_hits;
-        self.shadow += o.shadow;
-        self.shadow_behind += o.shadow_behind;
-        self.reflected += o.reflected;
-        self.refracted += o.refracted;
-        self.total_internal += o.total_internal;
-        self.intersection_tests += o.intersection_tests;
-        self.voxels += o.voxels;
-        self.mailbox_hits += o.mailbox_hits;
-        self.mailbox_uses += o.mailbox_uses;
-    }
+/// The counters' types, from [`with_counters!`].
+macro_rules! define_counters {
+    (
+        rays { $($(#[$rdoc:meta])* $ray:ident: $rlabel:literal,)* }
+        work { $($(#[$wdoc:meta])* $work:ident: $wlabel:literal,)* }
+    ) => {
+        /// Event counts of one thread, one scanline or a whole render.
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+        pub struct Counters {
+            $($(#[$rdoc])* pub $ray: u64,)*
+            $($(#[$wdoc])* pub $work: u64,)*
+        }
+
+        impl AddAssign for Counters {
+            fn add_assign(&mut self, o: Counters) {
+                $(self.$ray += o.$ray;)*
+                $(self.$work += o.$work;)*
+            }
+        }
+
+        /// The ray counts of [`RenderStats`], under the JSON key `rays`.
+        #[derive(Clone, Debug, Default, Serialize)]
+        pub struct Rays {
+            $($(#[$rdoc])* pub $ray: u64,)*
+            /// The sum of eye, shadow, reflected and refracted rays ([`Counters::rays`]).
+            pub total: u64,
+        }
+
+        /// The work counts of [`RenderStats`], at the JSON's top level.
+        #[derive(Clone, Debug, Default, Serialize)]
+        pub struct Work {
+            $($(#[$wdoc])* pub $work: u64,)*
+        }
+
+        impl Rays {
+            fn of(c: &Counters) -> Rays {
+                Rays {
+                    $($ray: c.$ray,)*
+                    total: c.rays(),
+                }
+            }
+
+            /// The table's rows, label and count.
+            fn rows(&self) -> Vec<(&'static str, u64)> {
+                vec![$(($rlabel, self.$ray),)*]
+            }
+        }
+
+        impl Work {
+            fn of(c: &Counters) -> Work {
+                Work { $($work: c.$work,)* }
+            }
+
+            /// The table's rows, label and count.
+            fn rows(&self) -> Vec<(&'static str, u64)> {
+                vec![$(($wlabel, self.$work),)*]
+            }
+        }
+    };
 }
+with_counters!(define_counters);
 
 impl Counters {
     /// All rays cast: eye + shadow + reflected + refracted (`shadow_behind` is part of `shadow`).
     pub fn rays(&self) -> u64 {
         self.eye + self.shadow + self.reflected + self.refracted
     }
-}
-
-/// The ray counts of [`RenderStats`], under the JSON key `rays`.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct Rays {
-    /// Primary rays cast from the camera.
-    pub eye: u64,
-    /// Of `eye`, those that hit a primitive.
-    pub eye_hits: u64,
-    /// Shadow rays cast towards point lights.
-    pub shadow: u64,
-    /// Of `shadow`, those cast to lights behind a transmitting surface.
-    pub shadow_behind: u64,
-    /// Reflected secondary rays.
-    pub reflected: u64,
-    /// Refracted (transmitted) secondary rays.
-    pub refracted: u64,
-    /// Refracted rays that total internal reflection stopped ([`Counters::total_internal`]).
-    pub total_internal: u64,
-    /// The sum of eye, shadow, reflected and refracted rays ([`Counters::rays`]).
-    pub total: u64,
 }
 
 /// Wall-clock phases of a render in seconds, under the JSON key `time`.
@@ -117,14 +160,9 @@ pub struct RenderStats {
     pub accel_nodes: usize,
     /// Ray counts by kind.
     pub rays: Rays,
-    /// Ray / primitive intersection tests performed.
-    pub intersection_tests: u64,
-    /// Octree voxels (or BVH nodes) visited.
-    pub voxels: u64,
-    /// Intersection tests skipped because the mailbox held the answer.
-    pub mailbox_hits: u64,
-    /// Mailbox look-ups.
-    pub mailbox_uses: u64,
+    /// Intersection tests, voxels visited and the mailbox's hits and uses.
+    #[serde(flatten)]
+    pub work: Work,
     /// Wall-clock and CPU times of the phases.
     pub time: Times,
     /// Worker threads that rendered.
@@ -137,20 +175,8 @@ impl RenderStats {
     /// Copies the summed counters in and derives `rays.total` and `rays_per_s` (set `time.render_s`
     /// first).
     pub fn set_counters(&mut self, c: &Counters) {
-        self.rays = Rays {
-            eye: c.eye,
-            eye_hits: c.eye_hits,
-            shadow: c.shadow,
-            shadow_behind: c.shadow_behind,
-            reflected: c.reflected,
-            refracted: c.refracted,
-            total_internal: c.total_internal,
-            total: c.rays(),
-        };
-        self.intersection_tests = c.intersection_tests;
-        self.voxels = c.voxels;
-        self.mailbox_hits = c.mailbox_hits;
-        self.mailbox_uses = c.mailbox_uses;
+        self.rays = Rays::of(c);
+        self.work = Work::of(c);
         self.rays_per_s = if self.time.render_s > 0.0 {
             c.rays() as f64 / self.time.render_s
         } else {
@@ -180,20 +206,9 @@ impl RenderStats {
             format!("{} / {}", self.objects, self.primitives),
         );
         row("accelerator cells", self.accel_nodes.to_string());
-        row("eye rays", self.rays.eye.to_string());
-        row("eye rays that hit", self.rays.eye_hits.to_string());
-        row("shadow rays", self.rays.shadow.to_string());
-        row("  to lights behind", self.rays.shadow_behind.to_string());
-        row("reflected rays", self.rays.reflected.to_string());
-        row("refracted rays", self.rays.refracted.to_string());
-        row("  stopped by TIR", self.rays.total_internal.to_string());
+        counter_rows(&mut row, self.rays.rows());
         row("total rays", self.rays.total.to_string());
-        row("intersection tests", self.intersection_tests.to_string());
-        row("voxels visited", self.voxels.to_string());
-        row(
-            "mailbox hits / uses",
-            format!("{} / {}", self.mailbox_hits, self.mailbox_uses),
-        );
+        counter_rows(&mut row, self.work.rows());
         row("load time", format!("{:.3} s", self.time.load_s));
         row(
             "preprocessing time",
@@ -204,6 +219,26 @@ impl RenderStats {
         row("threads", self.threads.to_string());
         row("rays per second", format!("{:.0}", self.rays_per_s));
         s
+    }
+}
+
+/// Writes counters' `rows` with `row`; a row with an empty label continues the one before it
+/// (`hits / uses`).
+fn counter_rows(row: &mut impl FnMut(&str, String), rows: Vec<(&'static str, u64)>) {
+    let mut pending: Option<(&str, String)> = None;
+    for (label, n) in rows {
+        match &mut pending {
+            Some((_, value)) if label.is_empty() => value.push_str(&format!(" / {n}")),
+            _ => {
+                if let Some((l, v)) = pending.take() {
+                    row(l, v);
+                }
+                pending = Some((label, n.to_string()));
+            }
+        }
+    }
+    if let Some((l, v)) = pending {
+        row(l, v);
     }
 }
 
@@ -271,6 +306,51 @@ mod tests {
             assert!(v.pointer(path).is_some(), "{path}");
         }
         assert_eq!(v.pointer("/rays/eye_hits").unwrap(), 2);
+    }
+
+    #[test]
+    fn every_counter_keeps_its_row_and_its_key() {
+        let mut s = RenderStats::default();
+        s.set_counters(&Counters {
+            eye: 1,
+            eye_hits: 2,
+            shadow: 3,
+            shadow_behind: 4,
+            reflected: 5,
+            refracted: 6,
+            total_internal: 7,
+            intersection_tests: 8,
+            voxels: 9,
+            mailbox_hits: 10,
+            mailbox_uses: 11,
+        });
+        let rows: Vec<String> = [
+            ("eye rays", "1"),
+            ("eye rays that hit", "2"),
+            ("shadow rays", "3"),
+            ("  to lights behind", "4"),
+            ("reflected rays", "5"),
+            ("refracted rays", "6"),
+            ("  stopped by TIR", "7"),
+            ("total rays", "15"),
+            ("intersection tests", "8"),
+            ("voxels visited", "9"),
+            ("mailbox hits / uses", "10 / 11"),
+        ]
+        .iter()
+        .map(|(k, v)| format!("{k:<22} {v:>16}"))
+        .collect();
+        let table = s.table();
+        let shown: Vec<&str> = table.lines().skip(5).take(rows.len()).collect();
+        assert_eq!(shown, rows);
+        assert!(table
+            .lines()
+            .nth(5 + rows.len())
+            .unwrap()
+            .starts_with("load time"));
+        let json = serde_json::to_string(&s).unwrap();
+        let keys = r#""rays":{"eye":1,"eye_hits":2,"shadow":3,"shadow_behind":4,"reflected":5,"refracted":6,"total_internal":7,"total":15},"intersection_tests":8,"voxels":9,"mailbox_hits":10,"mailbox_uses":11,"time":{"#;
+        assert!(json.contains(keys), "{json}");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 
 use super::exit;
 use crate::distrib::connection::RemConnection;
-use crate::distrib::farm::controller::{self, ControllerEnd, ControllerOptions};
+use crate::distrib::farm::controller_process::{self, ControllerEnd, ControllerOptions};
 use crate::distrib::farm::follow::{self, Ended, WatchView};
 use crate::distrib::farm::FarmError;
 use clap::Args;
@@ -109,7 +109,7 @@ pub fn controller(args: ControllerArgs) -> anyhow::Result<ExitCode> {
         worker_timeout: args.worker_timeout_ms.map(Duration::from_millis),
         worker_program,
     };
-    match runtime()?.block_on(controller::run(opts))? {
+    match runtime()?.block_on(controller_process::run(opts))? {
         ControllerEnd::Finished => Ok(ExitCode::SUCCESS),
         ControllerEnd::Unfinished => {
             eprintln!("sunray controller: no worker is left; REM starts the controller again");

@@ -4,7 +4,7 @@
 
 use crate::distrib::checkpoint::unix_ms;
 use crate::distrib::connection::RemConnection;
-use crate::distrib::jobs;
+use crate::distrib::job_record;
 use clap::Args;
 use std::process::ExitCode;
 
@@ -32,7 +32,7 @@ async fn list(args: JobsArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
-    let index = jobs::list(&cluster.client)
+    let index = job_record::list(&cluster.client)
         .await
         .map_err(|e| cluster.rpc_error(e))?;
     let procs = cluster
@@ -52,7 +52,7 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
                 .count();
             serde_json::json!({
                 "job": j.job,
-                "state": jobs::shown_state(j, workers, now, 15_000),
+                "state": job_record::shown_state(j, workers, now, 15_000),
                 "lines_done": j.lines_done,
                 "lines": j.height,
                 "hosts": j.hosts,

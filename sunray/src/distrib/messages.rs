@@ -81,42 +81,34 @@ pub fn pixels_from_bytes(bytes: &[u8], width: u32) -> Result<Vec<[f32; 3]>, Mess
         .collect())
 }
 
-impl From<&Counters> for proto::Counters {
-    fn from(c: &Counters) -> proto::Counters {
-        proto::Counters {
-            eye: c.eye,
-            eye_hits: c.eye_hits,
-            shadow: c.shadow,
-            shadow_behind: c.shadow_behind,
-            reflected: c.reflected,
-            refracted: c.refracted,
-            total_internal: c.total_internal,
-            intersection_tests: c.intersection_tests,
-            voxels: c.voxels,
-            mailbox_hits: c.mailbox_hits,
-            mailbox_uses: c.mailbox_uses,
-            line_s: 0.0,
+/// The counters travel as `proto::Counters`, field by field (the list is
+/// [`with_counters!`](crate::stats::with_counters)); `line_s` is the line's own.
+macro_rules! counters_on_the_wire {
+    (
+        rays { $($(#[$rdoc:meta])* $ray:ident: $rlabel:literal,)* }
+        work { $($(#[$wdoc:meta])* $work:ident: $wlabel:literal,)* }
+    ) => {
+        impl From<&Counters> for proto::Counters {
+            fn from(c: &Counters) -> proto::Counters {
+                proto::Counters {
+                    $($ray: c.$ray,)*
+                    $($work: c.$work,)*
+                    line_s: 0.0,
+                }
+            }
         }
-    }
-}
 
-impl From<&proto::Counters> for Counters {
-    fn from(c: &proto::Counters) -> Counters {
-        Counters {
-            eye: c.eye,
-            eye_hits: c.eye_hits,
-            shadow: c.shadow,
-            shadow_behind: c.shadow_behind,
-            reflected: c.reflected,
-            refracted: c.refracted,
-            total_internal: c.total_internal,
-            intersection_tests: c.intersection_tests,
-            voxels: c.voxels,
-            mailbox_hits: c.mailbox_hits,
-            mailbox_uses: c.mailbox_uses,
+        impl From<&proto::Counters> for Counters {
+            fn from(c: &proto::Counters) -> Counters {
+                Counters {
+                    $($ray: c.$ray,)*
+                    $($work: c.$work,)*
+                }
+            }
         }
-    }
+    };
 }
+crate::stats::with_counters!(counters_on_the_wire);
 
 /// The render settings travel as `proto::RenderSettings`: everything a worker needs besides
 /// the model to render what `sunray render` would.

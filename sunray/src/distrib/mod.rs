@@ -17,7 +17,7 @@
 //! - [`grants`]: the grant table (assign, complete, first completion wins, faults, timeouts,
 //!   duplication of stragglers).
 //! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
-//! - [`jobs`]: SunRay jobs as REM's job records (behind `sunray jobs`).
+//! - [`job_record`]: a SunRay job as REM's job record (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
 //! - [`web_view`]: what a farm job publishes for remd's web view (`JOB.web.json`, the
@@ -27,7 +27,8 @@
 //!   lines it holds.
 //! - [`model_chunks`]: the scene's model shipped as REM chunks and fetched by the workers.
 //! - [`connection`]: reaching REM; [`embedded`]: the private remd of the default set-up.
-//! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals).
+//! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals),
+//!   one path wherever its controller runs: in `submit` (`--in-process`) or in the farm.
 //! - [`farm`]: jobs owned by the farm (`submit --detach`, the controller process REM keeps
 //!   running, `watch`, `fetch`, `cancel`).
 
@@ -38,7 +39,7 @@ pub mod embedded;
 pub mod farm;
 pub mod grants;
 pub mod job;
-pub mod jobs;
+pub mod job_record;
 pub mod messages;
 pub mod model_chunks;
 pub mod nodes;

@@ -4,7 +4,7 @@
 use super::tail::ControllerTail;
 use super::FarmError;
 use crate::distrib::checkpoint;
-use crate::distrib::jobs;
+use crate::distrib::job_record;
 use crate::film::Format;
 use rem::job_store::is_ended;
 use rem::{JobRecord, RemClient};
@@ -76,7 +76,7 @@ pub async fn watch(
     let mut tail = ControllerTail::default();
     let mut preview = view.preview.clone().map(PreviewWriter::new);
     loop {
-        let found = jobs::find(client, job)
+        let found = job_record::find(client, job)
             .await
             .map_err(|e| FarmError::from_rem(e, addr, job))?;
         let Some(now) = found else {
@@ -110,7 +110,7 @@ pub async fn watch(
             shown.finish();
             return Ok(match now.state.as_str() {
                 "finished" => Ended::Finished {
-                    summary: jobs::from_record(&now).summary,
+                    summary: job_record::from_record(&now).summary,
                 },
                 "cancelled" => Ended::Cancelled(now.message),
                 _ => Ended::Failed(now.message),
@@ -269,7 +269,7 @@ pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), Farm
 /// its controller and workers are ended. Returns the record as it was.
 pub async fn cancel(client: &RemClient, job: &str) -> Result<JobRecord, FarmError> {
     for _ in 0..3 {
-        let r = jobs::find(client, job)
+        let r = job_record::find(client, job)
             .await?
             .ok_or_else(|| FarmError::NoRecord(job.to_string()))?;
         if is_ended(&r.state) {

@@ -14,18 +14,21 @@
 //! A finished job's image is its last checkpoint (every line in it).
 //!
 //! # Layout
-//! - [`controller`]: the controller process.
+//! - [`controller_process`]: `sunray controller`, the process REM keeps running for a farm
+//!   job; it runs the [controller actor](super::controller) of the job.
 //! - [`follow`]: `watch`, `fetch` and `cancel`.
+//! - [`lease`]: the controller's lease on its job (its record, written at its epoch).
 //! - [`tail`]: the controller's output, read through REM as it is written.
 
-pub mod controller;
+pub mod controller_process;
 pub mod follow;
+mod lease;
 pub mod tail;
 
 use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
 use super::connection::RemConnection;
 use super::job::{self, JobError, JobRequest};
-use super::jobs;
+use super::job_record;
 use super::messages::{self, proto};
 use super::model_chunks;
 use super::web_view;
@@ -167,7 +170,7 @@ pub async fn submit(
         }
         .into());
     }
-    let existing = jobs::find(client, &plan.job).await?;
+    let existing = job_record::find(client, &plan.job).await?;
     if let Some(r) = &existing {
         if !rem::job_store::is_ended(&r.state) {
             return Err(FarmError::Exists {
@@ -197,7 +200,7 @@ pub async fn submit(
     );
     checkpointer.save(&store, "queued").await?;
     let (width, height) = (plan.settings.render.width, plan.settings.render.height);
-    let title = jobs::title(&plan.loaded.source.display_name(), width, height);
+    let title = job_record::title(&plan.loaded.source.display_name(), width, height);
     // remd's web view: the page of a job used again by this id starts afresh.
     if let Err(e) =
         web_view::submitted(&store, &plan.job, &title, plan.hosts, (width, height)).await
@@ -234,7 +237,7 @@ pub async fn submit(
         env: job::worker_env(std::env::vars()),
         ..rem::SpawnRequest::default()
     };
-    let mut record = jobs::to_record(&entry, width, 1);
+    let mut record = job_record::to_record(&entry, width, 1);
     record.controller_spawn = Some(spawn.to_proto());
     let stored = client.start_job(record, flags.anywhere).await?;
     Ok(Submitted {

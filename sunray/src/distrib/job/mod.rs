@@ -1,22 +1,28 @@
 //! A SunRay III job from start to end: its plan (a new scene, or a checkpointed job to
-//! resume), the first checkpoint and the job-index entry, the workers REM starts, the
+//! resume), the first checkpoint and the job's record, the workers REM starts, the
 //! controller actor, and the statistics of the whole image. `sunray submit` turns its flags
-//! into a [`JobRequest`], calls [`run`] and prints the [`JobOutcome`].
+//! into a [`JobRequest`]; with the controller in this process it calls [`run`] and prints
+//! the [`JobOutcome`], else it hands the job to the [farm](super::farm), whose controller
+//! process runs it the same way ([`drive`]).
 //!
+//! # Layout
 //! - [`plan`]: what is decided before the workers start, for a new job or a resumed one.
+//! - [`drive`]: one run of a job's controller wherever it runs (workers, the controller
+//!   actor, the statistics); where it runs is a [`drive::ControllerSite`].
+//! - [`in_process`]: the job whose controller runs in this process (`--in-process`).
 
+pub(crate) mod drive;
+mod in_process;
 mod plan;
 
-use plan::resume_plan;
+pub use in_process::run;
 pub(crate) use plan::{new_plan, Plan};
 
-use super::checkpoint::{self, CheckpointError, Checkpointer};
-use super::connection::{ConnectionError, RemConnection};
-use super::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
-use super::jobs;
-use super::messages::{self, proto, Body, MessageError};
-use super::model_chunks;
-use super::nodes::{self, JobStats};
+use super::checkpoint::CheckpointError;
+use super::connection::ConnectionError;
+use super::controller::ControllerError;
+use super::messages::{proto, MessageError};
+use super::nodes::JobStats;
 use super::strategy::Strategy;
 use crate::film::FilmError;
 use crate::render::settings::SettingsError;
@@ -213,190 +219,6 @@ impl JobRequest {
     }
 }
 
-/// Runs a job on `cluster` to its end: the image written when every line is in.
-pub async fn run(
-    cluster: &RemConnection,
-    req: &JobRequest,
-    scene: JobScene,
-) -> Result<JobOutcome, JobError> {
-    req.check()?;
-    let plan = match scene {
-        JobScene::New(loaded) => new_plan(req, loaded)?,
-        JobScene::Resume { job, scene } => resume_plan(req, cluster, job, scene).await?,
-    };
-    run_plan(cluster, req, plan).await
-}
-
-async fn run_plan(
-    cluster: &RemConnection,
-    req: &JobRequest,
-    mut plan: Plan,
-) -> Result<JobOutcome, JobError> {
-    let allow_same_host = cluster.is_embedded() || req.same_host;
-    let live = cluster.live_hosts().await?;
-    // A resumed job goes on with the hosts that are left, unless --hosts says otherwise.
-    let fewer = live.len().min(u32::MAX as usize) as u32;
-    if plan.restored.is_some()
-        && req.hosts.is_none()
-        && !allow_same_host
-        && fewer >= 1
-        && plan.hosts > fewer
-    {
-        eprintln!(
-            "sunray: resuming on {fewer} host(s): the job had {}, the others are not live",
-            plan.hosts
-        );
-        plan.hosts = fewer;
-    }
-    if !allow_same_host && plan.hosts as usize > live.len() {
-        return Err(JobError::TooFewHosts {
-            asked: plan.hosts,
-            live: live.iter().map(|h| h.name.clone()).collect(),
-        });
-    }
-    // The model goes as REM chunks (no message limit; hosts that have them fetch nothing).
-    let shipped = model_chunks::ship(&cluster.client, &plan.model)
-        .await
-        .map_err(|e| cluster.rpc_error(e))?;
-    // In-process: nobody takes this controller's workers over (epoch 0).
-    let scene_msg = messages::encode(Body::Scene(shipped.scene(
-        plan.settings.to_proto(),
-        &plan.job,
-        0,
-    )));
-    let relay = cluster
-        .client
-        .attach(Some(&plan.job))
-        .await
-        .map_err(|e| cluster.rpc_error(e))?;
-
-    let mut checkpointer = Checkpointer::new(
-        &plan.job,
-        job_spec(req, &plan),
-        messages::fnv1a(&plan.model),
-        plan.restored.as_ref(),
-    );
-    checkpointer
-        .save(&cluster.client, "running")
-        .await
-        .map_err(JobError::FirstCheckpoint)?;
-    let mut entry = proto::JobEntry {
-        job: plan.job.clone(),
-        scene: plan.loaded.source.display_name(),
-        state: "running".into(),
-        lines_done: checkpointer.lines_done(),
-        height: plan.settings.render.height,
-        hosts: plan.hosts,
-        started_unix_ms: checkpoint::unix_ms(),
-        output: plan.output.display().to_string(),
-        ..Default::default()
-    };
-    let epoch = jobs::next_epoch(&cluster.client, &plan.job)
-        .await
-        .unwrap_or(1);
-    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
-
-    let spawned = start_workers(cluster, req, &plan, allow_same_host, relay.id().clone()).await?;
-    let workers = WorkerProc::placed(&spawned, &live);
-    let (sender, receiver) = relay.split();
-    let cfg = ControllerConfig {
-        job: plan.job.clone(),
-        strategy: plan.strategy,
-        width: plan.settings.render.width,
-        height: plan.settings.render.height,
-        scene: scene_msg,
-        worker_timeout: req.worker_timeout,
-        checkpoint_every: req.checkpoint_every,
-        preview: req.preview.clone(),
-        preview_every: req.preview_every,
-        show_bar: req.show_bar,
-        events: req.events,
-        finish_grace: Duration::from_secs(3),
-        checkpointed: None,
-        adopt: None,
-        // remd's web view shows farm jobs; this one ends with this process.
-        web: None,
-    };
-    let handle = controller::spawn(Start {
-        cfg,
-        client: cluster.client.clone(),
-        sender,
-        receiver,
-        workers,
-        restored: plan.restored,
-        checkpointer,
-        epoch: 0,
-    });
-    let result = handle.join().await.map_err(|e| match e {
-        ControllerError::Relay(e) if e.is_connection_lost() => JobError::LostRemd {
-            addr: cluster.addr.clone(),
-            reason: e.root_cause(),
-            job: plan.job.clone(),
-        },
-        e => JobError::Controller(e),
-    })?;
-
-    entry.lines_done = result.lines.resumed + result.lines.rendered;
-    entry.state = if result.finished {
-        "finished"
-    } else {
-        "failed"
-    }
-    .into();
-    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
-    if result.finished {
-        result.film.write(&plan.output)?;
-    }
-    let name = plan.loaded.source.display_name();
-    let header = plan.settings.stats_header(&name, &plan.loaded.scene);
-    let finished = result.finished;
-    let stats = job_stats(
-        &plan.job,
-        plan.strategy,
-        plan.hosts,
-        header,
-        result,
-        shipped.bytes_sent,
-    );
-    Ok(JobOutcome {
-        job: plan.job,
-        output: plan.output,
-        finished,
-        stats,
-    })
-}
-
-/// The statistics of a controller's run of `job`: the per-node table, and `header` (the
-/// scene and image, from [`Settings::stats_header`]) with the counted totals of every line;
-/// `scene_bytes_sent` is what the submitting host's remd sent of the model.
-pub(crate) fn job_stats(
-    job: &str,
-    strategy: Strategy,
-    hosts: u32,
-    mut totals: crate::stats::RenderStats,
-    result: controller::JobResult,
-    scene_bytes_sent: u64,
-) -> JobStats {
-    totals.threads = result.nodes.iter().map(|n| n.threads as usize).sum();
-    totals.time.render_s = result.elapsed_s;
-    totals.time.cpu_s = result.nodes.iter().map(|n| n.cpu_s).sum();
-    totals.set_counters(&result.counters);
-    let (wait_share, tail_wait_share) = nodes::wait_shares(&result.nodes);
-    JobStats {
-        job: job.to_string(),
-        strategy: Some(strategy),
-        hosts,
-        lines: result.lines,
-        elapsed_s: result.elapsed_s,
-        totals,
-        controller: result.cost,
-        scene_bytes_sent,
-        wait_share,
-        tail_wait_share,
-        nodes: result.nodes,
-    }
-}
-
 /// What the checkpoint remembers of the job, so `--resume` can continue it.
 pub(crate) fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
     let path_string = |p: &Path| p.display().to_string();
@@ -413,59 +235,6 @@ pub(crate) fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
         spd_corners: req.overrides.spd_corners,
         threads: plan.threads.unwrap_or(0) as u32,
         same_host: req.same_host,
-    }
-}
-
-/// Asks REM for the workers (none when a resumed job's lines are all in already).
-async fn start_workers(
-    cluster: &RemConnection,
-    req: &JobRequest,
-    plan: &Plan,
-    allow_same_host: bool,
-    owner: rem::ProcId,
-) -> Result<rem::Job, JobError> {
-    let rem_job = format!("{}.{}", plan.job, checkpoint::unix_ms() / 1000);
-    let all_in = plan
-        .restored
-        .as_ref()
-        .is_some_and(|r| r.lines.len() as u32 >= plan.settings.render.height);
-    if all_in {
-        return Ok(rem::Job {
-            id: rem_job,
-            processes: Vec::new(),
-        });
-    }
-    let threads = plan.threads.or_else(|| {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        cluster
-            .is_embedded()
-            .then(|| (cores / plan.hosts as usize).max(1))
-    });
-    let mut args = vec!["worker".to_string()];
-    if let Some(t) = threads {
-        args.extend(["--threads".to_string(), t.to_string()]);
-    }
-    cluster
-        .client
-        .spawn(rem::SpawnRequest {
-            program: req.worker_program.display().to_string(),
-            args,
-            env: worker_env(std::env::vars()),
-            nice: plan.nice.then_some(10),
-            count: plan.hosts,
-            allow_same_host,
-            job: Some(rem_job),
-            owner: Some(owner),
-            host: None,
-            avoid_hosts: Vec::new(),
-        })
-        .await
-        .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
-}
-
-async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, width: u32, epoch: u64) {
-    if let Err(e) = jobs::update(&cluster.client, entry, width, epoch).await {
-        eprintln!("sunray: warning: the job's record in REM: {e}");
     }
 }
 

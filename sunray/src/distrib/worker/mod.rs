@@ -13,22 +13,27 @@
 //! their bounds (`render::settings`, checked before anything is allocated), make the worker
 //! tell its controller why (a WorkerError message, waited for until its remd has it) and exit
 //! with an error.
+//!
+//! # Layout
+//! - [`owner`]: whom the worker answers to, and a farm job's takeover by a new controller.
+//! - [`render_loop`]: the loop once the scene is ready: Assign, render, Done.
 
 use super::messages::{self, proto, Body};
 use super::model_chunks;
-use super::pool::{LineJob, PoolScene, RenderPool, Rendered};
-use super::window::{Window, MIN_COVER_S};
+use super::pool::{PoolScene, RenderPool, Rendered};
+use super::window::Window;
 use crate::accel::Accel;
 use crate::render::Settings;
 use crate::scene::Scene;
-use crate::stats::process_cpu_seconds;
-use owner::{confirmed, Heard, Owner};
+use owner::Owner;
 use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
+use render_loop::{RenderLoop, Waits};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
 mod owner;
+mod render_loop;
 
 /// How long a farm job's worker waits for a new controller: longer than REM's lease (10 s)
 /// and its settling (1.5 s), plus a controller's start.
@@ -91,7 +96,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let me = relay.id().clone();
     let host = relay.host().to_string();
     let (sender, receiver) = relay.split();
-    let mut link = Link {
+    let link = Link {
         sender,
         owner: owner.clone(),
     };
@@ -115,232 +120,85 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
             _ => {}
         }
     };
-    let mut owner = Owner::new(owner, &scene_msg);
-    let mut records: Option<RemClient> = None;
-    // Settings out of bounds are refused before anything is fetched or allocated for them.
-    if let Err(e) = settings_of(&scene_msg) {
-        report(&link, &me, &mut inbox, &e).await;
-        return Err(e);
-    }
-    // The model, through this host's remd (cached there for the next worker or job).
-    let fetched = match RemClient::from_env().await {
-        Ok(client) => model_chunks::fetch_scene(&client, &scene_msg)
-            .await
-            .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}"))),
-        Err(e) => Err(WorkerError::Rem(e)),
-    };
-    let (scene, mut scene_fetch) = match fetched {
-        Ok(f) => f,
+    let owner = Owner::new(owner, &scene_msg);
+    let ready_scene = match ready_scene(scene_msg).await {
+        Ok(r) => r,
         Err(e) => {
             report(&link, &me, &mut inbox, &e).await;
             return Err(e);
         }
     };
-    let t_pre = Instant::now();
-    let prepared = tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
-        .await
-        .unwrap_or_else(|e| {
-            Err(WorkerError::BadScene(format!(
-                "preparing the scene panicked: {e}"
-            )))
-        });
-    let (scene, accel, settings, accel_cached) = match prepared {
-        Ok(p) => p,
-        Err(e) => {
-            report(&link, &me, &mut inbox, &e).await;
-            return Err(e);
-        }
-    };
-    scene_fetch.accel_cached = accel_cached;
-    let preprocess_s = t_pre.elapsed().as_secs_f64();
     let render_start = Instant::now();
-    let (results_tx, mut results) = mpsc::unbounded_channel::<Rendered>();
+    let (results_tx, results) = mpsc::unbounded_channel::<Rendered>();
     let pool = RenderPool::start(
         PoolScene {
-            scene,
-            accel,
-            opts: settings.render,
-            mailbox: settings.mailbox,
+            scene: ready_scene.scene,
+            accel: ready_scene.accel,
+            opts: ready_scene.settings.render,
+            mailbox: ready_scene.settings.mailbox,
             delay: cfg.line_delay,
         },
         threads,
         results_tx,
     )
     .map_err(WorkerError::Threads)?;
-    let mut window = Window::new(threads);
-    let clock = || started.elapsed().as_secs_f64();
-    // A Request for work, stamped now, giving back `released`.
-    let request = |window: &mut Window, released: Vec<u64>| {
-        let now = clock();
-        Body::Request(proto::Request {
-            window: window.lines(now),
-            preprocess_s,
-            stamp_s: now,
-            released,
-            scene: Some(scene_fetch),
-        })
+    let render_loop = RenderLoop {
+        link,
+        owner,
+        records: None,
+        pool,
+        window: Window::new(threads),
+        held: 0,
+        waits: Waits::default(),
+        first_lines_at: None,
+        started,
+        render_start,
+        preprocess_s: ready_scene.preprocess_s,
+        scene_fetch: ready_scene.fetch,
+        ready,
     };
-    link.send(request(&mut window, Vec::new())).await?;
-
-    let mut held = 0usize;
-    let mut waits = Waits::default();
-    let mut probe = tokio::time::interval(cfg.idle_probe);
-    probe.tick().await;
-    // Until a line is done, how long the first lines take bounds the window.
-    let mut first_lines_at: Option<Instant> = None;
-    let mut first_check = tokio::time::interval(Duration::from_secs_f64(MIN_COVER_S));
-    first_check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    loop {
-        tokio::select! {
-            item = inbox.recv() => {
-                let incoming = item.ok_or(WorkerError::Rem(rem::Error::Closed))??;
-                match owner.hear(incoming) {
-                    Heard::Body(Body::Assign(a)) => {
-                        let now = clock();
-                        // Duplicates are not an answer to the worker's room but to an empty queue.
-                        if a.echo_s > 0.0 && a.lines.iter().any(|l| !l.duplicate) {
-                            window.delay(now, now - a.echo_s);
-                        }
-                        pool.set_queue_target(window.queued(now) as usize);
-                        first_lines_at.get_or_insert_with(Instant::now);
-                        for l in a.lines {
-                            let job = LineJob {
-                                line: l.line,
-                                grant: l.grant,
-                                duplicate: l.duplicate,
-                                generation: owner.generation,
-                            };
-                            if pool.submit(job) {
-                                held += 1;
-                            }
-                        }
-                    }
-                    Heard::Body(Body::NoMoreWork(_)) => return Ok(()),
-                    Heard::Body(_) | Heard::Nothing => {}
-                    Heard::Gone if owner.succeedable() => {
-                        owner.orphaned.get_or_insert_with(tokio::time::Instant::now);
-                    }
-                    Heard::Gone => return Err(WorkerError::ControllerGone),
-                    Heard::Adopt(from, adopt) => {
-                        if !owner.newer_claim(&from, &adopt) {
-                            continue;
-                        }
-                        if records.is_none() {
-                            records = RemClient::from_env().await.ok();
-                        }
-                        let Some(r) = &records else { continue };
-                        if !confirmed(r, &from, &adopt).await {
-                            continue;
-                        }
-                        let kept = owner.take_over(from, adopt.epoch);
-                        link.owner = owner.id.clone();
-                        let again = proto::Ready {
-                            load_avg: load_average(),
-                            ..ready.clone()
-                        };
-                        link.send(Body::Ready(again)).await?;
-                        for done in kept {
-                            link.send(Body::Done(done)).await?;
-                        }
-                        link.send(request(&mut window, Vec::new())).await?;
-                    }
-                }
-            }
-            r = results.recv() => {
-                let Some(r) = r else { return Err(WorkerError::BadScene("render threads stopped".into())) };
-                held = held.saturating_sub(1);
-                waits.add(&r);
-                window.line_done(r.cycle_s);
-                let now = clock();
-                let released = give_back(&pool, &window, now, &mut held, owner.generation);
-                let mut counters = proto::Counters::from(&r.counters);
-                counters.line_s = r.line_s;
-                let done = proto::Done {
-                    line: r.job.line,
-                    grant: r.job.grant,
-                    pixels: messages::pixels_to_bytes(&r.pixels),
-                    counters: Some(counters),
-                    window: window.lines(now),
-                    clock: Some(proto::NodeClock {
-                        cpu_s: process_cpu_seconds(),
-                        elapsed_s: clock(),
-                        preprocess_s,
-                        render_s: render_start.elapsed().as_secs_f64(),
-                        wait_s: waits.fresh_s,
-                        first_wait_s: waits.first_s,
-                        tail_wait_s: waits.tail_s,
-                    }),
-                    stamp_s: r.finished.saturating_duration_since(started).as_secs_f64(),
-                    released,
-                };
-                if let Some(done) = owner.report(done, r.job.generation) {
-                    link.send(Body::Done(done)).await?;
-                }
-            }
-            _ = first_check.tick(), if !window.has_line_time() && owner.orphaned.is_none() => {
-                if let Some(at) = first_lines_at {
-                    window.first_lines_running(at.elapsed().as_secs_f64());
-                    let now = clock();
-                    let released = give_back(&pool, &window, now, &mut held, owner.generation);
-                    if !released.is_empty() {
-                        link.send(request(&mut window, released)).await?;
-                    }
-                }
-            }
-            _ = probe.tick() => {
-                if let Some(since) = owner.orphaned {
-                    if since.elapsed() >= cfg.adopt_wait {
-                        return Err(WorkerError::ControllerGone);
-                    }
-                } else if held == 0 {
-                    link.send(request(&mut window, Vec::new())).await?;
-                }
-            }
-        }
-    }
+    render_loop
+        .run(&mut inbox, results, cfg.idle_probe, cfg.adopt_wait)
+        .await
 }
 
-/// Sets the pool's queue target from the window and takes back the queued lines beyond it
-/// ([`Window::excess`]); returns the grants to report: those of the current controller (a
-/// line granted by an earlier one is simply dropped: its successor has it queued).
-fn give_back(
-    pool: &RenderPool,
-    window: &Window,
-    now: f64,
-    held: &mut usize,
-    generation: u32,
-) -> Vec<u64> {
-    pool.set_queue_target(window.queued(now) as usize);
-    let back = pool.take_back(window.excess(pool.queued(), now));
-    *held = held.saturating_sub(back.len());
-    back.into_iter()
-        .filter(|job| job.generation == generation)
-        .map(|job| job.grant)
-        .collect()
+/// A scene ready to render.
+struct ReadyScene {
+    scene: Arc<Scene>,
+    accel: Arc<Accel>,
+    settings: Settings,
+    /// How its model came (and whether the accelerator was read from the cache).
+    fetch: proto::SceneFetch,
+    /// Decoding the model and building the accelerator, in seconds.
+    preprocess_s: f64,
 }
 
-/// The render threads' waits for their next line, summed over threads, by what ended them.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Waits {
-    /// For each thread's first line (start-up: at least one round trip).
-    first_s: f64,
-    /// For a fresh line: waiting for work.
-    fresh_s: f64,
-    /// For a duplicate: the tail, when no fresh line was left.
-    tail_s: f64,
-}
-
-impl Waits {
-    fn add(&mut self, r: &Rendered) {
-        let sum = if r.first {
-            &mut self.first_s
-        } else if r.job.duplicate {
-            &mut self.tail_s
-        } else {
-            &mut self.fresh_s
-        };
-        *sum += r.wait_s;
-    }
+/// The Scene message made ready: its settings checked (before anything is fetched or
+/// allocated for them), its model fetched through this host's remd (cached there for the
+/// next worker or job), its accelerator built or read.
+async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError> {
+    settings_of(&scene_msg)?;
+    let client = RemClient::from_env().await?;
+    let (scene, mut fetch) = model_chunks::fetch_scene(&client, &scene_msg)
+        .await
+        .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}")))?;
+    let t_pre = Instant::now();
+    let (scene, accel, settings, accel_cached) =
+        tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
+            .await
+            .unwrap_or_else(|e| {
+                Err(WorkerError::BadScene(format!(
+                    "preparing the scene panicked: {e}"
+                )))
+            })?;
+    fetch.accel_cached = accel_cached;
+    Ok(ReadyScene {
+        scene,
+        accel,
+        settings,
+        fetch,
+        preprocess_s: t_pre.elapsed().as_secs_f64(),
+    })
 }
 
 /// How long a worker that cannot go on waits for its WorkerError to leave before it exits.
@@ -478,47 +336,5 @@ pub fn load_average() -> f64 {
         avg[0]
     } else {
         0.0
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::stats::Counters;
-
-    fn rendered(first: bool, duplicate: bool, wait_s: f64) -> Rendered {
-        Rendered {
-            job: LineJob {
-                line: 0,
-                grant: 1,
-                duplicate,
-                generation: 0,
-            },
-            pixels: Vec::new(),
-            counters: Counters::default(),
-            line_s: 0.001,
-            cycle_s: 0.001,
-            wait_s,
-            first,
-            finished: Instant::now(),
-        }
-    }
-
-    #[test]
-    fn waits_are_split_into_start_up_work_and_tail() {
-        let mut w = Waits::default();
-        w.add(&rendered(true, false, 1.0));
-        w.add(&rendered(true, true, 2.0));
-        w.add(&rendered(false, false, 0.25));
-        w.add(&rendered(false, false, 0.5));
-        w.add(&rendered(false, true, 4.0));
-        assert_eq!(
-            w,
-            Waits {
-                first_s: 3.0,
-                fresh_s: 0.75,
-                tail_s: 4.0
-            }
-        );
     }
 }

@@ -1,0 +1,197 @@
+//! What the controller does of itself, besides what comes in ([`incoming`](super::incoming)):
+//! hand out lines (one Assign per node), the tick (silent workers, checkpoints, the preview,
+//! the web view), and winding down when the image is done or no worker is left.
+
+use super::link::WorkerLink;
+use super::ControllerError;
+use super::{Controller, Input};
+use crate::distrib::grants::NodeState;
+use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::nodes::{ControllerCost, Outcome};
+use serde_json::json;
+use std::time::Duration;
+use tokio::sync::mpsc;
+use tokio::time::Instant;
+
+impl<L: WorkerLink> Controller<L> {
+    pub(super) fn cost(&self) -> ControllerCost {
+        let cpu_s = crate::stats::process_cpu_seconds() - self.cpu_at_start;
+        let lines = f64::from(self.lines.rendered.max(1));
+        let messages = (self.messages_in + self.messages_out) as f64;
+        ControllerCost {
+            cpu_s,
+            messages_in: self.messages_in,
+            messages_out: self.messages_out,
+            cpu_ms_per_line: cpu_s * 1000.0 / lines,
+            messages_per_line: messages / lines,
+        }
+    }
+
+    pub(super) fn timeout(&self) -> Duration {
+        self.cfg
+            .worker_timeout
+            .unwrap_or_else(|| Duration::from_secs_f64((20.0 * self.max_line_s).max(10.0)))
+    }
+
+    pub(super) async fn on_tick(&mut self) {
+        let now = Instant::now();
+        let mut silent = self.table.expire(now, self.timeout());
+        // A worker says Ready as soon as it is attached; one that has not within the timeout
+        // hangs (or its host is stuck) and must not keep the job waiting for it.
+        if self.started.elapsed() > self.timeout() {
+            for i in 0..self.nodes.len() {
+                if self.nodes[i].outcome == Outcome::Starting && !self.exited[i] {
+                    let held = self.table.silence(i);
+                    silent.push((i, held));
+                }
+            }
+        }
+        for (i, held) in silent {
+            let n = &mut self.nodes[i];
+            n.outcome = Outcome::Silent;
+            n.lines_given_back += held as u64;
+            self.view.event(
+                json!({"event": "silent", "node": i + 1, "host": n.host, "given_back": held}),
+            );
+        }
+        if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every
+            && self.checkpointer.has_pending()
+        {
+            self.save_checkpoint("running").await;
+        }
+        self.view.preview(&self.film, false);
+        self.view.set_workers(self.table.active_nodes());
+        self.publish(false).await;
+    }
+
+    /// Publishes the job for remd's web view if it has one and a publication is due (or
+    /// `last`; the first tick is the start). A failure never stops the job: the first is a
+    /// warning; a refusal for a newer epoch stands this controller down, as the checkpoint's.
+    pub(super) async fn publish(&mut self, last: bool) {
+        let done = self.table.done();
+        let Some(web) = self.view.web_mut() else {
+            return;
+        };
+        match web
+            .publish(&self.link, &self.nodes, &self.film, done, last)
+            .await
+        {
+            Ok(()) => {}
+            Err(e) if e.is_fenced() => self.superseded = Some(e.to_string()),
+            Err(e) => {
+                let error = e.to_string();
+                self.view
+                    .note(&format!("sunray: warning: web view: {error}"));
+                self.view
+                    .event(json!({"event": "warning", "about": "web view", "error": error}));
+            }
+        }
+    }
+
+    pub(super) async fn save_checkpoint(&mut self, state: &str) {
+        self.last_checkpoint = Instant::now();
+        match self.checkpointer.save(&self.link, state).await {
+            Ok(()) => {
+                if let Some(c) = &self.cfg.checkpointed {
+                    c.store(
+                        self.checkpointer.lines_done(),
+                        std::sync::atomic::Ordering::Relaxed,
+                    );
+                }
+                self.view
+                    .event(json!({"event": "checkpoint", "state": state,
+                    "lines": self.checkpointer.lines_done()}))
+            }
+            Err(crate::distrib::checkpoint::CheckpointError::Rem(e)) if e.is_fenced() => {
+                self.superseded = Some(e.to_string());
+            }
+            Err(e) => self.view.note(&format!("sunray: warning: checkpoint: {e}")),
+        }
+    }
+
+    /// Sends out whatever the table can hand out now: one Assign per node, with every line
+    /// it gets.
+    pub(super) async fn dispatch(&mut self) -> Result<(), ControllerError> {
+        let now = Instant::now();
+        let mut out = self.table.assign(now);
+        let min_age = Duration::from_secs_f64(2.0 * self.max_line_s + 0.25);
+        out.extend(self.table.duplicate_stragglers(now, min_age));
+        for node in 0..self.procs.len() {
+            let lines: Vec<proto::LineGrant> = out
+                .iter()
+                .filter(|a| a.node == node)
+                .map(|a| proto::LineGrant {
+                    line: a.line,
+                    grant: a.grant,
+                    duplicate: a.duplicate,
+                })
+                .collect();
+            if lines.is_empty() {
+                continue;
+            }
+            let msg = messages::encode(Body::Assign(proto::Assign {
+                lines,
+                echo_s: self.stamps_to_echo[node].unwrap_or(0.0),
+            }));
+            let first = !self.assigned_once[node];
+            match self.link.send(&self.procs[node], msg).await {
+                Ok(()) => {
+                    self.messages_out += 1;
+                    if first {
+                        self.assigned_once[node] = true;
+                        self.view
+                            .event(json!({"event": "assign", "node": node + 1, "first": true}));
+                    }
+                }
+                Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
+                Err(e) => self.on_gone(node, format!("cannot send: {e}"), false),
+            }
+        }
+        // Lines handed out later (when some came back to the queue) answer no message.
+        self.stamps_to_echo.fill(None);
+        Ok(())
+    }
+
+    pub(super) fn no_worker_left(&mut self) -> bool {
+        if self.table.live_nodes() == 0 {
+            return true;
+        }
+        if self.table.active_nodes() > 0 {
+            self.all_silent_since = None;
+            return false;
+        }
+        let since = *self.all_silent_since.get_or_insert_with(Instant::now);
+        since.elapsed() > self.timeout()
+    }
+
+    /// Tells every worker still there to stop, waits a bounded time for them to exit
+    /// (late completions are counted as dropped), then kills the rest.
+    pub(super) async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
+        self.finishing = true;
+        let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
+        // A silent worker is not waited for.
+        let wait_for: Vec<bool> = (0..self.procs.len())
+            .map(|i| !self.exited[i] && self.table.node_state(i) == Some(NodeState::Active))
+            .collect();
+        for i in 0..self.procs.len() {
+            if !self.exited[i] && self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
+                self.messages_out += 1;
+            }
+        }
+        let deadline = Instant::now() + self.cfg.finish_grace;
+        while (0..self.procs.len()).any(|i| wait_for[i] && !self.exited[i]) {
+            match tokio::time::timeout_at(deadline, inbox.recv()).await {
+                Ok(Some(Input::Relay(Ok(incoming)))) => self.on_incoming(incoming),
+                _ => break,
+            }
+        }
+        for i in 0..self.procs.len() {
+            if !self.exited[i] {
+                if self.table.node_state(i) != Some(NodeState::Gone) {
+                    self.nodes[i].outcome = Outcome::Silent;
+                }
+                self.link.kill(&self.procs[i]).await;
+            }
+        }
+    }
+}

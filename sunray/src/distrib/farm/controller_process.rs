@@ -1,0 +1,425 @@
+//! `sunray controller`: a farm job's controller, a process REM starts (and starts again, at a
+//! higher epoch, when it exits unfinished, stalls or loses its host). It reads the job from
+//! REM (its record, `JOB.scene` and the checkpoint), takes over the workers of its
+//! predecessors that still run (an Adopt message; they keep rendering the lines they hold),
+//! starts more on the live hosts up to the count asked (never failing for too few: as many
+//! as there are, at least one), runs the controller actor
+//! unchanged in its rules ([`drive`], as the in-process job does, with this process as the
+//! [`ControllerSite`]), and keeps its record fresh (state, lines in the checkpoint, its
+//! own process and host) every [`LEASE_WRITE`]: REM restarts a controller that stops writing.
+//!
+//! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
+//! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
+
+use super::lease::{keep_lease, own_record, put_record};
+use super::{scene_key, stats_key, FarmError};
+use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Restored, Store};
+use crate::distrib::controller::{self, ControllerConfig, ControllerError, WorkerProc};
+use crate::distrib::job::drive::{self, ControllerSite, Drive, Ran, Totals};
+use crate::distrib::job::worker_env;
+use crate::distrib::job_record;
+use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::nodes::JobStats;
+use crate::distrib::strategy::Strategy;
+use crate::distrib::web_view;
+use crate::render::Settings;
+use prost::Message;
+use rem::RemClient;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicU32;
+use std::sync::Arc;
+use std::time::Duration;
+
+pub use super::lease::LEASE_WRITE;
+
+/// How the controller runs (its command line).
+#[derive(Clone, Debug)]
+pub struct ControllerOptions {
+    /// How often the controller checkpoints.
+    pub checkpoint_every: Duration,
+    /// A worker holding a line longer than this is silent.
+    pub worker_timeout: Option<Duration>,
+    /// The program REM starts as `PROGRAM worker`.
+    pub worker_program: PathBuf,
+}
+
+/// How a controller process ended.
+#[derive(Debug)]
+pub enum ControllerEnd {
+    /// Every line is in: the record says finished.
+    Finished,
+    /// No worker was left: REM starts the controller again.
+    Unfinished,
+    /// A newer controller has the job.
+    Superseded(String),
+}
+
+/// The job this process controls: REM_JOB_RECORD at REM_JOB_EPOCH.
+fn job_from_env() -> Result<(String, u64), FarmError> {
+    let job = std::env::var(rem::wire::env::JOB_RECORD).unwrap_or_default();
+    let epoch = std::env::var(rem::wire::env::JOB_EPOCH)
+        .ok()
+        .and_then(|e| e.parse::<u64>().ok())
+        .unwrap_or(0);
+    if job.is_empty() || epoch == 0 {
+        return Err(FarmError::Stored {
+            job,
+            reason: "REM_JOB_RECORD and REM_JOB_EPOCH are not set: controllers are started by REM for `sunray submit --detach`".into(),
+        });
+    }
+    Ok((job, epoch))
+}
+
+/// Runs the job REM gave this process to its end.
+pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
+    let (job, epoch) = job_from_env()?;
+    let client = RemClient::from_env().await?;
+    let relay = RemClient::attach_from_env().await?;
+    let host = relay.host().to_string();
+    let mut record = own_record(&client, &job, epoch).await?;
+    let stored = StoredJob::load(&client, &job).await?;
+    let (width, height) = (stored.settings.render.width, stored.settings.render.height);
+    let lines_in = stored.restored.lines.len() as u32;
+
+    record.state = "running".into();
+    record.controller = relay.id().to_string();
+    record.controller_host = host.clone();
+    record.progress_done = u64::from(lines_in);
+    if record.title.is_empty() {
+        record.title = job_record::title(&job_record::from_record(&record).scene, width, height);
+    }
+    put_record(&client, &record, &job).await?;
+
+    let live: Vec<rem::HostInfo> = client
+        .hosts()
+        .await?
+        .into_iter()
+        .filter(|h| h.alive && h.accepting)
+        .collect();
+    let spec = stored.restored.header.spec.clone().unwrap_or_default();
+    let count = worker_count(&spec, live.len());
+    let checkpointed = Arc::new(AtomicU32::new(lines_in));
+    let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
+    // What remd's web view shows, going on from the earlier controllers' history.
+    let history = web_view::history(&client, &job, &host, epoch).await;
+    let cfg = controller_config(
+        &opts,
+        (&job, epoch),
+        (strategy, (width, height)),
+        stored.scene,
+        (checkpointed.clone(), history),
+    );
+    let checkpointer = Checkpointer::new(
+        &job,
+        spec.clone(),
+        stored.restored.header.model_hash,
+        Some(&stored.restored),
+    );
+    // The scene's part of the totals, as `sunray render` and the in-process job give it,
+    // from the counts `submit` stored (the model is not decoded here).
+    let entry = job_record::from_record(&record);
+    let totals = Totals {
+        header: stored.settings.stats_header_of(
+            &entry.scene,
+            entry.scene_objects as usize,
+            entry.scene_primitives as usize,
+            entry.scene_unbounded as usize,
+        ),
+        hosts: count,
+        scene_bytes_sent: entry.scene_bytes_sent,
+    };
+    let all_in = lines_in >= height;
+    let start = Drive {
+        cfg,
+        client: client.clone(),
+        relay,
+        restored: Some(stored.restored),
+        checkpointer,
+        epoch,
+    };
+    let mut site = FarmSite {
+        client: &client,
+        opts: &opts,
+        spec,
+        job: &job,
+        epoch,
+        live,
+        count,
+        all_in,
+        record,
+        checkpointed,
+    };
+    let ended = match drive::run_controller(&mut site, start, totals).await? {
+        Ran::Superseded(why) => return Ok(ControllerEnd::Superseded(why)),
+        Ran::Ended(ended) if !ended.finished => return Ok(ControllerEnd::Unfinished),
+        Ran::Ended(ended) => ended,
+    };
+    store_finished(
+        &client,
+        &mut site.record,
+        (&job, epoch),
+        height,
+        &ended.stats,
+    )
+    .await?;
+    Ok(ControllerEnd::Finished)
+}
+
+/// The controller's settings: its events go to REM's log of this process (`rem logs`), the
+/// workers it takes over get Adopt (at `epoch`), and the job is published for remd's web
+/// view, its events going on from `history`.
+fn controller_config(
+    opts: &ControllerOptions,
+    (job, epoch): (&str, u64),
+    (strategy, size): (Strategy, (u32, u32)),
+    scene: proto::Scene,
+    (checkpointed, history): (Arc<AtomicU32>, Vec<web_view::Event>),
+) -> ControllerConfig {
+    ControllerConfig {
+        events: true,
+        checkpointed: Some(checkpointed),
+        adopt: Some(messages::encode(Body::Adopt(proto::Adopt {
+            job: job.to_string(),
+            epoch,
+        }))),
+        web: Some(history),
+        ..drive::controller_config(
+            job,
+            strategy,
+            size,
+            messages::encode(Body::Scene(proto::Scene { epoch, ..scene })),
+            opts.worker_timeout,
+            opts.checkpoint_every,
+        )
+    }
+}
+
+/// How many workers the job is to have: as many as it asked for, or as there are `live`
+/// hosts (never "too few hosts" here), at least one.
+fn worker_count(spec: &proto::JobSpec, live: usize) -> u32 {
+    let want = spec.hosts.max(1);
+    if spec.same_host {
+        want
+    } else {
+        want.min(live.max(1) as u32)
+    }
+}
+
+/// What `submit` stored of a job: its Scene message, its checkpoint and render settings.
+struct StoredJob {
+    scene: proto::Scene,
+    restored: Restored,
+    settings: Settings,
+}
+
+impl StoredJob {
+    /// Reads `JOB.scene` and the checkpoint, which must be of the same model.
+    async fn load(client: &RemClient, job: &str) -> Result<StoredJob, FarmError> {
+        let stored = |reason: &str| FarmError::Stored {
+            job: job.to_string(),
+            reason: reason.to_string(),
+        };
+        let scene_bytes = client
+            .get_checkpoint(&scene_key(job))
+            .await?
+            .ok_or_else(|| stored("its scene is not in REM's store"))?;
+        let scene = proto::Scene::decode(scene_bytes.as_slice())
+            .map_err(|e| stored(&format!("its stored scene does not decode: {e}")))?;
+        let restored = checkpoint::load(client, job)
+            .await?
+            .ok_or_else(|| stored("it has no checkpoint"))?;
+        if scene.model_hash != restored.header.model_hash {
+            return Err(stored("its stored scene is not the checkpoint's"));
+        }
+        let settings = scene
+            .settings
+            .as_ref()
+            .map(Settings::from_proto)
+            .transpose()
+            .map_err(|e| stored(&e.to_string()))?
+            .ok_or_else(|| stored("its stored scene has no render settings"))?;
+        Ok(StoredJob {
+            scene,
+            restored,
+            settings,
+        })
+    }
+}
+
+/// This process as the controller's site: it takes over the workers of earlier
+/// controllers, starts more, and holds the job's lease (its record, written every
+/// [`LEASE_WRITE`]).
+struct FarmSite<'a> {
+    client: &'a RemClient,
+    opts: &'a ControllerOptions,
+    spec: proto::JobSpec,
+    job: &'a str,
+    epoch: u64,
+    live: Vec<rem::HostInfo>,
+    /// Workers the job is to have.
+    count: u32,
+    /// Every line is in the checkpoint: no worker is needed.
+    all_in: bool,
+    record: rem::JobRecord,
+    checkpointed: Arc<AtomicU32>,
+}
+
+impl ControllerSite for FarmSite<'_> {
+    type Error = FarmError;
+
+    /// The previous controllers' workers that still run are taken over (they keep their
+    /// lines and their scene, and REM sends their events here now); new ones make up the
+    /// rest, on other hosts than theirs.
+    async fn workers(&mut self, me: &rem::ProcId) -> Result<Vec<WorkerProc>, FarmError> {
+        if self.all_in {
+            return Ok(Vec::new());
+        }
+        let (client, job, epoch) = (self.client, self.job, self.epoch);
+        let mut workers = take_over_workers(client, job, epoch, me, &self.live).await;
+        let more = self.count.saturating_sub(workers.len() as u32);
+        if more == 0 {
+            return Ok(workers);
+        }
+        let avoid: Vec<String> = workers.iter().map(|w| w.host.clone()).collect();
+        let free = self
+            .live
+            .iter()
+            .filter(|h| !avoid.contains(&h.name))
+            .count() as u32;
+        let more = if self.spec.same_host {
+            more
+        } else {
+            more.min(free)
+        };
+        let placed = match more {
+            0 => Ok(Vec::new()),
+            _ => {
+                let spawn = (&self.spec, (job, epoch), more, me);
+                start_workers(client, self.opts, spawn, &self.live, avoid).await
+            }
+        };
+        match placed {
+            Ok(placed) => workers.extend(placed),
+            // The taken-over workers can finish the job alone.
+            Err(e) if !workers.is_empty() => {
+                eprintln!("sunray controller: warning: no new workers: {e}");
+            }
+            Err(e) => return Err(e),
+        }
+        Ok(workers)
+    }
+
+    async fn hold(&mut self) -> String {
+        keep_lease(self.client, &mut self.record, &self.checkpointed, self.job)
+            .await
+            .to_string()
+    }
+
+    fn controller_failed(&self, e: ControllerError) -> FarmError {
+        FarmError::Stored {
+            job: self.job.to_string(),
+            reason: e.to_string(),
+        }
+    }
+}
+
+/// Stores a finished job's statistics under `JOB.stats` (fenced at `epoch`) and marks its
+/// record finished, with the summary `watch` prints.
+async fn store_finished(
+    client: &RemClient,
+    record: &mut rem::JobRecord,
+    (job, epoch): (&str, u64),
+    height: u32,
+    stats: &JobStats,
+) -> Result<(), FarmError> {
+    let entry = job_record::from_record(record);
+    let json = serde_json::to_vec_pretty(stats).map_err(|e| FarmError::Stored {
+        job: job.to_string(),
+        reason: e.to_string(),
+    })?;
+    Fenced { client, epoch, job }
+        .put(&stats_key(job), json)
+        .await
+        .map_err(|e| match e {
+            e if e.is_fenced() => FarmError::Superseded {
+                job: job.to_string(),
+                reason: e.to_string(),
+            },
+            e => FarmError::Rem(e),
+        })?;
+    let mut entry = entry;
+    entry.summary = stats.summary();
+    record.app = entry.encode_to_vec();
+    record.state = "finished".into();
+    record.progress_done = u64::from(height);
+    record.message.clear();
+    put_record(client, record, job).await
+}
+
+/// The running workers of this job's earlier controllers (REM jobs `JOB.wE`, E < `epoch`),
+/// adopted in REM by this controller (`me`): their Exited and Lost events come here now. A
+/// worker that exits meanwhile is left out.
+async fn take_over_workers(
+    client: &RemClient,
+    job: &str,
+    epoch: u64,
+    me: &rem::ProcId,
+    live: &[rem::HostInfo],
+) -> Vec<WorkerProc> {
+    let Ok(procs) = client.ps().await else {
+        return Vec::new();
+    };
+    let prefix = format!("{job}.w");
+    let mut workers = Vec::new();
+    let running = procs.iter().filter(|p| p.state == "running").filter(|p| {
+        p.job
+            .strip_prefix(&prefix)
+            .and_then(|e| e.parse::<u64>().ok())
+            .is_some_and(|e| e < epoch)
+    });
+    for p in running {
+        let Some(proc_id) = rem::ProcId::parse(&p.proc_id) else {
+            continue;
+        };
+        match client.adopt(&proc_id, me).await {
+            Ok(_) => workers.push(WorkerProc {
+                proc_id,
+                host: p.host.clone(),
+                pid: p.pid,
+                load_at_start: controller::load_per_core(live, &p.host),
+                adopted: true,
+            }),
+            Err(e) => eprintln!("sunray controller: not taking over {proc_id}: {e}"),
+        }
+    }
+    workers
+}
+
+/// Starts `count` workers of `spec` owned by this controller (`me`), not on `avoid_hosts`.
+async fn start_workers(
+    client: &RemClient,
+    opts: &ControllerOptions,
+    (spec, (job, epoch), count, me): (&proto::JobSpec, (&str, u64), u32, &rem::ProcId),
+    live: &[rem::HostInfo],
+    avoid_hosts: Vec<String>,
+) -> Result<Vec<WorkerProc>, FarmError> {
+    let mut args = vec!["worker".to_string()];
+    if spec.threads > 0 {
+        args.extend(["--threads".to_string(), spec.threads.to_string()]);
+    }
+    let spawned = client
+        .spawn(rem::SpawnRequest {
+            program: opts.worker_program.display().to_string(),
+            args,
+            env: worker_env(std::env::vars()),
+            nice: spec.nice.then_some(10),
+            count,
+            allow_same_host: spec.same_host,
+            job: Some(format!("{job}.w{epoch}")),
+            owner: Some(me.clone()),
+            host: None,
+            avoid_hosts,
+        })
+        .await?;
+    Ok(WorkerProc::placed(&spawned, live))
+}

@@ -1,0 +1,184 @@
+//! One run of a job's controller, wherever it runs: start (or take over) the workers, run
+//! the [controller actor](crate::distrib::controller) to its end, and total the statistics
+//! of the whole image. The in-process job ([`run`](super::run), `sunray submit
+//! --in-process`) and the farm's controller process
+//! ([`controller_process`](crate::distrib::farm::controller_process)) both go through
+//! [`run_controller`]; what differs between them (how the workers are found, the farm's lease on the
+//! job) is their [`ControllerSite`].
+
+use crate::distrib::checkpoint::{Checkpointer, Restored};
+use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
+use crate::distrib::nodes::{self, JobStats};
+use crate::distrib::strategy::Strategy;
+use crate::film::Film;
+use crate::stats::RenderStats;
+use rem::RemClient;
+use std::time::Duration;
+
+/// Where a job's controller runs: in the submitting process (`--in-process`, `--resume`) or
+/// in the farm's controller process.
+pub(crate) trait ControllerSite {
+    /// Why the job could not run here.
+    type Error;
+
+    /// The job's workers, owned by `owner` (the relay the controller reads): started, or
+    /// taken over from an earlier controller.
+    async fn workers(&mut self, owner: &rem::ProcId) -> Result<Vec<WorkerProc>, Self::Error>;
+
+    /// Runs beside the controller (the farm's lease on the job); returns only when the
+    /// controller must stand down, with why.
+    async fn hold(&mut self) -> String;
+
+    /// The error of a controller that failed (a newer controller's refusal is not one: that
+    /// is [`Ran::Superseded`]).
+    fn controller_failed(&self, e: ControllerError) -> Self::Error;
+}
+
+/// What a controller starts from, besides its workers.
+pub(crate) struct Drive {
+    /// How the controller actor runs.
+    pub(crate) cfg: ControllerConfig,
+    /// The REM client: checkpoints, and the workers' ends.
+    pub(crate) client: RemClient,
+    /// The relay the controller reads, attached for the job.
+    pub(crate) relay: rem::Relay,
+    /// Lines and state from the job's checkpoint (a resumed or restarted job).
+    pub(crate) restored: Option<Restored>,
+    /// Where checkpoints are written.
+    pub(crate) checkpointer: Checkpointer,
+    /// The job's epoch in the farm (0: in this process).
+    pub(crate) epoch: u64,
+}
+
+/// The parts of the job's statistics known before it runs.
+pub(crate) struct Totals {
+    /// The scene and image ([`Settings::stats_header`](crate::render::Settings::stats_header)).
+    pub(crate) header: RenderStats,
+    /// Workers the job asked for.
+    pub(crate) hosts: u32,
+    /// What the submitting host's remd sent of the model.
+    pub(crate) scene_bytes_sent: u64,
+}
+
+/// How a controller's run ended.
+// One per run, moved once: the size of the `Ended` variant costs nothing worth a Box.
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Ran {
+    /// The controller ran to its end.
+    Ended(Ended),
+    /// A newer controller has the job (REM refused this one's writes).
+    Superseded(String),
+}
+
+/// A controller's run to its end.
+pub(crate) struct Ended {
+    /// False when no worker was left to finish the image.
+    pub(crate) finished: bool,
+    /// The image of the accepted lines (and those of earlier runs).
+    pub(crate) film: Film,
+    /// The per-node table and the totals.
+    pub(crate) stats: JobStats,
+}
+
+/// A controller's settings for `job`, as they are wherever it runs; the site sets what it
+/// shows (bar, events, preview, web view) and what a farm controller takes over.
+pub(crate) fn controller_config(
+    job: &str,
+    strategy: Strategy,
+    (width, height): (u32, u32),
+    scene: Vec<u8>,
+    worker_timeout: Option<Duration>,
+    checkpoint_every: Duration,
+) -> ControllerConfig {
+    ControllerConfig {
+        job: job.to_string(),
+        strategy,
+        width,
+        height,
+        scene,
+        worker_timeout,
+        checkpoint_every,
+        preview: None,
+        preview_every: Duration::from_secs(3600),
+        show_bar: false,
+        events: false,
+        finish_grace: Duration::from_secs(3),
+        checkpointed: None,
+        adopt: None,
+        web: None,
+    }
+}
+
+/// Runs a controller at `site`: its workers, the actor to its end (or until the site says
+/// to stand down), and the statistics.
+pub(crate) async fn run_controller<S: ControllerSite>(
+    site: &mut S,
+    start: Drive,
+    totals: Totals,
+) -> Result<Ran, S::Error> {
+    let workers = site.workers(start.relay.id()).await?;
+    let (job, strategy) = (start.cfg.job.clone(), start.cfg.strategy);
+    let (sender, receiver) = start.relay.split();
+    let handle = controller::spawn(Start {
+        cfg: start.cfg,
+        client: start.client,
+        sender,
+        receiver,
+        workers,
+        restored: start.restored,
+        checkpointer: start.checkpointer,
+        epoch: start.epoch,
+    });
+    let result = tokio::select! {
+        r = handle.join() => r,
+        why = site.hold() => return Ok(Ran::Superseded(why)),
+    };
+    match result {
+        Ok(result) => Ok(Ran::Ended(job_stats(&job, strategy, totals, result))),
+        Err(ControllerError::Superseded(why)) => Ok(Ran::Superseded(why)),
+        Err(e) => Err(site.controller_failed(e)),
+    }
+}
+
+/// The statistics of a controller's run of `job`: the per-node table, and the header (the
+/// scene and image) with the counted totals of every line; and the image.
+fn job_stats(
+    job: &str,
+    strategy: Strategy,
+    totals: Totals,
+    result: controller::JobResult,
+) -> Ended {
+    let controller::JobResult {
+        film,
+        nodes,
+        counters,
+        lines,
+        elapsed_s,
+        finished,
+        cost,
+    } = result;
+    let mut sums = totals.header;
+    sums.threads = nodes.iter().map(|n| n.threads as usize).sum();
+    sums.time.render_s = elapsed_s;
+    sums.time.cpu_s = nodes.iter().map(|n| n.cpu_s).sum();
+    sums.set_counters(&counters);
+    let (wait_share, tail_wait_share) = nodes::wait_shares(&nodes);
+    let stats = JobStats {
+        job: job.to_string(),
+        strategy: Some(strategy),
+        hosts: totals.hosts,
+        lines,
+        elapsed_s,
+        totals: sums,
+        controller: cost,
+        scene_bytes_sent: totals.scene_bytes_sent,
+        wait_share,
+        tail_wait_share,
+        nodes,
+    };
+    Ended {
+        finished,
+        film,
+        stats,
+    }
+}

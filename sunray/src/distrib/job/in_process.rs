@@ -1,0 +1,280 @@
+//! A job whose controller runs in this process (`sunray submit --in-process`, `--resume`,
+//! and the private remd of the default set-up), as the thesis's SunRay III did: the plan,
+//! the first checkpoint and the job's record, then [`run_controller`](drive::run_controller) with this process as the
+//! [`ControllerSite`] (its workers started here, at epoch 0, no lease), then the record, the
+//! image and the statistics. The job stops with this process; `--resume` continues it.
+
+use super::drive::{self, ControllerSite, Drive, Ran, Totals};
+use super::plan::{new_plan, resume_plan, Plan};
+use super::{job_spec, worker_env, JobError, JobOutcome, JobRequest, JobScene};
+use crate::distrib::checkpoint::{self, Checkpointer};
+use crate::distrib::connection::RemConnection;
+use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
+use crate::distrib::job_record;
+use crate::distrib::messages::{self, proto, Body};
+use crate::distrib::model_chunks;
+
+/// Runs a job on `cluster` to its end: the image written when every line is in.
+pub async fn run(
+    cluster: &RemConnection,
+    req: &JobRequest,
+    scene: JobScene,
+) -> Result<JobOutcome, JobError> {
+    req.check()?;
+    let plan = match scene {
+        JobScene::New(loaded) => new_plan(req, loaded)?,
+        JobScene::Resume { job, scene } => resume_plan(req, cluster, job, scene).await?,
+    };
+    run_plan(cluster, req, plan).await
+}
+
+/// This process as the controller's site: it starts the workers itself.
+struct InProcess<'a> {
+    cluster: &'a RemConnection,
+    req: &'a JobRequest,
+    plan: &'a Plan,
+    allow_same_host: bool,
+    live: Vec<rem::HostInfo>,
+    /// A resumed job's lines are all in already: no worker is started.
+    all_in: bool,
+}
+
+impl ControllerSite for InProcess<'_> {
+    type Error = JobError;
+
+    async fn workers(&mut self, owner: &rem::ProcId) -> Result<Vec<WorkerProc>, JobError> {
+        let spawned = start_workers(
+            self.cluster,
+            self.req,
+            self.plan,
+            (self.allow_same_host, self.all_in),
+            owner.clone(),
+        )
+        .await?;
+        Ok(WorkerProc::placed(&spawned, &self.live))
+    }
+
+    /// Nobody takes an in-process job over: it never stands down.
+    async fn hold(&mut self) -> String {
+        std::future::pending().await
+    }
+
+    fn controller_failed(&self, e: ControllerError) -> JobError {
+        match e {
+            ControllerError::Relay(e) if e.is_connection_lost() => JobError::LostRemd {
+                addr: self.cluster.addr.clone(),
+                reason: e.root_cause(),
+                job: self.plan.job.clone(),
+            },
+            e => JobError::Controller(e),
+        }
+    }
+}
+
+async fn run_plan(
+    cluster: &RemConnection,
+    req: &JobRequest,
+    mut plan: Plan,
+) -> Result<JobOutcome, JobError> {
+    let allow_same_host = cluster.is_embedded() || req.same_host;
+    let live = cluster.live_hosts().await?;
+    check_hosts(&mut plan, req, allow_same_host, &live)?;
+    // The model goes as REM chunks (no message limit; hosts that have them fetch nothing).
+    let shipped = model_chunks::ship(&cluster.client, &plan.model)
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
+    // In-process: nobody takes this controller's workers over (epoch 0).
+    let scene_msg = messages::encode(Body::Scene(shipped.scene(
+        plan.settings.to_proto(),
+        &plan.job,
+        0,
+    )));
+    let relay = cluster
+        .client
+        .attach(Some(&plan.job))
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
+
+    let (checkpointer, mut entry, epoch) = first_checkpoint(cluster, req, &plan).await?;
+    let cfg = controller_config(req, &plan, scene_msg);
+    let name = plan.loaded.source.display_name();
+    let totals = Totals {
+        header: plan.settings.stats_header(&name, &plan.loaded.scene),
+        hosts: plan.hosts,
+        scene_bytes_sent: shipped.bytes_sent,
+    };
+    let all_in = plan
+        .restored
+        .as_ref()
+        .is_some_and(|r| r.lines.len() as u32 >= plan.settings.render.height);
+    let start = Drive {
+        cfg,
+        client: cluster.client.clone(),
+        relay,
+        restored: plan.restored.take(),
+        checkpointer,
+        epoch: 0,
+    };
+    let mut site = InProcess {
+        cluster,
+        req,
+        plan: &plan,
+        allow_same_host,
+        live,
+        all_in,
+    };
+    let ended = match drive::run_controller(&mut site, start, totals).await? {
+        Ran::Ended(ended) => ended,
+        Ran::Superseded(why) => {
+            return Err(JobError::Controller(ControllerError::Superseded(why)));
+        }
+    };
+
+    let stats = ended.stats;
+    entry.lines_done = stats.lines.resumed + stats.lines.rendered;
+    entry.state = if ended.finished { "finished" } else { "failed" }.into();
+    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
+    if ended.finished {
+        ended.film.write(&plan.output)?;
+    }
+    Ok(JobOutcome {
+        job: plan.job,
+        output: plan.output,
+        finished: ended.finished,
+        stats,
+    })
+}
+
+/// Writes the job's first checkpoint and its record (running) at the job's next epoch.
+async fn first_checkpoint(
+    cluster: &RemConnection,
+    req: &JobRequest,
+    plan: &Plan,
+) -> Result<(Checkpointer, proto::JobEntry, u64), JobError> {
+    let mut checkpointer = Checkpointer::new(
+        &plan.job,
+        job_spec(req, plan),
+        messages::fnv1a(&plan.model),
+        plan.restored.as_ref(),
+    );
+    checkpointer
+        .save(&cluster.client, "running")
+        .await
+        .map_err(JobError::FirstCheckpoint)?;
+    let entry = proto::JobEntry {
+        job: plan.job.clone(),
+        scene: plan.loaded.source.display_name(),
+        state: "running".into(),
+        lines_done: checkpointer.lines_done(),
+        height: plan.settings.render.height,
+        hosts: plan.hosts,
+        started_unix_ms: checkpoint::unix_ms(),
+        output: plan.output.display().to_string(),
+        ..Default::default()
+    };
+    let epoch = job_record::next_epoch(&cluster.client, &plan.job)
+        .await
+        .unwrap_or(1);
+    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
+    Ok((checkpointer, entry, epoch))
+}
+
+/// The controller's settings: it shows what the request asks (a bar or events, a preview).
+fn controller_config(req: &JobRequest, plan: &Plan, scene_msg: Vec<u8>) -> ControllerConfig {
+    let render = &plan.settings.render;
+    ControllerConfig {
+        preview: req.preview.clone(),
+        preview_every: req.preview_every,
+        show_bar: req.show_bar,
+        events: req.events,
+        // remd's web view shows farm jobs; this one ends with this process.
+        web: None,
+        ..drive::controller_config(
+            &plan.job,
+            plan.strategy,
+            (render.width, render.height),
+            scene_msg,
+            req.worker_timeout,
+            req.checkpoint_every,
+        )
+    }
+}
+
+/// Checks the plan's host count against the `live` hosts; a resumed job goes on with the
+/// hosts that are left, unless `--hosts` says otherwise.
+fn check_hosts(
+    plan: &mut Plan,
+    req: &JobRequest,
+    allow_same_host: bool,
+    live: &[rem::HostInfo],
+) -> Result<(), JobError> {
+    let fewer = live.len().min(u32::MAX as usize) as u32;
+    if plan.restored.is_some()
+        && req.hosts.is_none()
+        && !allow_same_host
+        && fewer >= 1
+        && plan.hosts > fewer
+    {
+        eprintln!(
+            "sunray: resuming on {fewer} host(s): the job had {}, the others are not live",
+            plan.hosts
+        );
+        plan.hosts = fewer;
+    }
+    if !allow_same_host && plan.hosts as usize > live.len() {
+        return Err(JobError::TooFewHosts {
+            asked: plan.hosts,
+            live: live.iter().map(|h| h.name.clone()).collect(),
+        });
+    }
+    Ok(())
+}
+
+/// Asks REM for the workers (none when a resumed job's lines are `all_in` already).
+async fn start_workers(
+    cluster: &RemConnection,
+    req: &JobRequest,
+    plan: &Plan,
+    (allow_same_host, all_in): (bool, bool),
+    owner: rem::ProcId,
+) -> Result<rem::Job, JobError> {
+    let rem_job = format!("{}.{}", plan.job, checkpoint::unix_ms() / 1000);
+    if all_in {
+        return Ok(rem::Job {
+            id: rem_job,
+            processes: Vec::new(),
+        });
+    }
+    let threads = plan.threads.or_else(|| {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        cluster
+            .is_embedded()
+            .then(|| (cores / plan.hosts as usize).max(1))
+    });
+    let mut args = vec!["worker".to_string()];
+    if let Some(t) = threads {
+        args.extend(["--threads".to_string(), t.to_string()]);
+    }
+    cluster
+        .client
+        .spawn(rem::SpawnRequest {
+            program: req.worker_program.display().to_string(),
+            args,
+            env: worker_env(std::env::vars()),
+            nice: plan.nice.then_some(10),
+            count: plan.hosts,
+            allow_same_host,
+            job: Some(rem_job),
+            owner: Some(owner),
+            host: None,
+            avoid_hosts: Vec::new(),
+        })
+        .await
+        .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
+}
+
+async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, width: u32, epoch: u64) {
+    if let Err(e) = job_record::update(&cluster.client, entry, width, epoch).await {
+        eprintln!("sunray: warning: the job's record in REM: {e}");
+    }
+}
