@@ -1,5 +1,5 @@
 //! remd's command line: the clap flags ([`RemdArgs`]), which `config` turns into
-//! [`crate::config::DaemonSettings`] together with the environment and a TOML file. The only
+//! [`crate::daemon::config::DaemonSettings`] together with the environment and a TOML file. The only
 //! module of the library that knows clap.
 
 use std::net::SocketAddr;

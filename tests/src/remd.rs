@@ -71,7 +71,7 @@ impl LoopbackCluster {
     fn start_inner(n: usize, web: bool, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
-        rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
+        rem::auth::secret::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
         let mut c = LoopbackCluster {
             dir,
             secret_file,

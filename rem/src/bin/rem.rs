@@ -9,8 +9,8 @@ use std::process::ExitCode;
 
 use anyhow::bail;
 use clap::{Parser, Subcommand};
-use rem::client::ConnectOptions;
-use rem::transport::ClientTls;
+use rem::client::rem_client::ConnectOptions;
+use rem::wire::transport::ClientTls;
 use rem::{EventKind, Incoming, ProcId, RemClient, Secret, SpawnRequest};
 use serde_json::json;
 
@@ -18,7 +18,7 @@ use serde_json::json;
 #[command(name = "rem", version, about = "Look at and drive a REM cluster")]
 struct Cli {
     /// Address of a remd (usually the local one).
-    #[arg(long, env = "REM_ADDR", default_value = rem::config::DEFAULT_ADDR, global = true)]
+    #[arg(long, env = "REM_ADDR", default_value = rem::daemon::config::DEFAULT_ADDR, global = true)]
     remd: String,
     /// File holding the cluster secret (or set REM_SECRET).
     #[arg(long, env = "REM_SECRET_FILE", global = true)]
@@ -155,19 +155,19 @@ async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
 async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     if let Command::ClientKey = cli.command {
         let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
-        let user = cli.user.clone().unwrap_or_else(rem::identity::default_user);
+        let user = cli.user.clone().unwrap_or_else(rem::auth::identity::default_user);
         println!("{}", secret.client_key_line(&user)?);
         return Ok(ExitCode::SUCCESS);
     }
     if let Command::WebToken { admin } = cli.command {
         let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
         if admin {
-            println!("{}", rem::web::login::admin_token(&secret)?);
+            println!("{}", rem::daemon::web::login::admin_token(&secret)?);
         } else {
             let (user, key) = secret.client_credential(cli.user.as_deref())?;
             println!(
                 "{}{user}:{}",
-                rem::identity::CLIENT_KEY_PREFIX,
+                rem::auth::identity::CLIENT_KEY_PREFIX,
                 hex::encode(key)
             );
         }
@@ -176,9 +176,9 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     if let Command::Credentials { dir, owner, names } = &cli.command {
         let owner = owner
             .as_deref()
-            .map(rem::cluster_files::parse_owner)
+            .map(rem::auth::cluster_files::parse_owner)
             .transpose()?;
-        for w in rem::cluster_files::write(dir, owner, names)? {
+        for w in rem::auth::cluster_files::write(dir, owner, names)? {
             let what = if w.created { "made" } else { "kept" };
             println!("{what} {}", w.path.display());
         }
@@ -408,7 +408,7 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
 }
 
 /// The CPUs a host offers: its cgroup's limit when it has one (e.g. "0.25"), else its cores.
-fn cpus(l: &rem::proto::Load) -> String {
+fn cpus(l: &rem::wire::proto::Load) -> String {
     if l.capacity > 0.0 && l.capacity != f64::from(l.cores) {
         format!("{:.2}", l.capacity)
     } else {

@@ -1,13 +1,13 @@
 //! `remd`: the REM daemon. Parses settings, binds, prints `remd listening on ADDR` (and, with
 //! `--web`, `remd web view on http://ADDR/`), runs until
-//! SIGTERM or Ctrl-C, then shuts down cleanly (see `rem::server`).
+//! SIGTERM or Ctrl-C, then shuts down cleanly (see `rem::daemon::server`).
 
 use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
 use rem::cli::RemdArgs;
-use rem::config::DaemonSettings;
+use rem::daemon::config::DaemonSettings;
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
@@ -69,6 +69,6 @@ async fn serve(settings: DaemonSettings) -> anyhow::Result<()> {
             _ = tokio::signal::ctrl_c() => {}
         }
     };
-    rem::server::run_with_web(settings, listener, web, shutdown).await?;
+    rem::daemon::server::run_with_web(settings, listener, web, shutdown).await?;
     Ok(())
 }

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use crate::common::*;
-use rem::proto::{self, peer_client::PeerClient, peer_item, PeerBatch, PeerItem};
+use rem::wire::proto::{self, peer_client::PeerClient, peer_item, PeerBatch, PeerItem};
 use rem::{ConnectOptions, Error, RemClient, Secret, SpawnRequest};
 use tonic::Code;
 
@@ -47,7 +47,7 @@ async fn a_spawn_of_u32_max_processes_is_refused_and_harms_nobody() {
     assert_eq!(code(c.spawn(huge).await), Code::InvalidArgument);
     // Just over the per-request limit is refused too, and so is passing the host's limit.
     let over = SpawnRequest {
-        count: rem::limits::Limits::default().spawn_count + 1,
+        count: rem::daemon::limits::Limits::default().spawn_count + 1,
         allow_same_host: true,
         ..spin(1)
     };
@@ -160,7 +160,7 @@ async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_fake_member_on_a_dead_members_port_learns_nothing_and_is_not_believed() {
-    use rem::swim::{MemberId, SwimConfig, SwimNode};
+    use rem::membership::swim::{MemberId, SwimConfig, SwimNode};
     // Three: a and c keep asking the lost b to rejoin (a member alone has nobody to ask).
     let mut cluster = InProcessRemds::start(3, |_| {}).await;
     cluster.converge(T).await;
@@ -251,7 +251,7 @@ async fn identities_cannot_be_forged() {
         .unwrap();
     let mut peer = PeerClient::with_interceptor(
         channel,
-        rem::auth::SendSecret::new(&user_key, None, false).unwrap(),
+        rem::auth::secret::SendSecret::new(&user_key, None, false).unwrap(),
     );
     let forged = PeerBatch {
         from_host: "a".into(),
@@ -286,7 +286,7 @@ async fn identities_cannot_be_forged() {
             version: u64::MAX,
             written_by: "a".into(),
             mac: vec![0; 32],
-            user: rem::identity::default_user(),
+            user: rem::auth::identity::default_user(),
             epoch: u64::MAX,
         })
         .await

@@ -277,7 +277,7 @@ async fn remd_takes_settings_from_environment_and_config_file() {
     use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let secret = dir.path().join("secret");
-    rem::auth::write_private(&secret, "env-secret\n").unwrap();
+    rem::auth::secret::write_private(&secret, "env-secret\n").unwrap();
     // Environment only (no flags at all).
     let mut env_child = std::process::Command::new(REMD)
         .env("REMD_NAME", "envhost")

@@ -1,5 +1,5 @@
 //! Test harness: daemons on loopback, in this process ([`InProcessRemds`], through
-//! `rem::embedded`) or as real `remd` processes ([`RemdProcesses`], for what is about the
+//! `rem::daemon::embedded`) or as real `remd` processes ([`RemdProcesses`], for what is about the
 //! process itself: signals, kill -9, its nice value, its command line and environment).
 #![allow(dead_code)]
 
@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use rem::config::DaemonSettings;
-use rem::embedded::EmbeddedRemd;
+use rem::daemon::config::DaemonSettings;
+use rem::daemon::embedded::EmbeddedRemd;
 use rem::{HostInfo, Incoming, Relay, RemClient, Secret};
 
 pub const REMD: &str = env!("CARGO_BIN_EXE_remd");
@@ -151,7 +151,7 @@ impl RemdProcesses {
             .collect();
         let dir = tempfile::tempdir().unwrap();
         let secret_file = dir.path().join("secret");
-        rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
+        rem::auth::secret::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
         let mut c = RemdProcesses {
             dir,
             secret_file,

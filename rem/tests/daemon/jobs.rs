@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use crate::common::*;
-use rem::embedded::EmbeddedRemd;
+use rem::daemon::embedded::EmbeddedRemd;
 use rem::{ConnectOptions, JobRecord, RemClient, Secret};
 use tonic::Code;
 
@@ -65,7 +65,7 @@ async fn a_record_outlives_its_writers_host_and_an_old_epoch_cannot_overwrite_it
         (r.epoch, r.progress_done, r.state.as_str()),
         (2, 20, "running")
     );
-    assert_eq!(r.user, rem::identity::default_user(), "REM sets the user");
+    assert_eq!(r.user, rem::auth::identity::default_user(), "REM sets the user");
     assert!(r.updated_unix_ms > 0, "REM sets the time");
 }
 
@@ -112,7 +112,7 @@ async fn users_see_only_their_own_jobs_and_bad_records_are_refused() {
 async fn ended_jobs_beyond_the_retention_go_with_their_checkpoints() {
     let dir = tempfile::tempdir().unwrap();
     let settings = || {
-        let mut s = rem::config::DaemonSettings::new("a", Secret::new(SECRET).unwrap());
+        let mut s = rem::daemon::config::DaemonSettings::new("a", Secret::new(SECRET).unwrap());
         s.state_dir = Some(dir.path().to_path_buf());
         s.limits.kept_jobs = 1;
         s

@@ -4,12 +4,12 @@
 use std::time::Duration;
 
 use crate::common::*;
-use rem::client::ConnectOptions;
-use rem::proto::{
+use rem::client::rem_client::ConnectOptions;
+use rem::wire::proto::{
     self, client_frame, rem_client::RemClient as RawClient, ClientFrame, Envelope, EnvelopeBatch,
     Hello,
 };
-use rem::transport::ClientTls;
+use rem::wire::transport::ClientTls;
 use rem::{Error, RemClient, Secret, SpawnRequest};
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::Code;
@@ -229,7 +229,7 @@ async fn tls_cluster_works_and_plain_clients_are_refused() {
     std::fs::write(&cert_path, cert.cert.pem()).unwrap();
     std::fs::write(&key_path, cert.signing_key.serialize_pem()).unwrap();
     let cluster = InProcessRemds::start(2, |s| {
-        s.tls = Some(rem::transport::ServerTlsFiles {
+        s.tls = Some(rem::wire::transport::ServerTlsFiles {
             cert: cert_path.clone(),
             key: key_path.clone(),
             ca: None,
