@@ -63,12 +63,10 @@
 //! - [`membership`]: which daemons are alive and their load (SWIM), and the connections to
 //!   them.
 //! - [`client`]: [`RemClient`], [`Relay`] for job owners and processes, blobs as chunks.
-//! - [`daemon`]: remd: settings, state and operations, the relay, processes, the gRPC and
+//! - [`daemon`]: remd: settings (the `remd` binary parses the flags), state and operations, the relay, processes, the gRPC and
 //!   web faces, the server that wires them, and [`bind_listener`] / [`raise_fd_limit`].
-//! - [`cli`]: remd's flags (clap).
 
 pub mod auth;
-pub mod cli;
 pub mod client;
 pub mod daemon;
 pub mod error;

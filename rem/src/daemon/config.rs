@@ -1,5 +1,7 @@
 //! remd's settings: command line, environment variables and a TOML file (`--config`), in that
-//! order of precedence.
+//! order of precedence. The `remd` binary parses its flags and environment into
+//! [`DaemonOptions`] (plain values, no parser here); [`DaemonSettings::from_options`] lays them
+//! over the file and resolves the result.
 //!
 //! | flag | environment | file key | default |
 //! |---|---|---|---|
@@ -29,7 +31,6 @@ use serde::Deserialize;
 
 use crate::auth::secret::Secret;
 use crate::daemon::process::child::RunAs;
-use crate::cli::RemdArgs;
 use crate::error::{Error, Result};
 use crate::daemon::limits::Limits;
 use crate::daemon::policy::{ProgramRule, SpawnPolicy, DEFAULT_ENV_ALLOW};
@@ -66,6 +67,64 @@ pub(crate) struct FileConfig {
     pub(crate) tls_key: Option<PathBuf>,
     pub(crate) tls_ca: Option<PathBuf>,
     pub(crate) tls_domain: Option<String>,
+}
+
+/// What remd was told on its command line and in its environment, value by value (the
+/// `remd` binary fills it in); [`DaemonSettings::from_options`] lays it over the file named by
+/// `config`. Empty values leave the file's (or the default) in place.
+#[derive(Clone, Debug, Default)]
+pub struct DaemonOptions {
+    /// TOML file with the same settings (flags and environment win).
+    pub config: Option<PathBuf>,
+    /// This host's name in the cluster ([A-Za-z0-9._-]).
+    pub name: Option<String>,
+    /// Address to listen on (port 0 picks one; the bound address is printed).
+    pub listen: Option<SocketAddr>,
+    /// Address other daemons and processes use to reach this one.
+    pub advertise: Option<String>,
+    /// Members to join through (any one live member is enough).
+    pub join: Vec<String>,
+    /// File holding the cluster secret.
+    pub secret_file: Option<PathBuf>,
+    /// A program that may be spawned: its absolute path, optionally `:FIRST|FIRST` to allow
+    /// only these first arguments, e.g. `/usr/local/bin/sunray:worker|controller` (repeatable).
+    pub allow: Vec<String>,
+    /// Environment variables a spawn may set: names, or prefixes ending in `*` (repeatable)
+    /// [default: SUNRAY_WORKER_*, RUST_LOG].
+    pub env_allow: Vec<String>,
+    /// A limit, `NAME=VALUE` (repeatable; sizes take K, M, G): spawn_count, host_processes,
+    /// mailbox_bytes, link_bytes, relay_bytes, checkpoint_bytes, checkpoint_quota, log_bytes,
+    /// log_quota. See docs/rem.md.
+    pub limits: Vec<String>,
+    /// The user spawned processes run as (a name or uid) when remd runs as root.
+    pub run_as: Option<String>,
+    /// Allow plain HTTP/2 off this host: listening on a non-loopback address, or calling
+    /// other daemons there, without TLS.
+    pub insecure: bool,
+    /// Serve the web view (hosts, jobs, images filling in) on this address, plain HTTP, for
+    /// holders of a login token (`rem web-token`); off by default. Port 0 picks one (the bound
+    /// address is printed). Use a loopback address unless a proxy adds TLS.
+    pub web: Option<SocketAddr>,
+    /// Directory for checkpoints.
+    pub state_dir: Option<PathBuf>,
+    /// Milliseconds between this daemon's probes of one other member (failure detection;
+    /// the probe's timeout is two fifths of it) [default: 200].
+    pub probe_ms: Option<u64>,
+    /// Milliseconds a member that failed a probe is suspected before it is declared lost
+    /// (it can refute meanwhile) [default: 400].
+    pub suspect_ms: Option<u64>,
+    /// Largest relay message payload in bytes.
+    pub max_message: Option<usize>,
+    /// Milliseconds between SIGTERM and SIGKILL when a process is killed [default: 2000].
+    pub kill_grace_ms: Option<u64>,
+    /// PEM certificate to serve TLS with (with --tls-key; plain HTTP/2 without).
+    pub tls_cert: Option<PathBuf>,
+    /// PEM private key of --tls-cert.
+    pub tls_key: Option<PathBuf>,
+    /// CA to verify other daemons with [default: the daemon's own certificate].
+    pub tls_ca: Option<PathBuf>,
+    /// Name to expect in other daemons' certificates.
+    pub tls_domain: Option<String>,
 }
 
 /// Everything a daemon runs with.
@@ -145,8 +204,8 @@ impl DaemonSettings {
         }
     }
 
-    /// Resolves flags + environment (already in `args`) over the file named by `--config`.
-    pub fn from_args(args: RemdArgs) -> Result<Self> {
+    /// Resolves the options (flags and environment) over the file named by `args.config`.
+    pub fn from_options(args: DaemonOptions) -> Result<Self> {
         let file = match &args.config {
             Some(path) => load_file(path)?,
             None => FileConfig::default(),
@@ -295,7 +354,6 @@ fn load_file(path: &Path) -> Result<FileConfig> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
 
     #[test]
     fn the_default_address_is_loopback_on_the_default_port() {
@@ -325,14 +383,14 @@ mod tests {
             ),
         )
         .unwrap();
-        let args = RemdArgs::parse_from([
+        let args = options([
             "remd",
             "--config",
             cfg.to_str().unwrap(),
             "--name",
             "flaghost",
         ]);
-        let s = DaemonSettings::from_args(args).unwrap();
+        let s = DaemonSettings::from_options(args).unwrap();
         assert_eq!(s.name, "flaghost");
         assert_eq!(s.listen, "127.0.0.1:9000".parse().unwrap());
         assert_eq!(s.policy.programs.len(), 2);
@@ -354,9 +412,9 @@ mod tests {
         std::fs::write(&secret, "x").unwrap();
         private(&secret);
         let sf = secret.to_str().unwrap();
-        let bad_name = RemdArgs::parse_from(["remd", "--name", "a/b", "--secret-file", sf]);
-        assert!(DaemonSettings::from_args(bad_name).is_err());
-        let relative = RemdArgs::parse_from([
+        let bad_name = options(["remd", "--name", "a/b", "--secret-file", sf]);
+        assert!(DaemonSettings::from_options(bad_name).is_err());
+        let relative = options([
             "remd",
             "--name",
             "a",
@@ -365,27 +423,27 @@ mod tests {
             "--allow",
             "bin/x",
         ]);
-        assert!(DaemonSettings::from_args(relative).is_err());
+        assert!(DaemonSettings::from_options(relative).is_err());
         let cfg = dir.path().join("bad.toml");
         std::fs::write(&cfg, "nmae = 1\n").unwrap();
-        let unknown = RemdArgs::parse_from([
+        let unknown = options([
             "remd",
             "--config",
             cfg.to_str().unwrap(),
             "--secret-file",
             sf,
         ]);
-        assert!(DaemonSettings::from_args(unknown).is_err());
+        assert!(DaemonSettings::from_options(unknown).is_err());
         let bad_limit =
-            RemdArgs::parse_from(["remd", "--secret-file", sf, "--limit", "spawn_count=0"]);
-        assert!(DaemonSettings::from_args(bad_limit).is_err());
+            options(["remd", "--secret-file", sf, "--limit", "spawn_count=0"]);
+        assert!(DaemonSettings::from_options(bad_limit).is_err());
         // A secret every user can read, or a client key, is refused.
         let open = dir.path().join("open");
         std::fs::write(&open, "x").unwrap();
         std::fs::set_permissions(&open, std::os::unix::fs::PermissionsExt::from_mode(0o644))
             .unwrap();
-        let args = RemdArgs::parse_from(["remd", "--secret-file", open.to_str().unwrap()]);
-        let err = DaemonSettings::from_args(args).unwrap_err().to_string();
+        let args = options(["remd", "--secret-file", open.to_str().unwrap()]);
+        let err = DaemonSettings::from_options(args).unwrap_err().to_string();
         assert!(err.contains("readable by every user"), "{err}");
         let key = dir.path().join("client-key");
         std::fs::write(
@@ -394,8 +452,8 @@ mod tests {
         )
         .unwrap();
         private(&key);
-        let args = RemdArgs::parse_from(["remd", "--secret-file", key.to_str().unwrap()]);
-        assert!(DaemonSettings::from_args(args).is_err());
+        let args = options(["remd", "--secret-file", key.to_str().unwrap()]);
+        assert!(DaemonSettings::from_options(args).is_err());
     }
 
     #[test]
@@ -409,6 +467,24 @@ mod tests {
         let mut limits = Limits::default();
         set_limits(&mut limits, &file.limits).unwrap();
         assert_eq!(limits, Limits::default(), "the file shows the defaults");
+    }
+
+    /// Options as the `remd` binary would give them for these flags (the few the tests use).
+    fn options<const N: usize>(argv: [&str; N]) -> DaemonOptions {
+        let mut o = DaemonOptions::default();
+        let mut it = argv.into_iter().skip(1);
+        while let Some(flag) = it.next() {
+            let value = it.next().unwrap();
+            match flag {
+                "--config" => o.config = Some(value.into()),
+                "--name" => o.name = Some(value.into()),
+                "--secret-file" => o.secret_file = Some(value.into()),
+                "--allow" => o.allow.push(value.into()),
+                "--limit" => o.limits.push(value.into()),
+                _ => panic!("no such flag in the tests: {flag}"),
+            }
+        }
+        o
     }
 
     fn private(path: &Path) {

@@ -1,11 +1,12 @@
-//! remd's command line: the clap flags ([`RemdArgs`]), which `config` turns into
-//! [`crate::daemon::config::DaemonSettings`] together with the environment and a TOML file. The only
-//! module of the library that knows clap.
+//! remd's command line: the clap flags ([`RemdArgs`]), handed to the library as plain
+//! [`DaemonOptions`], which `rem::daemon::config` resolves with a TOML file into the daemon's
+//! settings. The library itself knows no flag parser.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use clap::Parser;
+use rem::daemon::config::DaemonOptions;
 
 /// remd's command line.
 #[derive(Parser, Debug, Default, Clone)]
@@ -87,4 +88,60 @@ pub struct RemdArgs {
     /// Name to expect in other daemons' certificates.
     #[arg(long, env = "REMD_TLS_DOMAIN")]
     pub tls_domain: Option<String>,
+}
+
+impl RemdArgs {
+    /// The flags' values, for the library.
+    pub fn into_options(self) -> DaemonOptions {
+        DaemonOptions {
+            config: self.config,
+            name: self.name,
+            listen: self.listen,
+            advertise: self.advertise,
+            join: self.join,
+            secret_file: self.secret_file,
+            allow: self.allow,
+            env_allow: self.env_allow,
+            limits: self.limits,
+            run_as: self.run_as,
+            insecure: self.insecure,
+            web: self.web,
+            state_dir: self.state_dir,
+            probe_ms: self.probe_ms,
+            suspect_ms: self.suspect_ms,
+            max_message: self.max_message,
+            kill_grace_ms: self.kill_grace_ms,
+            tls_cert: self.tls_cert,
+            tls_key: self.tls_key,
+            tls_ca: self.tls_ca,
+            tls_domain: self.tls_domain,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_reach_the_options() {
+        let o = RemdArgs::parse_from([
+            "remd",
+            "--config",
+            "c.toml",
+            "--name",
+            "h",
+            "--allow",
+            "/a,/b",
+            "--limit",
+            "spawn_count=8",
+            "--insecure",
+        ])
+        .into_options();
+        assert_eq!(o.config, Some(PathBuf::from("c.toml")));
+        assert_eq!(o.name.as_deref(), Some("h"));
+        assert_eq!(o.allow, ["/a", "/b"]);
+        assert_eq!(o.limits, ["spawn_count=8"]);
+        assert!(o.insecure);
+    }
 }

@@ -5,8 +5,10 @@
 use std::io::Write;
 use std::process::ExitCode;
 
+mod args;
+
+use args::RemdArgs;
 use clap::Parser;
-use rem::cli::RemdArgs;
 use rem::daemon::config::DaemonSettings;
 
 fn main() -> ExitCode {
@@ -21,7 +23,7 @@ fn main() -> ExitCode {
     if let Err(e) = rem::raise_fd_limit() {
         tracing::warn!(error = %e, "cannot raise the open-file limit");
     }
-    let settings = match DaemonSettings::from_args(RemdArgs::parse()) {
+    let settings = match DaemonSettings::from_options(RemdArgs::parse().into_options()) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("remd: {e}");
