@@ -11,8 +11,8 @@ use tonic::metadata::{AsciiMetadataValue, BinaryMetadataValue};
 use tonic::service::Interceptor;
 use tonic::{Request, Status};
 
-use crate::error::{Error, Result};
 use crate::auth::identity::{self, derive, Identity};
+use crate::error::{Error, Result};
 use crate::wire::env::{SECRET as ENV_SECRET, SECRET_FILE as ENV_SECRET_FILE};
 
 /// Metadata entry that carries a client's key (binary).

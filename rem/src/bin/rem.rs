@@ -185,7 +185,10 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
 /// `rem client-key`: the user's client-key line.
 fn client_key(cli: &Cli) -> anyhow::Result<ExitCode> {
     let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
-    let user = cli.user.clone().unwrap_or_else(rem::auth::identity::default_user);
+    let user = cli
+        .user
+        .clone()
+        .unwrap_or_else(rem::auth::identity::default_user);
     println!("{}", secret.client_key_line(&user)?);
     Ok(ExitCode::SUCCESS)
 }
@@ -212,7 +215,9 @@ fn credentials(
     owner: Option<&str>,
     names: &[String],
 ) -> anyhow::Result<ExitCode> {
-    let owner = owner.map(rem::auth::cluster_files::parse_owner).transpose()?;
+    let owner = owner
+        .map(rem::auth::cluster_files::parse_owner)
+        .transpose()?;
     for w in rem::auth::cluster_files::write(dir, owner, names)? {
         let what = if w.created { "made" } else { "kept" };
         println!("{what} {}", w.path.display());
@@ -271,11 +276,7 @@ async fn ps(client: &RemClient, out: &mut impl Write, json: bool) -> anyhow::Res
 
 /// `rem spawn`: starts the processes, prints where; with `--wait`, follows them as their
 /// owner until they exit.
-async fn spawn(
-    client: &RemClient,
-    out: &mut impl Write,
-    a: SpawnArgs,
-) -> anyhow::Result<ExitCode> {
+async fn spawn(client: &RemClient, out: &mut impl Write, a: SpawnArgs) -> anyhow::Result<ExitCode> {
     let mut envs = BTreeMap::new();
     for kv in a.env {
         let Some((k, v)) = kv.split_once('=') else {

@@ -3,9 +3,9 @@
 //! cluster from the list of names alone. No message carries more than one chunk, so a blob
 //! is bounded by memory and disk, not by the message limit.
 
-use crate::store::chunks::name_of;
 use crate::client::rem_client::RemClient;
 use crate::error::{Error, Result};
+use crate::store::chunks::name_of;
 
 /// The default size of a chunk (the daemons' default `chunk_bytes` limit).
 pub const CHUNK_BYTES: usize = 4 << 20;

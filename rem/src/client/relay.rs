@@ -7,12 +7,12 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::Streaming;
 
+use crate::client::rpc::RemRpc;
 use crate::error::{Error, Result};
 use crate::wire::ids::ProcId;
 use crate::wire::proto::{
     client_frame, server_frame, ClientFrame, Envelope, EnvelopeBatch, Hello, JobEvent, ServerFrame,
 };
-use crate::client::rpc::RemRpc;
 use crate::wire::{BATCH, BATCH_BYTES};
 
 /// Envelopes queued on the sending side before `send` waits (back-pressure).

@@ -4,10 +4,10 @@
 use std::collections::BTreeMap;
 
 use crate::auth::secret::{Secret, SendSecret};
+use crate::client::relay::Relay;
 use crate::error::{Error, Result};
 use crate::wire::ids::ProcId;
 use crate::wire::proto::{self, rem_client};
-use crate::client::relay::Relay;
 use crate::wire::transport::{self, ClientTls};
 use crate::wire::{env, DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, FRAME_OVERHEAD};
 

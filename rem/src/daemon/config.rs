@@ -30,10 +30,10 @@ use std::time::Duration;
 use serde::Deserialize;
 
 use crate::auth::secret::Secret;
-use crate::daemon::process::child::RunAs;
-use crate::error::{Error, Result};
 use crate::daemon::limits::Limits;
 use crate::daemon::policy::{ProgramRule, SpawnPolicy, DEFAULT_ENV_ALLOW};
+use crate::daemon::process::child::RunAs;
+use crate::error::{Error, Result};
 use crate::membership::swim::SwimConfig;
 use crate::wire::transport::ServerTlsFiles;
 
@@ -434,8 +434,7 @@ mod tests {
             sf,
         ]);
         assert!(DaemonSettings::from_options(unknown).is_err());
-        let bad_limit =
-            options(["remd", "--secret-file", sf, "--limit", "spawn_count=0"]);
+        let bad_limit = options(["remd", "--secret-file", sf, "--limit", "spawn_count=0"]);
         assert!(DaemonSettings::from_options(bad_limit).is_err());
         // A secret every user can read, or a client key, is refused.
         let open = dir.path().join("open");

@@ -12,8 +12,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::wire::ids::shown;
 use crate::wire::env::PREFIX as REM_PREFIX;
+use crate::wire::ids::shown;
 
 /// Most arguments a spawn may give.
 pub const MAX_ARGS: usize = 256;

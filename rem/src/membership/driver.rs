@@ -26,9 +26,9 @@ use tokio::sync::{broadcast, watch};
 
 use crate::membership::load::LoadGauge;
 use crate::membership::peers::PeerPool;
-use crate::wire::proto::HostInfo;
 use crate::membership::swim::reports::ReportTable;
 use crate::membership::swim::{Change, MemberId, Outbox, SwimConfig, SwimNode, SwimTimer};
+use crate::wire::proto::HostInfo;
 
 /// A change in who is alive.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -15,8 +15,8 @@ use prost::Message;
 use tonic::transport::Channel;
 use tonic::{Request, Response, Status};
 
-use crate::error::{Error, Result};
 use crate::auth::peer_auth::{digest, DaemonKey};
+use crate::error::{Error, Result};
 use crate::wire::proto::peer_client::PeerClient;
 use crate::wire::transport::{self, ClientTls};
 

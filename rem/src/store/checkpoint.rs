@@ -17,8 +17,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use prost::Message;
 
-use crate::error::{Error, Result};
 use crate::auth::peer_auth::{DaemonKey, MAX_SKEW};
+use crate::error::{Error, Result};
 use crate::wire::proto::Checkpoint;
 
 /// The checkpoints kept on this host.

@@ -19,8 +19,8 @@ use std::time::{Duration, SystemTime};
 
 use prost::Message;
 
-use crate::store::checkpoint::CheckpointStore;
 use crate::error::{Error, Result};
+use crate::store::checkpoint::CheckpointStore;
 use crate::wire::proto::{Checkpoint, JobRecord};
 
 /// The states a record may be in.
@@ -214,10 +214,23 @@ mod tests {
     use crate::daemon::limits::Limits;
 
     fn stores(dir: &std::path::Path) -> (JobStore, CheckpointStore) {
-        let key = crate::auth::peer_auth::DaemonKey::new(&crate::Secret::new("s").unwrap(), "a").unwrap();
+        let key =
+            crate::auth::peer_auth::DaemonKey::new(&crate::Secret::new("s").unwrap(), "a").unwrap();
         let limits = Limits::default();
-        let records = CheckpointStore::open(&dir.join("jobs"), key.clone(), limits.checkpoint_bytes, limits.checkpoint_quota).unwrap();
-        let checkpoints = CheckpointStore::open(&dir.join("checkpoints"), key, limits.checkpoint_bytes, limits.checkpoint_quota).unwrap();
+        let records = CheckpointStore::open(
+            &dir.join("jobs"),
+            key.clone(),
+            limits.checkpoint_bytes,
+            limits.checkpoint_quota,
+        )
+        .unwrap();
+        let checkpoints = CheckpointStore::open(
+            &dir.join("checkpoints"),
+            key,
+            limits.checkpoint_bytes,
+            limits.checkpoint_quota,
+        )
+        .unwrap();
         (JobStore::new(records, checkpoints.clone()), checkpoints)
     }
 

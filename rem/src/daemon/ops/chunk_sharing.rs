@@ -10,11 +10,11 @@
 
 use std::time::Duration;
 
-use crate::store::chunks::{self, check_name};
-use crate::daemon::ops::Daemon;
-use crate::error::{Error, Result};
 use crate::auth::identity::Identity;
 use crate::auth::peer_auth::method;
+use crate::daemon::ops::Daemon;
+use crate::error::{Error, Result};
+use crate::store::chunks::{self, check_name};
 use crate::wire::proto::{
     GetChunkReply, GetChunkRequest, HasChunksRequest, HostInfo, PutChunkReply, PutChunkRequest,
 };

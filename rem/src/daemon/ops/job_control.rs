@@ -19,11 +19,11 @@
 
 use std::time::Duration;
 
+use crate::auth::identity::Identity;
 use crate::daemon::ops::{Daemon, JobTag};
 use crate::error::{Error, Result};
-use crate::auth::identity::Identity;
-use crate::wire::ids::ProcId;
 use crate::store::job_store::{self, is_ended};
+use crate::wire::ids::ProcId;
 use crate::wire::proto::{JobRecord, ProcessInfo};
 
 /// What the supervisor does with one job now.
@@ -304,7 +304,11 @@ impl ViewSettle {
     }
 
     /// Notes the view at `now`; true when it has not changed for [`SETTLE`].
-    pub fn settled(&mut self, hosts: &[crate::wire::proto::HostInfo], now: std::time::Instant) -> bool {
+    pub fn settled(
+        &mut self,
+        hosts: &[crate::wire::proto::HostInfo],
+        now: std::time::Instant,
+    ) -> bool {
         let mut alive: Vec<String> = hosts
             .iter()
             .filter(|h| h.alive)

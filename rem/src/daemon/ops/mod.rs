@@ -20,17 +20,17 @@ use std::sync::Arc;
 use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
 
-use crate::store::checkpoint::CheckpointStore;
-use crate::error::{Error, Result};
-use crate::wire::ids::ProcId;
-use crate::store::job_store::JobStore;
-use crate::daemon::relay::jobs::Jobs;
 use crate::daemon::limits::Limits;
-use crate::membership::driver::Membership;
-use crate::membership::peers::PeerPool;
 use crate::daemon::policy::SpawnPolicy;
 use crate::daemon::process::table::ProcessTable;
+use crate::daemon::relay::jobs::Jobs;
 use crate::daemon::relay::router::Router;
+use crate::error::{Error, Result};
+use crate::membership::driver::Membership;
+use crate::membership::peers::PeerPool;
+use crate::store::checkpoint::CheckpointStore;
+use crate::store::job_store::JobStore;
+use crate::wire::ids::ProcId;
 
 /// The job epoch a checkpoint write carries (0: none), and the job record it belongs to
 /// (empty: the checkpoint's own key).
@@ -91,7 +91,10 @@ impl Daemon {
     where
         T: prost::Message + Clone + 'static,
         R: prost::Message + 'static,
-        F: FnOnce(crate::membership::peers::PeerRpc, tonic::Request<T>) -> Fut + Clone + Send + 'static,
+        F: FnOnce(crate::membership::peers::PeerRpc, tonic::Request<T>) -> Fut
+            + Clone
+            + Send
+            + 'static,
         Fut: std::future::Future<Output = std::result::Result<tonic::Response<R>, tonic::Status>>
             + Send,
     {

@@ -7,13 +7,13 @@ use std::sync::atomic::Ordering;
 use tokio::task::JoinSet;
 
 use super::{Daemon, JobTag};
-use crate::error::{Error, Result};
 use crate::auth::identity::Identity;
-use crate::wire::ids::{is_valid_name, shown, ProcId};
 use crate::auth::peer_auth::method;
-use crate::membership::peers::PeerPool;
 use crate::daemon::placement::{self, Candidate};
 use crate::daemon::process::table::StartSpec;
+use crate::error::{Error, Result};
+use crate::membership::peers::PeerPool;
+use crate::wire::ids::{is_valid_name, shown, ProcId};
 use crate::wire::proto::{
     job_event, AdoptLocalRequest, JobEvent, KillLocalRequest, LogsLocalRequest, LogsReply,
     Placement, ProcessInfo, PsRequest, SpawnReply, SpawnRequest, StartLocalRequest,

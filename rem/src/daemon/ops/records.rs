@@ -4,11 +4,11 @@
 use std::collections::BTreeMap;
 
 use super::{Daemon, Fence};
-use crate::error::{Error, Result};
 use crate::auth::identity::Identity;
-use crate::wire::ids::{is_valid_name, shown};
-use crate::store::job_store;
 use crate::auth::peer_auth::method;
+use crate::error::{Error, Result};
+use crate::store::job_store;
+use crate::wire::ids::{is_valid_name, shown};
 use crate::wire::proto::{Checkpoint, FetchReplicaRequest, JobRecord, ListJobsLocalRequest};
 
 impl Daemon {

@@ -7,11 +7,11 @@ use std::collections::BTreeMap;
 use std::process::Stdio;
 use std::time::Duration;
 
-use crate::wire::ids::ProcId;
+use crate::auth::token::Token;
 use crate::daemon::limits::Limits;
 use crate::daemon::policy::SpawnPolicy;
-use crate::auth::token::Token;
 use crate::wire::env;
+use crate::wire::ids::ProcId;
 
 /// The `PATH` every child gets.
 pub const CHILD_PATH: &str = "/usr/local/bin:/usr/bin:/bin";

@@ -12,14 +12,14 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use tokio::sync::{mpsc, oneshot};
 
-use crate::daemon::process::child;
-use crate::error::{Error, Result};
 use crate::auth::identity::Identity;
-use crate::wire::ids::ProcId;
-use crate::daemon::process::logbuf::{self, Output};
-use crate::wire::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
-use crate::daemon::relay::router::Router;
 use crate::auth::token::Token;
+use crate::daemon::process::child;
+use crate::daemon::process::logbuf::{self, Output};
+use crate::daemon::relay::router::Router;
+use crate::error::{Error, Result};
+use crate::wire::ids::ProcId;
+use crate::wire::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
 
 pub use crate::daemon::process::child::{ProcessConfig, StartSpec};
 
@@ -304,8 +304,9 @@ impl Actor {
     }
 
     fn adopt(&mut self, id: &ProcId, owner: String, who: &Identity) -> Result<ProcessInfo> {
-        let owner = ProcId::parse(&owner)
-            .ok_or_else(|| Error::Invalid(format!("bad owner id {}", crate::wire::ids::shown(&owner))))?;
+        let owner = ProcId::parse(&owner).ok_or_else(|| {
+            Error::Invalid(format!("bad owner id {}", crate::wire::ids::shown(&owner)))
+        })?;
         self.owned(id, who)?;
         let Some(e) = self.entries.get_mut(id) else {
             return Err(Error::NotFound(format!("process {id}")));

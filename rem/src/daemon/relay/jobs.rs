@@ -8,9 +8,9 @@ use std::collections::HashMap;
 
 use tokio::sync::{broadcast, mpsc};
 
+use crate::daemon::relay::router::Router;
 use crate::membership::driver::MemberEvent;
 use crate::wire::proto::{job_event, JobEvent, Placement};
-use crate::daemon::relay::router::Router;
 
 struct Proc {
     host: String,

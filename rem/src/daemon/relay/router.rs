@@ -12,24 +12,20 @@
 
 mod links;
 
-use links::Link;
+use links::{item_cost, Link};
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, RwLock};
 
 use tokio::sync::mpsc;
-use tokio_stream::wrappers::ReceiverStream;
-use tokio_util::sync::CancellationToken;
 
-use crate::daemon::relay::budget::{ByteBudget, Reservation};
-use crate::wire::ids::{shown, ProcId};
-use crate::daemon::limits::{Limits, ITEM_OVERHEAD};
-use crate::membership::driver::{MemberEvent, Membership};
-use crate::auth::peer_auth::method;
-use crate::membership::peers::PeerPool;
-use crate::wire::proto::{peer_item, Envelope, JobEvent, PeerBatch, PeerItem, Undeliverable};
 use crate::auth::token::Token;
-
+use crate::daemon::limits::{Limits, ITEM_OVERHEAD};
+use crate::daemon::relay::budget::{ByteBudget, Reservation};
+use crate::membership::driver::{MemberEvent, Membership};
+use crate::membership::peers::PeerPool;
+use crate::wire::ids::{shown, ProcId};
+use crate::wire::proto::{peer_item, Envelope, JobEvent, PeerItem, Undeliverable};
 
 /// What a mailbox holds.
 #[derive(Clone, Debug)]
@@ -70,7 +66,6 @@ struct ProcessMailbox {
     /// The user the process belongs to.
     user: String,
 }
-
 
 /// Cloneable handle to the router.
 #[derive(Clone)]

@@ -14,13 +14,13 @@ use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Status, Streaming};
 
 use crate::auth::secret::Caller;
-use crate::daemon::relay::budget::Reservation;
 use crate::daemon::ops::Daemon;
+use crate::daemon::relay::budget::Reservation;
+use crate::daemon::relay::router::{Delivery, MailboxReceiver, MailboxSender};
 use crate::wire::ids::{is_valid_name, shown, ProcId};
 use crate::wire::proto::{
     client_frame, server_frame, ClientFrame, EnvelopeBatch, ServerFrame, Undeliverable, Welcome,
 };
-use crate::daemon::relay::router::{Delivery, MailboxReceiver, MailboxSender};
 use crate::wire::{BATCH, BATCH_BYTES};
 
 pub type FrameStream = ReceiverStream<Result<ServerFrame, Status>>;

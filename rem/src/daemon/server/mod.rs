@@ -63,7 +63,10 @@ pub async fn run_with_web(
         settings.limits.clone(),
         daemon.stop.clone(),
     ));
-    tokio::spawn(background::supervision(Arc::downgrade(daemon), daemon.stop.clone()));
+    tokio::spawn(background::supervision(
+        Arc::downgrade(daemon),
+        daemon.stop.clone(),
+    ));
     if let Some(web) = web {
         background::web_view(daemon.clone(), settings.secret.clone(), web);
     }
@@ -79,7 +82,10 @@ pub async fn run_with_web(
 }
 
 /// The web view's listener: the one given, or one bound at `settings.web`, or none.
-fn web_listener(web: Option<TcpListener>, settings: &DaemonSettings) -> Result<Option<TcpListener>> {
+fn web_listener(
+    web: Option<TcpListener>,
+    settings: &DaemonSettings,
+) -> Result<Option<TcpListener>> {
     Ok(match (web, settings.web) {
         (Some(l), _) => Some(l),
         (None, Some(addr)) => Some(

@@ -10,11 +10,11 @@ use std::sync::Arc;
 
 use tonic::{Request, Response, Status, Streaming};
 
+use crate::auth::identity::Identity;
+use crate::auth::peer_auth::{digest, method};
 use crate::auth::secret::{caller, Caller};
 use crate::daemon::ops::Daemon;
-use crate::auth::identity::Identity;
 use crate::wire::ids::{shown, ProcId};
-use crate::auth::peer_auth::{digest, method};
 use crate::wire::proto::{self, peer_server::Peer, rem_server::Rem};
 
 /// Both services over one daemon.

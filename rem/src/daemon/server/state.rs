@@ -62,13 +62,7 @@ impl Running {
         let accepting = Arc::new(AtomicBool::new(true));
         let stop = CancellationToken::new();
         let membership = start_membership(
-            settings,
-            bound,
-            &advertise,
-            &gauge,
-            &accepting,
-            &peers,
-            &stop,
+            settings, bound, &advertise, &gauge, &accepting, &peers, &stop,
         )
         .await?;
         let (observer, observed) = mpsc::unbounded_channel();
@@ -163,11 +157,15 @@ async fn start_membership(
         peers.clone(),
         stop.clone(),
     )
+    .map_err(Error::from)
 }
 
 /// The host's process cache under `state_dir`, owned by the user children run as; `None`
 /// (with a warning) when it cannot be made.
-fn open_process_cache(settings: &DaemonSettings, state_dir: &std::path::Path) -> Option<ProcessCache> {
+fn open_process_cache(
+    settings: &DaemonSettings,
+    state_dir: &std::path::Path,
+) -> Option<ProcessCache> {
     let owner = settings.run_as.map(|u| (u.uid, u.gid));
     ProcessCache::open(
         &state_dir.join("cache"),
@@ -189,7 +187,11 @@ struct Stores {
 }
 
 impl Stores {
-    fn open(settings: &DaemonSettings, state_dir: &std::path::Path, key: DaemonKey) -> Result<Stores> {
+    fn open(
+        settings: &DaemonSettings,
+        state_dir: &std::path::Path,
+        key: DaemonKey,
+    ) -> Result<Stores> {
         let limits = &settings.limits;
         let checkpoints = CheckpointStore::open(
             &state_dir.join("checkpoints"),

@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 use tokio::sync::watch;
 
-use crate::daemon::ops::Daemon;
 use crate::auth::identity::Identity;
+use crate::daemon::ops::Daemon;
 use crate::store::job_store::{is_ended, unix_ms};
 use crate::wire::proto::{HostInfo, JobRecord, ProcessInfo};
 

@@ -12,11 +12,11 @@
 
 use serde::Serialize;
 
+use crate::auth::identity::Identity;
 use crate::daemon::ops::Daemon;
 use crate::error::{Error, Result};
-use crate::auth::identity::Identity;
-use crate::wire::ids::ProcId;
 use crate::store::job_store::is_ended;
+use crate::wire::ids::ProcId;
 use crate::wire::proto::JobRecord;
 
 /// The largest `ID.web.json` the page shows.

@@ -21,10 +21,10 @@ use std::time::{Duration, Instant};
 use axum::http::{header, HeaderMap};
 use subtle::ConstantTimeEq;
 
-use crate::auth::secret::Secret;
-use crate::error::{Error, Result};
 use crate::auth::identity::{self, Identity};
+use crate::auth::secret::Secret;
 use crate::auth::token::Token;
+use crate::error::{Error, Result};
 
 /// What the web admin token starts with.
 pub const ADMIN_TOKEN_PREFIX: &str = "rem-web-admin-v1:";

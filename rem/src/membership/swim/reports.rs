@@ -133,7 +133,9 @@ impl BroadcastHandler<MemberId> for LoadReports {
     ) -> Result<Option<ReportKey>, ReportError> {
         let mut table = self.table();
         let item = match postcard::from_bytes::<Item>(data) {
-            Ok(i) if crate::wire::ids::is_valid_name(&i.name) && i.load.len() <= MAX_LOAD_BYTES => i,
+            Ok(i) if crate::wire::ids::is_valid_name(&i.name) && i.load.len() <= MAX_LOAD_BYTES => {
+                i
+            }
             _ => {
                 table.refused += 1;
                 return Ok(None);

@@ -83,7 +83,10 @@ pub(super) fn authorize<T>(req: &mut Request<T>, input: &Input, world: &World) {
     };
     let peer_line_value = match &input.credential {
         Credential::Valid(_) if !input.rpc.is_peer() => {
-            md.insert(rem::auth::secret::USER_METADATA, fuzz_user().parse().unwrap());
+            md.insert(
+                rem::auth::secret::USER_METADATA,
+                fuzz_user().parse().unwrap(),
+            );
             md.insert_bin(
                 rem::auth::secret::CLIENT_KEY_METADATA,
                 BinaryMetadataValue::from_bytes(&client_key()),
@@ -93,7 +96,10 @@ pub(super) fn authorize<T>(req: &mut Request<T>, input: &Input, world: &World) {
         Credential::Valid(from) => Some(peer_line(input.rpc.name(), from, me, unix_ms(), &body())),
         Credential::None => None,
         Credential::ClientKey(k) => {
-            md.insert(rem::auth::secret::USER_METADATA, fuzz_user().parse().unwrap());
+            md.insert(
+                rem::auth::secret::USER_METADATA,
+                fuzz_user().parse().unwrap(),
+            );
             md.insert_bin(
                 rem::auth::secret::CLIENT_KEY_METADATA,
                 BinaryMetadataValue::from_bytes(k),

@@ -59,8 +59,10 @@ impl Router {
         }
     }
 
+    /// The link to `host` (opened on first use, while the host is alive): its queue, byte
+    /// budget and cancellation.
     #[allow(clippy::type_complexity)]
-    fn link(
+    pub(super) fn link(
         &self,
         host: &str,
     ) -> Result<
@@ -170,7 +172,7 @@ async fn run_link(
 }
 
 /// What a peer item is charged in a link's budget.
-fn item_cost(item: &PeerItem) -> usize {
+pub(super) fn item_cost(item: &PeerItem) -> usize {
     ITEM_OVERHEAD + item_bytes(item)
 }
 
