@@ -63,8 +63,10 @@
 //! - [`membership`]: which daemons are alive and their load (SWIM), and the connections to
 //!   them.
 //! - [`client`]: [`RemClient`], [`Relay`] for job owners and processes, blobs as chunks.
-//! - [`daemon`]: remd: settings (the `remd` binary parses the flags), state and operations, the relay, processes, the gRPC and
-//!   web faces, the server that wires them, and [`bind_listener`] / [`raise_fd_limit`].
+//! - [`daemon`]: remd: settings (the `remd` binary parses the flags), state and operations,
+//!   the relay, processes, the gRPC and web faces, the server that wires them, and
+//!   [`bind_listener`] / [`raise_fd_limit`].
+//! - `testing` (feature `testing`): the test harness, remd daemons on loopback.
 
 pub mod auth;
 pub mod client;
@@ -72,6 +74,8 @@ pub mod daemon;
 pub mod error;
 pub mod membership;
 pub mod store;
+#[cfg(feature = "testing")]
+pub mod testing;
 pub mod wire;
 
 pub use auth::identity::Identity;

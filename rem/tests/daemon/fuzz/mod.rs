@@ -239,7 +239,7 @@ async fn run(
 /// Two joined remd processes that see each other.
 async fn cluster() -> RemdProcesses {
     let rule = format!("{ECHO}:exit");
-    let cluster = RemdProcesses::start_allowing(2, &[&rule], &LIMITS);
+    let cluster = remds_allowing(2, &[&rule], &LIMITS);
     cluster.converge(Duration::from_secs(15)).await;
     cluster
 }
