@@ -224,7 +224,7 @@ impl Actor {
         report.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         let mut join = tokio::time::interval(Duration::from_secs(1));
         join.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        let mut buf = vec![0u8; crate::membership::swim::node::MAX_DATAGRAM + 1];
+        let mut buf = vec![0u8; crate::membership::swim::config::MAX_DATAGRAM + 1];
         loop {
             let next = self.timers.peek().map(|Reverse((at, _, _))| *at);
             let sleep = tokio::time::sleep_until(

@@ -34,6 +34,27 @@ impl Daemon {
         req: SpawnRequest,
         tag: &JobTag,
     ) -> Result<SpawnReply> {
+        let job = self.check_spawn(who, &req)?;
+        let candidates = self.candidates(&req)?;
+        let chosen = placement::place(&candidates, req.count, req.allow_same_host)?;
+        let mut per_host: BTreeMap<String, u32> = BTreeMap::new();
+        for h in chosen {
+            *per_host.entry(h).or_default() += 1;
+        }
+        let mut placed = self.start_placed(who, &req, &job, tag, per_host).await?;
+        placed.sort_by(|a, b| a.proc_id.cmp(&b.proc_id));
+        if !req.owner.is_empty() {
+            self.announce_started(&job, &req.owner, &placed).await;
+        }
+        Ok(SpawnReply {
+            job,
+            processes: placed,
+        })
+    }
+
+    /// Checks a spawn request against this daemon's state, limits and policy; the job id it
+    /// runs under (a new one when the request names none).
+    fn check_spawn(&self, who: &Identity, req: &SpawnRequest) -> Result<String> {
         self.check_accepting()?;
         self.check_count(req.count)?;
         self.policy
@@ -46,13 +67,22 @@ impl Daemon {
         if !req.owner.is_empty() {
             self.check_owner(who, &req.owner)?;
         }
-        let job = if req.job.is_empty() {
-            format!("{}-{}", self.name, self.seq.fetch_add(1, Ordering::Relaxed))
+        if req.job.is_empty() {
+            Ok(format!(
+                "{}-{}",
+                self.name,
+                self.seq.fetch_add(1, Ordering::Relaxed)
+            ))
         } else if is_valid_name(&req.job) {
-            req.job.clone()
+            Ok(req.job.clone())
         } else {
-            return Err(Error::Invalid(format!("bad job id {}", shown(&req.job))));
-        };
+            Err(Error::Invalid(format!("bad job id {}", shown(&req.job))))
+        }
+    }
+
+    /// The hosts a spawn may go to: alive, accepting, the one it names (if any), none it
+    /// avoids.
+    fn candidates(&self, req: &SpawnRequest) -> Result<Vec<Candidate>> {
         if req.avoid_hosts.len() > MAX_AVOID_HOSTS {
             return Err(Error::Invalid(format!(
                 "{} hosts to avoid; at most {MAX_AVOID_HOSTS}",
@@ -60,7 +90,7 @@ impl Daemon {
             )));
         }
         let avoid: HashSet<&str> = req.avoid_hosts.iter().map(String::as_str).collect();
-        let candidates: Vec<Candidate> = self
+        Ok(self
             .membership
             .hosts()
             .into_iter()
@@ -76,16 +106,23 @@ impl Daemon {
                     capacity: load.capacity,
                 }
             })
-            .collect();
-        let chosen = placement::place(&candidates, req.count, req.allow_same_host)?;
-        let mut per_host: BTreeMap<String, u32> = BTreeMap::new();
-        for h in chosen {
-            *per_host.entry(h).or_default() += 1;
-        }
+            .collect())
+    }
+
+    /// Starts the processes of `job` on their hosts (`per_host`: how many on each), here
+    /// and on peers at once; if any host fails, kills those started and returns its error.
+    async fn start_placed(
+        &self,
+        who: &Identity,
+        req: &SpawnRequest,
+        job: &str,
+        tag: &JobTag,
+        per_host: BTreeMap<String, u32>,
+    ) -> Result<Vec<Placement>> {
         let mut tasks = JoinSet::new();
         for (host, count) in per_host {
             let spec = StartSpec {
-                job: job.clone(),
+                job: job.to_string(),
                 owner: req.owner.clone(),
                 user: who.user.clone(),
                 program: req.program.clone(),
@@ -127,25 +164,23 @@ impl Daemon {
             }
             return Err(e);
         }
-        placed.sort_by(|a, b| a.proc_id.cmp(&b.proc_id));
-        if !req.owner.is_empty() {
-            self.jobs.record(&job, &req.owner, &placed).await;
-            for p in &placed {
-                let event = JobEvent {
-                    job: job.clone(),
-                    proc_id: p.proc_id.clone(),
-                    host: p.host.clone(),
-                    kind: job_event::Kind::Started as i32,
-                    owner: req.owner.clone(),
-                    ..JobEvent::default()
-                };
-                let _ = self.router.route_event(event).await;
-            }
+        Ok(placed)
+    }
+
+    /// Notes the job's owner and sends it a `Started` event for every placed process.
+    async fn announce_started(&self, job: &str, owner: &str, placed: &[Placement]) {
+        self.jobs.record(job, owner, placed).await;
+        for p in placed {
+            let event = JobEvent {
+                job: job.to_string(),
+                proc_id: p.proc_id.clone(),
+                host: p.host.clone(),
+                kind: job_event::Kind::Started as i32,
+                owner: owner.to_string(),
+                ..JobEvent::default()
+            };
+            let _ = self.router.route_event(event).await;
         }
-        Ok(SpawnReply {
-            job,
-            processes: placed,
-        })
     }
 
     /// A spawn's owner (who receives the job's events) must be a relay process attached here

@@ -9,6 +9,7 @@
 //!   window);
 //! - `reports`: load reports spread as foca custom broadcasts, the newest kept per member;
 //! - `health`: Lifeguard's local health awareness (a slow member stretches its timeouts);
+//! - `config`: the protocol's timing ([`SwimConfig`]);
 //! - `node`: one member without I/O, driven by `crate::membership::driver` (UDP, tokio's clock) or
 //!   by a simulation.
 //!
@@ -17,11 +18,13 @@
 //! and a thousand members simulated deterministically in one process), small, and has no
 //! runtime of its own.
 
+pub mod config;
 pub mod health;
 pub mod member;
 pub mod node;
 pub mod reports;
 pub mod seal;
 
+pub use config::SwimConfig;
 pub use member::MemberId;
-pub use node::{Change, Outbox, SwimConfig, SwimNode, SwimTimer, Traffic};
+pub use node::{Change, Outbox, SwimNode, SwimTimer, Traffic};
