@@ -2,13 +2,13 @@
 //! failure-detection time. Run with `cargo bench -p rem --bench relay`.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a measurement tool: a failure ends it with a message
 
-#[path = "../tests/daemon/common.rs"]
-mod common;
-
 use std::time::{Duration, Instant};
 
-use common::*;
+use rem::testing::{next_event, wait_hosts, LocalRemds, RemdProcesses};
 use rem::{EventKind, Incoming, ProcId, Relay, SpawnRequest};
+
+const REMD: &str = env!("CARGO_BIN_EXE_remd");
+const ECHO: &str = env!("CARGO_BIN_EXE_rem-echo");
 
 const T: Duration = Duration::from_secs(30);
 
@@ -51,7 +51,8 @@ fn percentile(sorted: &[Duration], p: f64) -> Duration {
 }
 
 async fn run() {
-    let cluster = RemdProcesses::start(3, &[]);
+    let mut cluster = RemdProcesses::new(REMD, "bench-cluster-secret");
+    cluster.start_all(3, |_| vec!["--allow".into(), ECHO.into()]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(Some("bench")).await.unwrap();

@@ -49,103 +49,41 @@
 //!
 //! # Layout
 //!
-//! - [`proto`]: generated gRPC types (`proto/rem.proto`).
+//! The crate has one folder per concern; dependencies point down this list (a folder uses
+//! those above it, never one below):
+//!
 //! - [`error`]: [`Error`], and its mapping to gRPC status codes.
-//! - [`ids`]: host names, job ids, [`ProcId`].
-//! - [`auth`]: the cluster [`Secret`], the keys made from it, and the interceptors that send
-//!   and check a user's key or a process's token.
-//! - [`identity`]: who a client is (user, admin), users' keys and client-key files, and who
-//!   may act on what (ownership).
-//! - `peer_auth`: how daemons prove the secret to each other (HMAC) without sending it.
-//! - `token`: random tokens (a spawned process attaches with its own).
-//! - [`limits`]: the daemon's hard limits; `budget`: byte budgets of the relay's queues.
-//! - [`policy`]: which programs (and first arguments) and environment names may be spawned.
-//! - [`transport`]: channels, plain or TLS (rustls); [`cluster_files`]: the secret and TLS
-//!   certificate a cluster's daemons share (`rem credentials`).
-//! - [`cli`]: remd's flags (clap); [`config`]: remd settings from flags, environment and TOML.
-//! - [`load`]: this host's load (sysinfo) and REM process count.
-//! - [`cgroup`]: the CPU limit and use of remd's control group (containers).
-//! - [`placement`]: ranking hosts by load per core.
-//! - [`swim`]: the membership protocol (SWIM on foca, sealed datagrams, load reports,
-//!   local health); [`membership`]: its UDP driver, joining, lost and returning hosts.
-//! - [`peers`]: cached connections to other daemons.
-//! - [`process`]: the OS processes REM runs here; [`child`]: building one (environment, nice).
-//! - [`logbuf`]: bounded stdout / stderr keepers.
-//! - [`relay`]: mailboxes and daemon-to-daemon links.
-//! - [`attach`]: one process's relay stream.
-//! - [`jobs`]: job owners and `Lost` reports.
-//! - [`checkpoint`]: atomic checkpoint files; [`job_store`]: job records (epochs, retention);
-//!   [`job_control`]: jobs the farm keeps running (`StartJob`, the supervisor, restarts);
-//!   [`replicas`]: which peer keeps a key's second copy (rendezvous hashing).
-//! - [`chunks`]: the content-addressed chunk cache (scenes in pieces, checked by hash, LRU);
-//!   `chunk_sharing`: putting chunks on two hosts and fetching them from peers; [`blob`]:
-//!   large byte strings as lists of chunks; [`process_cache`]: the folder where processes
-//!   keep what they can rebuild (`REM_CACHE_DIR`), bounded, its contents untrusted.
-//! - [`daemon`]: the daemon's operations; [`service`]: their gRPC face; [`server`]: wiring and shutdown.
-//! - [`listener`]: the connection gate (caps, preface timeout, accept errors), [`bind_listener`],
-//!   [`raise_fd_limit`].
-//! - [`web`]: the web view (`remd --web`): the page, the JSON API, logins.
-//! - [`embedded`]: a remd inside the current process (the embedded default, tests).
-//! - [`wire`]: what client and daemon agree on (default address, limits, environment names).
-//! - [`rpc`]: the generated client with the secret attached, under both of:
-//! - [`client`]: [`RemClient`]; [`relay_client`]: [`Relay`] for job owners and processes.
+//! - [`wire`]: what client and daemon agree on: the generated gRPC types ([`wire::proto`]),
+//!   ids ([`ProcId`]), channels (plain or TLS), limits and environment names.
+//! - [`auth`]: the cluster [`Secret`] and the keys made from it, users and admins
+//!   ([`Identity`]), daemons proving the secret to each other, process tokens, and the
+//!   files a cluster's daemons share.
+//! - [`store`]: what a daemon keeps on disk: checkpoints, job records, chunks, the process
+//!   cache, and which peer keeps a key's second copy.
+//! - [`membership`]: which daemons are alive and their load (SWIM), and the connections to
+//!   them.
+//! - [`client`]: [`RemClient`], [`Relay`] for job owners and processes, blobs as chunks.
+//! - [`daemon`]: remd: settings (the `remd` binary parses the flags), state and operations,
+//!   the relay, processes, the gRPC and web faces, the server that wires them, and
+//!   [`bind_listener`] / [`raise_fd_limit`].
+//! - `testing` (feature `testing`): the test harness, remd daemons on loopback.
 
-mod attach;
 pub mod auth;
-pub mod blob;
-mod budget;
-mod cgroup;
-mod checkpoint;
-mod child;
-mod chunk_sharing;
-pub mod chunks;
-pub mod cli;
 pub mod client;
-pub mod cluster_files;
-pub mod config;
-mod daemon;
-pub mod embedded;
+pub mod daemon;
 pub mod error;
-pub mod identity;
-pub mod ids;
-pub mod job_control;
-pub mod job_store;
-mod jobs;
-pub mod limits;
-mod listener;
-mod load;
-mod logbuf;
-mod membership;
-mod peer_auth;
-mod peers;
-mod placement;
-pub mod policy;
-mod process;
-pub mod process_cache;
-mod relay;
-pub mod relay_client;
-pub mod replicas;
-mod rpc;
-pub mod server;
-mod service;
-pub mod swim;
-mod token;
-pub mod transport;
-pub mod web;
+pub mod membership;
+pub mod store;
+#[cfg(feature = "testing")]
+pub mod testing;
 pub mod wire;
 
-/// Generated from `proto/rem.proto`.
-#[allow(clippy::all, missing_docs)]
-pub mod proto {
-    tonic::include_proto!("rem.v1");
-}
-
-pub use auth::Secret;
-pub use child::RunAs;
-pub use client::{ConnectOptions, Credential, Job, RemClient, SpawnRequest};
+pub use auth::identity::Identity;
+pub use auth::secret::Secret;
+pub use client::relay::{Incoming, Relay, RelayReceiver, RelaySender};
+pub use client::rem_client::{ConnectOptions, Credential, Job, RemClient, SpawnRequest};
+pub use daemon::listener::{bind_listener, raise_fd_limit, ConnectionLimits};
+pub use daemon::process::child::RunAs;
 pub use error::{Error, Result};
-pub use identity::Identity;
-pub use ids::ProcId;
-pub use listener::{bind_listener, raise_fd_limit, ConnectionLimits};
-pub use proto::{job_event::Kind as EventKind, HostInfo, JobEvent, JobRecord, ProcessInfo};
-pub use relay_client::{Incoming, Relay, RelayReceiver, RelaySender};
+pub use wire::ids::ProcId;
+pub use wire::proto::{job_event::Kind as EventKind, HostInfo, JobEvent, JobRecord, ProcessInfo};

@@ -185,7 +185,7 @@ impl ComposeCluster {
         // The secret, TLS certificate and key, given to the daemons' user, as
         // deploy/credentials.sh does.
         let give = running_as_root().then(daemon_user);
-        rem::cluster_files::write(&dir.path().join("credentials"), give, &[]).unwrap();
+        rem::auth::cluster_files::write(&dir.path().join("credentials"), give, &[]).unwrap();
         if let Some((uid, gid)) = give {
             std::os::unix::fs::chown(&out_dir, Some(uid), Some(gid)).unwrap();
         }
@@ -376,14 +376,14 @@ impl ComposeCluster {
         c.arg("--remd")
             .arg(format!("{}:7070", self.ip(host)))
             .arg("--secret-file")
-            .arg(creds.join(rem::cluster_files::SECRET))
+            .arg(creds.join(rem::auth::cluster_files::SECRET))
             .env_remove("REM_TLS_CA")
             .env_remove("REM_TLS_DOMAIN");
         if tls {
             c.arg("--tls-ca")
-                .arg(creds.join(rem::cluster_files::CERT))
+                .arg(creds.join(rem::auth::cluster_files::CERT))
                 .arg("--tls-domain")
-                .arg(rem::cluster_files::TLS_DOMAIN);
+                .arg(rem::auth::cluster_files::TLS_DOMAIN);
         }
         c
     }

@@ -1,13 +1,15 @@
-//! Real `remd` processes on loopback: one daemon ([`Remd`], killed when dropped) and a small
-//! cluster of them sharing a secret ([`LoopbackCluster`]), for `sunray submit` against a real
-//! farm.
+//! Real `remd` processes on loopback for `sunray submit` against a real farm: a small cluster
+//! of them sharing a secret ([`LoopbackCluster`]) on the shared harness
+//! ([`rem::testing::RemdProcesses`]), with the farm's flags, the daemons' logs, and the
+//! sunray commands and record checks these tests need.
 
 use super::bins::{remd_bin, sunray, sunray_bin};
-use rem::wire::listening_addr;
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+pub use rem::testing::Remd;
+use rem::testing::RemdProcesses;
 
 /// The job lease of a [`LoopbackCluster`]'s daemons (`job_lease_ms`): a farm job's controller
 /// that writes nothing for this long is replaced.
@@ -16,34 +18,22 @@ pub const LEASE_MS: u64 = 3000;
 /// The secret of a [`LoopbackCluster`].
 pub const SECRET: &str = "submit-test-secret";
 
-/// One remd process; killed when dropped.
-pub struct Remd {
-    pub name: String,
-    pub addr: String,
-    /// The web view's URL (`http://127.0.0.1:PORT/`) when it was started with one.
-    pub web: Option<String>,
-    pub child: Child,
-}
+/// `n` remd daemons named a, b, c ... on loopback, sharing a secret, allowed to run sunray
+/// (the harness's [`RemdProcesses`], which it derefs to: `daemons`, `secret_file`, `dir`,
+/// `state_dir`, `daemon`).
+pub struct LoopbackCluster(RemdProcesses);
 
-impl Remd {
-    /// Sends the daemon signal `sig`.
-    pub fn signal(&self, sig: i32) {
-        super::bins::signal(self.child.id() as i32, sig);
+impl std::ops::Deref for LoopbackCluster {
+    type Target = RemdProcesses;
+    fn deref(&self) -> &RemdProcesses {
+        &self.0
     }
 }
 
-impl Drop for Remd {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+impl std::ops::DerefMut for LoopbackCluster {
+    fn deref_mut(&mut self) -> &mut RemdProcesses {
+        &mut self.0
     }
-}
-
-/// `n` remd daemons named a, b, c ... on loopback, sharing a secret, allowed to run sunray.
-pub struct LoopbackCluster {
-    pub dir: tempfile::TempDir,
-    pub secret_file: PathBuf,
-    pub daemons: Vec<Remd>,
 }
 
 impl LoopbackCluster {
@@ -69,16 +59,9 @@ impl LoopbackCluster {
     }
 
     fn start_inner(n: usize, web: bool, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
-        let dir = tempfile::tempdir().unwrap();
-        let secret_file = dir.path().join("secret");
-        rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
-        let mut c = LoopbackCluster {
-            dir,
-            secret_file,
-            daemons: Vec::new(),
-        };
+        let mut c = LoopbackCluster(RemdProcesses::new(remd_bin(), SECRET));
         for i in 0..n {
-            let name = ((b'a' + i as u8) as char).to_string();
+            let name = rem::testing::daemon_name(i);
             let join = c.daemons.first().map(|d| d.addr.clone());
             prepare(&name, &c.state_dir(&name));
             let d = c.start_daemon(&name, join.as_deref(), web && i == 0);
@@ -86,11 +69,6 @@ impl LoopbackCluster {
         }
         c.converge(n);
         c
-    }
-
-    /// Daemon `name`'s state directory.
-    pub fn state_dir(&self, name: &str) -> PathBuf {
-        self.dir.path().join(format!("state-{name}"))
     }
 
     /// What daemon `name` has logged (its stderr, warnings and errors).
@@ -105,48 +83,19 @@ impl LoopbackCluster {
             .append(true)
             .open(self.dir.path().join(format!("remd-{name}.log")))
             .unwrap();
-        let mut cmd = Command::new(remd_bin());
-        cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
-            .args(["--probe-ms", "150", "--suspect-ms", "300"])
-            // A stopped farm-job controller is replaced after 3 s without a record write.
-            .args(["--limit", &format!("job_lease_ms={LEASE_MS}")])
-            .arg("--allow")
-            .arg(format!("{}:worker|controller", sunray_bin().display()))
-            .arg("--secret-file")
-            .arg(&self.secret_file)
-            .arg("--state-dir")
-            .arg(self.state_dir(name))
-            .env_remove("REM_SECRET")
-            .env_remove("REM_SECRET_FILE")
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::piped())
-            .stderr(log);
-        if let Some(j) = join {
-            cmd.args(["--join", j]);
-        }
+        let mut flags: Vec<String> = ["--probe-ms", "150", "--suspect-ms", "300"]
+            .map(String::from)
+            .to_vec();
+        // A stopped farm-job controller is replaced after 3 s without a record write.
+        flags.extend(["--limit".into(), format!("job_lease_ms={LEASE_MS}")]);
+        flags.extend([
+            "--allow".into(),
+            format!("{}:worker|controller", sunray_bin().display()),
+        ]);
         if web {
-            cmd.args(["--web", "127.0.0.1:0"]);
+            flags.extend(["--web".into(), "127.0.0.1:0".into()]);
         }
-        let mut child = cmd.spawn().expect("start remd");
-        let mut out = BufReader::new(child.stdout.take().unwrap());
-        let mut line = String::new();
-        out.read_line(&mut line).unwrap();
-        let addr = listening_addr(&line)
-            .unwrap_or_else(|| panic!("bad first line {line:?}"))
-            .to_string();
-        let web = web.then(|| {
-            let mut line = String::new();
-            out.read_line(&mut line).unwrap();
-            rem::wire::web_view_url(&line)
-                .unwrap_or_else(|| panic!("bad second line {line:?}"))
-                .to_string()
-        });
-        Remd {
-            name: name.to_string(),
-            addr,
-            web,
-            child,
-        }
+        self.launch(name, join, &flags, Stdio::from(log))
     }
 
     /// Runs `f` with a client of daemon `a`, on a runtime of its own.
@@ -293,9 +242,5 @@ impl LoopbackCluster {
             .arg("--secret-file")
             .arg(&self.secret_file);
         c
-    }
-
-    pub fn daemon(&self, name: &str) -> &Remd {
-        self.daemons.iter().find(|d| d.name == name).unwrap()
     }
 }

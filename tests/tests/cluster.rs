@@ -148,7 +148,7 @@ fn web_view_from_this_machine(cluster: &ComposeCluster) {
     let web = WebClient::new(&cluster.web_url());
     assert_eq!(web.get("/", &Auth::None).status, 200);
     assert_eq!(web.get("/api/hosts", &Auth::None).status, 401);
-    let admin = Auth::Bearer(rem::web::login::admin_token(&cluster.secret()).unwrap());
+    let admin = Auth::Bearer(rem::daemon::web::login::admin_token(&cluster.secret()).unwrap());
     let hosts = web.get("/api/hosts", &admin).json();
     let alive: Vec<&str> = hosts["hosts"]
         .as_array()

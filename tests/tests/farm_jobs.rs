@@ -499,7 +499,7 @@ fn a_job_whose_record_holders_are_all_lost_is_reported_failed() {
     wait_mid_job(&cluster, &job);
     // Every write of the record goes through daemon a (submit, controller, supervisor), so
     // it is kept on a and on the peer the job id hashes to.
-    let holder = rem::replicas::order(&job, ["b", "c"])[0];
+    let holder = rem::store::replicas::order(&job, ["b", "c"])[0];
     let other = if holder == "b" { "c" } else { "b" };
     let mut watch = SubmitRun::start({
         let mut c = cluster.sunray_via(other);

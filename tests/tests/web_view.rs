@@ -124,7 +124,7 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
     // alice's job, followed through the API to its end.
     submit(&cluster, "web1", "64x96", 20);
     let bob = Auth::Bearer(token("bob"));
-    let admin = Auth::Bearer(rem::web::login::admin_token(&secret()).unwrap());
+    let admin = Auth::Bearer(rem::daemon::web::login::admin_token(&secret()).unwrap());
     let jobs = web.wait_json(
         "/api/jobs",
         &alice,
@@ -248,7 +248,7 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
         ["hosts", "job", "jobs"]
     );
     let mut open = vec![events];
-    for _ in 1..rem::web::MAX_STREAMS {
+    for _ in 1..rem::daemon::web::MAX_STREAMS {
         let (status, s) = web.stream("", &alice);
         assert_eq!(status, 200);
         open.push(s);

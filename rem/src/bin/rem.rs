@@ -8,9 +8,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::bail;
-use clap::{Parser, Subcommand};
-use rem::client::ConnectOptions;
-use rem::transport::ClientTls;
+use clap::{Args, Parser, Subcommand};
+use rem::client::rem_client::ConnectOptions;
+use rem::wire::transport::ClientTls;
 use rem::{EventKind, Incoming, ProcId, RemClient, Secret, SpawnRequest};
 use serde_json::json;
 
@@ -18,7 +18,7 @@ use serde_json::json;
 #[command(name = "rem", version, about = "Look at and drive a REM cluster")]
 struct Cli {
     /// Address of a remd (usually the local one).
-    #[arg(long, env = "REM_ADDR", default_value = rem::config::DEFAULT_ADDR, global = true)]
+    #[arg(long, env = "REM_ADDR", default_value = rem::daemon::config::DEFAULT_ADDR, global = true)]
     remd: String,
     /// File holding the cluster secret (or set REM_SECRET).
     #[arg(long, env = "REM_SECRET_FILE", global = true)]
@@ -54,29 +54,7 @@ enum Command {
         json: bool,
     },
     /// Start processes on the least-loaded hosts.
-    Spawn {
-        #[arg(long, short = 'n', default_value_t = 1)]
-        count: u32,
-        #[arg(long)]
-        nice: Option<i32>,
-        /// Allow more than one process per host.
-        #[arg(long)]
-        allow_same_host: bool,
-        #[arg(long)]
-        job: Option<String>,
-        /// Environment variable for the processes (repeatable).
-        #[arg(long = "env", value_name = "KEY=VALUE")]
-        env: Vec<String>,
-        /// Stay attached as the job's owner, print its events, exit with the first non-zero code.
-        #[arg(long)]
-        wait: bool,
-        #[arg(long)]
-        json: bool,
-        /// Absolute path of the program (on the hosts' allow-lists).
-        program: String,
-        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
-        args: Vec<String>,
-    },
+    Spawn(SpawnArgs),
     /// End a process.
     Kill { proc_id: String },
     /// Print a process's kept stdout (to stdout) and stderr (to stderr).
@@ -105,6 +83,32 @@ enum Command {
         #[arg(long = "name")]
         names: Vec<String>,
     },
+}
+
+// `rem spawn`'s arguments (its help is the variant's).
+#[derive(Args, Debug)]
+struct SpawnArgs {
+    #[arg(long, short = 'n', default_value_t = 1)]
+    count: u32,
+    #[arg(long)]
+    nice: Option<i32>,
+    /// Allow more than one process per host.
+    #[arg(long)]
+    allow_same_host: bool,
+    #[arg(long)]
+    job: Option<String>,
+    /// Environment variable for the processes (repeatable).
+    #[arg(long = "env", value_name = "KEY=VALUE")]
+    env: Vec<String>,
+    /// Stay attached as the job's owner, print its events, exit with the first non-zero code.
+    #[arg(long)]
+    wait: bool,
+    #[arg(long)]
+    json: bool,
+    /// Absolute path of the program (on the hosts' allow-lists).
+    program: String,
+    #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+    args: Vec<String>,
 }
 
 fn main() -> ExitCode {
@@ -153,158 +157,186 @@ async fn connect(cli: &Cli) -> anyhow::Result<RemClient> {
 }
 
 async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    if let Command::ClientKey = cli.command {
-        let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
-        let user = cli.user.clone().unwrap_or_else(rem::identity::default_user);
-        println!("{}", secret.client_key_line(&user)?);
-        return Ok(ExitCode::SUCCESS);
-    }
-    if let Command::WebToken { admin } = cli.command {
-        let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
-        if admin {
-            println!("{}", rem::web::login::admin_token(&secret)?);
-        } else {
-            let (user, key) = secret.client_credential(cli.user.as_deref())?;
-            println!(
-                "{}{user}:{}",
-                rem::identity::CLIENT_KEY_PREFIX,
-                hex::encode(key)
-            );
+    // The commands that read no network.
+    match &cli.command {
+        Command::ClientKey => return client_key(&cli),
+        Command::WebToken { admin } => return web_token(&cli, *admin),
+        Command::Credentials { dir, owner, names } => {
+            return credentials(dir, owner.as_deref(), names)
         }
-        return Ok(ExitCode::SUCCESS);
-    }
-    if let Command::Credentials { dir, owner, names } = &cli.command {
-        let owner = owner
-            .as_deref()
-            .map(rem::cluster_files::parse_owner)
-            .transpose()?;
-        for w in rem::cluster_files::write(dir, owner, names)? {
-            let what = if w.created { "made" } else { "kept" };
-            println!("{what} {}", w.path.display());
-        }
-        return Ok(ExitCode::SUCCESS);
+        _ => {}
     }
     let client = connect(&cli).await?;
     let out = &mut std::io::stdout().lock();
     match cli.command {
-        Command::Hosts { json } => {
-            let hosts = client.hosts().await?;
-            if json {
-                let v: Vec<_> = hosts.iter().map(host_json).collect();
-                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
-            } else {
-                print_hosts(out, &hosts)?;
-            }
-        }
-        Command::Ps { json } => {
-            let procs = client.ps().await?;
-            if json {
-                let v: Vec<_> = procs.iter().map(proc_json).collect();
-                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
-            } else {
-                writeln!(
-                    out,
-                    "{:<24} {:<12} {:<12} {:<20} {:>8} {:>5} {:<10} program",
-                    "PROCESS", "HOST", "USER", "JOB", "PID", "NICE", "STATE"
-                )?;
-                for p in &procs {
-                    let state = match (p.state.as_str(), p.exit_code, p.signal) {
-                        ("exited", Some(c), _) => format!("exit {c}"),
-                        ("exited", None, Some(s)) => format!("signal {s}"),
-                        (s, _, _) => s.to_string(),
-                    };
-                    let nice = p.nice.map_or("-".to_string(), |n| n.to_string());
-                    writeln!(
-                        out,
-                        "{:<24} {:<12} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}",
-                        p.proc_id,
-                        p.host,
-                        p.user,
-                        p.job,
-                        p.pid,
-                        nice,
-                        state,
-                        p.program,
-                        p.args.join(" ")
-                    )?;
-                }
-            }
-        }
-        Command::Spawn {
-            count,
-            nice,
-            allow_same_host,
-            job,
-            env,
-            wait,
-            json,
-            program,
-            args,
-        } => {
-            let mut envs = BTreeMap::new();
-            for kv in env {
-                let Some((k, v)) = kv.split_once('=') else {
-                    bail!("--env {kv:?} is not KEY=VALUE")
-                };
-                envs.insert(k.to_string(), v.to_string());
-            }
-            let mut relay = if wait {
-                Some(client.attach(job.as_deref()).await?)
-            } else {
-                None
-            };
-            let req = SpawnRequest {
-                program,
-                args,
-                env: envs,
-                nice,
-                count,
-                allow_same_host,
-                job,
-                owner: relay.as_ref().map(|r| r.id().clone()),
-                host: None,
-                avoid_hosts: Vec::new(),
-            };
-            let spawned = client.spawn(req).await?;
-            if json {
-                let v: Vec<_> = spawned
-                    .processes
-                    .iter()
-                    .map(|p| json!({"job": spawned.id, "proc_id": p.proc_id.to_string(), "host": p.host, "pid": p.pid}))
-                    .collect();
-                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
-            } else {
-                for p in &spawned.processes {
-                    writeln!(out, "{} {} {} pid {}", spawned.id, p.proc_id, p.host, p.pid)?;
-                }
-            }
-            out.flush()?;
-            if let Some(relay) = relay.as_mut() {
-                // The reply is the proof of the start: a quick process's Exited (sent by the
-                // host that ran it) may overtake the Started event (sent by the placing host).
-                for p in &spawned.processes {
-                    writeln!(out, "{} started on {}", p.proc_id, p.host)?;
-                }
-                out.flush()?;
-                return wait_for_exits(out, relay, spawned.processes.len()).await;
-            }
-        }
+        Command::Hosts { json } => hosts(&client, out, json).await?,
+        Command::Ps { json } => ps(&client, out, json).await?,
+        Command::Spawn(args) => return spawn(&client, out, args).await,
         Command::Kill { proc_id } => {
             let id: ProcId = proc_id.parse()?;
             client.kill(&id).await?;
         }
-        Command::Logs { proc_id } => {
-            let id: ProcId = proc_id.parse()?;
-            let logs = client.logs(&id).await?;
-            out.write_all(&logs.stdout)?;
-            std::io::stderr().write_all(&logs.stderr)?;
-            if logs.truncated {
-                eprintln!("rem: (older output was dropped)");
-            }
-        }
+        Command::Logs { proc_id } => logs(&client, out, &proc_id).await?,
         Command::ClientKey | Command::WebToken { .. } | Command::Credentials { .. } => {}
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `rem client-key`: the user's client-key line.
+fn client_key(cli: &Cli) -> anyhow::Result<ExitCode> {
+    let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
+    let user = cli
+        .user
+        .clone()
+        .unwrap_or_else(rem::auth::identity::default_user);
+    println!("{}", secret.client_key_line(&user)?);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rem web-token`: a login token for the web view (the admin's with `admin`).
+fn web_token(cli: &Cli, admin: bool) -> anyhow::Result<ExitCode> {
+    let (secret, _) = Secret::resolve(cli.secret_file.as_deref())?;
+    if admin {
+        println!("{}", rem::daemon::web::login::admin_token(&secret)?);
+    } else {
+        let (user, key) = secret.client_credential(cli.user.as_deref())?;
+        println!(
+            "{}{user}:{}",
+            rem::auth::identity::CLIENT_KEY_PREFIX,
+            hex::encode(key)
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rem credentials`: a cluster's shared files in `dir`.
+fn credentials(
+    dir: &std::path::Path,
+    owner: Option<&str>,
+    names: &[String],
+) -> anyhow::Result<ExitCode> {
+    let owner = owner
+        .map(rem::auth::cluster_files::parse_owner)
+        .transpose()?;
+    for w in rem::auth::cluster_files::write(dir, owner, names)? {
+        let what = if w.created { "made" } else { "kept" };
+        println!("{what} {}", w.path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rem hosts`.
+async fn hosts(client: &RemClient, out: &mut impl Write, json: bool) -> anyhow::Result<()> {
+    let hosts = client.hosts().await?;
+    if json {
+        let v: Vec<_> = hosts.iter().map(host_json).collect();
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+    } else {
+        print_hosts(out, &hosts)?;
+    }
+    Ok(())
+}
+
+/// `rem ps`.
+async fn ps(client: &RemClient, out: &mut impl Write, json: bool) -> anyhow::Result<()> {
+    let procs = client.ps().await?;
+    if json {
+        let v: Vec<_> = procs.iter().map(proc_json).collect();
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "{:<24} {:<12} {:<12} {:<20} {:>8} {:>5} {:<10} program",
+        "PROCESS", "HOST", "USER", "JOB", "PID", "NICE", "STATE"
+    )?;
+    for p in &procs {
+        let state = match (p.state.as_str(), p.exit_code, p.signal) {
+            ("exited", Some(c), _) => format!("exit {c}"),
+            ("exited", None, Some(s)) => format!("signal {s}"),
+            (s, _, _) => s.to_string(),
+        };
+        let nice = p.nice.map_or("-".to_string(), |n| n.to_string());
+        writeln!(
+            out,
+            "{:<24} {:<12} {:<12} {:<20} {:>8} {:>5} {:<10} {} {}",
+            p.proc_id,
+            p.host,
+            p.user,
+            p.job,
+            p.pid,
+            nice,
+            state,
+            p.program,
+            p.args.join(" ")
+        )?;
+    }
+    Ok(())
+}
+
+/// `rem spawn`: starts the processes, prints where; with `--wait`, follows them as their
+/// owner until they exit.
+async fn spawn(client: &RemClient, out: &mut impl Write, a: SpawnArgs) -> anyhow::Result<ExitCode> {
+    let mut envs = BTreeMap::new();
+    for kv in a.env {
+        let Some((k, v)) = kv.split_once('=') else {
+            bail!("--env {kv:?} is not KEY=VALUE")
+        };
+        envs.insert(k.to_string(), v.to_string());
+    }
+    let mut relay = if a.wait {
+        Some(client.attach(a.job.as_deref()).await?)
+    } else {
+        None
+    };
+    let req = SpawnRequest {
+        program: a.program,
+        args: a.args,
+        env: envs,
+        nice: a.nice,
+        count: a.count,
+        allow_same_host: a.allow_same_host,
+        job: a.job,
+        owner: relay.as_ref().map(|r| r.id().clone()),
+        host: None,
+        avoid_hosts: Vec::new(),
+    };
+    let spawned = client.spawn(req).await?;
+    if a.json {
+        let v: Vec<_> = spawned
+            .processes
+            .iter()
+            .map(|p| json!({"job": spawned.id, "proc_id": p.proc_id.to_string(), "host": p.host, "pid": p.pid}))
+            .collect();
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+    } else {
+        for p in &spawned.processes {
+            writeln!(out, "{} {} {} pid {}", spawned.id, p.proc_id, p.host, p.pid)?;
+        }
+    }
+    out.flush()?;
+    if let Some(relay) = relay.as_mut() {
+        // The reply is the proof of the start: a quick process's Exited (sent by the
+        // host that ran it) may overtake the Started event (sent by the placing host).
+        for p in &spawned.processes {
+            writeln!(out, "{} started on {}", p.proc_id, p.host)?;
+        }
+        out.flush()?;
+        return wait_for_exits(out, relay, spawned.processes.len()).await;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `rem logs`: the process's kept stdout to stdout, its stderr to stderr.
+async fn logs(client: &RemClient, out: &mut impl Write, proc_id: &str) -> anyhow::Result<()> {
+    let id: ProcId = proc_id.parse()?;
+    let logs = client.logs(&id).await?;
+    out.write_all(&logs.stdout)?;
+    std::io::stderr().write_all(&logs.stderr)?;
+    if logs.truncated {
+        eprintln!("rem: (older output was dropped)");
+    }
+    Ok(())
 }
 
 async fn wait_for_exits(
@@ -408,7 +440,7 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
 }
 
 /// The CPUs a host offers: its cgroup's limit when it has one (e.g. "0.25"), else its cores.
-fn cpus(l: &rem::proto::Load) -> String {
+fn cpus(l: &rem::wire::proto::Load) -> String {
     if l.capacity > 0.0 && l.capacity != f64::from(l.cores) {
         format!("{:.2}", l.capacity)
     } else {

@@ -1,112 +1,28 @@
-//! The daemon's operations, in library terms (typed errors): what the gRPC services call.
+//! The daemon, remd: its settings, its state and operations, the relay, the processes it
+//! runs, and its faces (gRPC, the web view), wired together by [`server`].
 //!
 //! # Layout
-//! - this module: the daemon's shared state ([`Daemon`]) and what its operations share
-//!   (accepting calls, asking every live peer, new process ids);
-//! - [`processes`]: spawning, placing and starting processes, and killing, adopting,
-//!   listing them and reading their output, wherever they run;
-//! - [`records`]: checkpoints and job records, each kept here and on one more live host.
+//!
+//! - [`config`]: remd's settings (TOML, environment, and what the `remd` binary's flags give).
+//! - [`limits`]: the daemon's hard limits; [`policy`]: which programs (and first arguments)
+//!   and environment names may be spawned; `placement`: ranking hosts by load per core.
+//! - `ops`: the daemon's shared state and operations (processes, records, chunk sharing,
+//!   jobs the farm keeps running).
+//! - `relay`: mailboxes, daemon-to-daemon links, byte budgets, job owners and `Lost` reports.
+//! - `process`: the OS processes REM runs here (building one, its output keepers).
+//! - `listener`: the connection gate (caps, preface timeout, accept errors).
+//! - [`server`]: wiring, the gRPC services, attach streams, and shutdown.
+//! - [`web`]: the web view (`remd --web`): the page, the JSON API, logins.
+//! - [`embedded`]: a remd inside the current process (the embedded default, tests).
 
-mod processes;
-mod records;
-
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
-
-use tokio::task::JoinSet;
-use tokio_util::sync::CancellationToken;
-
-use crate::checkpoint::CheckpointStore;
-use crate::error::{Error, Result};
-use crate::ids::ProcId;
-use crate::job_store::JobStore;
-use crate::jobs::Jobs;
-use crate::limits::Limits;
-use crate::membership::Membership;
-use crate::peers::PeerPool;
-use crate::policy::SpawnPolicy;
-use crate::process::ProcessTable;
-use crate::relay::Router;
-
-/// The job epoch a checkpoint write carries (0: none), and the job record it belongs to
-/// (empty: the checkpoint's own key).
-#[derive(Clone, Debug, Default)]
-pub struct Fence {
-    pub epoch: u64,
-    pub job: String,
-}
-
-/// Which job record and epoch a spawned controller runs (empty for other processes).
-#[derive(Clone, Debug, Default)]
-pub struct JobTag {
-    pub record: String,
-    pub epoch: u64,
-}
-
-/// Shared state of one running daemon.
-pub struct Daemon {
-    pub name: String,
-    pub max_message: usize,
-    pub policy: SpawnPolicy,
-    pub limits: Limits,
-    pub membership: Membership,
-    pub router: Router,
-    pub processes: ProcessTable,
-    pub jobs: Jobs,
-    pub checkpoints: CheckpointStore,
-    pub chunks: crate::chunks::ChunkStore,
-    pub job_store: JobStore,
-    pub peers: PeerPool,
-    pub accepting: Arc<AtomicBool>,
-    /// Numbers process ids (spawned and attached-only alike).
-    pub seq: Arc<AtomicU64>,
-    /// Fires when the daemon shuts down (ends relay streams).
-    pub stop: CancellationToken,
-}
-
-impl Daemon {
-    fn check_accepting(&self) -> Result<()> {
-        if self.accepting.load(Ordering::Relaxed) {
-            Ok(())
-        } else {
-            Err(Error::ShuttingDown)
-        }
-    }
-
-    /// The other hosts alive now.
-    pub(crate) fn live_peers(&self) -> impl Iterator<Item = crate::proto::HostInfo> {
-        self.membership
-            .hosts()
-            .into_iter()
-            .skip(1)
-            .filter(|h| h.alive)
-    }
-
-    /// Asks every live peer the same thing at once; the replies of those that answered.
-    async fn ask_live_peers<T, R, F, Fut>(&self, method: &'static str, msg: T, call: F) -> Vec<R>
-    where
-        T: prost::Message + Clone + 'static,
-        R: prost::Message + 'static,
-        F: FnOnce(crate::peers::PeerRpc, tonic::Request<T>) -> Fut + Clone + Send + 'static,
-        Fut: std::future::Future<Output = std::result::Result<tonic::Response<R>, tonic::Status>>
-            + Send,
-    {
-        let mut tasks = JoinSet::new();
-        for h in self.live_peers() {
-            let (peers, msg, call) = (self.peers.clone(), msg.clone(), call.clone());
-            tasks.spawn(async move { peers.call(&h.name, &h.addr, method, msg, call).await });
-        }
-        let mut replies = Vec::new();
-        while let Some(r) = tasks.join_next().await {
-            if let Ok(Ok(reply)) = r {
-                replies.push(reply);
-            }
-        }
-        replies
-    }
-
-    /// A fresh process id on this host.
-    pub fn new_proc_id(&self) -> ProcId {
-        ProcId::new(&self.name, self.seq.fetch_add(1, Ordering::Relaxed))
-    }
-}
+pub mod config;
+pub mod embedded;
+pub mod limits;
+pub(crate) mod listener;
+pub(crate) mod ops;
+pub(crate) mod placement;
+pub mod policy;
+pub(crate) mod process;
+pub(crate) mod relay;
+pub mod server;
+pub mod web;

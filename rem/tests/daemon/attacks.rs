@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use crate::common::*;
-use rem::proto::{self, peer_client::PeerClient, peer_item, PeerBatch, PeerItem};
+use rem::wire::proto::{self, peer_client::PeerClient, peer_item, PeerBatch, PeerItem};
 use rem::{ConnectOptions, Error, RemClient, Secret, SpawnRequest};
 use tonic::Code;
 
@@ -34,7 +34,7 @@ async fn running(c: &RemClient, id: &rem::ProcId) -> bool {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_spawn_of_u32_max_processes_is_refused_and_harms_nobody() {
-    let cluster = RemdProcesses::start(1, &[]);
+    let cluster = remds(1, &[]);
     let c = cluster.client(0).await;
     let victim = c.spawn(spin(30)).await.unwrap().processes[0]
         .proc_id
@@ -47,7 +47,7 @@ async fn a_spawn_of_u32_max_processes_is_refused_and_harms_nobody() {
     assert_eq!(code(c.spawn(huge).await), Code::InvalidArgument);
     // Just over the per-request limit is refused too, and so is passing the host's limit.
     let over = SpawnRequest {
-        count: rem::limits::Limits::default().spawn_count + 1,
+        count: rem::daemon::limits::Limits::default().spawn_count + 1,
         allow_same_host: true,
         ..spin(1)
     };
@@ -58,7 +58,7 @@ async fn a_spawn_of_u32_max_processes_is_refused_and_harms_nobody() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_host_process_limit_is_a_status() {
-    let cluster = InProcessRemds::start(1, |s| s.limits.host_processes = 2).await;
+    let cluster = in_process(1, |s| s.limits.host_processes = 2).await;
     let c = cluster.client(0).await;
     let two = SpawnRequest {
         count: 2,
@@ -71,7 +71,7 @@ async fn the_host_process_limit_is_a_status() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn clients_cannot_choose_a_childs_environment_and_children_never_see_the_secret() {
-    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let cluster = in_process(1, |_| {}).await;
     let c = cluster.client(0).await;
     for name in [
         "LD_PRELOAD",
@@ -124,7 +124,7 @@ async fn children_of_a_root_remd_run_as_the_configured_user() {
     std::fs::set_permissions(&echo, std::fs::Permissions::from_mode(0o755)).unwrap();
     let program = echo.to_str().unwrap().to_string();
     let allowed = program.clone();
-    let cluster = InProcessRemds::start(1, move |s| {
+    let cluster = in_process(1, move |s| {
         s.allow_program(&allowed);
         s.run_as = Some(rem::RunAs {
             uid: 65534,
@@ -142,7 +142,7 @@ async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
     // As `sunray:worker|controller` keeps `sunray spd -o ANYPATH` out, this rule lets
     // rem-echo run only as `echo`, `env` or `spin`.
     let rule = format!("{ECHO}:echo|env|spin");
-    let cluster = RemdProcesses::start_allowing(1, &[&rule], &[]);
+    let cluster = remds_allowing(1, &[&rule], &[]);
     let c = cluster.client(0).await;
     let exit = SpawnRequest {
         program: ECHO.into(),
@@ -160,9 +160,9 @@ async fn an_argument_rule_keeps_a_multi_tool_to_its_allowed_subcommands() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_fake_member_on_a_dead_members_port_learns_nothing_and_is_not_believed() {
-    use rem::swim::{MemberId, SwimConfig, SwimNode};
+    use rem::membership::swim::{MemberId, SwimConfig, SwimNode};
     // Three: a and c keep asking the lost b to rejoin (a member alone has nobody to ask).
-    let mut cluster = InProcessRemds::start(3, |_| {}).await;
+    let mut cluster = in_process(3, |_| {}).await;
     cluster.converge(T).await;
     let a_addr: std::net::SocketAddr = cluster.addrs()[0].parse().unwrap();
     let b = cluster.daemons.remove(1);
@@ -234,7 +234,7 @@ async fn a_fake_member_on_a_dead_members_port_learns_nothing_and_is_not_believed
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn identities_cannot_be_forged() {
-    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let cluster = in_process(1, |_| {}).await;
     let admin = cluster.client(0).await;
     let addr = cluster.addrs()[0].clone();
     // A user holding only the client key (`rem client-key`).
@@ -251,7 +251,7 @@ async fn identities_cannot_be_forged() {
         .unwrap();
     let mut peer = PeerClient::with_interceptor(
         channel,
-        rem::auth::SendSecret::new(&user_key, None, false).unwrap(),
+        rem::auth::secret::SendSecret::new(&user_key, None, false).unwrap(),
     );
     let forged = PeerBatch {
         from_host: "a".into(),
@@ -286,7 +286,7 @@ async fn identities_cannot_be_forged() {
             version: u64::MAX,
             written_by: "a".into(),
             mac: vec![0; 32],
-            user: rem::identity::default_user(),
+            user: rem::auth::identity::default_user(),
             epoch: u64::MAX,
         })
         .await
@@ -339,7 +339,7 @@ async fn identities_cannot_be_forged() {
 /// Resident set size of a process, in bytes.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_second_user_cannot_kill_read_or_overwrite_the_first_users_job() {
-    let cluster = InProcessRemds::start(2, |_| {}).await;
+    let cluster = in_process(2, |_| {}).await;
     cluster.converge(T).await;
     let addrs = cluster.addrs();
     let secret = cluster.secret();
@@ -439,7 +439,7 @@ fn rss(pid: i32) -> u64 {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_flood_into_an_unattached_mailbox_is_bounded_in_bytes() {
-    let cluster = RemdProcesses::start(1, &[]);
+    let cluster = remds(1, &[]);
     let c = cluster.client(0).await;
     // A process that never attaches: its mailbox only fills.
     let target = c.spawn(spin(60)).await.unwrap().processes[0]

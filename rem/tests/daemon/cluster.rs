@@ -10,7 +10,7 @@ const T: Duration = Duration::from_secs(10);
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn membership_converges_and_load_figures_appear() {
-    let cluster = InProcessRemds::start(3, |_| {}).await;
+    let cluster = in_process(3, |_| {}).await;
     cluster.converge(T).await;
     // b and c joined through a only; they still learned each other.
     let c = cluster.client(2).await;
@@ -41,7 +41,7 @@ async fn membership_converges_and_load_figures_appear() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn placement_avoids_the_host_running_rem_work() {
-    let cluster = InProcessRemds::start(3, |_| {}).await;
+    let cluster = in_process(3, |_| {}).await;
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let spin = |count| SpawnRequest {
@@ -106,7 +106,7 @@ async fn placement_avoids_the_host_running_rem_work() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn spawned_process_is_niced_and_its_output_and_exit_arrive() {
-    let cluster = RemdProcesses::start(2, &[]);
+    let cluster = remds(2, &[]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(Some("job-nice")).await.unwrap();
@@ -175,7 +175,7 @@ async fn spawned_process_is_niced_and_its_output_and_exit_arrive() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn rem_command_lists_hosts_as_json_and_table() {
-    let cluster = RemdProcesses::start(2, &[]);
+    let cluster = remds(2, &[]);
     cluster.converge(T).await;
     let rem = env!("CARGO_BIN_EXE_rem");
     let out = std::process::Command::new(rem)
@@ -277,7 +277,7 @@ async fn remd_takes_settings_from_environment_and_config_file() {
     use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let secret = dir.path().join("secret");
-    rem::auth::write_private(&secret, "env-secret\n").unwrap();
+    rem::auth::secret::write_private(&secret, "env-secret\n").unwrap();
     // Environment only (no flags at all).
     let mut env_child = std::process::Command::new(REMD)
         .env("REMD_NAME", "envhost")

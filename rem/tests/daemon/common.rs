@@ -1,212 +1,58 @@
-//! Test harness: daemons on loopback, in this process ([`InProcessRemds`], through
-//! `rem::embedded`) or as real `remd` processes ([`RemdProcesses`], for what is about the
-//! process itself: signals, kill -9, its nice value, its command line and environment).
+//! rem's test clusters, on the shared harness (`rem::testing`): daemons allowed to run
+//! `rem-echo`, sharing [`SECRET`], in this process ([`in_process`]) or as real `remd`
+//! processes ([`remds`]); and what only these tests need (rem-echo's environment, /proc).
 #![allow(dead_code)]
 
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use rem::config::DaemonSettings;
-use rem::embedded::EmbeddedRemd;
-use rem::{HostInfo, Incoming, Relay, RemClient, Secret};
+use rem::daemon::config::DaemonSettings;
+pub use rem::testing::{
+    next_event, process_client, wait_hosts, InProcessRemds, LocalRemds, Remd, RemdProcesses,
+};
+use rem::RemClient;
 
 pub const REMD: &str = env!("CARGO_BIN_EXE_remd");
 pub const ECHO: &str = env!("CARGO_BIN_EXE_rem-echo");
 pub const SECRET: &str = "test-cluster-secret";
 
-/// One remd process; killed (SIGCONT + SIGKILL) when dropped.
-pub struct Remd {
-    pub name: String,
-    pub addr: String,
-    pub child: Child,
+/// `n` daemons in this process, allowed to run `rem-echo`; `configure` adjusts each one's
+/// settings.
+pub async fn in_process(n: usize, configure: impl Fn(&mut DaemonSettings)) -> InProcessRemds {
+    InProcessRemds::start(n, SECRET, &[ECHO], configure).await
 }
 
-impl Remd {
-    pub fn pid(&self) -> i32 {
-        self.child.id() as i32
-    }
-
-    pub fn signal(&self, sig: i32) {
-        unsafe {
-            libc::kill(self.pid(), sig);
-        }
-    }
-
-    /// Waits for the process to exit (bounded).
-    pub fn wait_exit(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
-        let end = Instant::now() + timeout;
-        while Instant::now() < end {
-            if let Ok(Some(st)) = self.child.try_wait() {
-                return Some(st);
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        None
-    }
+/// `n` remd processes named a, b, c ..., allowed to run `rem-echo`, with `extra` flags; each
+/// after the first joins through the first.
+pub fn remds(n: usize, extra: &[&str]) -> RemdProcesses {
+    remds_allowing(n, &[ECHO], extra)
 }
 
-impl Drop for Remd {
-    fn drop(&mut self) {
-        self.signal(libc::SIGCONT);
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// Like [`remds`], with these `--allow` rules instead of rem-echo alone.
+pub fn remds_allowing(n: usize, allow: &[&str], extra: &[&str]) -> RemdProcesses {
+    let mut c = RemdProcesses::new(REMD, SECRET);
+    let flags: Vec<String> = allow
+        .iter()
+        .flat_map(|r| ["--allow", r])
+        .chain(extra.iter().copied())
+        .map(String::from)
+        .collect();
+    c.start_all(n, |_| flags.clone());
+    c
 }
 
-/// What both harnesses offer: daemon addresses, the shared secret, clients, convergence.
-pub trait LocalRemds {
-    /// The daemons' addresses, in order (a, b, c ...).
-    fn addrs(&self) -> Vec<String>;
-
-    /// The cluster secret.
-    fn secret(&self) -> Secret {
-        Secret::new(SECRET).unwrap()
-    }
-
-    /// A client of daemon `i`.
-    async fn client(&self, i: usize) -> RemClient {
-        RemClient::connect(&self.addrs()[i], self.secret())
-            .await
-            .unwrap()
-    }
-
-    /// Waits until every daemon sees every other alive.
-    async fn converge(&self, timeout: Duration) {
-        let n = self.addrs().len();
-        for i in 0..n {
-            let c = self.client(i).await;
-            wait_hosts(&c, timeout, |hosts| {
-                hosts.len() == n && hosts.iter().all(|h| h.alive)
-            })
-            .await;
-        }
-    }
-}
-
-/// `n` daemons in this process, named a, b, c ...; each after the first joins through the
-/// first; allowed to run `rem-echo`; `configure` adjusts each one's settings.
-pub struct InProcessRemds {
-    pub dir: tempfile::TempDir,
-    pub daemons: Vec<EmbeddedRemd>,
-}
-
-impl InProcessRemds {
-    pub async fn start(n: usize, configure: impl Fn(&mut DaemonSettings)) -> InProcessRemds {
-        let dir = tempfile::tempdir().unwrap();
-        let mut daemons: Vec<EmbeddedRemd> = Vec::new();
-        for i in 0..n {
-            let name = ((b'a' + i as u8) as char).to_string();
-            let mut s = DaemonSettings::new(&name, Secret::new(SECRET).unwrap());
-            s.allow_program(ECHO);
-            s.state_dir = Some(dir.path().join(format!("state-{name}")));
-            s.join = daemons
-                .first()
-                .map(|d| d.addr().to_string())
-                .into_iter()
-                .collect();
-            configure(&mut s);
-            daemons.push(EmbeddedRemd::start(s).await.unwrap());
-        }
-        InProcessRemds { dir, daemons }
-    }
-}
-
-impl LocalRemds for InProcessRemds {
-    fn addrs(&self) -> Vec<String> {
-        self.daemons.iter().map(|d| d.addr().to_string()).collect()
-    }
-}
-
-/// A cluster of remd processes sharing a secret file and a temp dir.
-pub struct RemdProcesses {
-    pub dir: tempfile::TempDir,
-    pub secret_file: PathBuf,
-    pub daemons: Vec<Remd>,
-}
-
-impl LocalRemds for RemdProcesses {
-    fn addrs(&self) -> Vec<String> {
-        self.daemons.iter().map(|d| d.addr.clone()).collect()
-    }
-}
-
-impl RemdProcesses {
-    /// `n` daemons named a, b, c ...; each after the first joins through the first.
-    pub fn start(n: usize, extra: &[&str]) -> RemdProcesses {
-        RemdProcesses::start_allowing(n, &[ECHO], extra)
-    }
-
-    /// Like [`RemdProcesses::start`], with these `--allow` rules instead of rem-echo alone.
-    pub fn start_allowing(n: usize, allow: &[&str], extra: &[&str]) -> RemdProcesses {
-        let allow: Vec<String> = allow
-            .iter()
-            .flat_map(|r| ["--allow".to_string(), r.to_string()])
-            .collect();
-        let extra: Vec<&str> = allow
-            .iter()
-            .map(String::as_str)
-            .chain(extra.iter().copied())
-            .collect();
-        let dir = tempfile::tempdir().unwrap();
-        let secret_file = dir.path().join("secret");
-        rem::auth::write_private(&secret_file, format!("{SECRET}\n")).unwrap();
-        let mut c = RemdProcesses {
-            dir,
-            secret_file,
-            daemons: Vec::new(),
-        };
-        for i in 0..n {
-            let name = ((b'a' + i as u8) as char).to_string();
-            let join = c.daemons.first().map(|d| d.addr.clone());
-            let d = c.start_daemon_with(&name, join.as_deref(), &extra);
-            c.daemons.push(d);
-        }
-        c
-    }
-
-    /// Starts one more remd (not added to `daemons`), allowed to run rem-echo.
-    pub fn start_daemon(&self, name: &str, join: Option<&str>, extra: &[&str]) -> Remd {
-        let mut args = vec!["--allow", ECHO];
-        args.extend_from_slice(extra);
-        self.start_daemon_with(name, join, &args)
-    }
-
-    fn start_daemon_with(&self, name: &str, join: Option<&str>, extra: &[&str]) -> Remd {
-        let state = self.dir.path().join(format!("state-{name}"));
-        let mut cmd = Command::new(REMD);
-        cmd.args(["--name", name, "--listen", "127.0.0.1:0"])
-            .arg("--secret-file")
-            .arg(&self.secret_file)
-            .arg("--state-dir")
-            .arg(&state)
-            .args(extra)
-            .env_remove("REM_SECRET")
-            .env_remove("REM_SECRET_FILE")
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit());
-        if let Some(j) = join {
-            cmd.args(["--join", j]);
-        }
-        let mut child = cmd.spawn().expect("start remd");
-        let addr = read_addr(&mut child);
-        Remd {
-            name: name.to_string(),
-            addr,
-            child,
-        }
-    }
-}
-
-fn read_addr(child: &mut Child) -> String {
-    let out = child.stdout.take().unwrap();
-    let mut line = String::new();
-    BufReader::new(out).read_line(&mut line).unwrap();
-    rem::wire::listening_addr(&line)
-        .unwrap_or_else(|| panic!("bad first line {line:?}"))
-        .to_string()
+/// Starts one more remd in `cluster` (not added to its daemons), allowed to run rem-echo.
+pub fn start_daemon(
+    cluster: &RemdProcesses,
+    name: &str,
+    join: Option<&str>,
+    extra: &[&str],
+) -> Remd {
+    let flags: Vec<String> = ["--allow", ECHO]
+        .iter()
+        .chain(extra)
+        .map(|s| s.to_string())
+        .collect();
+    cluster.launch(name, join, &flags, std::process::Stdio::inherit())
 }
 
 /// Spawns `rem-echo env SECONDS` on daemon `c`'s host (job `job`) and returns its id and the
@@ -253,59 +99,10 @@ pub async fn spawn_env_printer_of(
     }
 }
 
-/// A client of `addr` that proves itself with a spawned process's token.
-pub async fn process_client(addr: &str, token: &str) -> RemClient {
-    let mut opts = rem::ConnectOptions::new(addr, Secret::new("unused").unwrap());
-    opts.credential = rem::Credential::ProcessToken(token.to_string());
-    RemClient::connect_with(opts).await.unwrap()
-}
-
-/// Polls `rem hosts` until `pred` holds; panics after `timeout`. Returns the hosts.
-pub async fn wait_hosts(
-    c: &RemClient,
-    timeout: Duration,
-    pred: impl Fn(&[HostInfo]) -> bool,
-) -> Vec<HostInfo> {
-    let end = Instant::now() + timeout;
-    loop {
-        let hosts = c.hosts().await.unwrap();
-        if pred(&hosts) {
-            return hosts;
-        }
-        assert!(
-            Instant::now() < end,
-            "condition not reached in {timeout:?}: {hosts:#?}"
-        );
-        tokio::time::sleep(Duration::from_millis(25)).await;
-    }
-}
-
-/// The next job event on `relay` matching `pred` (bounded).
-pub async fn next_event(
-    relay: &mut Relay,
-    timeout: Duration,
-    pred: impl Fn(&rem::JobEvent) -> bool,
-) -> rem::JobEvent {
-    tokio::time::timeout(timeout, async {
-        loop {
-            match relay.recv().await.unwrap() {
-                Incoming::Event(e) if pred(&e) => return e,
-                _ => {}
-            }
-        }
-    })
-    .await
-    .expect("event did not arrive in time")
-}
-
 /// The `/proc/PID/stat` fields (1-based numbering as in proc(5)).
 pub fn proc_stat_field(pid: u32, field: usize) -> String {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
     // Field 2 (comm) may hold spaces; it ends at the last ')'.
     let rest = &stat[stat.rfind(')').unwrap() + 2..];
     rest.split_whitespace().nth(field - 3).unwrap().to_string()
-}
-
-pub fn exists(p: &Path) -> bool {
-    p.exists()
 }

@@ -75,7 +75,7 @@ async fn ten_thousand_idle_connections_leave_rem_hosts_answering() {
         );
         return;
     }
-    let mut cluster = RemdProcesses::start(1, &[]);
+    let mut cluster = remds(1, &[]);
     let addr: SocketAddr = cluster.addrs()[0].parse().unwrap();
     // remd runs with the default limits.
     let limits = rem::ConnectionLimits::default();

@@ -24,7 +24,7 @@ fn spin(owner: &rem::Relay, count: u32) -> SpawnRequest {
 /// Kills or stops daemon c, checks a and b mark it lost within 2 s and the owner (on a)
 /// gets LOST for c's process; returns the time to the LOST event.
 async fn host_failure_is_detected(sig: i32) -> (RemdProcesses, Duration) {
-    let mut cluster = RemdProcesses::start(3, &[]);
+    let mut cluster = remds(3, &[]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(None).await.unwrap();
@@ -78,7 +78,7 @@ async fn killed_daemon_is_lost_within_2s_and_rejoins_after_restart() {
     let old = cluster.daemons.pop().unwrap();
     drop(old);
     let join = cluster.daemons[1].addr.clone();
-    let c = cluster.start_daemon("c", Some(&join), &[]);
+    let c = start_daemon(&cluster, "c", Some(&join), &[]);
     cluster.daemons.push(c);
     cluster.converge(T).await;
 }
@@ -93,7 +93,7 @@ async fn stopped_daemon_is_lost_within_2s_and_comes_back_on_sigcont() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
-    let mut cluster = RemdProcesses::start(2, &["--kill-grace-ms", "500"]);
+    let mut cluster = remds(2, &["--kill-grace-ms", "500"]);
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(None).await.unwrap();
@@ -127,7 +127,7 @@ async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
     })
     .await;
     let join = cluster.daemons[0].addr.clone();
-    let b = cluster.start_daemon("b", Some(&join), &[]);
+    let b = start_daemon(&cluster, "b", Some(&join), &[]);
     cluster.daemons[1] = b;
     cluster.converge(T).await;
 }
@@ -136,7 +136,7 @@ async fn sigterm_ends_children_reports_them_and_exits_cleanly() {
 /// their host's loss are reported to it, and the exit no longer to the predecessor.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_adopted_process_reports_its_exit_and_its_hosts_loss_to_its_new_owner() {
-    let cluster = RemdProcesses::start(3, &[]);
+    let cluster = remds(3, &[]);
     cluster.converge(T).await;
     let on_a = cluster.client(0).await;
     let mut first = on_a.attach(None).await.unwrap();

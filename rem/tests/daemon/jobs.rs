@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use crate::common::*;
-use rem::embedded::EmbeddedRemd;
+use rem::daemon::embedded::EmbeddedRemd;
 use rem::{ConnectOptions, JobRecord, RemClient, Secret};
 use tonic::Code;
 
@@ -25,7 +25,7 @@ fn record(id: &str, state: &str, epoch: u64, done: u64) -> JobRecord {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_record_outlives_its_writers_host_and_an_old_epoch_cannot_overwrite_it() {
-    let mut cluster = InProcessRemds::start(3, |_| {}).await;
+    let mut cluster = in_process(3, |_| {}).await;
     cluster.converge(T).await;
     let a = cluster.client(0).await;
     let stored = a.put_job(record("render", "running", 1, 10)).await.unwrap();
@@ -65,13 +65,17 @@ async fn a_record_outlives_its_writers_host_and_an_old_epoch_cannot_overwrite_it
         (r.epoch, r.progress_done, r.state.as_str()),
         (2, 20, "running")
     );
-    assert_eq!(r.user, rem::identity::default_user(), "REM sets the user");
+    assert_eq!(
+        r.user,
+        rem::auth::identity::default_user(),
+        "REM sets the user"
+    );
     assert!(r.updated_unix_ms > 0, "REM sets the time");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn users_see_only_their_own_jobs_and_bad_records_are_refused() {
-    let cluster = InProcessRemds::start(2, |_| {}).await;
+    let cluster = in_process(2, |_| {}).await;
     cluster.converge(T).await;
     let as_user = |user: &str| {
         let key = Secret::new(cluster.secret().client_key_line(user).unwrap()).unwrap();
@@ -112,7 +116,7 @@ async fn users_see_only_their_own_jobs_and_bad_records_are_refused() {
 async fn ended_jobs_beyond_the_retention_go_with_their_checkpoints() {
     let dir = tempfile::tempdir().unwrap();
     let settings = || {
-        let mut s = rem::config::DaemonSettings::new("a", Secret::new(SECRET).unwrap());
+        let mut s = rem::daemon::config::DaemonSettings::new("a", Secret::new(SECRET).unwrap());
         s.state_dir = Some(dir.path().to_path_buf());
         s.limits.kept_jobs = 1;
         s

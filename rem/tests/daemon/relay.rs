@@ -12,7 +12,7 @@ const T: Duration = Duration::from_secs(10);
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn hundred_thousand_messages_between_two_daemons_in_order() {
     const N: u64 = 100_000;
-    let cluster = InProcessRemds::start(2, |_| {}).await;
+    let cluster = in_process(2, |_| {}).await;
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(Some("relay-test")).await.unwrap();
@@ -123,7 +123,7 @@ async fn hundred_thousand_messages_between_two_daemons_in_order() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn checkpoint_is_kept_on_two_hosts_and_survives_the_writer() {
-    let mut cluster = RemdProcesses::start(3, &[]);
+    let mut cluster = remds(3, &[]);
     cluster.converge(T).await;
     let writer = cluster.client(0).await;
     assert_eq!(writer.get_checkpoint("job-ck").await.unwrap(), None);
@@ -156,7 +156,7 @@ async fn checkpoint_is_kept_on_two_hosts_and_survives_the_writer() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_process_can_attach_again_and_gets_what_was_sent_meanwhile() {
-    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let cluster = in_process(1, |_| {}).await;
     let admin = cluster.client(0).await;
     // A process that never attaches by itself; the test attaches in its name, with its token.
     let (id, env) = spawn_env_printer(&admin, "re", 30).await;

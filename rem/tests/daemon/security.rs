@@ -4,12 +4,12 @@
 use std::time::Duration;
 
 use crate::common::*;
-use rem::client::ConnectOptions;
-use rem::proto::{
+use rem::client::rem_client::ConnectOptions;
+use rem::wire::proto::{
     self, client_frame, rem_client::RemClient as RawClient, ClientFrame, Envelope, EnvelopeBatch,
     Hello,
 };
-use rem::transport::ClientTls;
+use rem::wire::transport::ClientTls;
 use rem::{Error, RemClient, Secret, SpawnRequest};
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::Code;
@@ -22,7 +22,7 @@ fn code<T: std::fmt::Debug>(r: Result<T, Error>) -> Code {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn wrong_or_missing_secret_is_unauthenticated_and_health_is_open() {
-    let cluster = InProcessRemds::start(1, |_| {}).await;
+    let cluster = in_process(1, |_| {}).await;
     let addr = &cluster.addrs()[0];
     let wrong = RemClient::connect(addr, Secret::new("not-the-secret").unwrap())
         .await
@@ -80,7 +80,7 @@ async fn wrong_or_missing_secret_is_unauthenticated_and_health_is_open() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn only_allow_listed_absolute_programs_are_spawned() {
-    let cluster = InProcessRemds::start(2, |_| {}).await;
+    let cluster = in_process(2, |_| {}).await;
     cluster.converge(T).await;
     let c = cluster.client(0).await;
     let req = |program: &str| SpawnRequest {
@@ -154,7 +154,7 @@ async fn only_allow_listed_absolute_programs_are_spawned() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn oversized_messages_are_refused() {
-    let cluster = InProcessRemds::start(1, |s| s.max_message = 1024).await;
+    let cluster = in_process(1, |s| s.max_message = 1024).await;
     let c = cluster.client(0).await;
     let relay = c.attach(None).await.unwrap();
     // The library refuses before sending (the daemon told it the limit).
@@ -228,8 +228,8 @@ async fn tls_cluster_works_and_plain_clients_are_refused() {
     let key_path = dir.path().join("key.pem");
     std::fs::write(&cert_path, cert.cert.pem()).unwrap();
     std::fs::write(&key_path, cert.signing_key.serialize_pem()).unwrap();
-    let cluster = InProcessRemds::start(2, |s| {
-        s.tls = Some(rem::transport::ServerTlsFiles {
+    let cluster = in_process(2, |s| {
+        s.tls = Some(rem::wire::transport::ServerTlsFiles {
             cert: cert_path.clone(),
             key: key_path.clone(),
             ca: None,

@@ -1,5 +1,5 @@
-//! A deterministic simulation of the membership protocol (`rem::swim`): N
-//! [`rem::swim::SwimNode`]s, each with the default [`rem::swim::SwimConfig`], on a simulated
+//! A deterministic simulation of the membership protocol (`rem::membership::swim`): N
+//! [`rem::membership::swim::SwimNode`]s, each with the default [`rem::membership::swim::SwimConfig`], on a simulated
 //! network and a simulated clock. This file is the scenario and its tests; `sim` is the
 //! simulator (clock, network, slow CPUs, who saw whom), `figures` what a run measured.
 //!
@@ -17,7 +17,7 @@
 //!   lost with probability `loss` (1% by default), else delivered after its link's latency
 //!   (0.2-2 ms, fixed per pair of nodes) plus a jitter of 0-0.5 ms. Nothing is delivered to
 //!   or from a killed or partitioned node (checked when sent and when it arrives).
-//! - **Timers**: every timer in a node's [`rem::swim::Outbox`] is given back to it after its
+//! - **Timers**: every timer in a node's [`rem::membership::swim::Outbox`] is given back to it after its
 //!   delay, with `late` = the time it ran minus the time it was due. A killed node's timers
 //!   are dropped.
 //! - **Joining**: node i announces itself to node 0 at about i ms, and again every second

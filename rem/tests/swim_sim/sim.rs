@@ -6,8 +6,8 @@ use std::collections::BinaryHeap;
 use std::net::{Ipv4Addr, SocketAddr};
 use std::time::Duration;
 
-use rem::proto::Load;
-use rem::swim::{Change, MemberId, SwimConfig, SwimNode, SwimTimer};
+use rem::membership::swim::{Change, MemberId, SwimConfig, SwimNode, SwimTimer};
+use rem::wire::proto::Load;
 
 use super::Params;
 

@@ -4,7 +4,7 @@
 //! Every way this can fail gets its own clear error.
 
 use super::embedded;
-use rem::embedded::EmbeddedRemd;
+use rem::daemon::embedded::EmbeddedRemd;
 use rem::{RemClient, Secret};
 use std::path::Path;
 
@@ -81,7 +81,7 @@ impl RemConnection {
                     },
                 };
                 let mut opts = rem::ConnectOptions::new(addr, secret);
-                opts.tls = rem::transport::ClientTls::from_env().map_err(|e| {
+                opts.tls = rem::wire::transport::ClientTls::from_env().map_err(|e| {
                     ConnectionError::Unreachable {
                         addr: addr.to_string(),
                         reason: e.to_string(),

@@ -6,9 +6,9 @@
 //! `sunray jobs` work here too): `$SUNRAY_STATE_DIR`, else `$XDG_STATE_HOME/sunray`, else
 //! `~/.local/state/sunray`.
 
-use rem::config::DaemonSettings;
-use rem::embedded::{fresh_secret, kept_secret, EmbeddedRemd};
-use rem::policy::ProgramRule;
+use rem::daemon::config::DaemonSettings;
+use rem::daemon::embedded::{fresh_secret, kept_secret, EmbeddedRemd};
+use rem::daemon::policy::ProgramRule;
 use std::path::PathBuf;
 
 /// The host name the private daemon goes by.

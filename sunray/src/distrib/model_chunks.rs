@@ -1,5 +1,5 @@
 //! The scene's model on its way to the workers: cut into REM chunks named by their hash
-//! (`rem::blob`), put once through the submitting host's remd (which keeps a second copy on
+//! (`rem::client::blob`), put once through the submitting host's remd (which keeps a second copy on
 //! a peer), and fetched by each worker through its own host's remd, which caches them. No
 //! message carries the whole model, so its size is bounded by memory and disk only, and a
 //! host that has the scene (a second worker, a second job of the same scene) fetches
@@ -42,7 +42,7 @@ impl ShippedModel {
 
 /// Puts `model` into REM through `client`'s daemon.
 pub async fn ship(client: &RemClient, model: &[u8]) -> rem::Result<ShippedModel> {
-    let put = rem::blob::put(client, model, rem::blob::CHUNK_BYTES).await?;
+    let put = rem::client::blob::put(client, model, rem::client::blob::CHUNK_BYTES).await?;
     Ok(ShippedModel {
         chunks: put.chunks,
         size: model.len() as u64,
@@ -77,7 +77,7 @@ pub async fn fetch_scene(
             None => stream.finish().map(|scene| (scene, hash)),
         }
     });
-    let got = rem::blob::get_each(client, &scene.model_chunks, scene.model_size, tx).await;
+    let got = rem::client::blob::get_each(client, &scene.model_chunks, scene.model_size, tx).await;
     let decoded = decode
         .await
         .map_err(|e| rem::Error::Invalid(format!("decoding the model failed: {e}")))?;

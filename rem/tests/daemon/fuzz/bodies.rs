@@ -5,7 +5,7 @@ use super::credentials::checkpoint_seal;
 use super::inputs::Rpc;
 use super::values::Gen;
 use prost::Message;
-use rem::proto::{self, client_frame, peer_item};
+use rem::wire::proto::{self, client_frame, peer_item};
 
 impl Gen<'_> {
     /// A valid message of `rpc`'s request type (`from`: the daemon a peer call is signed as),
@@ -136,7 +136,7 @@ impl Gen<'_> {
             Rpc::PutChunk | Rpc::StoreChunk => {
                 let data = self.string().into_bytes();
                 let hash = if self.rng.one_in(2) {
-                    rem::chunks::name_of(&data)
+                    rem::store::chunks::name_of(&data)
                 } else {
                     self.string()
                 };

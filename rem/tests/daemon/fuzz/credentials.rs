@@ -7,7 +7,7 @@ use super::inputs::{Credential, Input};
 use super::values::World;
 use crate::common::SECRET;
 use hmac::{Mac, SimpleHmac};
-use rem::proto;
+use rem::wire::proto;
 use sha2::{Digest, Sha256};
 use tonic::metadata::{AsciiMetadataValue, BinaryMetadataValue};
 use tonic::Request;
@@ -19,7 +19,7 @@ fn secret() -> rem::Secret {
 /// The user the fuzzer's valid client credential proves (the harness's clients act as the
 /// same, the default user).
 pub(super) fn fuzz_user() -> String {
-    rem::identity::default_user()
+    rem::auth::identity::default_user()
 }
 
 pub(super) fn client_key() -> [u8; 32] {
@@ -83,9 +83,12 @@ pub(super) fn authorize<T>(req: &mut Request<T>, input: &Input, world: &World) {
     };
     let peer_line_value = match &input.credential {
         Credential::Valid(_) if !input.rpc.is_peer() => {
-            md.insert(rem::auth::USER_METADATA, fuzz_user().parse().unwrap());
+            md.insert(
+                rem::auth::secret::USER_METADATA,
+                fuzz_user().parse().unwrap(),
+            );
             md.insert_bin(
-                rem::auth::CLIENT_KEY_METADATA,
+                rem::auth::secret::CLIENT_KEY_METADATA,
                 BinaryMetadataValue::from_bytes(&client_key()),
             );
             None
@@ -93,16 +96,19 @@ pub(super) fn authorize<T>(req: &mut Request<T>, input: &Input, world: &World) {
         Credential::Valid(from) => Some(peer_line(input.rpc.name(), from, me, unix_ms(), &body())),
         Credential::None => None,
         Credential::ClientKey(k) => {
-            md.insert(rem::auth::USER_METADATA, fuzz_user().parse().unwrap());
+            md.insert(
+                rem::auth::secret::USER_METADATA,
+                fuzz_user().parse().unwrap(),
+            );
             md.insert_bin(
-                rem::auth::CLIENT_KEY_METADATA,
+                rem::auth::secret::CLIENT_KEY_METADATA,
                 BinaryMetadataValue::from_bytes(k),
             );
             None
         }
         Credential::ProcessToken(t) => {
             if let Ok(v) = AsciiMetadataValue::try_from(t.as_str()) {
-                md.insert(rem::auth::PROC_TOKEN_METADATA, v);
+                md.insert(rem::auth::secret::PROC_TOKEN_METADATA, v);
             }
             None
         }

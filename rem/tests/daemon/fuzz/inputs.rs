@@ -6,7 +6,7 @@ use super::rng::Rng;
 use super::values::{Gen, World};
 use super::FAKE_DAEMONS;
 use prost::Message;
-use rem::proto;
+use rem::wire::proto;
 use tonic::codegen::http::uri::PathAndQuery;
 
 /// Every RPC of both services.

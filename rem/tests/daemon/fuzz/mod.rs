@@ -44,7 +44,7 @@ use crate::common::*;
 use credentials::{checkpoint_seal, client_key, fuzz_user, unix_ms};
 use inputs::{Credential, Input, Rpc, Shape};
 use prost::Message;
-use rem::proto;
+use rem::wire::proto;
 use send::{send, Outcome};
 use tokio::task::JoinSet;
 use tonic::transport::{Channel, Endpoint};
@@ -239,7 +239,7 @@ async fn run(
 /// Two joined remd processes that see each other.
 async fn cluster() -> RemdProcesses {
     let rule = format!("{ECHO}:exit");
-    let cluster = RemdProcesses::start_allowing(2, &[&rule], &LIMITS);
+    let cluster = remds_allowing(2, &[&rule], &LIMITS);
     cluster.converge(Duration::from_secs(15)).await;
     cluster
 }
@@ -429,7 +429,7 @@ async fn found_a_kill_of_a_long_process_id_loses_no_envelope_between_daemons() {
             sent += 1;
         }
         // Any answer is fine; what matters is what it does to the link a -> b.
-        let kill = rem::proto::KillRequest {
+        let kill = rem::wire::proto::KillRequest {
             proc_id: long.clone(),
         };
         let _ = a.rpc().kill(kill).await;

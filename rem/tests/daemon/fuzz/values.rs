@@ -9,7 +9,7 @@ use super::credentials::fuzz_user;
 use super::rng::Rng;
 use super::FAKE_DAEMONS;
 use crate::common::ECHO;
-use rem::proto;
+use rem::wire::proto;
 
 /// What the generator needs to know of the cluster.
 #[derive(Clone)]
@@ -131,7 +131,7 @@ impl Gen<'_> {
             state: if self.rng.one_in(4) {
                 self.string()
             } else {
-                self.rng.pick(&rem::job_store::STATES).into()
+                self.rng.pick(&rem::store::job_store::STATES).into()
             },
             epoch: self.u64(),
             controller: self.proc_id(),

@@ -6,7 +6,7 @@ use super::FarmError;
 use crate::distrib::checkpoint;
 use crate::distrib::job_record;
 use crate::film::Format;
-use rem::job_store::is_ended;
+use rem::store::job_store::is_ended;
 use rem::{JobRecord, RemClient};
 use serde_json::json;
 use std::path::{Path, PathBuf};

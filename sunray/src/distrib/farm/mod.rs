@@ -172,7 +172,7 @@ pub async fn submit(
     }
     let existing = job_record::find(client, &plan.job).await?;
     if let Some(r) = &existing {
-        if !rem::job_store::is_ended(&r.state) {
+        if !rem::store::job_store::is_ended(&r.state) {
             return Err(FarmError::Exists {
                 job: plan.job,
                 state: r.state.clone(),

@@ -192,7 +192,7 @@ pub struct JobOutcome {
 
 /// Checks a job id given by a user.
 pub fn check_job_id(job: &str) -> Result<(), JobError> {
-    if !rem::ids::is_valid_name(job) || job.len() > MAX_JOB_ID {
+    if !rem::wire::ids::is_valid_name(job) || job.len() > MAX_JOB_ID {
         return Err(JobError::BadJobId(job.to_string()));
     }
     Ok(())

@@ -1,0 +1,493 @@
+//! remd's settings: command line, environment variables and a TOML file (`--config`), in that
+//! order of precedence. The `remd` binary parses its flags and environment into
+//! [`DaemonOptions`] (plain values, no parser here); [`DaemonSettings::from_options`] lays them
+//! over the file and resolves the result.
+//!
+//! | flag | environment | file key | default |
+//! |---|---|---|---|
+//! | `--name` | `REMD_NAME` | `name` | the host name |
+//! | `--listen` | `REMD_LISTEN` | `listen` | `127.0.0.1:7077` |
+//! | `--advertise` | `REMD_ADVERTISE` | `advertise` | the bound address |
+//! | `--join` (comma list) | `REMD_JOIN` | `join` (array) | none |
+//! | `--secret-file` | `REM_SECRET_FILE` (or the secret in `REM_SECRET`) | `secret_file` | required |
+//! | `--allow` (repeatable) | `REMD_ALLOW` (comma list) | `allow` (array) | nothing may be spawned |
+//! | `--env-allow` (repeatable) | `REMD_ENV_ALLOW` | `env_allow` (array) | `SUNRAY_WORKER_*`, `RUST_LOG` |
+//! | `--limit NAME=VALUE` (repeatable) | `REMD_LIMITS` | `[limits]` table | see [`Limits`] |
+//! | `--run-as` | `REMD_RUN_AS` | `run_as` | remd's own user |
+//! | `--insecure` | `REMD_INSECURE` | `insecure` | false: plain HTTP/2 only on loopback |
+//! | `--web` | `REMD_WEB` | `web` | off (see [`crate::daemon::web`]) |
+//! | `--state-dir` | `REMD_STATE_DIR` | `state_dir` | a fresh temporary directory |
+//! | `--probe-ms` | `REMD_PROBE_MS` | `probe_ms` | 200 |
+//! | `--suspect-ms` | `REMD_SUSPECT_MS` | `suspect_ms` | 400 |
+//! | `--max-message` | `REMD_MAX_MESSAGE` | `max_message` | 16 MiB |
+//! | `--kill-grace-ms` | `REMD_KILL_GRACE_MS` | `kill_grace_ms` | 2000 |
+//! | `--tls-cert`, `--tls-key`, `--tls-ca`, `--tls-domain` | `REMD_TLS_*` | `tls_*` | no TLS |
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::Deserialize;
+
+use crate::auth::secret::Secret;
+use crate::daemon::limits::Limits;
+use crate::daemon::policy::{ProgramRule, SpawnPolicy, DEFAULT_ENV_ALLOW};
+use crate::daemon::process::child::RunAs;
+use crate::error::{Error, Result};
+use crate::membership::swim::SwimConfig;
+use crate::wire::transport::ServerTlsFiles;
+
+pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
+
+/// The TOML file: the same keys as the flags (with `_`), all optional.
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileConfig {
+    pub(crate) name: Option<String>,
+    pub(crate) listen: Option<SocketAddr>,
+    pub(crate) advertise: Option<String>,
+    #[serde(default)]
+    pub(crate) join: Vec<String>,
+    pub(crate) secret_file: Option<PathBuf>,
+    #[serde(default)]
+    pub(crate) allow: Vec<String>,
+    #[serde(default)]
+    pub(crate) env_allow: Vec<String>,
+    #[serde(default)]
+    pub(crate) limits: std::collections::BTreeMap<String, toml::Value>,
+    pub(crate) run_as: Option<String>,
+    pub(crate) insecure: Option<bool>,
+    pub(crate) state_dir: Option<PathBuf>,
+    pub(crate) web: Option<SocketAddr>,
+    pub(crate) probe_ms: Option<u64>,
+    pub(crate) suspect_ms: Option<u64>,
+    pub(crate) max_message: Option<usize>,
+    pub(crate) kill_grace_ms: Option<u64>,
+    pub(crate) tls_cert: Option<PathBuf>,
+    pub(crate) tls_key: Option<PathBuf>,
+    pub(crate) tls_ca: Option<PathBuf>,
+    pub(crate) tls_domain: Option<String>,
+}
+
+/// What remd was told on its command line and in its environment, value by value (the
+/// `remd` binary fills it in); [`DaemonSettings::from_options`] lays it over the file named by
+/// `config`. Empty values leave the file's (or the default) in place.
+#[derive(Clone, Debug, Default)]
+pub struct DaemonOptions {
+    /// TOML file with the same settings (flags and environment win).
+    pub config: Option<PathBuf>,
+    /// This host's name in the cluster ([A-Za-z0-9._-]).
+    pub name: Option<String>,
+    /// Address to listen on (port 0 picks one; the bound address is printed).
+    pub listen: Option<SocketAddr>,
+    /// Address other daemons and processes use to reach this one.
+    pub advertise: Option<String>,
+    /// Members to join through (any one live member is enough).
+    pub join: Vec<String>,
+    /// File holding the cluster secret.
+    pub secret_file: Option<PathBuf>,
+    /// A program that may be spawned: its absolute path, optionally `:FIRST|FIRST` to allow
+    /// only these first arguments, e.g. `/usr/local/bin/sunray:worker|controller` (repeatable).
+    pub allow: Vec<String>,
+    /// Environment variables a spawn may set: names, or prefixes ending in `*` (repeatable)
+    /// [default: SUNRAY_WORKER_*, RUST_LOG].
+    pub env_allow: Vec<String>,
+    /// A limit, `NAME=VALUE` (repeatable; sizes take K, M, G): spawn_count, host_processes,
+    /// mailbox_bytes, link_bytes, relay_bytes, checkpoint_bytes, checkpoint_quota, log_bytes,
+    /// log_quota. See docs/rem.md.
+    pub limits: Vec<String>,
+    /// The user spawned processes run as (a name or uid) when remd runs as root.
+    pub run_as: Option<String>,
+    /// Allow plain HTTP/2 off this host: listening on a non-loopback address, or calling
+    /// other daemons there, without TLS.
+    pub insecure: bool,
+    /// Serve the web view (hosts, jobs, images filling in) on this address, plain HTTP, for
+    /// holders of a login token (`rem web-token`); off by default. Port 0 picks one (the bound
+    /// address is printed). Use a loopback address unless a proxy adds TLS.
+    pub web: Option<SocketAddr>,
+    /// Directory for checkpoints.
+    pub state_dir: Option<PathBuf>,
+    /// Milliseconds between this daemon's probes of one other member (failure detection;
+    /// the probe's timeout is two fifths of it) [default: 200].
+    pub probe_ms: Option<u64>,
+    /// Milliseconds a member that failed a probe is suspected before it is declared lost
+    /// (it can refute meanwhile) [default: 400].
+    pub suspect_ms: Option<u64>,
+    /// Largest relay message payload in bytes.
+    pub max_message: Option<usize>,
+    /// Milliseconds between SIGTERM and SIGKILL when a process is killed [default: 2000].
+    pub kill_grace_ms: Option<u64>,
+    /// PEM certificate to serve TLS with (with --tls-key; plain HTTP/2 without).
+    pub tls_cert: Option<PathBuf>,
+    /// PEM private key of --tls-cert.
+    pub tls_key: Option<PathBuf>,
+    /// CA to verify other daemons with [default: the daemon's own certificate].
+    pub tls_ca: Option<PathBuf>,
+    /// Name to expect in other daemons' certificates.
+    pub tls_domain: Option<String>,
+}
+
+/// Everything a daemon runs with.
+#[derive(Clone, Debug)]
+pub struct DaemonSettings {
+    /// This host's name in the cluster ([A-Za-z0-9._-]).
+    pub name: String,
+    /// Address to listen on (port 0 lets the OS choose).
+    pub listen: SocketAddr,
+    /// Address others use to reach this daemon [default: the bound address].
+    pub advertise: Option<String>,
+    /// Members to join through.
+    pub join: Vec<String>,
+    /// The cluster secret.
+    pub secret: Secret,
+    /// Where the secret came from (handed to children as `REM_SECRET_FILE`).
+    pub secret_file: Option<PathBuf>,
+    /// The programs that may be spawned, and the environment names a spawn may set.
+    pub policy: SpawnPolicy,
+    /// Hard limits (processes, queued bytes, checkpoints, logs).
+    pub limits: Limits,
+    /// The user children run as (`None`: remd's own).
+    pub run_as: Option<RunAs>,
+    /// Plain HTTP/2 is allowed off loopback.
+    pub insecure: bool,
+    /// Directory for checkpoints [default: a temporary one].
+    pub state_dir: Option<PathBuf>,
+    /// Where to serve the web view (`None`: no web view).
+    pub web: Option<SocketAddr>,
+    /// The membership protocol's timing (probe period, suspicion timeout ...).
+    pub swim: SwimConfig,
+    /// Time between samples of this host's load.
+    pub load_interval: Duration,
+    /// Largest relay message payload in bytes.
+    pub max_message: usize,
+    /// Capacity of every relay queue (envelopes).
+    pub queue: usize,
+    /// Time between SIGTERM and SIGKILL when a process is killed.
+    pub kill_grace: Duration,
+    /// TLS certificate and key to serve with (`None`: plain HTTP/2).
+    pub tls: Option<ServerTlsFiles>,
+}
+
+impl DaemonSettings {
+    /// Allows `program` (any arguments) to be spawned.
+    pub fn allow_program(&mut self, program: impl Into<PathBuf>) {
+        self.policy.programs.push(ProgramRule {
+            path: program.into(),
+            first_args: None,
+        });
+    }
+
+    /// DaemonSettings with defaults for `name` and `secret` (used by tests and embedders).
+    pub fn new(name: &str, secret: Secret) -> Self {
+        DaemonSettings {
+            name: name.to_string(),
+            listen: std::net::SocketAddr::from(([127, 0, 0, 1], DEFAULT_PORT)),
+            advertise: None,
+            join: Vec::new(),
+            secret,
+            secret_file: None,
+            policy: SpawnPolicy {
+                programs: Vec::new(),
+                env_allow: DEFAULT_ENV_ALLOW.map(String::from).to_vec(),
+            },
+            limits: Limits::default(),
+            run_as: None,
+            insecure: false,
+            state_dir: None,
+            web: None,
+            swim: SwimConfig::default(),
+            load_interval: Duration::from_secs(1),
+            max_message: DEFAULT_MAX_MESSAGE,
+            queue: 4096,
+            kill_grace: Duration::from_secs(2),
+            tls: None,
+        }
+    }
+
+    /// Resolves the options (flags and environment) over the file named by `args.config`.
+    pub fn from_options(args: DaemonOptions) -> Result<Self> {
+        let file = match &args.config {
+            Some(path) => load_file(path)?,
+            None => FileConfig::default(),
+        };
+        let name = match args.name.or(file.name) {
+            Some(n) => n,
+            None => sysinfo::System::host_name()
+                .map(|h| h.split('.').next().unwrap_or_default().to_string())
+                .unwrap_or_default(),
+        };
+        if !crate::wire::ids::is_valid_name(&name) {
+            return Err(Error::Config(format!(
+                "bad host name {name:?}: use 1 to 128 of [A-Za-z0-9._-]"
+            )));
+        }
+        let secret_path = args.secret_file.or(file.secret_file);
+        if let Some(path) = &secret_path {
+            check_secret_file(path)?;
+        }
+        let (secret, secret_file) = Secret::resolve(secret_path.as_deref())?;
+        if secret.is_client_key() {
+            return Err(Error::Config(
+                "the secret holds a client key (from `rem client-key`); remd needs the cluster \
+                 secret itself"
+                    .into(),
+            ));
+        }
+        let mut s = DaemonSettings::new(&name, secret);
+        s.secret_file = secret_file;
+        s.listen = args.listen.or(file.listen).unwrap_or(s.listen);
+        s.advertise = args.advertise.or(file.advertise);
+        s.join = pick(args.join, file.join);
+        s.policy.programs = pick(args.allow, file.allow)
+            .iter()
+            .map(|rule| ProgramRule::parse(rule))
+            .collect::<Result<_>>()?;
+        let env_allow = pick(args.env_allow, file.env_allow);
+        if !env_allow.is_empty() {
+            s.policy.env_allow = env_allow;
+        }
+        set_limits(&mut s.limits, &file.limits)?;
+        for pair in &args.limits {
+            s.limits.set_pair(pair).map_err(Error::Config)?;
+        }
+        s.run_as = args
+            .run_as
+            .or(file.run_as)
+            .map(|u| RunAs::lookup(&u))
+            .transpose()?;
+        s.insecure = args.insecure || file.insecure.unwrap_or(false);
+        s.state_dir = args.state_dir.or(file.state_dir);
+        s.web = args.web.or(file.web);
+        if let Some(ms) = args.probe_ms.or(file.probe_ms) {
+            if !(20..=60_000).contains(&ms) {
+                return Err(Error::Config(format!(
+                    "probe-ms {ms} is outside 20..=60000"
+                )));
+            }
+            s.swim.set_probe_period(Duration::from_millis(ms));
+        }
+        if let Some(ms) = args.suspect_ms.or(file.suspect_ms) {
+            if !(20..=600_000).contains(&ms) {
+                return Err(Error::Config(format!(
+                    "suspect-ms {ms} is outside 20..=600000"
+                )));
+            }
+            s.swim.suspect_after = Duration::from_millis(ms);
+        }
+        if let Some(m) = args.max_message.or(file.max_message) {
+            s.max_message = m.max(1);
+        }
+        if let Some(ms) = args.kill_grace_ms.or(file.kill_grace_ms) {
+            s.kill_grace = Duration::from_millis(ms);
+        }
+        let cert = args.tls_cert.or(file.tls_cert);
+        let key = args.tls_key.or(file.tls_key);
+        s.tls = match (cert, key) {
+            (Some(cert), Some(key)) => Some(ServerTlsFiles {
+                cert,
+                key,
+                ca: args.tls_ca.or(file.tls_ca),
+                domain: args.tls_domain.or(file.tls_domain),
+            }),
+            (None, None) => None,
+            _ => {
+                return Err(Error::Config(
+                    "TLS needs both --tls-cert and --tls-key".into(),
+                ))
+            }
+        };
+        Ok(s)
+    }
+}
+
+/// Applies the file's `[limits]` table (numbers, or strings such as "64M").
+fn set_limits(
+    limits: &mut Limits,
+    table: &std::collections::BTreeMap<String, toml::Value>,
+) -> Result<()> {
+    for (name, value) in table {
+        let value = match value {
+            toml::Value::String(v) => v.clone(),
+            other => other.to_string(),
+        };
+        limits.set(name, &value).map_err(Error::Config)?;
+    }
+    Ok(())
+}
+
+/// Refuses a secret file that other users may read (or that cannot be examined).
+fn check_secret_file(path: &Path) -> Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    let meta = std::fs::metadata(path)
+        .map_err(|e| Error::Config(format!("cannot read secret file {}: {e}", path.display())))?;
+    let mode = meta.permissions().mode();
+    if mode & 0o004 != 0 {
+        return Err(Error::Config(format!(
+            "secret file {} is readable by every user (mode {:o}): chmod 600 it",
+            path.display(),
+            mode & 0o777
+        )));
+    }
+    if mode & 0o040 != 0 {
+        tracing::warn!(
+            file = %path.display(),
+            "the secret file is readable by its group: every member can act as a daemon"
+        );
+    }
+    Ok(())
+}
+
+fn pick<T>(flags: Vec<T>, file: Vec<T>) -> Vec<T> {
+    if flags.is_empty() {
+        file
+    } else {
+        flags
+    }
+}
+
+fn load_file(path: &Path) -> Result<FileConfig> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::Config(format!("cannot read {}: {e}", path.display())))?;
+    toml::from_str(&text).map_err(|e| Error::Config(format!("{}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_address_is_loopback_on_the_default_port() {
+        let addr: std::net::SocketAddr = DEFAULT_ADDR.parse().unwrap();
+        assert_eq!(
+            addr,
+            DaemonSettings::new("h", Secret::new("s").unwrap()).listen
+        );
+        assert_eq!(addr.port(), DEFAULT_PORT);
+    }
+
+    #[test]
+    fn file_fills_what_flags_leave_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let secret = dir.path().join("secret");
+        std::fs::write(&secret, "s3cret\n").unwrap();
+        private(&secret);
+        let cfg = dir.path().join("remd.toml");
+        std::fs::write(
+            &cfg,
+            format!(
+                "name = \"filehost\"\nlisten = \"127.0.0.1:9000\"\nsecret_file = {:?}\n\
+                 allow = [\"/bin/true\", \"/usr/bin/sunray:worker|controller\"]\n\
+                 probe_ms = 100\nsuspect_ms = 600\n[limits]\nspawn_count = 8\n\
+                 mailbox_bytes = \"2M\"\n",
+                secret
+            ),
+        )
+        .unwrap();
+        let args = options([
+            "remd",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--name",
+            "flaghost",
+        ]);
+        let s = DaemonSettings::from_options(args).unwrap();
+        assert_eq!(s.name, "flaghost");
+        assert_eq!(s.listen, "127.0.0.1:9000".parse().unwrap());
+        assert_eq!(s.policy.programs.len(), 2);
+        assert_eq!(s.policy.programs[0].path, PathBuf::from("/bin/true"));
+        assert_eq!(
+            s.policy.programs[1].first_args,
+            Some(vec!["worker".to_string(), "controller".to_string()])
+        );
+        assert_eq!((s.limits.spawn_count, s.limits.mailbox_bytes), (8, 2 << 20));
+        assert_eq!(s.swim.probe_period, Duration::from_millis(100));
+        assert_eq!(s.swim.suspect_after, Duration::from_millis(600));
+        assert!(s.secret.matches(b"s3cret"));
+    }
+
+    #[test]
+    fn rejects_bad_settings() {
+        let dir = tempfile::tempdir().unwrap();
+        let secret = dir.path().join("secret");
+        std::fs::write(&secret, "x").unwrap();
+        private(&secret);
+        let sf = secret.to_str().unwrap();
+        let bad_name = options(["remd", "--name", "a/b", "--secret-file", sf]);
+        assert!(DaemonSettings::from_options(bad_name).is_err());
+        let relative = options([
+            "remd",
+            "--name",
+            "a",
+            "--secret-file",
+            sf,
+            "--allow",
+            "bin/x",
+        ]);
+        assert!(DaemonSettings::from_options(relative).is_err());
+        let cfg = dir.path().join("bad.toml");
+        std::fs::write(&cfg, "nmae = 1\n").unwrap();
+        let unknown = options([
+            "remd",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--secret-file",
+            sf,
+        ]);
+        assert!(DaemonSettings::from_options(unknown).is_err());
+        let bad_limit = options(["remd", "--secret-file", sf, "--limit", "spawn_count=0"]);
+        assert!(DaemonSettings::from_options(bad_limit).is_err());
+        // A secret every user can read, or a client key, is refused.
+        let open = dir.path().join("open");
+        std::fs::write(&open, "x").unwrap();
+        std::fs::set_permissions(&open, std::os::unix::fs::PermissionsExt::from_mode(0o644))
+            .unwrap();
+        let args = options(["remd", "--secret-file", open.to_str().unwrap()]);
+        let err = DaemonSettings::from_options(args).unwrap_err().to_string();
+        assert!(err.contains("readable by every user"), "{err}");
+        let key = dir.path().join("client-key");
+        std::fs::write(
+            &key,
+            Secret::new("x").unwrap().client_key_line("u").unwrap(),
+        )
+        .unwrap();
+        private(&key);
+        let args = options(["remd", "--secret-file", key.to_str().unwrap()]);
+        assert!(DaemonSettings::from_options(args).is_err());
+    }
+
+    #[test]
+    fn the_shipped_config_file_parses() {
+        let text = include_str!("../../../deploy/remd.toml");
+        let file: FileConfig = toml::from_str(text).unwrap();
+        assert_eq!(file.allow, ["/usr/local/bin/sunray:worker|controller"]);
+        // It listens off loopback, so it ships with TLS, not `insecure`.
+        assert!(file.tls_cert.is_some() && file.tls_key.is_some());
+        assert_eq!(file.tls_domain.as_deref(), Some("rem.cluster"));
+        let mut limits = Limits::default();
+        set_limits(&mut limits, &file.limits).unwrap();
+        assert_eq!(limits, Limits::default(), "the file shows the defaults");
+    }
+
+    /// Options as the `remd` binary would give them for these flags (the few the tests use).
+    fn options<const N: usize>(argv: [&str; N]) -> DaemonOptions {
+        let mut o = DaemonOptions::default();
+        let mut it = argv.into_iter().skip(1);
+        while let Some(flag) = it.next() {
+            let value = it.next().unwrap();
+            match flag {
+                "--config" => o.config = Some(value.into()),
+                "--name" => o.name = Some(value.into()),
+                "--secret-file" => o.secret_file = Some(value.into()),
+                "--allow" => o.allow.push(value.into()),
+                "--limit" => o.limits.push(value.into()),
+                _ => panic!("no such flag in the tests: {flag}"),
+            }
+        }
+        o
+    }
+
+    fn private(path: &Path) {
+        std::fs::set_permissions(path, std::os::unix::fs::PermissionsExt::from_mode(0o600))
+            .unwrap();
+    }
+}

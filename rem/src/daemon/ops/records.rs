@@ -1,0 +1,220 @@
+//! Checkpoints and job records: each stored here and on one more live host, read back as
+//! the newest that this or any live host holds.
+
+use std::collections::BTreeMap;
+
+use super::{Daemon, Fence};
+use crate::auth::identity::Identity;
+use crate::auth::peer_auth::method;
+use crate::error::{Error, Result};
+use crate::store::job_store;
+use crate::wire::ids::{is_valid_name, shown};
+use crate::wire::proto::{Checkpoint, FetchReplicaRequest, JobRecord, ListJobsLocalRequest};
+
+impl Daemon {
+    /// Stores `who`'s checkpoint of `job` here and on one more live host; returns (version,
+    /// hosts). Checkpoints are kept per user: nobody writes over another user's.
+    pub async fn put_checkpoint(
+        &self,
+        who: &Identity,
+        job: String,
+        data: Vec<u8>,
+        fence: Fence,
+    ) -> Result<(u64, Vec<String>)> {
+        let limit = self.max_message.min(self.limits.checkpoint_bytes);
+        if data.len() > limit {
+            return Err(Error::TooLarge {
+                size: data.len(),
+                limit,
+            });
+        }
+        if !is_valid_name(&job) {
+            return Err(Error::Invalid(format!("bad job id {}", shown(&job))));
+        }
+        if fence.epoch > 0 {
+            let record = if fence.job.is_empty() {
+                &job
+            } else {
+                &fence.job
+            };
+            if let Some(kept) = self.job_store.get(&who.user, record).await? {
+                if kept.epoch > fence.epoch {
+                    return Err(Error::Fenced(format!(
+                        "job {record} belongs to a newer controller (epoch {} > {})",
+                        kept.epoch, fence.epoch
+                    )));
+                }
+            }
+        }
+        let mut cp = Checkpoint {
+            job,
+            data,
+            version: self.checkpoints.next_version(),
+            written_by: self.name.clone(),
+            mac: Vec::new(),
+            user: who.user.clone(),
+            epoch: fence.epoch,
+        };
+        self.checkpoints.seal(&mut cp);
+        self.checkpoints.put(&cp).await?;
+        let stored = self
+            .replicate(&cp, method::STORE, |mut c, r| async move {
+                c.store_replica(r).await
+            })
+            .await?;
+        Ok((cp.version, stored))
+    }
+
+    /// Sends `cp` (stored here already) to one more live host, the first in the key's
+    /// rendezvous order that takes it; the hosts that hold it. An error when there are peers and none took it.
+    async fn replicate<F, Fut>(
+        &self,
+        cp: &Checkpoint,
+        method: &'static str,
+        call: F,
+    ) -> Result<Vec<String>>
+    where
+        F: FnOnce(crate::membership::peers::PeerRpc, tonic::Request<Checkpoint>) -> Fut
+            + Clone
+            + Send
+            + 'static,
+        Fut: std::future::Future<
+                Output = std::result::Result<
+                    tonic::Response<crate::wire::proto::StoreReplicaReply>,
+                    tonic::Status,
+                >,
+            > + Send,
+    {
+        let mut stored = vec![self.name.clone()];
+        let mut others: Vec<_> = self.live_peers().collect();
+        // The same peer for the same key every time (see `replicas`).
+        others.sort_by(|a, b| {
+            let (wa, wb) = (
+                crate::store::replicas::weight(&cp.job, &a.name),
+                crate::store::replicas::weight(&cp.job, &b.name),
+            );
+            wb.cmp(&wa).then_with(|| a.name.cmp(&b.name))
+        });
+        let had_peers = !others.is_empty();
+        for h in others {
+            let stored_there = self
+                .peers
+                .call(&h.name, &h.addr, method, cp.clone(), call.clone())
+                .await;
+            match stored_there {
+                Ok(_) => {
+                    stored.push(h.name);
+                    break;
+                }
+                // A newer epoch is kept there: the writer has been superseded.
+                Err(e) if e.code() == tonic::Code::Aborted => return Err(e),
+                Err(_) => {}
+            }
+        }
+        if had_peers && stored.len() < 2 {
+            return Err(Error::Unreachable {
+                host: "any peer".into(),
+                reason: "stored only on this host: no live peer took a replica".into(),
+            });
+        }
+        Ok(stored)
+    }
+
+    /// Stores `who`'s job record here and on one more live host (REM sets its user and
+    /// time); refused if a record of a newer epoch is kept here.
+    pub async fn put_job(&self, who: &Identity, mut record: JobRecord) -> Result<Vec<String>> {
+        if !is_valid_name(&record.id) {
+            return Err(Error::Invalid(format!("bad job id {}", shown(&record.id))));
+        }
+        if !job_store::STATES.contains(&record.state.as_str()) {
+            return Err(Error::Invalid(format!(
+                "bad job state {} (one of {})",
+                shown(&record.state),
+                job_store::STATES.join(", ")
+            )));
+        }
+        if record.title.len() > job_store::MAX_TITLE {
+            return Err(Error::Invalid(format!(
+                "job title of {} bytes (at most {})",
+                record.title.len(),
+                job_store::MAX_TITLE
+            )));
+        }
+        let limit = self.max_message.min(self.limits.checkpoint_bytes);
+        let size = prost::Message::encoded_len(&record);
+        if size > limit {
+            return Err(Error::TooLarge { size, limit });
+        }
+        record.user = who.user.clone();
+        record.updated_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
+        let cp = self.job_store.seal(&record, &self.name);
+        self.job_store.put(&cp).await?;
+        self.replicate(&cp, method::STORE_JOB, |mut c, r| async move {
+            c.store_job(r).await
+        })
+        .await
+    }
+
+    /// The newest record of each of `who`'s jobs (every user's for an admin) on this and the
+    /// live hosts.
+    pub async fn list_jobs(&self, who: &Identity) -> Result<Vec<JobRecord>> {
+        let user = (!who.admin).then(|| who.user.clone());
+        let mut all = self.job_store.list(user.as_deref()).await?;
+        let req = ListJobsLocalRequest {
+            user: user.clone().unwrap_or_default(),
+            all: user.is_none(),
+        };
+        let replies = self
+            .ask_live_peers(method::LIST_JOBS, req, |mut c, r| async move {
+                c.list_jobs_local(r).await
+            })
+            .await;
+        all.extend(replies.into_iter().flat_map(|r| r.records));
+        type Rank = (u64, bool, u64);
+        let mut newest: BTreeMap<(String, String), (Rank, JobRecord)> = BTreeMap::new();
+        for cp in all {
+            let wanted = user.as_ref().is_none_or(|u| *u == cp.user);
+            if !wanted || !self.job_store.believe(&cp) {
+                continue;
+            }
+            let Ok(record) = job_store::decode(&cp) else {
+                continue;
+            };
+            // The highest epoch wins, then an ended record (ended is final at its epoch),
+            // then the newest write: a superseded controller's late write on a host that had
+            // not heard of its successor does not show.
+            let rank = (record.epoch, job_store::is_ended(&record.state), cp.version);
+            let key = (cp.user.clone(), cp.job.clone());
+            if newest.get(&key).is_none_or(|(best, _)| rank > *best) {
+                newest.insert(key, (rank, record));
+            }
+        }
+        Ok(newest.into_values().map(|(_, r)| r).collect())
+    }
+
+    /// The newest of `who`'s checkpoints of `job` on this or any live host.
+    pub async fn get_checkpoint(&self, who: &Identity, job: String) -> Result<Option<Checkpoint>> {
+        let user = who.user.clone();
+        let mut best = self.checkpoints.get(&user, &job).await?;
+        let req = FetchReplicaRequest {
+            job: job.clone(),
+            user: user.clone(),
+        };
+        let replies = self
+            .ask_live_peers(method::FETCH, req, |mut c, r| async move {
+                c.fetch_replica(r).await
+            })
+            .await;
+        // The highest epoch wins, then the newest write: a superseded controller's late write
+        // on a host that had not heard of its successor is not read back.
+        for cp in replies.into_iter().filter_map(|r| r.checkpoint) {
+            let newer = best
+                .as_ref()
+                .is_none_or(|b| (cp.epoch, cp.version) > (b.epoch, b.version));
+            if newer && self.checkpoints.believe(&cp, &user, &job) {
+                best = Some(cp);
+            }
+        }
+        Ok(best)
+    }
+}
