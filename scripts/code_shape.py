@@ -20,8 +20,6 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rust_source  # noqa: E402
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CRATES = ["yari", "sunray", "rem", "modeler-cli"]
 MAX_FILE_LINES = 500
 MAX_FN_LINES = 100
 
@@ -130,13 +128,7 @@ def report(label, src_root, out=sys.stdout):
 
 
 def main(argv):
-    root = ROOT
-    if argv[:1] == ["--root"]:
-        root, argv = argv[1], argv[2:]
-    bad = 0
-    for crate in argv or CRATES:
-        bad += report(crate, os.path.join(root, crate, "src"))
-    return 1 if bad else 0
+    return rust_source.check_crates(argv, report)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,9 @@ blocks included, `#[cfg(test)]` items left out.
 import os
 import re
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CRATES = ["yari", "sunray", "rem", "modeler-cli"]
+
 _CHAR_RE = re.compile(r"'(?:\\u\{[0-9a-fA-F]+\}|\\x[0-9a-fA-F]{2}|\\.|[^\\'\n])'")
 _RAW_RE = re.compile(r'(?:b|c)?r(#*)"')
 _TEST_ATTR_RE = re.compile(r"#\[cfg\((?:test|all\(test\b[^\]]*)\)\]")
@@ -198,3 +201,21 @@ def _load_region(modules, path, file, raw, code, start, end, file_dir, child_dir
                     _load_file(modules, sub, nested, True)
             pos = m.end()
     modules[path] = Module(path, file, "".join(own), children)
+
+
+def check_crates(argv, report):
+    """A check's command line: `[--root DIR] [CRATE ...]` (default: this checkout and every
+    library crate); runs `report(crate, src_dir)` for each crate, which returns how many faults
+    it printed. Returns the exit status: 1 if there was any."""
+    root = ROOT
+    if argv[:1] == ["--root"]:
+        root, argv = argv[1], argv[2:]
+    bad = 0
+    for crate in argv or CRATES:
+        src = os.path.join(root, crate, "src")
+        if not os.path.isfile(os.path.join(src, "lib.rs")):
+            print(f"{crate}: no library here ({src}/lib.rs is missing)")
+            bad += 1
+            continue
+        bad += report(crate, src)
+    return 1 if bad else 0

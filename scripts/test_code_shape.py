@@ -6,6 +6,7 @@ not count (tests, binaries, braces in strings and comments).
 import io
 import os
 import sys
+import tempfile
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -104,6 +105,22 @@ class Planted(unittest.TestCase):
         with plant({"lib.rs": "", "main.rs": long_fn("main", 150)}) as src:
             self.assertEqual(code_shape.report("x", src, out=io.StringIO()), 0)
 
+class CommandLine(unittest.TestCase):
+    def test_a_crate_without_a_library_fails(self):
+        """A wrong --root or crate name must not pass as "nothing found"."""
+        import contextlib
+        import rust_source
+        with tempfile.TemporaryDirectory() as root:
+            os.makedirs(os.path.join(root, "good", "src"))
+            with open(os.path.join(root, "good", "src", "lib.rs"), "w", encoding="utf-8") as f:
+                f.write("mod a;\n")
+            with open(os.path.join(root, "good", "src", "a.rs"), "w", encoding="utf-8") as f:
+                f.write("fn a() {}\n")
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(rust_source.check_crates(["--root", root, "good"], lambda c, s: 0), 0)
+                self.assertEqual(rust_source.check_crates(["--root", root, "gone"], lambda c, s: 0), 1)
+                self.assertEqual(code_shape.main(["--root", root, "good"]), 0)
+                self.assertEqual(code_shape.main(["--root", root, "good", "gone"]), 1)
 
 if __name__ == "__main__":
     unittest.main()

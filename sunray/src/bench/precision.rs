@@ -15,6 +15,20 @@ fn v32(v: glam::DVec3) -> glam::Vec3 {
     v.as_vec3()
 }
 
+/// The corners of a world's triangles (SPD tetra is nothing else).
+fn triangles(world: &yari::model::World) -> Vec<[glam::DVec3; 3]> {
+    world
+        .objects
+        .iter()
+        .filter_map(|o| match &o.shape {
+            yari::model::Shape::Polygon { vertices } if vertices.len() == 3 => {
+                Some([vertices[0], vertices[1], vertices[2]])
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// Deterministic points and directions.
 fn rng(seed: &mut u64) -> f64 {
     (crate::sampler::splitmix64(seed) >> 11) as f64 / (1u64 << 53) as f64
@@ -77,16 +91,7 @@ impl SpeedInputs {
     /// The inputs, or None if tetra 6 cannot be generated.
     fn tetra() -> Option<SpeedInputs> {
         let world = super::spd_world(yari::spd::Database::Tetra, 6).ok()?;
-        let tris: Vec<[glam::DVec3; 3]> = world
-            .objects
-            .iter()
-            .filter_map(|o| match &o.shape {
-                yari::model::Shape::Polygon { vertices } if vertices.len() == 3 => {
-                    Some([vertices[0], vertices[1], vertices[2]])
-                }
-                _ => None,
-            })
-            .collect();
+        let tris = triangles(&world);
         let eye = world.camera.position;
         let mut seed = 42;
         let rays: Vec<(glam::DVec3, glam::DVec3)> = (0..2000)
@@ -305,16 +310,7 @@ fn watertight(out: &mut String) {
     let Ok(world) = super::spd_world(yari::spd::Database::Tetra, 4) else {
         return;
     };
-    let tris: Vec<[glam::DVec3; 3]> = world
-        .objects
-        .iter()
-        .filter_map(|o| match &o.shape {
-            yari::model::Shape::Polygon { vertices } if vertices.len() == 3 => {
-                Some([vertices[0], vertices[1], vertices[2]])
-            }
-            _ => None,
-        })
-        .collect();
+    let tris = triangles(&world);
     let (mut rays, mut miss64, mut miss32) = (0, 0, 0);
     let mut seed = 5;
     for tet in tris.chunks(4) {
