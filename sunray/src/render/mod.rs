@@ -3,6 +3,7 @@
 //! each taking the film's next row, the same request-render-complete loop a SunRay III
 //! worker runs against its controller. [`settings`] holds what decides the
 //! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything.
+//! [`parallel`] runs the lines of one image on all cores.
 
 pub mod footprint;
 pub mod parallel;

@@ -1,6 +1,8 @@
 //! `remd`: the REM daemon. Parses settings, binds, prints `remd listening on ADDR` (and, with
 //! `--web`, `remd web view on http://ADDR/`), runs until
 //! SIGTERM or Ctrl-C, then shuts down cleanly (see `rem::daemon::server`).
+//!
+//! - `args`: the flags (clap), turned into the library's `DaemonOptions`.
 
 use std::io::Write;
 use std::process::ExitCode;

@@ -9,6 +9,8 @@
 //! yet buffers up to its bounds and then drops, so a process that never attaches can neither
 //! stall the link nor fill the daemon's memory. Envelopes to a lost or unknown host come back
 //! to the sender as `Undeliverable`.
+//!
+//! - `links`: one ordered queue and task per remote daemon, drained into `Forward` streams.
 
 mod links;
 
