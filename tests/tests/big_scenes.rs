@@ -352,7 +352,8 @@ fn a_chunk_cache_on_a_full_file_system_still_gives_the_same_image() {
     assert!(!kept.is_empty(), "the first chunks fitted");
     for (name, bytes) in &kept {
         assert!(
-            rem::store::chunks::is_chunk_name(name) && rem::store::chunks::name_of(bytes) == *name,
+            rem::wire::chunk_name::is_chunk_name(name)
+                && rem::wire::chunk_name::name_of(bytes) == *name,
             "{name}: not a whole chunk ({} bytes)",
             bytes.len()
         );

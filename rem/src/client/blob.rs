@@ -5,7 +5,7 @@
 
 use crate::client::rem_client::RemClient;
 use crate::error::{Error, Result};
-use crate::store::chunks::name_of;
+use crate::wire::chunk_name::name_of;
 
 /// The default size of a chunk (the daemons' default `chunk_bytes` limit).
 pub const CHUNK_BYTES: usize = 4 << 20;

@@ -454,7 +454,7 @@ impl RemClient {
             .ok_or_else(|| Error::Invalid("the daemon sent no job record".into()))
     }
 
-    /// Caches chunk `hash` (the SHA-256 of `data`, see [`crate::store::chunks::name_of`]) on
+    /// Caches chunk `hash` (the SHA-256 of `data`, see [`crate::wire::chunk_name::name_of`]) on
     /// this daemon's host and on one more.
     pub async fn put_chunk(&self, hash: &str, data: Vec<u8>) -> Result<proto::PutChunkReply> {
         let req = proto::PutChunkRequest {
@@ -470,7 +470,7 @@ impl RemClient {
             hash: hash.to_string(),
         };
         let reply = self.rpc.clone().get_chunk(req).await?.into_inner();
-        if crate::store::chunks::name_of(&reply.data) != hash {
+        if crate::wire::chunk_name::name_of(&reply.data) != hash {
             return Err(Error::Invalid(format!(
                 "the daemon sent chunk {hash} with other bytes"
             )));

@@ -10,32 +10,10 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use sha2::{Digest, Sha256};
 use tokio::sync::Mutex;
 
 use crate::error::{Error, Result};
-
-/// The name of `data`: its SHA-256, in lower-case hex.
-pub fn name_of(data: &[u8]) -> String {
-    hex::encode(Sha256::digest(data))
-}
-
-/// Whether `hash` is a chunk name (64 lower-case hex digits): it becomes a file name.
-pub fn is_chunk_name(hash: &str) -> bool {
-    hash.len() == 64 && hash.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
-}
-
-/// The checked name of a request.
-pub fn check_name(hash: &str) -> Result<()> {
-    if is_chunk_name(hash) {
-        Ok(())
-    } else {
-        Err(Error::Invalid(format!(
-            "bad chunk name {} (64 lower-case hex digits)",
-            crate::wire::ids::shown(hash)
-        )))
-    }
-}
+use crate::wire::chunk_name::{check_name, is_chunk_name, name_of};
 
 #[derive(Debug, Default)]
 struct Index {

@@ -8,8 +8,10 @@
 //! - [`proto`]: generated gRPC types (`proto/rem.proto`).
 //! - [`ids`]: host names, job ids, [`ProcId`](ids::ProcId).
 //! - [`transport`]: channels, plain or TLS (rustls).
+//! - [`chunk_name`]: a chunk's name, the SHA-256 of its bytes.
 //! - this module: the default address, limits, remd's first lines of output, and [`env`].
 
+pub mod chunk_name;
 pub mod ids;
 pub mod proto;
 pub mod transport;

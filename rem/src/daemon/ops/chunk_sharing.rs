@@ -14,7 +14,7 @@ use crate::auth::identity::Identity;
 use crate::auth::peer_auth::method;
 use crate::daemon::ops::Daemon;
 use crate::error::{Error, Result};
-use crate::store::chunks::{self, check_name};
+use crate::wire::chunk_name::{check_name, name_of};
 use crate::wire::proto::{
     GetChunkReply, GetChunkRequest, HasChunksRequest, HostInfo, PutChunkReply, PutChunkRequest,
 };
@@ -35,7 +35,7 @@ impl Daemon {
                 limit,
             });
         }
-        if chunks::name_of(&req.data) != req.hash {
+        if name_of(&req.data) != req.hash {
             return Err(Error::Invalid(format!(
                 "chunk {}: its bytes do not hash to its name",
                 req.hash
@@ -136,7 +136,7 @@ impl Daemon {
                 )
                 .await;
             let Ok((_, reply)) = fetched else { continue };
-            if chunks::name_of(&reply.data) != hash {
+            if name_of(&reply.data) != hash {
                 tracing::warn!(chunk = %hash, peer = %peer.name, "a peer sent a corrupt chunk");
                 continue;
             }

@@ -136,7 +136,7 @@ impl Gen<'_> {
             Rpc::PutChunk | Rpc::StoreChunk => {
                 let data = self.string().into_bytes();
                 let hash = if self.rng.one_in(2) {
-                    rem::store::chunks::name_of(&data)
+                    rem::wire::chunk_name::name_of(&data)
                 } else {
                     self.string()
                 };
