@@ -12,6 +12,16 @@
 //! Precision: the hot path uses [`Real`] (`f64`) and glam's `DVec3` ([`Vec3`]); both aliases
 //! live here so a switch is made in one place. Its kernels (triangle, sphere, slab) are in
 //! [`kernels`], written once for both precisions.
+//!
+//! # Layout
+//!
+//! - [`aabb`]: axis-aligned boxes and the slab test; [`overlap`]: primitive / box overlap
+//!   (which octree voxels a primitive touches).
+//! - [`primitive`]: a primitive as a plain value; [`primitives`]: the scene's compact tables.
+//! - [`sphere`], [`triangle`], [`quadric`]: the intersection of each shape; [`kernels`]: the
+//!   hot-path kernels in both precisions.
+//! - [`polygon`]: polygons triangulated; [`smooth`]: interpolated normals; [`solid`]: closed
+//!   transparent meshes bounding a volume.
 
 pub mod aabb;
 pub mod kernels;
