@@ -30,23 +30,10 @@ def functions(code):
     """(name, first line, last line) of every function with a body in cleaned `code`."""
     out = []
     for m in _FN_RE.finditer(code):
-        depth = 0
-        body = None
-        for i in range(m.end(), len(code)):
-            c = code[i]
-            if c in "([":
-                depth += 1
-            elif c in ")]":
-                depth -= 1
-            elif depth == 0 and c == ";":
-                break  # a declaration without a body
-            elif depth == 0 and c == "{":
-                body = i
-                break
-        if body is None:
-            continue
-        close = rust_source.matching_brace(code, body)
-        out.append((m.group(1), rust_source.line_of(code, m.start()), rust_source.line_of(code, close)))
+        end = rust_source.item_end(code, m.end())
+        if code[end - 1] != "}":
+            continue  # a declaration without a body
+        out.append((m.group(1), rust_source.line_of(code, m.start()), rust_source.line_of(code, end - 1)))
     return out
 
 
