@@ -16,7 +16,7 @@ use super::{scene_key, stats_key, FarmError};
 use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Restored, Store};
 use crate::distrib::controller::{self, ControllerConfig, ControllerError, WorkerProc};
 use crate::distrib::job::drive::{self, ControllerSite, Drive, Ran, Totals};
-use crate::distrib::job::worker_env;
+use crate::distrib::job::worker_spawn;
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::JobStats;
@@ -403,22 +403,15 @@ async fn start_workers(
     live: &[rem::HostInfo],
     avoid_hosts: Vec<String>,
 ) -> Result<Vec<WorkerProc>, FarmError> {
-    let mut args = vec!["worker".to_string()];
-    if spec.threads > 0 {
-        args.extend(["--threads".to_string(), spec.threads.to_string()]);
-    }
+    let threads = (spec.threads > 0).then_some(spec.threads as usize);
     let spawned = client
         .spawn(rem::SpawnRequest {
-            program: opts.worker_program.display().to_string(),
-            args,
-            env: worker_env(std::env::vars()),
-            nice: spec.nice.then_some(10),
             count,
             allow_same_host: spec.same_host,
             job: Some(format!("{job}.w{epoch}")),
             owner: Some(me.clone()),
-            host: None,
             avoid_hosts,
+            ..worker_spawn(&opts.worker_program, threads, spec.nice)
         })
         .await?;
     Ok(WorkerProc::placed(&spawned, live))

@@ -6,7 +6,7 @@
 
 use super::drive::{self, ControllerSite, Drive, Ran, Totals};
 use super::plan::{new_plan, resume_plan, Plan};
-use super::{job_spec, worker_env, JobError, JobOutcome, JobRequest, JobScene};
+use super::{job_spec, worker_spawn, JobError, JobOutcome, JobRequest, JobScene};
 use crate::distrib::checkpoint::{self, Checkpointer};
 use crate::distrib::connection::RemConnection;
 use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
@@ -251,23 +251,14 @@ async fn start_workers(
             .is_embedded()
             .then(|| (cores / plan.hosts as usize).max(1))
     });
-    let mut args = vec!["worker".to_string()];
-    if let Some(t) = threads {
-        args.extend(["--threads".to_string(), t.to_string()]);
-    }
     cluster
         .client
         .spawn(rem::SpawnRequest {
-            program: req.worker_program.display().to_string(),
-            args,
-            env: worker_env(std::env::vars()),
-            nice: plan.nice.then_some(10),
             count: plan.hosts,
             allow_same_host,
             job: Some(rem_job),
             owner: Some(owner),
-            host: None,
-            avoid_hosts: Vec::new(),
+            ..worker_spawn(&req.worker_program, threads, plan.nice)
         })
         .await
         .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))

@@ -206,6 +206,27 @@ pub fn worker_env(
         .collect()
 }
 
+/// REM's request for a job's workers: `PROGRAM worker [--threads N]` with this process's
+/// [`worker_env`], at nice 10 when asked; the caller says how many, where and for whom. The
+/// in-process job and the farm's controller both start their workers with it.
+pub(crate) fn worker_spawn(
+    program: &Path,
+    threads: Option<usize>,
+    nice: bool,
+) -> rem::SpawnRequest {
+    let mut args = vec!["worker".to_string()];
+    if let Some(t) = threads {
+        args.extend(["--threads".to_string(), t.to_string()]);
+    }
+    rem::SpawnRequest {
+        program: program.display().to_string(),
+        args,
+        env: worker_env(std::env::vars()),
+        nice: nice.then_some(10),
+        ..rem::SpawnRequest::default()
+    }
+}
+
 impl JobRequest {
     /// Checks what can be checked before anything is loaded or started.
     pub fn check(&self) -> Result<(), JobError> {
