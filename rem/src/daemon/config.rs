@@ -39,42 +39,15 @@ use crate::wire::transport::ServerTlsFiles;
 
 pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
 
-/// The TOML file: the same keys as the flags (with `_`), all optional.
-#[derive(Deserialize, Debug, Default)]
+/// One layer of remd's options, value by value: what its command line and environment said
+/// (the `remd` binary fills it in), or what the TOML file named by `config` says (the same
+/// keys, with `_`; `[limits]` a table). [`DaemonSettings::from_options`] lays the first over
+/// the second. Empty values leave the layer below (or the default) in place.
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub(crate) struct FileConfig {
-    pub(crate) name: Option<String>,
-    pub(crate) listen: Option<SocketAddr>,
-    pub(crate) advertise: Option<String>,
-    #[serde(default)]
-    pub(crate) join: Vec<String>,
-    pub(crate) secret_file: Option<PathBuf>,
-    #[serde(default)]
-    pub(crate) allow: Vec<String>,
-    #[serde(default)]
-    pub(crate) env_allow: Vec<String>,
-    #[serde(default)]
-    pub(crate) limits: std::collections::BTreeMap<String, toml::Value>,
-    pub(crate) run_as: Option<String>,
-    pub(crate) insecure: Option<bool>,
-    pub(crate) state_dir: Option<PathBuf>,
-    pub(crate) web: Option<SocketAddr>,
-    pub(crate) probe_ms: Option<u64>,
-    pub(crate) suspect_ms: Option<u64>,
-    pub(crate) max_message: Option<usize>,
-    pub(crate) kill_grace_ms: Option<u64>,
-    pub(crate) tls_cert: Option<PathBuf>,
-    pub(crate) tls_key: Option<PathBuf>,
-    pub(crate) tls_ca: Option<PathBuf>,
-    pub(crate) tls_domain: Option<String>,
-}
-
-/// What remd was told on its command line and in its environment, value by value (the
-/// `remd` binary fills it in); [`DaemonSettings::from_options`] lays it over the file named by
-/// `config`. Empty values leave the file's (or the default) in place.
-#[derive(Clone, Debug, Default)]
 pub struct DaemonOptions {
-    /// TOML file with the same settings (flags and environment win).
+    /// TOML file with the same settings (flags and environment win); not a key of the file.
+    #[serde(skip)]
     pub config: Option<PathBuf>,
     /// This host's name in the cluster ([A-Za-z0-9._-]).
     pub name: Option<String>,
@@ -83,24 +56,28 @@ pub struct DaemonOptions {
     /// Address other daemons and processes use to reach this one.
     pub advertise: Option<String>,
     /// Members to join through (any one live member is enough).
+    #[serde(default)]
     pub join: Vec<String>,
     /// File holding the cluster secret.
     pub secret_file: Option<PathBuf>,
     /// A program that may be spawned: its absolute path, optionally `:FIRST|FIRST` to allow
     /// only these first arguments, e.g. `/usr/local/bin/sunray:worker|controller` (repeatable).
+    #[serde(default)]
     pub allow: Vec<String>,
     /// Environment variables a spawn may set: names, or prefixes ending in `*` (repeatable)
     /// [default: SUNRAY_WORKER_*, RUST_LOG].
+    #[serde(default)]
     pub env_allow: Vec<String>,
     /// A limit, `NAME=VALUE` (repeatable; sizes take K, M, G): spawn_count, host_processes,
     /// mailbox_bytes, link_bytes, relay_bytes, checkpoint_bytes, checkpoint_quota, log_bytes,
-    /// log_quota. See docs/rem.md.
+    /// log_quota. See docs/rem.md. In the file, a `[limits]` table of numbers or strings.
+    #[serde(default, deserialize_with = "limits_table")]
     pub limits: Vec<String>,
     /// The user spawned processes run as (a name or uid) when remd runs as root.
     pub run_as: Option<String>,
     /// Allow plain HTTP/2 off this host: listening on a non-loopback address, or calling
     /// other daemons there, without TLS.
-    pub insecure: bool,
+    pub insecure: Option<bool>,
     /// Serve the web view (hosts, jobs, images filling in) on this address, plain HTTP, for
     /// holders of a login token (`rem web-token`); off by default. Port 0 picks one (the bound
     /// address is printed). Use a loopback address unless a proxy adds TLS.
@@ -208,7 +185,7 @@ impl DaemonSettings {
     pub fn from_options(args: DaemonOptions) -> Result<Self> {
         let file = match &args.config {
             Some(path) => load_file(path)?,
-            None => FileConfig::default(),
+            None => DaemonOptions::default(),
         };
         let name = match args.name.or(file.name) {
             Some(n) => n,
@@ -246,8 +223,7 @@ impl DaemonSettings {
         if !env_allow.is_empty() {
             s.policy.env_allow = env_allow;
         }
-        set_limits(&mut s.limits, &file.limits)?;
-        for pair in &args.limits {
+        for pair in file.limits.iter().chain(&args.limits) {
             s.limits.set_pair(pair).map_err(Error::Config)?;
         }
         s.run_as = args
@@ -255,7 +231,7 @@ impl DaemonSettings {
             .or(file.run_as)
             .map(|u| RunAs::lookup(&u))
             .transpose()?;
-        s.insecure = args.insecure || file.insecure.unwrap_or(false);
+        s.insecure = args.insecure.or(file.insecure).unwrap_or(false);
         s.state_dir = args.state_dir.or(file.state_dir);
         s.web = args.web.or(file.web);
         if let Some(ms) = args.probe_ms.or(file.probe_ms) {
@@ -300,19 +276,19 @@ impl DaemonSettings {
     }
 }
 
-/// Applies the file's `[limits]` table (numbers, or strings such as "64M").
-fn set_limits(
-    limits: &mut Limits,
-    table: &std::collections::BTreeMap<String, toml::Value>,
-) -> Result<()> {
-    for (name, value) in table {
-        let value = match value {
-            toml::Value::String(v) => v.clone(),
-            other => other.to_string(),
-        };
-        limits.set(name, &value).map_err(Error::Config)?;
-    }
-    Ok(())
+/// The file's `[limits]` table (numbers, or strings such as "64M") as `NAME=VALUE` pairs,
+/// the form of `--limit`.
+fn limits_table<'de, D: serde::Deserializer<'de>>(
+    de: D,
+) -> std::result::Result<Vec<String>, D::Error> {
+    let table = std::collections::BTreeMap::<String, toml::Value>::deserialize(de)?;
+    Ok(table
+        .into_iter()
+        .map(|(name, value)| match value {
+            toml::Value::String(v) => format!("{name}={v}"),
+            other => format!("{name}={other}"),
+        })
+        .collect())
 }
 
 /// Refuses a secret file that other users may read (or that cannot be examined).
@@ -345,7 +321,7 @@ fn pick<T>(flags: Vec<T>, file: Vec<T>) -> Vec<T> {
     }
 }
 
-fn load_file(path: &Path) -> Result<FileConfig> {
+fn load_file(path: &Path) -> Result<DaemonOptions> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Error::Config(format!("cannot read {}: {e}", path.display())))?;
     toml::from_str(&text).map_err(|e| Error::Config(format!("{}: {e}", path.display())))
@@ -458,13 +434,15 @@ mod tests {
     #[test]
     fn the_shipped_config_file_parses() {
         let text = include_str!("../../../deploy/remd.toml");
-        let file: FileConfig = toml::from_str(text).unwrap();
+        let file: DaemonOptions = toml::from_str(text).unwrap();
         assert_eq!(file.allow, ["/usr/local/bin/sunray:worker|controller"]);
         // It listens off loopback, so it ships with TLS, not `insecure`.
         assert!(file.tls_cert.is_some() && file.tls_key.is_some());
         assert_eq!(file.tls_domain.as_deref(), Some("rem.cluster"));
         let mut limits = Limits::default();
-        set_limits(&mut limits, &file.limits).unwrap();
+        for pair in &file.limits {
+            limits.set_pair(pair).unwrap();
+        }
         assert_eq!(limits, Limits::default(), "the file shows the defaults");
     }
 

@@ -104,7 +104,7 @@ impl RemdArgs {
             env_allow: self.env_allow,
             limits: self.limits,
             run_as: self.run_as,
-            insecure: self.insecure,
+            insecure: self.insecure.then_some(true),
             web: self.web,
             state_dir: self.state_dir,
             probe_ms: self.probe_ms,
@@ -142,6 +142,6 @@ mod tests {
         assert_eq!(o.name.as_deref(), Some("h"));
         assert_eq!(o.allow, ["/a", "/b"]);
         assert_eq!(o.limits, ["spawn_count=8"]);
-        assert!(o.insecure);
+        assert_eq!(o.insecure, Some(true));
     }
 }
