@@ -459,7 +459,7 @@ fn placement_avoids_the_heavily_loaded_host() {
         "ws1",
         &submit_args(&[
             "--hosts",
-            "5",
+            "4",
             "--resolution",
             SMALL,
             "/scenes/mount6.nff",
@@ -474,9 +474,14 @@ fn placement_avoids_the_heavily_loaded_host() {
         std::fs::read(cluster.out("placed.png")).unwrap() == want,
         "the image differs"
     );
+    // Four of six: ws3 must be among the two left out. The other may be ws1, where the
+    // submit and the controller read the scene (their CPU use counts in ws1's load), so
+    // asking for five would race ws3's spinners against that start-up on a shared machine.
     let mut hosts = node_hosts(&read_json(&cluster.out("placed.json")));
     hosts.sort();
-    assert_eq!(hosts, ["ws1", "ws2", "ws4", "ws5", "ws6"], "ws3 is loaded");
+    hosts.dedup();
+    assert_eq!(hosts.len(), 4, "four distinct hosts: {hosts:?}");
+    assert!(!hosts.iter().any(|h| h == "ws3"), "ws3 is loaded: {hosts:?}");
 }
 
 /// `sunray jobs --json` in `host`: the row of `job`.
