@@ -2,7 +2,7 @@
 """SunRay III benchmarks (docs/sunray-iii.md, "Figures"). Needs release binaries:
 
     cargo build --release -p sunray -p rem --bins
-    python3 scripts/bench_submit.py [--bin target/release] [--size 512] [--only overhead,workers,strategies]
+    python3 scripts/bench_submit.py [--bin target/release] [--size 512] [--only overhead,workers,strategies,timeline]
 
 1. overhead:   controller CPU and messages per scanline and the workers' share of render
                time spent waiting for work (and, apart, at the tail for duplicates of
@@ -12,6 +12,10 @@
 3. strategies: SunRay I, II and III side by side on mount6 with three workers, one thread
                each, workers 1 and 2 pinned to CPU 0 and worker 3 pinned to CPU 1 at nice 10
                behind a CPU hog; the finish-time spread of the nodes per strategy.
+4. timeline:   the fixed cost of a job on a warm farm: mount6 64x64 on three remd daemons on
+               loopback, submitted --runs times (the first warms the hosts' caches); the
+               median of each step of the job's timeline (seconds since submit) and of the
+               submit's wall time, next to `sunray render` of the same image.
 """
 
 import argparse
@@ -170,6 +174,36 @@ def strategies(bin_dir, size, samples):
             stop(procs)
 
 
+def timeline(bin_dir, runs):
+    steps = ["controller_started", "first_line", "last_line", "image_stored", "finished"]
+    with tempfile.TemporaryDirectory() as tmp:
+        procs, addrs, secret = remds(bin_dir, tmp, ["a", "b", "c"])
+        got, walls = {k: [] for k in steps}, []
+        try:
+            for i in range(runs + 1):
+                s, wall = submit(bin_dir, tmp, ["--remd", addrs[0], "--secret-file", secret,
+                                                "--hosts", "3", "--resolution", "64x64",
+                                                "--job", f"fixed{i}", MOUNT6])
+                if i == 0:
+                    continue  # warms the caches
+                walls.append(wall)
+                for k in steps:
+                    if s["timeline"].get(k) is not None:
+                        got[k].append(s["timeline"][k])
+                nodes = "; ".join(
+                    f"{n['host']} " + " ".join(f"{k} {v:.3f}" for k, v in n["timeline"].items()
+                                                 if v is not None) for n in s["nodes"])
+                print(f"  run {i}: wall {wall:.3f} s; nodes: {nodes}")
+        finally:
+            stop(procs)
+        local = sorted(render(bin_dir, tmp, 64) for _ in range(runs))
+    med = lambda xs: sorted(xs)[len(xs) // 2] if xs else float("nan")
+    print(f"timeline: mount6 64x64, 3 workers on 3 loopback remd daemons, median of {runs} warm "
+          "jobs, seconds since submit: " +
+          ", ".join(f"{k} {med(v):.3f}" for k, v in got.items()) +
+          f"; submit wall {med(walls):.3f} s against `sunray render` {med(local):.3f} s")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"))
@@ -177,6 +211,7 @@ def main():
     ap.add_argument("--strategy-size", type=int, default=512)
     ap.add_argument("--strategy-samples", type=int, default=4)
     ap.add_argument("--only", default="overhead,workers,strategies")
+    ap.add_argument("--runs", type=int, default=5, help="warm jobs for the timeline")
     a = ap.parse_args()
     global MOUNT6
     scenes = tempfile.mkdtemp(prefix="bench-submit-scenes-")
@@ -193,6 +228,8 @@ def main():
         print(f"strategies: mount6 {a.strategy_size}x{a.strategy_size} x{a.strategy_samples}, "
               "3 workers of 1 thread, worker 3 at nice 10 behind a CPU hog")
         strategies(a.bin, a.strategy_size, a.strategy_samples)
+    if "timeline" in only:
+        timeline(a.bin, a.runs)
 
 
 if __name__ == "__main__":

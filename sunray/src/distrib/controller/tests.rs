@@ -438,8 +438,10 @@ async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
         })
     };
     job.say(0, Body::Ready(proto::Ready::default())).await;
-    job.say(0, preparing(proto::preparing::Stage::Fetching)).await;
-    job.say(0, preparing(proto::preparing::Stage::Building)).await;
+    job.say(0, preparing(proto::preparing::Stage::Fetching))
+        .await;
+    job.say(0, preparing(proto::preparing::Stage::Building))
+        .await;
     let request = proto::Request {
         window: 2,
         stamp_s: 5.0,
@@ -452,7 +454,8 @@ async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
     job.say(0, Body::Request(request)).await;
     // Node 2 is still building its accelerator when the job ends.
     job.say(1, Body::Ready(proto::Ready::default())).await;
-    job.say(1, preparing(proto::preparing::Stage::Building)).await;
+    job.say(1, preparing(proto::preparing::Stage::Building))
+        .await;
     job.serve_until_done(0).await;
     let (r, _) = job.end().await;
     assert_image_complete(&r, 6);
@@ -461,7 +464,10 @@ async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
     assert!(t.image_stored.is_some() && t.finished.is_some(), "{t:?}");
     assert!(t.is_ordered(), "{t:?}");
     let (done, idle) = (&r.nodes[0], &r.nodes[1]);
-    assert_eq!((done.stage, idle.stage), (Stage::Rendering, Stage::Building));
+    assert_eq!(
+        (done.stage, idle.stage),
+        (Stage::Rendering, Stage::Building)
+    );
     let n = &done.timeline;
     let steps = [n.spawned, n.scene_ready, n.accel_ready, n.first_line];
     assert!(steps.iter().all(Option::is_some), "{n:?}");

@@ -79,7 +79,14 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let relay = RemClient::attach_from_env().await?;
     let host = relay.host().to_string();
     let mut record = own_record(&client, &job, epoch).await?;
-    let stored = StoredJob::load(&client, &job).await?;
+    // What the job is, where it can run and what remd's web view showed of it so far: read
+    // at once, not one round trip after another (a fixed cost of every job).
+    let (stored, hosts, history) = tokio::join!(
+        StoredJob::load(&client, &job),
+        client.hosts(),
+        web_view::history(&client, &job, &host, epoch)
+    );
+    let stored = stored?;
     let (width, height) = (stored.settings.render.width, stored.settings.render.height);
     let lines_in = stored.restored.lines.len() as u32;
 
@@ -92,9 +99,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     }
     put_record(&client, &record, &job).await?;
 
-    let live: Vec<rem::HostInfo> = client
-        .hosts()
-        .await?
+    let live: Vec<rem::HostInfo> = hosts?
         .into_iter()
         .filter(|h| h.alive && h.accepting)
         .collect();
@@ -102,8 +107,6 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let count = worker_count(&spec, live.len());
     let checkpointed = Arc::new(AtomicU32::new(lines_in));
     let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
-    // What remd's web view shows, going on from the earlier controllers' history.
-    let history = web_view::history(&client, &job, &host, epoch).await;
     let mut cfg = controller_config(
         &opts,
         (&job, epoch),
@@ -281,7 +284,11 @@ impl ControllerSite for FarmSite<'_> {
             return Ok(Vec::new());
         }
         let (client, job, epoch) = (self.client, self.job, self.epoch);
-        let mut workers = take_over_workers(client, job, epoch, me, &self.live).await;
+        // The first controller of a job has no predecessor's workers to take over.
+        let mut workers = match epoch {
+            0 | 1 => Vec::new(),
+            _ => take_over_workers(client, job, epoch, me, &self.live).await,
+        };
         let more = self.count.saturating_sub(workers.len() as u32);
         if more == 0 {
             return Ok(workers);

@@ -162,7 +162,10 @@ pub async fn submit(
     req.check()?;
     let plan = job::new_plan(req, loaded)?;
     let client = &cluster.client;
-    let live = cluster.live_hosts().await.map_err(JobError::from)?;
+    // Independent reads and writes go at once, not one round trip after another (each is
+    // a fixed cost of every job, DESIGN section 10).
+    let (live, existing) = tokio::join!(cluster.live_hosts(), job_record::find(client, &plan.job));
+    let live = live.map_err(JobError::from)?;
     if !req.same_host && plan.hosts as usize > live.len() {
         return Err(JobError::TooFewHosts {
             asked: plan.hosts,
@@ -170,7 +173,7 @@ pub async fn submit(
         }
         .into());
     }
-    let existing = job_record::find(client, &plan.job).await?;
+    let existing = existing?;
     if let Some(r) = &existing {
         if !rem::store::job_store::is_ended(&r.state) {
             return Err(FarmError::Exists {
@@ -189,22 +192,25 @@ pub async fn submit(
     // set when it sends the scene).
     let shipped = model_chunks::ship(client, &plan.model).await?;
     let scene_msg = shipped.scene(plan.settings.to_proto(), &plan.job, 0);
-    store
-        .put(&scene_key(&plan.job), scene_msg.encode_to_vec())
-        .await?;
     let mut checkpointer = Checkpointer::new(
         &plan.job,
         job::job_spec(req, &plan),
         messages::fnv1a(&plan.model),
         None,
     );
-    checkpointer.save(&store, "queued").await?;
     let (width, height) = (plan.settings.render.width, plan.settings.render.height);
     let title = job_record::title(&plan.loaded.source.display_name(), width, height);
-    // remd's web view: the page of a job used again by this id starts afresh.
-    if let Err(e) =
-        web_view::submitted(&store, &plan.job, &title, plan.hosts, (width, height)).await
-    {
+    // The Scene message, the first checkpoint and remd's web view (the page of a job used
+    // again by this id starts afresh), at once.
+    let key = scene_key(&plan.job);
+    let (scene_put, saved, page) = tokio::join!(
+        store.put(&key, scene_msg.encode_to_vec()),
+        checkpointer.save(&store, "queued"),
+        web_view::submitted(&store, &plan.job, &title, plan.hosts, (width, height))
+    );
+    scene_put?;
+    saved?;
+    if let Err(e) = page {
         eprintln!("sunray: warning: the job's page for remd's web view: {e}");
     }
     let entry = proto::JobEntry {
