@@ -4,10 +4,10 @@
 //!
 //! The payload's head (camera, lights, surfaces) comes before the objects but is complete
 //! only after the last of them (a later `f` adds a surface, a later `l` a light), and the
-//! header's version depends on every object, so the objects are encoded into pieces of
-//! about [`PIECE`] bytes, and [`ModelEncoder::finish`] writes the header, the head and the
-//! object count, then moves the pieces behind them one by one (each freed as it goes, so
-//! the model is held about once), and hashes the payload once. The bytes are those [`super::to_bytes`] gives for
+//! header's version depends on every object, so [`ModelEncoder::finish`] moves the encoded
+//! objects up in their own buffer and writes the header, the head and the object count in
+//! front of them (the model is held once: a large buffer grows, and moves, in place), and
+//! hashes the payload once. The bytes are those [`super::to_bytes`] gives for
 //! the same world: it is this encoder fed the world's objects.
 
 use super::{fnv1a, ModelFileError, HEADER_LEN, MAGIC, OLDEST_VERSION, VERSION};
@@ -28,14 +28,11 @@ struct HeadRef<'a> {
     surfaces: &'a Vec<Surface>,
 }
 
-/// The size of the pieces the objects are encoded into.
-pub const PIECE: usize = 1 << 20;
-
 /// A model file being written one object at a time.
 #[derive(Default)]
 pub struct ModelEncoder {
-    /// The encoded objects, in order, in pieces.
-    pieces: Vec<Vec<u8>>,
+    /// The encoded objects, in order.
+    objects: Vec<u8>,
     count: u64,
     smooth: bool,
     failed: Option<String>,
@@ -52,15 +49,9 @@ impl ModelEncoder {
         if self.failed.is_some() {
             return;
         }
-        let piece = match self.pieces.pop() {
-            Some(p) if p.len() < PIECE => p,
-            full => {
-                self.pieces.extend(full);
-                Vec::with_capacity(PIECE + PIECE / 8)
-            }
-        };
-        match postcard::to_extend(object, piece) {
-            Ok(p) => self.pieces.push(p),
+        let buffer = std::mem::take(&mut self.objects);
+        match postcard::to_extend(object, buffer) {
+            Ok(b) => self.objects = b,
             Err(e) => self.failed = Some(e.to_string()),
         }
         self.count += 1;
@@ -92,12 +83,12 @@ impl ModelEncoder {
         push_varint(&mut front, self.count);
         let back = postcard::to_extend::<Features, Vec<u8>>(&head.features, Vec::new())
             .map_err(corrupt)?;
-        let objects: usize = self.pieces.iter().map(Vec::len).sum();
-        let mut out = Vec::with_capacity(front.len() + objects + back.len());
-        out.extend_from_slice(&front);
-        for piece in self.pieces {
-            out.extend_from_slice(&piece);
-        }
+        let mut out = self.objects;
+        let objects = out.len();
+        out.reserve_exact(front.len() + back.len());
+        out.resize(objects + front.len(), 0);
+        out.copy_within(0..objects, front.len());
+        out[..front.len()].copy_from_slice(&front);
         out.extend_from_slice(&back);
         let len = (out.len() - HEADER_LEN) as u64;
         let hash = fnv1a(&out[HEADER_LEN..]);
