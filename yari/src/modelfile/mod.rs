@@ -261,7 +261,11 @@ pub fn has_magic(bytes: &[u8]) -> bool {
 /// Writes a model file to a temporary name beside `path`, then renames it over `path`, so a
 /// reader never sees half a file.
 pub fn save_atomic(world: &World, path: &Path) -> Result<(), ModelFileError> {
-    let bytes = to_bytes(world)?;
+    save_bytes_atomic(&to_bytes(world)?, path)
+}
+
+/// [`save_atomic`] of a model file's bytes (from [`ModelEncoder::finish`]).
+pub fn save_bytes_atomic(bytes: &[u8], path: &Path) -> Result<(), ModelFileError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -269,7 +273,7 @@ pub fn save_atomic(world: &World, path: &Path) -> Result<(), ModelFileError> {
     let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
+        f.write_all(bytes)?;
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
