@@ -7,9 +7,9 @@
 //! Every kind is read as a stream ([`stream_path`]): each object goes to the caller as soon
 //! as it is compiled or decoded, so a renderer builds its own geometry without the world's
 //! objects ever being held whole. NFF and OFF are read in one pass, straight from the file
-//! to the compiler; YARI is parsed whole (its syntax tree is kept while it compiles, its
-//! text is not). The text is not kept either: the lines that diagnostics point at are read
-//! again to show them ([`Source::excerpt`]).
+//! to the compiler; YARI is parsed whole (its text is freed once parsed, each item of its
+//! syntax tree once compiled). No text is kept: the lines that diagnostics point at are
+//! read again to show them ([`Source::excerpt`]).
 
 use crate::colour::ColourTable;
 use crate::compile::{CompileStream, ObjectSink};
@@ -262,8 +262,9 @@ fn compile_text<R: BufRead>(
                 text.push_str(lines.line());
             }
             let scene = crate::parse::parse(&Source::new(name, text))?;
-            for item in &scene.body.items {
-                compiler.item(item, &mut *out);
+            // Each item of the tree is freed once it is compiled.
+            for item in scene.body.items {
+                compiler.item(&item, &mut *out);
             }
             (scene.view, Diagnostics::default())
         }
