@@ -8,6 +8,7 @@
 //! - [`model`]: the compiled world-space model a renderer loads, and the camera's view frame
 //!   ([`model::Camera::frame`]) that the renderer and the POV-Ray export both use.
 //! - [`lexer`]: the byte scanner (numbers, names, punctuation, `/* */` comments).
+//! - [`lines`]: a text read once, line by line, checked as UTF-8 (the streaming readers').
 //! - [`parse`]: the parser from source text to [`ast::Scene`], with error recovery.
 //! - [`writer`]: the syntax tree (or a compiled world) printed back as YARI text.
 //! - [`colour`]: named colours, built in and from a user file.
@@ -39,6 +40,7 @@ pub mod compile;
 pub mod cpu;
 pub mod diag;
 pub mod lexer;
+pub mod lines;
 pub mod load;
 pub mod model;
 pub mod modelfile;

@@ -3,13 +3,22 @@
 //! The kind is found from the content and the extension: a file that starts with the model
 //! file magic is a compiled model ([`crate::modelfile`]); otherwise `.yari` is YARI,
 //! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), and `.srw` is a model file.
+//!
+//! Every kind is read as a stream ([`stream_path`]): each object goes to the caller as soon
+//! as it is compiled or decoded, so a renderer builds its own geometry without the world's
+//! objects ever being held whole. NFF and OFF are read in one pass, straight from the file
+//! to the compiler; YARI is parsed whole (its text is freed once parsed, each item of its
+//! syntax tree once compiled). No text is kept: the lines that diagnostics point at are
+//! read again to show them ([`Source::excerpt`]).
 
 use crate::colour::ColourTable;
-use crate::compile::compile;
+use crate::compile::{CompileStream, ObjectSink};
 use crate::diag::{Diagnostics, SceneError};
+use crate::lines::{TextFailure, TextLines};
 use crate::model::World;
 use crate::modelfile::{self, ModelFileError};
 use crate::span::Source;
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 /// What kind of file a scene comes from.
@@ -102,11 +111,27 @@ pub enum LoadError {
 
 /// Loads and compiles (or reads, for a model file) the scene at `path`.
 pub fn load_path(path: &Path, colours: &ColourTable) -> Result<Loaded, LoadError> {
-    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+    let mut objects = Vec::new();
+    let mut loaded = stream_path(path, colours, &mut |_, o| objects.push(o))?;
+    loaded.world.objects = objects;
+    Ok(loaded)
+}
+
+/// Loads and compiles (or reads, for a model file) the scene at `path` as a stream: each
+/// object goes to `out` as soon as it is made, with the surfaces so far; the world returned
+/// has no objects (its features count them). The objects handed over before an error are
+/// not to be used.
+pub fn stream_path(
+    path: &Path,
+    colours: &ColourTable,
+    out: &mut ObjectSink<'_>,
+) -> Result<Loaded, LoadError> {
+    let io = |source| LoadError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    let kind = if modelfile::has_magic(&bytes) {
+    };
+    let mut input = BufReader::with_capacity(1 << 16, std::fs::File::open(path).map_err(io)?);
+    let kind = if modelfile::has_magic(input.fill_buf().map_err(io)?) {
         InputKind::Model
     } else {
         InputKind::from_extension(path).ok_or_else(|| LoadError::UnknownFormat {
@@ -114,21 +139,56 @@ pub fn load_path(path: &Path, colours: &ColourTable) -> Result<Loaded, LoadError
         })?
     };
     if kind == InputKind::Model {
-        let world = modelfile::from_bytes(&bytes).map_err(|source| LoadError::Model {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        return Ok(Loaded {
-            world,
-            kind,
-            warnings: Diagnostics::default(),
-            source: None,
+        let world = modelfile::read_stream(&mut input, &mut |head, _, o| out(&head.surfaces, o))
+            .map_err(|source| LoadError::Model {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        return Ok(loaded(world, kind, Diagnostics::default(), None));
+    }
+    let name = path.display().to_string();
+    let mut lines = TextLines::new(input);
+    let compiled = compile_text(&mut lines, &name, kind, colours, out);
+    if let Some(failure) = lines.failure() {
+        return Err(match failure {
+            TextFailure::Io(source) => io(source),
+            _ => LoadError::NotText {
+                path: path.to_path_buf(),
+            },
         });
     }
-    let text = String::from_utf8(bytes).map_err(|_| LoadError::NotText {
-        path: path.to_path_buf(),
-    })?;
-    load_str(&path.display().to_string(), text, kind, colours)
+    let excerpt = |diags: &Diagnostics| -> Result<Source, LoadError> {
+        let offsets: Vec<u32> = diags
+            .items
+            .iter()
+            .flat_map(|d| [d.span.start, d.span.end])
+            .collect();
+        if offsets.is_empty() {
+            return Ok(Source::new(name.as_str(), ""));
+        }
+        let file = std::fs::File::open(path).map_err(io)?;
+        Source::excerpt(name.as_str(), BufReader::new(file), &offsets).map_err(io)
+    };
+    match compiled {
+        Ok((world, warnings)) => {
+            let source = excerpt(&warnings)?;
+            Ok(loaded(world, kind, warnings, Some(source)))
+        }
+        Err(diagnostics) => Err(SceneError {
+            source_text: excerpt(&diagnostics)?,
+            diagnostics,
+        }
+        .into()),
+    }
+}
+
+fn loaded(world: World, kind: InputKind, warnings: Diagnostics, source: Option<Source>) -> Loaded {
+    Loaded {
+        world,
+        kind,
+        warnings,
+        source,
+    }
 }
 
 /// Parses and compiles scene text of a given kind; `name` is the file name in messages.
@@ -139,39 +199,29 @@ pub fn load_str(
     kind: InputKind,
     colours: &ColourTable,
 ) -> Result<Loaded, LoadError> {
+    let mut objects = Vec::new();
+    let mut loaded = stream_str(name, text, kind, colours, &mut |_, o| objects.push(o))?;
+    loaded.world.objects = objects;
+    Ok(loaded)
+}
+
+/// [`load_str`] as a stream: each object goes to `out` (see [`stream_path`]).
+pub fn stream_str(
+    name: &str,
+    text: impl Into<String>,
+    kind: InputKind,
+    colours: &ColourTable,
+    out: &mut ObjectSink<'_>,
+) -> Result<Loaded, LoadError> {
+    if kind == InputKind::Model {
+        return Err(LoadError::UnknownFormat {
+            path: PathBuf::from(name),
+        });
+    }
     let src = Source::new(name, text);
-    // NFF and OFF readers warn too (a `pp` vertex with a zero normal, say): their warnings
-    // come first, then the compiler's, all pointing into the same text.
-    let parsed = match kind {
-        InputKind::Yari => crate::parse::parse(&src).map(|s| (s, Diagnostics::default())),
-        InputKind::Nff => crate::nff::parse_with_warnings(&src),
-        InputKind::Off => crate::off::parse_with_warnings(&src),
-        InputKind::Model => {
-            return Err(LoadError::UnknownFormat {
-                path: PathBuf::from(name),
-            })
-        }
-    };
-    let (scene, mut warnings) = match parsed {
-        Ok(s) => s,
-        Err(diagnostics) => {
-            return Err(SceneError {
-                source_text: src,
-                diagnostics,
-            }
-            .into())
-        }
-    };
-    match compile(&scene, colours) {
-        Ok(c) => {
-            warnings.items.extend(c.warnings.items);
-            Ok(Loaded {
-                world: c.world,
-                kind,
-                warnings,
-                source: Some(src),
-            })
-        }
+    let mut lines = TextLines::new(src.text.as_bytes());
+    match compile_text(&mut lines, name, kind, colours, out) {
+        Ok((world, warnings)) => Ok(loaded(world, kind, warnings, Some(src))),
         Err(diagnostics) => Err(SceneError {
             source_text: src,
             diagnostics,
@@ -180,6 +230,52 @@ pub fn load_str(
     }
 }
 
+/// Reads and compiles the text of `lines`: the world without its objects (they went to
+/// `out`) and the warnings, or every diagnostic. The NFF and OFF readers warn too (a `pp`
+/// vertex with a zero normal, say): their warnings come first, then the compiler's; when
+/// the reader finds an error only its diagnostics are given, and when the compiler does
+/// only the compiler's.
+fn compile_text<R: BufRead>(
+    lines: &mut TextLines<R>,
+    name: &str,
+    kind: InputKind,
+    colours: &ColourTable,
+    out: &mut ObjectSink<'_>,
+) -> Result<(World, Diagnostics), Diagnostics> {
+    let mut compiler = CompileStream::new(colours);
+    let (view, mut warnings) = match kind {
+        InputKind::Nff => {
+            let mut mapping = crate::nff::Mapping::default();
+            let warnings = crate::nff::read_each(lines, &mut |e| {
+                if let Some(item) = mapping.entity(e) {
+                    compiler.item(&item, &mut *out);
+                }
+            })?;
+            (mapping.view(), warnings)
+        }
+        InputKind::Off => {
+            crate::off::read_each(lines, &mut |item| compiler.item(&item, &mut *out))?
+        }
+        _ => {
+            let mut text = String::new();
+            while lines.advance() {
+                text.push_str(lines.line());
+            }
+            let scene = crate::parse::parse(&Source::new(name, text))?;
+            // Each item of the tree is freed once it is compiled.
+            for item in scene.body.items {
+                compiler.item(&item, &mut *out);
+            }
+            (scene.view, Diagnostics::default())
+        }
+    };
+    let (world, compiled) = compiler.finish(&view)?;
+    warnings.items.extend(compiled.items);
+    Ok((world, warnings))
+}
+
+#[cfg(test)]
+mod stream_tests;
 #[cfg(test)]
 mod tests {
     use super::*;

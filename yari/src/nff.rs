@@ -6,8 +6,10 @@
 //!
 //! # Layout
 //! - [`scene`]: the NFF entities as written ([`NffScene`], [`Entity`], [`Fill`], [`View`]).
-//! - [`read`](mod@read): text to entities, with spanned diagnostics.
-//! - [`to_yari`](mod@to_yari): entities to the YARI syntax tree (the Hall-model mapping).
+//! - [`read`](mod@read): text to entities as a stream, with spanned diagnostics.
+//! - `tokens`: the blank-separated words of a text as it is read.
+//! - [`to_yari`](mod@to_yari): entities to the YARI syntax tree (the Hall-model mapping),
+//!   whole or entity by entity ([`Mapping`]).
 //! - [`cone`]: NFF cones and cylinders as clipped world-space quadrics.
 //! - [`write`](mod@write): entities back to NFF text with C's `%g` number format.
 
@@ -15,11 +17,12 @@ pub mod cone;
 pub mod read;
 pub mod scene;
 pub mod to_yari;
+mod tokens;
 pub mod write;
 
-pub use read::read;
+pub use read::{read, read_each};
 pub use scene::{Entity, Fill, NffScene, View};
-pub use to_yari::to_yari;
+pub use to_yari::{to_yari, Mapping};
 pub use write::write;
 
 use crate::ast::Scene;

@@ -6,7 +6,8 @@ use clap::Args;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use yari::colour::ColourTable;
-use yari::load::{load_path, LoadError};
+use yari::load::{stream_path, LoadError};
+use yari::modelfile::ModelEncoder;
 
 /// The flags of `sunray compile`.
 #[derive(Args, Debug)]
@@ -23,10 +24,11 @@ pub struct CompileArgs {
 }
 
 /// Compiles the scene and writes the model file; a scene with errors prints them and writes
-/// nothing.
+/// nothing. The scene is read as a stream, each object encoded as soon as it is compiled.
 pub fn run(args: CompileArgs) -> anyhow::Result<ExitCode> {
     let colours = ColourTable::for_run(args.colours.colors.as_deref())?;
-    let loaded = match load_path(&args.scene, &colours) {
+    let mut encoder = ModelEncoder::new();
+    let loaded = match stream_path(&args.scene, &colours, &mut |_, o| encoder.push(&o)) {
         Ok(l) => l,
         Err(e @ LoadError::Scene(_)) => {
             eprintln!("{e}");
@@ -35,8 +37,9 @@ pub fn run(args: CompileArgs) -> anyhow::Result<ExitCode> {
         Err(e) => return Err(e.into()),
     };
     eprint!("{}", loaded.render_warnings());
-    yari::modelfile::save_atomic(&loaded.world, &args.output)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", args.output.display()))?;
+    let cannot = |e| anyhow::anyhow!("cannot write {}: {e}", args.output.display());
+    let bytes = encoder.finish(&loaded.world).map_err(cannot)?;
+    yari::modelfile::save_bytes_atomic(&bytes, &args.output).map_err(cannot)?;
     let size = std::fs::metadata(&args.output)
         .map(|m| m.len())
         .unwrap_or(0);

@@ -1,13 +1,20 @@
 //! Where a scene comes from ([`SceneSource`]: a file or the built-in example) and loading it:
 //! read or compiled, its primitives built, and every warning (the compiler's, and the objects
 //! dropped as degenerate) collected for the caller to print.
+//!
+//! Every kind is read as a stream: each object becomes primitives (and, for a job that ships
+//! the model, model file bytes) as soon as it is compiled or decoded, so neither the world's
+//! objects nor a second copy of the model are ever held whole.
 
 use super::Scene;
+use crate::geometry::primitives::PrimitivesBuilder;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use yari::colour::{ColourFileError, ColourTable};
 use yari::load::{InputKind, LoadError};
+use yari::model::{Object, Surface};
+use yari::modelfile::ModelEncoder;
 
 /// The SCENE argument that names the built-in example scene (the default of `render` and
 /// `submit`).
@@ -114,8 +121,8 @@ pub struct LoadedScene {
 }
 
 /// Loads a scene, with the colour names of `colours` (else `$YARI_COLORS`) added to the
-/// built-in table. A compiled model file is read as a stream, each object becoming
-/// primitives as it is decoded.
+/// built-in table. The file is read as a stream, each object becoming primitives as it is
+/// compiled or decoded.
 pub fn load(source: &SceneSource, colours: Option<&Path>) -> Result<LoadedScene, SceneLoadError> {
     load_as(source, colours, false)
 }
@@ -139,28 +146,47 @@ fn load_as(
     if let Some(path) = source.path().filter(|p| is_model_file(p)) {
         return load_model_file(source, path, keep_model, t_load);
     }
-    let loaded = match source {
-        SceneSource::File(p) => yari::load::load_path(p, &table)?,
-        SceneSource::Builtin => {
-            yari::load::load_str("built-in example", DEFAULT_SCENE, InputKind::Yari, &table)?
+    let mut builder = PrimitivesBuilder::new();
+    let mut encoder = keep_model.then(ModelEncoder::new);
+    let mut out = |surfaces: &[Surface], o: Object| {
+        if let Some(e) = encoder.as_mut() {
+            e.push(&o);
         }
+        builder.add(surfaces, &o);
+    };
+    let loaded = match source {
+        SceneSource::File(p) => yari::load::stream_path(p, &table, &mut out)?,
+        SceneSource::Builtin => yari::load::stream_str(
+            "built-in example",
+            DEFAULT_SCENE,
+            InputKind::Yari,
+            &table,
+            &mut out,
+        )?,
     };
     let mut warnings = Vec::new();
     let compiler = loaded.render_warnings();
     if !compiler.trim().is_empty() {
         warnings.push(compiler.trim_end().to_string());
     }
-    let model = match keep_model {
-        true => Some(
-            yari::modelfile::to_bytes(&loaded.world)
+    let model = match encoder {
+        Some(e) => Some(
+            e.finish(&loaded.world)
                 .map_err(|source| model_error(source, "the compiled scene"))?,
         ),
-        false => None,
+        None => None,
     };
+    // Compiling and building the primitives go together: all of it counts as loading.
     let load_s = t_load.elapsed().as_secs_f64();
-    let t_prepare = Instant::now();
-    let scene = Scene::new(loaded.world);
-    Ok(finish(source, scene, model, warnings, load_s, t_prepare))
+    let scene = Scene::built(loaded.world, builder);
+    Ok(finish(
+        source,
+        scene,
+        model,
+        warnings,
+        load_s,
+        Instant::now(),
+    ))
 }
 
 /// True when the file at `path` starts like a compiled model (whatever its name).

@@ -11,13 +11,15 @@
 //!   [`crate::model::Surface::default`]. Surfaces are deduplicated into [`World::surfaces`].
 //!
 //! # Layout
-//! - this file: entry point, preamble, warnings.
+//! - this file: entry point, preamble, warnings, the world block's items.
+//! - [`stream`](mod@stream): compiling item by item, each object handed over as it is made.
 //! - `stack`: the graphics state (transformation, attribute, motion) and transformations.
 //! - `surface`: attributes to surfaces, deduplication, colour lookup.
 //! - `shapes`: primitives to world-space shapes.
 
 mod shapes;
 mod stack;
+pub mod stream;
 mod surface;
 #[cfg(test)]
 mod tests;
@@ -25,10 +27,11 @@ mod tests;
 use crate::ast::{Block, BodyItem, CameraDef, ColorSpec, Scene, Spanned, ViewStmt};
 use crate::colour::ColourTable;
 use crate::diag::{Diagnostic, Diagnostics};
-use crate::model::{Camera, Features, Light, Shape, World};
+use crate::model::{Camera, Features, Light, Object, Surface, World};
 use crate::span::Span;
 use glam::DVec3;
 use stack::State;
+pub use stream::{CompileStream, ObjectSink};
 
 /// The resolution used when the scene gives none.
 pub const DEFAULT_RESOLUTION: [u32; 2] = [512, 512];
@@ -50,19 +53,14 @@ pub struct Compiled {
 
 /// Compiles a scene. On failure the diagnostics hold the errors (and any warnings).
 pub fn compile(scene: &Scene, colours: &ColourTable) -> Result<Compiled, Diagnostics> {
-    let mut c = Compiler::new(colours);
-    let mut world = c.preamble(scene);
-    c.block(&scene.body, State::new(), 1, &mut world);
-    world.features = features(&world);
-    c.finish_warnings();
-    if c.diags.has_errors() {
-        Err(c.diags)
-    } else {
-        Ok(Compiled {
-            world,
-            warnings: c.diags,
-        })
+    let mut stream = CompileStream::new(colours);
+    let mut objects = Vec::new();
+    for item in &scene.body.items {
+        stream.item(item, &mut |_, o| objects.push(o));
     }
+    let (mut world, warnings) = stream.finish(&scene.view)?;
+    world.objects = objects;
+    Ok(Compiled { world, warnings })
 }
 
 pub(crate) struct Compiler<'a> {
@@ -127,11 +125,11 @@ impl<'a> Compiler<'a> {
         }
     }
 
-    fn preamble(&mut self, scene: &Scene) -> World {
+    fn preamble(&mut self, view: &[Spanned<ViewStmt>]) -> World {
         let (mut resolution, mut camera, mut samples) = (None, None, None);
         let (mut background, mut ambient) = (DVec3::ZERO, DVec3::ZERO);
         let mut lights = Vec::new();
-        for stmt in &scene.view {
+        for stmt in view {
             let span = stmt.span;
             match &stmt.node {
                 ViewStmt::Resolution(x, y) => {
@@ -267,7 +265,14 @@ impl<'a> Compiler<'a> {
 
     /// Compiles the items of a block in `state` (a copy of the enclosing state: `end`
     /// restores by dropping it). `depth` counts blocks, the world block being 1.
-    fn block(&mut self, block: &Block, mut state: State, depth: usize, world: &mut World) {
+    fn block(
+        &mut self,
+        block: &Block,
+        mut state: State,
+        depth: usize,
+        surfaces: &mut Vec<Surface>,
+        out: &mut ObjectSink<'_>,
+    ) {
         if depth > crate::parse::MAX_NESTING {
             self.error(
                 block.span,
@@ -279,19 +284,36 @@ impl<'a> Compiler<'a> {
             return;
         }
         for item in &block.items {
-            match &item.node {
-                BodyItem::Block(inner) => self.block(inner, state.clone(), depth + 1, world),
-                BodyItem::Attribute(fields) => state.set_attribute(self, fields, item.span),
-                BodyItem::Transform(t) => state.apply(self, t, item.span),
-                BodyItem::Primitive(p) => {
-                    if let Some(shape) = self.primitive(p, &state, item.span) {
-                        let surface = state.surface_index(self, &mut world.surfaces, item.span);
-                        world.objects.push(crate::model::Object {
+            self.item(item, &mut state, depth, surfaces, out);
+        }
+    }
+
+    /// Compiles one item of a block at `depth` in `state`, each object it makes going to
+    /// `out` (its surface added to `surfaces` first).
+    fn item(
+        &mut self,
+        item: &Spanned<BodyItem>,
+        state: &mut State,
+        depth: usize,
+        surfaces: &mut Vec<Surface>,
+        out: &mut ObjectSink<'_>,
+    ) {
+        match &item.node {
+            BodyItem::Block(inner) => self.block(inner, state.clone(), depth + 1, surfaces, out),
+            BodyItem::Attribute(fields) => state.set_attribute(self, fields, item.span),
+            BodyItem::Transform(t) => state.apply(self, t, item.span),
+            BodyItem::Primitive(p) => {
+                if let Some(shape) = self.primitive(p, state, item.span) {
+                    let surface = state.surface_index(self, surfaces, item.span);
+                    let motion = state.motion;
+                    out(
+                        surfaces,
+                        Object {
                             shape,
                             surface,
-                            motion: state.motion,
-                        });
-                    }
+                            motion,
+                        },
+                    );
                 }
             }
         }
@@ -302,23 +324,7 @@ impl<'a> Compiler<'a> {
 pub fn features(world: &World) -> Features {
     let mut f = Features::default();
     for o in &world.objects {
-        match o.shape {
-            Shape::Sphere { .. } => f.spheres += 1,
-            Shape::Ellipsoid { .. } => f.ellipsoids += 1,
-            Shape::Polygon { .. } | Shape::SmoothPolygon { .. } => f.polygons += 1,
-            Shape::Quadric(_) => f.quadrics += 1,
-        }
-        f.motion_blur |= o.motion != DVec3::ZERO;
+        stream::count_object(&mut f, o);
     }
-    for s in &world.surfaces {
-        f.textures |= s.texture.is_some();
-        f.transparency |= s.kst() > 0.0;
-        f.reflection |= s.ksr() > 0.0;
-        f.gloss |= s.gloss > 0.0 && s.ksr() > 0.0;
-        f.translucency |= s.translucency > 0.0 && s.kst() > 0.0;
-    }
-    f.area_lights = world.lights.iter().any(|l| l.radius > 0.0);
-    f.depth_of_field = world.camera.aperture > 0.0;
-    f.antialiasing = world.samples > 1;
-    f
+    stream::finish_features(f, world)
 }

@@ -1,5 +1,5 @@
 use super::*;
-use crate::model::{Object, Surface, TextureKind};
+use crate::model::{Shape, TextureKind};
 use crate::parse::parse;
 use crate::span::Source;
 

@@ -25,14 +25,17 @@
 //! ([`validate`]) each give their own [`ModelFileError`].
 //!
 //! [`stream`] decodes a file as its bytes arrive and hands over one object at a time; every
-//! read here goes through it.
+//! read here goes through it. [`encode`] writes one as its objects arrive; every write here
+//! goes through it.
 
+pub mod encode;
 pub mod stream;
 
 #[cfg(test)]
 mod smooth_tests;
 
 use crate::model::{Object, World};
+pub use encode::ModelEncoder;
 use std::io::{Read, Write};
 use std::path::Path;
 pub use stream::{read_stream, ModelStream};
@@ -103,16 +106,6 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
     fnv1a_update(FNV_OFFSET, bytes)
 }
 
-/// Counts the bytes a serializer writes (to size the file before writing it).
-#[derive(Default)]
-struct ByteCount(usize);
-
-impl Extend<u8> for ByteCount {
-    fn extend<I: IntoIterator<Item = u8>>(&mut self, bytes: I) {
-        self.0 += bytes.into_iter().count();
-    }
-}
-
 /// The version a file of `world` is written with: [`OLDEST_VERSION`] unless an object is a
 /// smooth polygon, which needs [`VERSION`].
 pub fn version_for(world: &World) -> u32 {
@@ -127,24 +120,14 @@ pub fn version_for(world: &World) -> u32 {
     }
 }
 
-/// The whole file as bytes. The payload is measured, then serialized straight after the
-/// header in a buffer of exactly its size, and the header filled in: one copy of the model
-/// in memory, not the two (and a half, while a growing buffer moves) of the plain way.
+/// The whole file as bytes: the world's objects encoded one by one behind its head
+/// ([`ModelEncoder`]).
 pub fn to_bytes(world: &World) -> Result<Vec<u8>, ModelFileError> {
-    let corrupt = |e: postcard::Error| ModelFileError::Corrupt(e.to_string());
-    let size = postcard::to_extend(world, ByteCount::default())
-        .map_err(corrupt)?
-        .0;
-    let mut head = Vec::with_capacity(HEADER_LEN + size);
-    head.extend_from_slice(MAGIC);
-    head.extend_from_slice(&version_for(world).to_le_bytes());
-    head.resize(HEADER_LEN, 0);
-    let mut out = postcard::to_extend(world, head).map_err(corrupt)?;
-    let len = (out.len() - HEADER_LEN) as u64;
-    let hash = fnv1a(&out[HEADER_LEN..]);
-    out[12..20].copy_from_slice(&len.to_le_bytes());
-    out[20..28].copy_from_slice(&hash.to_le_bytes());
-    Ok(out)
+    let mut encoder = ModelEncoder::new();
+    for o in &world.objects {
+        encoder.push(o);
+    }
+    encoder.finish(world)
 }
 
 /// Writes a model file to `out`.
@@ -278,7 +261,11 @@ pub fn has_magic(bytes: &[u8]) -> bool {
 /// Writes a model file to a temporary name beside `path`, then renames it over `path`, so a
 /// reader never sees half a file.
 pub fn save_atomic(world: &World, path: &Path) -> Result<(), ModelFileError> {
-    let bytes = to_bytes(world)?;
+    save_bytes_atomic(&to_bytes(world)?, path)
+}
+
+/// [`save_atomic`] of a model file's bytes (from [`ModelEncoder::finish`]).
+pub fn save_bytes_atomic(bytes: &[u8], path: &Path) -> Result<(), ModelFileError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -286,7 +273,7 @@ pub fn save_atomic(world: &World, path: &Path) -> Result<(), ModelFileError> {
     let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
+        f.write_all(bytes)?;
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();

@@ -1,14 +1,17 @@
-//! NFF reader: text to [`NffScene`], with a spanned diagnostic for every malformed entity.
+//! NFF reader: text to entities, with a spanned diagnostic for every malformed entity.
 //!
-//! NFF is a stream of blank-separated tokens (Haines's own reader uses `fscanf`, so line
-//! breaks carry no meaning); `#` starts a comment that runs to the end of the line. After an
-//! error the reader skips to the next entity letter and goes on, so one run reports every
-//! broken entity (up to [`MAX_ERRORS`]).
+//! The text is read once, as a stream ([`read_each`] hands each entity over as soon as it is
+//! read); [`read()`] collects them into an [`NffScene`]. After an error the reader skips to
+//! the next entity letter and goes on, so one run reports every broken entity (up to
+//! [`MAX_ERRORS`]).
 
 use super::scene::{Entity, Fill, NffScene, View};
+use super::tokens::{Token, Tokens};
 use crate::ast::{has_direction, Spanned, Vec3};
 use crate::diag::{Diagnostic, Diagnostics};
+use crate::lines::TextLines;
 use crate::span::{Source, Span};
+use std::io::BufRead;
 
 /// The reader stops after this many errors.
 pub const MAX_ERRORS: usize = 50;
@@ -22,23 +25,36 @@ const ENTITY_KEYWORDS: [&str; 8] = ["b", "v", "l", "f", "c", "s", "p", "pp"];
 /// Reads NFF text into its entities. Warnings (values outside their usual range) are returned
 /// with the scene; any error fails the read.
 pub fn read(src: &Source) -> Result<(NffScene, Diagnostics), Diagnostics> {
+    let mut scene = NffScene::default();
+    let mut lines = TextLines::new(src.text.as_bytes());
+    let warnings = read_each(&mut lines, &mut |e| scene.entities.push(e))?;
+    Ok((scene, warnings))
+}
+
+/// Reads NFF text from `lines` to its end, handing each entity to `each` as soon as it is
+/// read (none after the first error). The warnings, or every diagnostic when there is an
+/// error; a text that stops early (an I/O error, not UTF-8) ends as if it ended there, and
+/// `lines` keeps why.
+pub fn read_each<R: BufRead>(
+    lines: &mut TextLines<R>,
+    each: &mut dyn FnMut(Spanned<Entity>),
+) -> Result<Diagnostics, Diagnostics> {
     let mut reader = Reader {
-        tokens: tokenize(&src.text),
-        pos: 0,
-        end: src.text.len(),
+        tokens: Tokens::new(lines),
         diags: Diagnostics::default(),
     };
-    let mut scene = NffScene::default();
-    while let Some(tok) = reader.next() {
-        match reader.entity(tok) {
+    while let Some(tok) = reader.tokens.next() {
+        match reader.entity(&tok) {
             Ok(entity) => {
-                let span = tok.span.to(reader.last_span());
-                scene.entities.push(Spanned::new(entity, span));
+                if !reader.diags.has_errors() {
+                    let span = tok.span.to(reader.tokens.last_span());
+                    each(Spanned::new(entity, span));
+                }
             }
             Err(d) => {
                 reader.diags.push(d);
                 if reader.diags.errors().count() >= MAX_ERRORS {
-                    let here = reader.last_span();
+                    let here = reader.tokens.last_span();
                     reader
                         .diags
                         .push(Diagnostic::error(here, "too many errors; giving up"));
@@ -48,87 +64,36 @@ pub fn read(src: &Source) -> Result<(NffScene, Diagnostics), Diagnostics> {
             }
         }
     }
+    reader.tokens.drain();
     if reader.diags.has_errors() {
         Err(reader.diags)
     } else {
-        Ok((scene, reader.diags))
+        Ok(reader.diags)
     }
 }
 
-#[derive(Clone, Copy, Debug)]
-struct Token<'a> {
-    text: &'a str,
-    span: Span,
-}
-
-fn tokenize(text: &str) -> Vec<Token<'_>> {
-    let mut tokens = Vec::new();
-    let bytes = text.as_bytes();
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i].is_ascii_whitespace() {
-            i += 1;
-        } else if bytes[i] == b'#' {
-            while i < bytes.len() && bytes[i] != b'\n' {
-                i += 1;
-            }
-        } else {
-            let start = i;
-            while i < bytes.len() && !bytes[i].is_ascii_whitespace() {
-                i += 1;
-            }
-            tokens.push(Token {
-                text: &text[start..i],
-                span: Span::new(start, i),
-            });
-        }
-    }
-    tokens
-}
-
-struct Reader<'a> {
-    tokens: Vec<Token<'a>>,
-    pos: usize,
-    end: usize,
+struct Reader<'l, R> {
+    tokens: Tokens<'l, R>,
     diags: Diagnostics,
 }
 
 type Parsed<T> = Result<T, Diagnostic>;
 
-impl<'a> Reader<'a> {
-    fn next(&mut self) -> Option<Token<'a>> {
-        let t = self.tokens.get(self.pos).copied();
-        if t.is_some() {
-            self.pos += 1;
-        }
-        t
-    }
-
-    fn peek(&self) -> Option<Token<'a>> {
-        self.tokens.get(self.pos).copied()
-    }
-
-    fn last_span(&self) -> Span {
-        self.pos
-            .checked_sub(1)
-            .and_then(|i| self.tokens.get(i))
-            .map(|t| t.span)
-            .unwrap_or_default()
-    }
-
+impl<R: BufRead> Reader<'_, R> {
     fn skip_to_entity(&mut self) {
-        while let Some(t) = self.peek() {
-            if ENTITY_KEYWORDS.contains(&t.text) {
+        while let Some(t) = self.tokens.peek() {
+            if ENTITY_KEYWORDS.contains(&t.text.as_str()) {
                 return;
             }
-            self.pos += 1;
+            self.tokens.next();
         }
     }
 
-    fn expect_token(&mut self, what: &str) -> Parsed<Token<'a>> {
-        self.next().ok_or_else(|| {
+    fn expect_token(&mut self, what: &str) -> Parsed<Token> {
+        let end = self.tokens.end();
+        self.tokens.next().ok_or_else(|| {
             Diagnostic::error(
-                Span::new(self.end, self.end),
+                Span::new(end, end),
                 format!("unexpected end of file: expected {what}"),
             )
         })
@@ -143,14 +108,13 @@ impl<'a> Reader<'a> {
                 format!("{what} must be a finite number"),
             )),
             Err(_) => {
-                if ENTITY_KEYWORDS.contains(&t.text) {
+                let error =
+                    Diagnostic::error(t.span, format!("expected {what}, found `{}`", t.text));
+                if ENTITY_KEYWORDS.contains(&t.text.as_str()) {
                     // Leave the next entity for the recovery to start from.
-                    self.pos -= 1;
+                    self.tokens.put_back(t);
                 }
-                Err(Diagnostic::error(
-                    t.span,
-                    format!("expected {what}, found `{}`", t.text),
-                ))
+                Err(error)
             }
         }
     }
@@ -192,16 +156,18 @@ impl<'a> Reader<'a> {
         Ok((n, t.span))
     }
 
-    fn next_is_number(&self) -> bool {
-        self.peek().is_some_and(|t| t.text.parse::<f64>().is_ok())
+    fn next_is_number(&mut self) -> bool {
+        self.tokens
+            .peek()
+            .is_some_and(|t| t.text.parse::<f64>().is_ok())
     }
 
     fn warn(&mut self, span: Span, message: impl Into<String>) {
         self.diags.push(Diagnostic::warning(span, message));
     }
 
-    fn entity(&mut self, tok: Token<'a>) -> Parsed<Entity> {
-        match tok.text {
+    fn entity(&mut self, tok: &Token) -> Parsed<Entity> {
+        match tok.text.as_str() {
             "b" => Ok(Entity::Background(self.color("the background colour")?)),
             "v" => self.view(tok.span).map(Entity::View),
             "l" => {
@@ -237,9 +203,9 @@ impl<'a> Reader<'a> {
     fn view(&mut self, v_span: Span) -> Parsed<View> {
         let (mut from, mut at, mut up, mut angle, mut hither, mut resolution) =
             (None, None, None, None, None, None);
-        while let Some(t) = self.peek() {
-            let slot_taken = match t.text {
-                "from" | "at" | "up" | "angle" | "hither" | "resolution" => match t.text {
+        while let Some(t) = self.tokens.peek() {
+            let slot_taken = match t.text.as_str() {
+                "from" | "at" | "up" | "angle" | "hither" | "resolution" => match t.text.as_str() {
                     "from" => from.is_some(),
                     "at" => at.is_some(),
                     "up" => up.is_some(),
@@ -249,14 +215,14 @@ impl<'a> Reader<'a> {
                 },
                 _ => break,
             };
-            self.pos += 1;
+            let Some(t) = self.tokens.next() else { break };
             if slot_taken {
                 return Err(Diagnostic::error(
                     t.span,
                     format!("`{}` given twice in one view", t.text),
                 ));
             }
-            match t.text {
+            match t.text.as_str() {
                 "from" => from = Some(self.vec3("`from`")?),
                 "at" => at = Some(self.vec3("`at`")?),
                 "up" => up = Some(self.vec3("`up`")?),
@@ -336,10 +302,10 @@ impl<'a> Reader<'a> {
         for i in 0..n {
             vertices.push(self.vec3(&format!("vertex {}", i + 1))?);
             if with_normals {
-                let start = self.pos;
+                let first = self.tokens.peek().map(|t| t.span).unwrap_or_default();
                 let normal = self.vec3(&format!("the normal of vertex {}", i + 1))?;
                 if !has_direction(&normal) && normals.iter().all(has_direction) {
-                    let span = self.tokens[start].span.to(self.last_span());
+                    let span = first.to(self.tokens.last_span());
                     let why = "has no direction (zero or out of range); this `pp` is shaded flat";
                     self.warn(span, format!("the normal of vertex {} {why}", i + 1));
                 }

@@ -25,30 +25,44 @@ use crate::span::Span;
 /// Maps an NFF scene onto the YARI syntax tree. Spans point into the NFF source.
 pub fn to_yari(nff: &NffScene) -> Scene {
     let mut scene = Scene::default();
-    let lights = nff
-        .entities
-        .iter()
-        .filter(|e| matches!(e.node, Entity::Light { .. }))
-        .count();
-    let light_scale = haines_intensity(lights);
-    // NFF has no ambient light: Haines's intensity, explicitly rather than YARI's default.
-    let first = nff.entities.first().map(|e| e.span).unwrap_or_default();
-    scene.view.push(Spanned::new(
-        ViewStmt::Ambient(rgb([light_scale; 3], first)),
-        first,
-    ));
+    let mut mapping = Mapping::default();
     for e in &nff.entities {
+        if let Some(item) = mapping.entity(e.clone()) {
+            scene.body.items.push(item);
+        }
+    }
+    scene.view = mapping.view();
+    if let (Some(first), Some(last)) = (scene.body.items.first(), scene.body.items.last()) {
+        scene.body.span = first.span.to(last.span);
+    }
+    scene
+}
+
+/// The mapping applied entity by entity, as a reader hands them over: each `f`, `s`, `p`,
+/// `pp` and `c` becomes a world-block item at once; `b`, `v` and `l` are kept for the
+/// preamble, which is complete only at the end (every light's intensity depends on how
+/// many there are).
+#[derive(Default)]
+pub struct Mapping {
+    view: Vec<Spanned<ViewStmt>>,
+    lights: usize,
+    first: Option<Span>,
+}
+
+impl Mapping {
+    /// The world-block item of one entity, if it makes one (a degenerate cone makes none).
+    pub fn entity(&mut self, e: Spanned<Entity>) -> Option<Spanned<BodyItem>> {
         let span = e.span;
-        match &e.node {
+        self.first.get_or_insert(span);
+        let primitive = match e.node {
             Entity::Background(c) => {
-                scene
-                    .view
-                    .push(Spanned::new(ViewStmt::Background(rgb(*c, span)), span));
+                let stmt = ViewStmt::Background(rgb(c, span));
+                self.view.push(Spanned::new(stmt, span));
+                return None;
             }
             Entity::View(v) => {
                 if let Some([x, y]) = v.resolution {
-                    scene
-                        .view
+                    self.view
                         .push(Spanned::new(ViewStmt::Resolution(x, y), span));
                 }
                 let camera = CameraDef {
@@ -59,64 +73,64 @@ pub fn to_yari(nff: &NffScene) -> Scene {
                     aperture: None,
                     focus: None,
                 };
-                scene
-                    .view
-                    .push(Spanned::new(ViewStmt::Camera(camera), span));
+                self.view.push(Spanned::new(ViewStmt::Camera(camera), span));
+                return None;
             }
             Entity::Light { position, color } => {
-                let c = color.unwrap_or([1.0; 3]).map(|x| x * light_scale);
+                // Scaled by the number of lights in `view`.
                 let light = LightDef {
-                    position: *position,
-                    color: rgb(c, span),
+                    position,
+                    color: rgb(color.unwrap_or([1.0; 3]), span),
                     radius: None,
                 };
-                scene.view.push(Spanned::new(ViewStmt::Light(light), span));
+                self.lights += 1;
+                self.view.push(Spanned::new(ViewStmt::Light(light), span));
+                return None;
             }
             Entity::Fill(f) => {
-                let fields = fill_attribute(f)
+                let fields = fill_attribute(&f)
                     .into_iter()
                     .map(|a| Spanned::new(a, span))
                     .collect();
-                scene
-                    .body
-                    .items
-                    .push(Spanned::new(BodyItem::Attribute(fields), span));
+                return Some(Spanned::new(BodyItem::Attribute(fields), span));
             }
-            Entity::Sphere { center, radius } => push_primitive(
-                &mut scene,
-                Primitive::Sphere {
-                    center: *center,
-                    radius: *radius,
-                },
-                span,
-            ),
-            Entity::Polygon { vertices, normals } => push_primitive(
-                &mut scene,
-                Primitive::Polygon {
-                    vertices: vertices.clone(),
-                    normals: normals
-                        .as_ref()
-                        .filter(|n| n.len() == vertices.len() && n.iter().all(has_direction))
-                        .cloned(),
-                },
-                span,
-            ),
+            Entity::Sphere { center, radius } => Primitive::Sphere { center, radius },
+            Entity::Polygon { vertices, normals } => {
+                let normals =
+                    normals.filter(|n| n.len() == vertices.len() && n.iter().all(has_direction));
+                Primitive::Polygon { vertices, normals }
+            }
             Entity::Cone {
                 base,
                 base_radius,
                 apex,
                 apex_radius,
-            } => {
-                if let Some(q) = cone_quadric(*base, *base_radius, *apex, *apex_radius) {
-                    push_primitive(&mut scene, q, span);
+            } => cone_quadric(base, base_radius, apex, apex_radius)?,
+        };
+        Some(Spanned::new(BodyItem::Primitive(primitive), span))
+    }
+
+    /// The preamble: Haines's ambient light (NFF has none; explicitly rather than YARI's
+    /// default), then the `b`, `v` and `l` statements in order, each light's colour scaled
+    /// by [`haines_intensity`].
+    pub fn view(self) -> Vec<Spanned<ViewStmt>> {
+        let scale = haines_intensity(self.lights);
+        let first = self.first.unwrap_or_default();
+        let mut view = Vec::with_capacity(self.view.len() + 1);
+        view.push(Spanned::new(
+            ViewStmt::Ambient(rgb([scale; 3], first)),
+            first,
+        ));
+        for mut stmt in self.view {
+            if let ViewStmt::Light(l) = &mut stmt.node {
+                if let ColorSpec::Rgb(c) = &mut l.color.node {
+                    *c = c.map(|x| x * scale);
                 }
             }
+            view.push(stmt);
         }
+        view
     }
-    if let (Some(first), Some(last)) = (scene.body.items.first(), scene.body.items.last()) {
-        scene.body.span = first.span.to(last.span);
-    }
-    scene
 }
 
 /// The relative intensity of each light and of the ambient light for `lights` lights,
@@ -150,13 +164,6 @@ pub fn fill_attribute(f: &Fill) -> Vec<AttrField> {
 
 fn rgb(c: Vec3, span: Span) -> Spanned<ColorSpec> {
     Spanned::new(ColorSpec::Rgb(c), span)
-}
-
-fn push_primitive(scene: &mut Scene, p: Primitive, span: Span) {
-    scene
-        .body
-        .items
-        .push(Spanned::new(BodyItem::Primitive(p), span));
 }
 
 #[cfg(test)]

@@ -1,9 +1,12 @@
-//! Reading OFF text: the header (with its `N`, `C` and `ST` prefixes), the counts, the
-//! vertex lines and the face lines, each error with its location.
+//! Reading OFF text as a stream: the header (with its `N`, `C` and `ST` prefixes), the
+//! counts, the vertex lines (kept: faces refer to them) and the face lines (each handed
+//! over as soon as it is read), each error with its location.
 
 use crate::ast::{has_direction, Vec3};
 use crate::diag::{Diagnostic, Diagnostics};
+use crate::lines::TextLines;
 use crate::span::Span;
+use std::io::BufRead;
 
 /// Largest vertex or face count accepted (a guard against absurd headers).
 const MAX_COUNT: u64 = 50_000_000;
@@ -21,19 +24,34 @@ struct Layout {
     texture: bool,
 }
 
-/// One vertex: its position and, with `NOFF`, its normal.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Vertex {
-    pub(super) position: Vec3,
-    pub(super) normal: Option<Vec3>,
+/// The vertices: their positions, and with `NOFF` their normals; which of them a face uses.
+#[derive(Default)]
+pub(super) struct VertexTable {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    used: Vec<bool>,
 }
 
-/// Reads the whole file: the vertex positions and the faces. Errors in face lines are
-/// collected in `diags` (the reader goes on); the first error elsewhere is returned.
-pub(super) fn read_off(
-    text: &str,
+impl VertexTable {
+    /// The positions of the vertices some face uses, or of all when none does.
+    pub(super) fn framed(&self) -> impl Iterator<Item = &Vec3> + Clone {
+        let any = self.used.contains(&true);
+        self.positions
+            .iter()
+            .zip(&self.used)
+            .filter(move |(_, used)| **used || !any)
+            .map(|(p, _)| p)
+    }
+}
+
+/// Reads the whole text, handing each face to `each` as it is read (none after the first
+/// error); the vertices. Errors in face lines are collected in `diags` (the reader goes on);
+/// the first error elsewhere is returned.
+pub(super) fn read_off<R: BufRead>(
+    text: &mut TextLines<R>,
     diags: &mut Diagnostics,
-) -> Result<(Vec<Vec3>, Vec<Face>), Diagnostic> {
+    each: &mut dyn FnMut(Face),
+) -> Result<VertexTable, Diagnostic> {
     let mut lines = Lines::new(text);
     let (layout, counts) = header(&mut lines)?;
     if counts.len() < 2 || counts.len() > 3 {
@@ -49,18 +67,22 @@ pub(super) fn read_off(
         count(ne, "the edge count")?;
     }
 
-    let mut vertices = Vec::with_capacity(nv.min(1 << 20) as usize);
+    let mut table = VertexTable::default();
+    let reserve = nv.min(1 << 20) as usize;
+    table.positions.reserve(reserve);
     for i in 0..nv {
         let what = format!("vertex {i} of {nv}");
         let line = lines.next_line().ok_or_else(|| lines.eof(&what))?;
-        vertices.push(vertex(&line, layout, &what)?);
+        let (position, normal) = vertex(&line, layout, &what)?;
+        table.positions.push(position);
+        table.normals.extend(normal);
     }
+    table.used = vec![false; table.positions.len()];
 
-    let mut faces = Vec::with_capacity(nf.min(1 << 20) as usize);
     for f in 0..nf {
         let what = format!("face {f} of {nf}");
         let line = lines.next_line().ok_or_else(|| lines.eof(&what))?;
-        match face(&line, &vertices, &what) {
+        match face(&line, &mut table, &what) {
             Ok((face, flat)) => {
                 if let Some(k) = flat {
                     diags.push(Diagnostic::warning(
@@ -71,7 +93,9 @@ pub(super) fn read_off(
                         ),
                     ));
                 }
-                faces.push(face)
+                if !diags.has_errors() {
+                    each(face);
+                }
             }
             Err(d) => {
                 diags.push(d);
@@ -90,16 +114,15 @@ pub(super) fn read_off(
             format!("text after the {nf} faces is ignored"),
         ));
     }
-    let positions = vertices.iter().map(|v| v.position).collect();
-    Ok((positions, faces))
+    Ok(table)
 }
 
 /// The header keyword's layout and the tokens of the counts line.
-fn header<'a>(lines: &mut Lines<'a>) -> Result<(Layout, Vec<Token<'a>>), Diagnostic> {
+fn header<R: BufRead>(lines: &mut Lines<'_, R>) -> Result<(Layout, Vec<Token>), Diagnostic> {
     let mut header = lines
         .next_line()
         .ok_or_else(|| lines.eof("the `OFF` header"))?;
-    let Some(first) = header.first().copied() else {
+    let Some(first) = header.first().cloned() else {
         return Err(lines.eof("the `OFF` header"));
     };
     let layout = keyword(first)?;
@@ -115,7 +138,7 @@ fn header<'a>(lines: &mut Lines<'a>) -> Result<(Layout, Vec<Token<'a>>), Diagnos
 }
 
 /// `[ST][C][N]OFF` to its layout.
-fn keyword(t: Token<'_>) -> Result<Layout, Diagnostic> {
+fn keyword(t: Token) -> Result<Layout, Diagnostic> {
     let bad = || {
         Diagnostic::error(
             t.span,
@@ -146,8 +169,8 @@ fn keyword(t: Token<'_>) -> Result<Layout, Diagnostic> {
     }
 }
 
-/// One vertex line laid out as `layout` says.
-fn vertex(line: &[Token<'_>], layout: Layout, what: &str) -> Result<Vertex, Diagnostic> {
+/// One vertex line laid out as `layout` says: its position and, with `N`, its normal.
+fn vertex(line: &[Token], layout: Layout, what: &str) -> Result<(Vec3, Option<Vec3>), Diagnostic> {
     let fixed = 3 + if layout.normals { 3 } else { 0 } + if layout.texture { 2 } else { 0 };
     let colour = line.len().saturating_sub(fixed);
     let ok = if layout.colours {
@@ -174,10 +197,10 @@ fn vertex(line: &[Token<'_>], layout: Layout, what: &str) -> Result<Vertex, Diag
             nums[k] = x;
         }
     }
-    Ok(Vertex {
-        position: [nums[0], nums[1], nums[2]],
-        normal: layout.normals.then_some([nums[3], nums[4], nums[5]]),
-    })
+    Ok((
+        [nums[0], nums[1], nums[2]],
+        layout.normals.then_some([nums[3], nums[4], nums[5]]),
+    ))
 }
 
 /// One face: vertex positions (and normals) already looked up, optional colour, the line's
@@ -193,8 +216,8 @@ pub(super) struct Face {
 /// One face line: the face, and the position in it of the first vertex whose normal has no
 /// direction (the face is then flat).
 fn face(
-    line: &[Token<'_>],
-    vertices: &[Vertex],
+    line: &[Token],
+    vertices: &mut VertexTable,
     what: &str,
 ) -> Result<(Face, Option<usize>), Diagnostic> {
     let span = line[0].span.to(line[line.len() - 1].span);
@@ -216,17 +239,19 @@ fn face(
     let mut normals = Vec::with_capacity(n);
     for t in &rest[..n] {
         let i = count(t, "a vertex index")?;
-        let v = vertices.get(i as usize).ok_or_else(|| {
+        let at = i as usize;
+        let v = vertices.positions.get(at).ok_or_else(|| {
             Diagnostic::error(
                 t.span,
                 format!(
                     "vertex index {i} is out of range (the file has {} vertices)",
-                    vertices.len()
+                    vertices.positions.len()
                 ),
             )
         })?;
-        points.push(v.position);
-        normals.extend(v.normal);
+        points.push(*v);
+        normals.extend(vertices.normals.get(at));
+        vertices.used[at] = true;
     }
     let flat = normals.iter().position(|n| !has_direction(n));
     let normals = (normals.len() == n && flat.is_none()).then_some(normals);
@@ -265,7 +290,7 @@ fn face(
     ))
 }
 
-fn count(t: &Token<'_>, what: &str) -> Result<u64, Diagnostic> {
+fn count(t: &Token, what: &str) -> Result<u64, Diagnostic> {
     match t.text.parse::<u64>() {
         Ok(n) if n <= MAX_COUNT => Ok(n),
         Ok(n) => Err(Diagnostic::error(
@@ -279,7 +304,7 @@ fn count(t: &Token<'_>, what: &str) -> Result<u64, Diagnostic> {
     }
 }
 
-fn number(t: &Token<'_>, what: &str) -> Result<f64, Diagnostic> {
+fn number(t: &Token, what: &str) -> Result<f64, Diagnostic> {
     match t.text.parse::<f64>() {
         Ok(x) if x.is_finite() => Ok(x),
         _ => Err(Diagnostic::error(
@@ -289,40 +314,35 @@ fn number(t: &Token<'_>, what: &str) -> Result<f64, Diagnostic> {
     }
 }
 
-#[derive(Clone, Copy)]
-pub(super) struct Token<'a> {
-    text: &'a str,
+#[derive(Clone)]
+pub(super) struct Token {
+    text: String,
     span: Span,
 }
 
 /// Non-empty lines of tokens, comments removed.
-struct Lines<'a> {
-    text: &'a str,
-    offset: usize,
+struct Lines<'l, R> {
+    text: &'l mut TextLines<R>,
 }
 
-impl<'a> Lines<'a> {
-    fn new(text: &'a str) -> Self {
-        Lines { text, offset: 0 }
+impl<'l, R: BufRead> Lines<'l, R> {
+    fn new(text: &'l mut TextLines<R>) -> Self {
+        Lines { text }
     }
 
     fn eof(&self, what: &str) -> Diagnostic {
-        let end = self.text.len();
+        let end = self.text.offset();
         Diagnostic::error(
             Span::new(end, end),
             format!("unexpected end of file: expected {what}"),
         )
     }
 
-    fn next_line(&mut self) -> Option<Vec<Token<'a>>> {
-        while self.offset < self.text.len() {
-            let start = self.offset;
-            let end = self.text[start..]
-                .find('\n')
-                .map(|i| start + i)
-                .unwrap_or(self.text.len());
-            self.offset = end + 1;
-            let line = &self.text[start..end];
+    fn next_line(&mut self) -> Option<Vec<Token>> {
+        while self.text.advance() {
+            let start = self.text.start();
+            let line = self.text.line();
+            let line = line.strip_suffix('\n').unwrap_or(line);
             let line = line.split('#').next().unwrap_or("");
             let mut tokens = Vec::new();
             let mut pos = 0;
@@ -330,7 +350,7 @@ impl<'a> Lines<'a> {
                 if !piece.is_empty() {
                     let s = start + pos;
                     tokens.push(Token {
-                        text: piece,
+                        text: piece.to_string(),
                         span: Span::new(s, s + piece.len()),
                     });
                 }
