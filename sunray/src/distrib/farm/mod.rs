@@ -29,7 +29,7 @@ use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
 use super::connection::RemConnection;
 use super::job::{self, JobError, JobRequest};
 use super::job_record;
-use super::messages::{self, proto};
+use super::messages::proto;
 use super::model_chunks;
 use super::web_view;
 use crate::scene::load::LoadedScene;
@@ -195,7 +195,7 @@ pub async fn submit(
     let mut checkpointer = Checkpointer::new(
         &plan.job,
         job::job_spec(req, &plan),
-        messages::fnv1a(&plan.model),
+        shipped.hash,
         None,
     );
     let (width, height) = (plan.settings.render.width, plan.settings.render.height);
