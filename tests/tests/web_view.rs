@@ -174,6 +174,24 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
             .any(|e| e["text"].as_str().unwrap().contains("controller")),
         "{view}"
     );
+    // And the job's timeline, to its end.
+    let t = &view["timeline"];
+    let steps: Vec<(&str, f64)> = t
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| (s[0].as_str().unwrap(), s[1].as_f64().unwrap()))
+        .collect();
+    let names: Vec<&str> = steps.iter().map(|s| s.0).collect();
+    let names_wanted = [
+        "controller",
+        "first line",
+        "last line",
+        "image stored",
+        "finished",
+    ];
+    assert_eq!(names, names_wanted, "{t}");
+    assert!(steps.windows(2).all(|w| w[0].1 <= w[1].1), "{t}");
     let png = web.get("/api/jobs/web1/image.png", &alice);
     assert_eq!(
         (png.status, png.content_type.as_deref()),
@@ -329,6 +347,11 @@ fn the_page_shows_hosts_a_job_filling_in_and_a_lost_worker_host() {
         "document.getElementById('job').dataset.state === 'finished'",
         "the job finished",
         Duration::from_secs(90),
+    );
+    page.wait_for(
+        "/^Timeline \\(seconds since submit\\): controller [0-9.]+ s, first line .*, finished [0-9.]+ s$/.test(document.getElementById('timeline').textContent)",
+        "the job's timeline on its page",
+        Duration::from_secs(15),
     );
     page.screenshot("web-job-finished.png");
 

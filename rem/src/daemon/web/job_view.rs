@@ -7,8 +7,8 @@
 //! - `ID.web.json`, at most [`MAX_VIEW_JSON`] bytes: a JSON object, shown as it is:
 //!   `nodes` (`{"columns": [...], "rows": [[...], ...]}`, a table), `events`
 //!   (`[{"unix_ms", "kind", "text"}, ...]`, oldest first), `image`
-//!   (`{"width", "height", "lines", "full"}`) and `timeline` (`{"step": seconds since
-//!   submit, or null}`, shown as one line, its steps in their order);
+//!   (`{"width", "height", "lines", "full"}`) and `timeline` (`[["step", seconds since
+//!   submit], ...]`, the steps so far in their order, shown as one line);
 //! - `ID.web.png`: a PNG of the work so far, written before the JSON that describes it.
 
 use serde::Serialize;

@@ -192,12 +192,8 @@ pub async fn submit(
     // set when it sends the scene).
     let shipped = model_chunks::ship(client, &plan.model).await?;
     let scene_msg = shipped.scene(plan.settings.to_proto(), &plan.job, 0);
-    let mut checkpointer = Checkpointer::new(
-        &plan.job,
-        job::job_spec(req, &plan),
-        shipped.hash,
-        None,
-    );
+    let mut checkpointer =
+        Checkpointer::new(&plan.job, job::job_spec(req, &plan), shipped.hash, None);
     let (width, height) = (plan.settings.render.width, plan.settings.render.height);
     let title = job_record::title(&plan.loaded.source.display_name(), width, height);
     // The Scene message, the first checkpoint and remd's web view (the page of a job used

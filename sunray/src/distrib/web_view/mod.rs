@@ -8,8 +8,8 @@
 //!   `kind`, `text`; oldest first, the last [`MAX_EVENTS`], carried over from one controller
 //!   to the next) and what the image is (`image`: `width`, `height`, `lines` in it now,
 //!   `png_width`, `png_height`, and `full`: the last publication's full-size image) and the
-//!   job's timeline (`timeline`: seconds since submit of each step so far, see
-//!   [`Timeline`]).
+//!   job's timeline (`timeline`: `[name, seconds since submit]` of each step so far, in
+//!   order, see [`Timeline::steps`]).
 //! - `JOB.web.png` ([`png_key`]): the image so far (lines not yet in are black), shrunk by a
 //!   whole factor to at most [`LIVE_SIDE`] pixels a side while the job runs; at the end at
 //!   full size if the store takes a blob that large.
@@ -322,7 +322,7 @@ impl WebView {
                 "nodes": {"columns": COLUMNS, "rows": rows},
                 "events": self.events,
                 "image": about,
-                "timeline": self.timeline,
+                "timeline": self.timeline.steps(),
             });
             let bytes = serde_json::to_vec(&page)?;
             if bytes.len() <= MAX_JSON_BYTES || rows.is_empty() {

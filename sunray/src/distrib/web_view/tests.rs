@@ -123,10 +123,19 @@ async fn the_page_holds_the_table_the_events_and_the_image_so_far() {
         ..Default::default()
     };
     let mut v = WebView::new("j", vec![Event::now("controller", "started")]);
+    v.set_timeline(&crate::distrib::timeline::Timeline {
+        controller_started: Some(0.25),
+        first_line: Some(0.5),
+        ..Default::default()
+    });
     let t0 = Instant::now();
     assert!(v.due(t0, 40), "the first is due at once");
     v.publish(&s, &[node], &film, 40, false).await.unwrap();
     let p = page(&s);
+    assert_eq!(
+        p["timeline"],
+        json!([["controller", 0.25], ["first line", 0.5]])
+    );
     assert_eq!(p["nodes"]["columns"].as_array().unwrap().len(), 9);
     assert_eq!(
         p["nodes"]["rows"][0],

@@ -127,13 +127,12 @@ function renderTable(table, nodes) {
   }));
 }
 
-// An application's timeline (`{step: seconds since submit or null}`) as one line, steps in
-// the order given, those that have not happened left out.
+// An application's timeline (`[[step, seconds since submit], ...]`, in its order) as one line.
 function timelineText(timeline) {
-  if (!timeline || typeof timeline !== 'object') return '';
-  const steps = Object.entries(timeline)
-    .filter(([, s]) => typeof s === 'number')
-    .map(([k, s]) => k.replace(/_/g, ' ') + ' ' + s.toFixed(2) + ' s');
+  if (!Array.isArray(timeline)) return '';
+  const steps = timeline
+    .filter((s) => Array.isArray(s) && typeof s[0] === 'string' && typeof s[1] === 'number')
+    .map(([name, s]) => name + ' ' + s.toFixed(2) + ' s');
   return steps.length ? 'Timeline (seconds since submit): ' + steps.join(', ') : '';
 }
 
