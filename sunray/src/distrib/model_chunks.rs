@@ -93,6 +93,8 @@ pub async fn fetch_scene(
         cached: got.cached,
         fetch_s: t0.elapsed().as_secs_f64(),
         accel_cached: false,
+        scene_mapped: false,
+        scene_ready_s: 0.0,
     };
     Ok((built, report))
 }

@@ -174,17 +174,48 @@ struct ReadyScene {
 }
 
 /// The Scene message made ready: its settings checked (before anything is fetched or
-/// allocated for them), its model fetched through this host's remd (cached there for the
-/// next worker or job), its accelerator built or read.
+/// allocated for them); then the host's prepared scene mapped when its cache has a good one
+/// ([`crate::prepared`]: no model fetched, nothing decoded or built), else its model fetched
+/// through this host's remd (cached there for the next worker or job), its accelerator
+/// built or read, and the scene kept prepared for the next worker or job.
 async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError> {
-    settings_of(&scene_msg)?;
+    let t0 = Instant::now();
+    let settings = settings_of(&scene_msg)?;
+    let dir = std::env::var_os(rem::wire::env::CACHE_DIR).map(std::path::PathBuf::from);
+    let prepared = dir
+        .as_deref()
+        .and_then(|d| crate::prepared::path_of(d, scene_msg.model_hash, &settings.accel));
+    if let Some(path) = prepared.clone() {
+        let hash = scene_msg.model_hash;
+        match tokio::task::spawn_blocking(move || crate::prepared::load(&path, hash)).await {
+            Ok(Ok(Some((scene, accel)))) => {
+                let ready_s = t0.elapsed().as_secs_f64();
+                return Ok(ReadyScene {
+                    scene: Arc::new(scene),
+                    accel: Arc::new(accel),
+                    settings,
+                    fetch: proto::SceneFetch {
+                        cached: true,
+                        accel_cached: true,
+                        scene_mapped: true,
+                        scene_ready_s: ready_s,
+                        ..proto::SceneFetch::default()
+                    },
+                    preprocess_s: ready_s,
+                });
+            }
+            Ok(Ok(None)) => {}
+            Ok(Err(e)) => eprintln!("sunray worker: warning: prepared scene refused, rebuilt: {e}"),
+            Err(e) => eprintln!("sunray worker: warning: reading the prepared scene failed: {e}"),
+        }
+    }
     let client = RemClient::from_env().await?;
     let (scene, mut fetch) = model_chunks::fetch_scene(&client, &scene_msg)
         .await
         .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}")))?;
     let t_pre = Instant::now();
     let (scene, accel, settings, accel_cached) =
-        tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
+        tokio::task::spawn_blocking(move || prepare(scene_msg, scene, prepared))
             .await
             .unwrap_or_else(|e| {
                 Err(WorkerError::BadScene(format!(
@@ -192,6 +223,7 @@ async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError>
                 )))
             })?;
     fetch.accel_cached = accel_cached;
+    fetch.scene_ready_s = t0.elapsed().as_secs_f64();
     Ok(ReadyScene {
         scene,
         accel,
@@ -251,10 +283,12 @@ fn settings_of(msg: &proto::Scene) -> Result<Settings, WorkerError> {
 
 /// Builds the accelerator of the decoded scene with the Scene's settings (checked against
 /// their bounds before the model was fetched), or reads the one a worker before built on
-/// this host (from REM's process cache, `REM_CACHE_DIR`); whether it was read.
+/// this host (from REM's process cache, `REM_CACHE_DIR`), and keeps the scene prepared at
+/// `prepared` for the next worker or job; whether the accelerator was read.
 fn prepare(
     msg: proto::Scene,
     mut scene: Scene,
+    prepared: Option<std::path::PathBuf>,
 ) -> Result<(Arc<Scene>, Arc<Accel>, Settings, bool), WorkerError> {
     let settings = settings_of(&msg)?;
     let dir = std::env::var_os(rem::wire::env::CACHE_DIR).map(std::path::PathBuf::from);
@@ -266,6 +300,11 @@ fn prepare(
     );
     if let Some(w) = provenance.warning {
         eprintln!("sunray worker: warning: {w}");
+    }
+    if let Some(path) = prepared {
+        if let Err(e) = crate::prepared::keep(&path, msg.model_hash, &scene, &accel) {
+            eprintln!("sunray worker: warning: cannot keep the prepared scene: {e}");
+        }
     }
     Ok((
         Arc::new(scene),
