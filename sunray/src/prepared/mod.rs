@@ -16,8 +16,11 @@
 //! # Layout
 //! - [`checksum`]: the file's checksum and its seal.
 //! - [`layout`]: the file's bytes: header, sections, tables.
+//! - [`keeper`]: the process that builds and keeps a prepared scene, which a job's end
+//!   does not interrupt.
 
 pub mod checksum;
+pub mod keeper;
 pub mod layout;
 
 use crate::accel::bvh::Bvh;

@@ -110,3 +110,43 @@ fn only_bvh_scenes_are_kept() {
     keep(&path, 42, &scene, &accel).unwrap();
     assert!(!path.exists());
 }
+
+/// Time to a ready scene of a model file (`SUNRAY_PREPARED_TIMING=FILE.srw`): decoded and
+/// its BVH read from the host's cache (a second job's worker before prepared scenes), and
+/// mapped from a prepared scene. `cargo test --release -p sunray --lib prepared_timing --
+/// --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement: needs a big model file"]
+fn prepared_timing() {
+    let Some(model) = std::env::var_os("SUNRAY_PREPARED_TIMING") else {
+        return;
+    };
+    let bytes = std::fs::read(model).unwrap();
+    let hash = yari::modelfile::fnv1a(&bytes);
+    let dir = tempfile::tempdir().unwrap();
+    let opts = AccelOptions::default();
+    let path = path_of(dir.path(), hash, &opts).unwrap();
+    let t = std::time::Instant::now();
+    keeper::keep_model(&mut &bytes[..], &path, hash, &opts, Some(dir.path())).unwrap();
+    println!(
+        "first: decode, build, keep (write, check, seal): {:?}",
+        t.elapsed()
+    );
+    let t = std::time::Instant::now();
+    let mut scene = Scene::read_model(&mut &bytes[..]).unwrap();
+    let decoded = t.elapsed();
+    let (_, p) =
+        crate::accel::cache::build_or_load(&mut scene.prims, &opts, hash, Some(dir.path()));
+    assert!(p.cached);
+    println!(
+        "before: decode {decoded:?}, and BVH read: {:?}",
+        t.elapsed()
+    );
+    let t = std::time::Instant::now();
+    let (mapped, _) = load(&path, hash).unwrap().unwrap();
+    println!(
+        "after: mapped: {:?} ({} primitives)",
+        t.elapsed(),
+        mapped.prims.len()
+    );
+}

@@ -16,6 +16,8 @@
 //!
 //! # Layout
 //! - [`owner`]: whom the worker answers to, and a farm job's takeover by a new controller.
+//! - [`prepared_scene`]: the scene mapped from the host's prepared scene, or made by a
+//!   keeper that a job's end does not interrupt.
 //! - [`render_loop`]: the loop once the scene is ready: Assign, render, Done.
 
 use super::messages::{self, proto, Body};
@@ -33,6 +35,7 @@ use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
 mod owner;
+mod prepared_scene;
 mod render_loop;
 
 /// How long a farm job's worker waits for a new controller: longer than REM's lease (10 s)
@@ -174,39 +177,14 @@ struct ReadyScene {
 }
 
 /// The Scene message made ready: its settings checked (before anything is fetched or
-/// allocated for them); then the host's prepared scene mapped when its cache has a good one
-/// ([`crate::prepared`]: no model fetched, nothing decoded or built), else its model fetched
-/// through this host's remd (cached there for the next worker or job), its accelerator
-/// built or read, and the scene kept prepared for the next worker or job.
+/// allocated for them); then the host's prepared scene mapped, as it is or once a keeper
+/// made it ([`prepared_scene`]); failing that, its model fetched through this host's remd
+/// (cached there for the next worker or job) and its accelerator built or read.
 async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError> {
     let t0 = Instant::now();
-    let settings = settings_of(&scene_msg)?;
-    let dir = std::env::var_os(rem::wire::env::CACHE_DIR).map(std::path::PathBuf::from);
-    let prepared = dir
-        .as_deref()
-        .and_then(|d| crate::prepared::path_of(d, scene_msg.model_hash, &settings.accel));
-    if let Some(path) = prepared.clone() {
-        let hash = scene_msg.model_hash;
-        match tokio::task::spawn_blocking(move || crate::prepared::load(&path, hash)).await {
-            Ok(Ok(Some((scene, accel)))) => {
-                let ready_s = t0.elapsed().as_secs_f64();
-                return Ok(ReadyScene {
-                    scene: Arc::new(scene),
-                    accel: Arc::new(accel),
-                    settings,
-                    fetch: proto::SceneFetch {
-                        cached: true,
-                        accel_cached: true,
-                        scene_mapped: true,
-                        scene_ready_s: ready_s,
-                        ..proto::SceneFetch::default()
-                    },
-                    preprocess_s: ready_s,
-                });
-            }
-            Ok(Ok(None)) => {}
-            Ok(Err(e)) => eprintln!("sunray worker: warning: prepared scene refused, rebuilt: {e}"),
-            Err(e) => eprintln!("sunray worker: warning: reading the prepared scene failed: {e}"),
+    if let Some(path) = prepared_scene::path_of(&scene_msg)? {
+        if let Some(ready) = prepared_scene::ready(&scene_msg, path, t0).await {
+            return Ok(ready);
         }
     }
     let client = RemClient::from_env().await?;
@@ -215,7 +193,7 @@ async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError>
         .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}")))?;
     let t_pre = Instant::now();
     let (scene, accel, settings, accel_cached) =
-        tokio::task::spawn_blocking(move || prepare(scene_msg, scene, prepared))
+        tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
             .await
             .unwrap_or_else(|e| {
                 Err(WorkerError::BadScene(format!(
@@ -283,12 +261,10 @@ fn settings_of(msg: &proto::Scene) -> Result<Settings, WorkerError> {
 
 /// Builds the accelerator of the decoded scene with the Scene's settings (checked against
 /// their bounds before the model was fetched), or reads the one a worker before built on
-/// this host (from REM's process cache, `REM_CACHE_DIR`), and keeps the scene prepared at
-/// `prepared` for the next worker or job; whether the accelerator was read.
+/// this host (from REM's process cache, `REM_CACHE_DIR`); whether it was read.
 fn prepare(
     msg: proto::Scene,
     mut scene: Scene,
-    prepared: Option<std::path::PathBuf>,
 ) -> Result<(Arc<Scene>, Arc<Accel>, Settings, bool), WorkerError> {
     let settings = settings_of(&msg)?;
     let dir = std::env::var_os(rem::wire::env::CACHE_DIR).map(std::path::PathBuf::from);
@@ -300,11 +276,6 @@ fn prepare(
     );
     if let Some(w) = provenance.warning {
         eprintln!("sunray worker: warning: {w}");
-    }
-    if let Some(path) = prepared {
-        if let Err(e) = crate::prepared::keep(&path, msg.model_hash, &scene, &accel) {
-            eprintln!("sunray worker: warning: cannot keep the prepared scene: {e}");
-        }
     }
     Ok((
         Arc::new(scene),
