@@ -191,7 +191,7 @@ pub fn open(path: &Path) -> Result<Opened, String> {
     let mut end = HEADER;
     for (k, s) in sections.iter_mut().enumerate() {
         let (offset, count) = (word(1 + 2 * k) as usize, word(2 + 2 * k) as usize);
-        if offset < end || offset % ALIGN != 0 || offset > body.len() {
+        if offset < end || !offset.is_multiple_of(ALIGN) || offset > body.len() {
             return Err("a section out of place".into());
         }
         *s = (offset, count);

@@ -9,7 +9,7 @@
 
 use super::file::{self, BvhFileError};
 use super::items::LeafItems;
-use super::wide::{Node, WIDTH};
+use super::wide::Node;
 use super::Bvh;
 use crate::geometry::primitives::Slot;
 use crate::geometry::Primitives;
@@ -41,8 +41,7 @@ impl Bvh {
             return file::bad("items but no nodes");
         }
         for (at, node) in nodes.iter().enumerate() {
-            for k in 0..WIDTH {
-                let c = node.children[k];
+            for (k, c) in node.children.iter().enumerate() {
                 let fits = if c.is_leaf() {
                     (c.index as usize)
                         .checked_add(c.count as usize)
@@ -71,6 +70,7 @@ impl Bvh {
 
 #[cfg(test)]
 mod tests {
+    use super::super::wide::WIDTH;
     use super::*;
 
     fn built() -> (Primitives, Bvh) {
