@@ -27,9 +27,75 @@ pub fn reference(dir: &Path, scene: &Path, flags: &[&str]) -> (Vec<u8>, serde_js
     (std::fs::read(&out).unwrap(), read_json(&json))
 }
 
-/// A JSON file.
+/// A JSON file. A job's statistics (`submit --stats-json`: a `job` with `nodes`) must carry
+/// its timeline, in order ([`check_timeline`]).
 pub fn read_json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    if v.get("job").is_some() && v.get("nodes").is_some() {
+        if let Err(e) = check_timeline(&v) {
+            panic!("{}: {e}", path.display());
+        }
+    }
+    v
+}
+
+/// A job's timeline (seconds since submit) as its statistics give it: the controller's
+/// start and the job's end always; the first and last line when lines were rendered; the
+/// image stored when every line is in; every node spawned, and one that rendered has its
+/// scene and accelerator ready and its first line; each in order.
+pub fn check_timeline(stats: &serde_json::Value) -> Result<(), String> {
+    let t = &stats["timeline"];
+    let lines = &stats["lines"];
+    let count = |k: &str| lines[k].as_u64().unwrap_or(0);
+    let rendered = count("rendered") > 0;
+    let complete = count("resumed") + count("rendered") == count("total");
+    let job_steps = [
+        ("controller_started", true),
+        ("first_line", rendered),
+        ("last_line", rendered),
+        ("image_stored", complete),
+        ("finished", true),
+    ];
+    in_order(t, &job_steps, "the job")?;
+    let last = t["last_line"].as_f64().unwrap_or(f64::INFINITY);
+    for n in stats["nodes"].as_array().ok_or("no nodes")? {
+        let lines = n["scanlines"].as_u64().unwrap_or(0) > 0;
+        let steps = [
+            ("spawned", true),
+            ("scene_ready", lines),
+            ("accel_ready", lines),
+            ("first_line", lines),
+        ];
+        let who = format!("node {}", n["node"]);
+        in_order(&n["timeline"], &steps, &who)?;
+        let spawned = n["timeline"]["spawned"].as_f64().unwrap_or(0.0);
+        let controller = t["controller_started"].as_f64().unwrap_or(0.0);
+        if spawned < controller || n["timeline"]["first_line"].as_f64().unwrap_or(0.0) > last {
+            return Err(format!(
+                "{who}'s timeline is outside the job's: {t} {}",
+                n["timeline"]
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The steps of `timeline` that must be there are numbers, and those there are in order.
+fn in_order(timeline: &serde_json::Value, steps: &[(&str, bool)], who: &str) -> Result<(), String> {
+    let mut before = 0.0;
+    for (step, needed) in steps {
+        match timeline[*step].as_f64() {
+            Some(s) if s >= before => before = s,
+            Some(s) => {
+                return Err(format!(
+                    "{who}: {step} at {s} s comes before a step at {before} s: {timeline}"
+                ))
+            }
+            None if *needed => return Err(format!("{who}: no {step} in its timeline: {timeline}")),
+            None => {}
+        }
+    }
+    Ok(())
 }
 
 /// Runs a command that must succeed (its stderr is the failure's message); its stdout.
@@ -95,4 +161,53 @@ pub fn prepared_hosts(stats: &serde_json::Value) -> Vec<String> {
         .into_iter()
         .filter_map(|(host, prepared)| prepared.then_some(host))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_timeline;
+    use serde_json::json;
+
+    fn stats() -> serde_json::Value {
+        json!({
+            "job": "j",
+            "lines": {"total": 4, "resumed": 0, "rendered": 4},
+            "timeline": {"controller_started": 0.1, "first_line": 0.3, "last_line": 0.5,
+                "image_stored": 0.6, "finished": 0.7},
+            "nodes": [
+                {"node": 1, "scanlines": 4, "timeline": {"spawned": 0.15, "scene_ready": 0.2,
+                    "accel_ready": 0.25, "first_line": 0.3}},
+                {"node": 2, "scanlines": 0, "timeline": {"spawned": 0.15, "scene_ready": null,
+                    "accel_ready": null, "first_line": null}}
+            ]
+        })
+    }
+
+    #[test]
+    fn a_timeline_in_order_passes() {
+        check_timeline(&stats()).unwrap();
+    }
+
+    #[test]
+    fn planted_defects_in_a_timeline_are_caught() {
+        let mut late = stats();
+        late["timeline"]["finished"] = json!(0.4);
+        assert!(check_timeline(&late).unwrap_err().contains("finished"));
+        let mut missing = stats();
+        missing["nodes"][0]["timeline"]["accel_ready"] = json!(null);
+        assert!(check_timeline(&missing)
+            .unwrap_err()
+            .contains("accel_ready"));
+        let mut none = stats();
+        none.as_object_mut().unwrap().remove("timeline");
+        assert!(check_timeline(&none).is_err());
+        let mut outside = stats();
+        outside["nodes"][0]["timeline"]["first_line"] = json!(0.55);
+        assert!(check_timeline(&outside).is_err());
+        let mut unfinished = stats();
+        unfinished["timeline"]["image_stored"] = json!(null);
+        assert!(check_timeline(&unfinished).is_err());
+        unfinished["lines"]["rendered"] = json!(3);
+        check_timeline(&unfinished).unwrap();
+    }
 }

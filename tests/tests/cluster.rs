@@ -481,7 +481,10 @@ fn placement_avoids_the_heavily_loaded_host() {
     hosts.sort();
     hosts.dedup();
     assert_eq!(hosts.len(), 4, "four distinct hosts: {hosts:?}");
-    assert!(!hosts.iter().any(|h| h == "ws3"), "ws3 is loaded: {hosts:?}");
+    assert!(
+        !hosts.iter().any(|h| h == "ws3"),
+        "ws3 is loaded: {hosts:?}"
+    );
 }
 
 /// `sunray jobs --json` in `host`: the row of `job`.

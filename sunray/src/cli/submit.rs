@@ -93,7 +93,7 @@ pub struct SubmitArgs {
 }
 
 impl SubmitArgs {
-    /// What the flags ask of the job.
+    /// What the flags ask of the job, submitted now.
     pub fn request(&self, worker_program: PathBuf) -> JobRequest {
         JobRequest {
             job: self.job.clone(),
@@ -112,6 +112,7 @@ impl SubmitArgs {
             preview_every: Duration::from_millis(self.preview_ms.max(100)),
             show_bar: !self.render.quiet && std::io::stderr().is_terminal(),
             events: self.events,
+            submitted_unix_ms: crate::distrib::checkpoint::unix_ms(),
         }
     }
 }

@@ -19,6 +19,8 @@
 //! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
 //! - [`job_record`]: a SunRay job as REM's job record (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
+//! - [`timeline`]: a job's steps (controller up, per node spawned, scene and accelerator
+//!   ready, first line; last line, image stored, finished) in seconds since submit.
 //! - [`controller`]: the controller actor; [`progress`]: its progress bar, events, preview.
 //! - [`web_view`]: what a farm job publishes for remd's web view (`JOB.web.json`, the
 //!   per-node table, the job's history and what the image is; `JOB.web.png`, the image so
@@ -46,6 +48,7 @@ pub mod nodes;
 pub mod pool;
 pub mod progress;
 pub mod strategy;
+pub mod timeline;
 pub mod web_view;
 pub mod window;
 pub mod worker;

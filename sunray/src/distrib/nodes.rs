@@ -4,6 +4,7 @@
 //! The same data is written by `--stats-json` as the `nodes` array of [`JobStats`].
 
 use super::strategy::Strategy;
+use super::timeline::{NodeTimeline, Timeline};
 use crate::stats::{Counters, RenderStats};
 use serde::Serialize;
 
@@ -20,6 +21,34 @@ pub enum Outcome {
     Silent,
     /// Its process exited early or its host was lost.
     Fault,
+}
+
+/// How far a worker got towards rendering, as it last said (so that a node that rendered
+/// nothing says why).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Stage {
+    /// Spawned; it has not said Ready yet.
+    #[default]
+    Spawned,
+    /// Getting the scene's model.
+    Fetching,
+    /// Building (or reading) its accelerator.
+    Building,
+    /// Ready for lines.
+    Rendering,
+}
+
+impl Stage {
+    /// What a node at this stage was doing, for people: "still fetching the scene", ...
+    pub fn doing(self) -> &'static str {
+        match self {
+            Stage::Spawned => "still starting",
+            Stage::Fetching => "still fetching the scene",
+            Stage::Building => "still building its accelerator",
+            Stage::Rendering => "ready, no line left for it",
+        }
+    }
 }
 
 /// One worker's figures. Counters are those of the lines accepted from it.
@@ -88,6 +117,10 @@ pub struct NodeStats {
     pub tail_wait_s: f64,
     /// Seconds from the start of the job to this node's last accepted line.
     pub finished_at_s: f64,
+    /// How far it got towards rendering.
+    pub stage: Stage,
+    /// Its steps in the job's timeline.
+    pub timeline: NodeTimeline,
 }
 
 impl NodeStats {
@@ -164,6 +197,8 @@ pub struct JobStats {
     pub tail_wait_share: f64,
     /// One entry per worker, in spawn order.
     pub nodes: Vec<NodeStats>,
+    /// The job's steps, in seconds since it was submitted (DESIGN section 10).
+    pub timeline: Timeline,
 }
 
 /// Render threads' time waiting for work, as shares of their render time over all nodes:
@@ -188,7 +223,7 @@ impl JobStats {
         let l = &self.lines;
         let c = &self.controller;
         format!(
-            "SunRay III job {} ({strategy} strategy, {} worker(s)): {:.2} s\n{}\
+            "SunRay III job {} ({strategy} strategy, {} worker(s)): {:.2} s\n{}{}\n\
              scene: {:.1} MB sent by the submitting host\n\
              lines: {} ({} from the checkpoint, {} rendered; {} given back, {} handed back unstarted, {} duplicated, {} dropped)\n\
              controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time for work ({:.2}% at the tail for copies of stragglers)\n",
@@ -196,6 +231,7 @@ impl JobStats {
             self.hosts,
             self.elapsed_s,
             table(&self.nodes),
+            self.timeline.line(),
             self.scene_bytes_sent as f64 / 1e6,
             l.total, l.resumed, l.rendered, l.requeued, l.released, l.duplicated, l.dropped,
             c.cpu_ms_per_line,
@@ -251,11 +287,20 @@ pub fn table(nodes: &[NodeStats]) -> String {
     let mut total = NodeStats::default();
     for n in nodes {
         let host = truncate(&n.host, 12);
-        if n.outcome == Outcome::Fault || n.outcome == Outcome::Starting && n.scanlines == 0 {
+        if n.outcome == Outcome::Fault {
             let why = n.fault.as_deref().unwrap_or("never started");
             s.push_str(&format!(
                 "{:>4}  {:<12} {:>5} {:>6} FAULT ({} line(s) in before: {})\n",
                 n.node, host, "-", "-", n.scanlines, why
+            ));
+        } else if n.scanlines == 0 {
+            s.push_str(&format!(
+                "{:>4}  {:<12} {:>5} {:>6} rendered nothing: {}\n",
+                n.node,
+                host,
+                n.cores,
+                "-",
+                n.stage.doing()
             ));
         } else {
             let mark = if n.outcome == Outcome::Silent {

@@ -6,8 +6,9 @@
 //! admin through the web view, reads them):
 //! - `ID.web.json`, at most [`MAX_VIEW_JSON`] bytes: a JSON object, shown as it is:
 //!   `nodes` (`{"columns": [...], "rows": [[...], ...]}`, a table), `events`
-//!   (`[{"unix_ms", "kind", "text"}, ...]`, oldest first) and `image`
-//!   (`{"width", "height", "lines", "full"}`);
+//!   (`[{"unix_ms", "kind", "text"}, ...]`, oldest first), `image`
+//!   (`{"width", "height", "lines", "full"}`) and `timeline` (`{"step": seconds since
+//!   submit, or null}`, shown as one line, its steps in their order);
 //! - `ID.web.png`: a PNG of the work so far, written before the JSON that describes it.
 
 use serde::Serialize;

@@ -72,6 +72,7 @@ impl<L: WorkerLink> Controller<L> {
         let Some(web) = self.view.web_mut() else {
             return;
         };
+        web.set_timeline(&self.timeline);
         match web
             .publish(&self.link, &self.nodes, &self.film, done, last)
             .await
@@ -88,7 +89,8 @@ impl<L: WorkerLink> Controller<L> {
         }
     }
 
-    pub(super) async fn save_checkpoint(&mut self, state: &str) {
+    /// Saves the checkpoint in `state`; whether it was stored.
+    pub(super) async fn save_checkpoint(&mut self, state: &str) -> bool {
         self.last_checkpoint = Instant::now();
         match self.checkpointer.save(&self.link, state).await {
             Ok(()) => {
@@ -100,12 +102,17 @@ impl<L: WorkerLink> Controller<L> {
                 }
                 self.view
                     .event(json!({"event": "checkpoint", "state": state,
-                    "lines": self.checkpointer.lines_done()}))
+                    "lines": self.checkpointer.lines_done()}));
+                true
             }
             Err(crate::distrib::checkpoint::CheckpointError::Rem(e)) if e.is_fenced() => {
                 self.superseded = Some(e.to_string());
+                false
             }
-            Err(e) => self.view.note(&format!("sunray: warning: checkpoint: {e}")),
+            Err(e) => {
+                self.view.note(&format!("sunray: warning: checkpoint: {e}"));
+                false
+            }
         }
     }
 

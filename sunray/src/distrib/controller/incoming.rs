@@ -5,7 +5,8 @@ use super::link::WorkerLink;
 use super::Controller;
 use crate::distrib::grants::Completion;
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::nodes::Outcome;
+use crate::distrib::nodes::{Outcome, Stage};
+use crate::distrib::timeline;
 use crate::stats::Counters;
 use rem::{EventKind, Incoming};
 use serde_json::json;
@@ -69,7 +70,19 @@ impl<L: WorkerLink> Controller<L> {
                     .event(json!({"event": "ready", "node": i + 1, "host": n.host,
                     "cores": r.cores, "threads": r.threads, "pid": r.pid}));
             }
+            Body::Preparing(p) => {
+                n.stage = match p.stage() {
+                    proto::preparing::Stage::Fetching => Stage::Fetching,
+                    proto::preparing::Stage::Building => Stage::Building,
+                };
+            }
             Body::Request(r) => {
+                n.stage = Stage::Rendering;
+                if let Some(s) = &r.steps {
+                    let now = self.cfg.clock.now();
+                    n.timeline
+                        .worker_reported(now, r.stamp_s, s.scene_ready_s, s.accel_ready_s);
+                }
                 n.preprocess_s = r.preprocess_s;
                 if let Some(f) = &r.scene {
                     (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
@@ -127,6 +140,10 @@ impl<L: WorkerLink> Controller<L> {
                 self.film.set_line(d.line, &pixels);
                 n.add_line(&c);
                 n.finished_at_s = self.started.elapsed().as_secs_f64();
+                let now = self.cfg.clock.now();
+                timeline::first(&mut n.timeline.first_line, now);
+                timeline::first(&mut self.timeline.first_line, now);
+                self.timeline.last_line = Some(now);
                 self.counters += c;
                 self.lines.rendered += 1;
                 self.checkpointer.record(proto::FinishedLine {

@@ -21,6 +21,7 @@ use crate::distrib::grants::GrantTable;
 use crate::distrib::nodes::{ControllerCost, LineCounts, NodeStats};
 use crate::distrib::progress::ProgressView;
 use crate::distrib::strategy::Strategy;
+use crate::distrib::timeline::{JobClock, NodeTimeline, Timeline};
 use crate::distrib::web_view::{self, WebView};
 use crate::film::Film;
 use crate::stats::Counters;
@@ -68,6 +69,10 @@ pub struct ControllerConfig {
     /// `Some(history)`: publish the job for remd's web view (a farm job), its events going on
     /// from `history`; `None` (a job in this process, tests): publish nothing.
     pub web: Option<Vec<web_view::Event>>,
+    /// The origin of the job's timeline (its submit).
+    pub clock: JobClock,
+    /// The job's steps before the actor starts (the controller's own start).
+    pub timeline: Timeline,
 }
 
 /// A spawned worker.
@@ -128,6 +133,8 @@ pub struct JobResult {
     pub finished: bool,
     /// The controller's own CPU time and message counts, in total and per line.
     pub cost: ControllerCost,
+    /// The job's steps, in seconds since it was submitted.
+    pub timeline: Timeline,
 }
 
 /// Why the controller could not run the job to its end (a job that ends unfinished is not an
@@ -278,6 +285,8 @@ struct Controller<L> {
     assigned_once: Vec<bool>,
     /// Nodes taken over from the previous controller.
     adopted: Vec<bool>,
+    /// The job's steps so far.
+    timeline: Timeline,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -301,6 +310,8 @@ impl<L: WorkerLink> Controller<L> {
             }
         }
         let resumed = finished.iter().filter(|f| **f).count() as u32;
+        let spawned = Some(cfg.clock.now());
+        let timeline = cfg.timeline.clone();
         let nodes = workers
             .iter()
             .enumerate()
@@ -311,6 +322,10 @@ impl<L: WorkerLink> Controller<L> {
                 pid: w.pid,
                 load_at_start: w.load_at_start.unwrap_or_default(),
                 rem_load: w.load_at_start.is_some(),
+                timeline: NodeTimeline {
+                    spawned,
+                    ..Default::default()
+                },
                 ..Default::default()
             })
             .collect();
@@ -356,6 +371,7 @@ impl<L: WorkerLink> Controller<L> {
             superseded: None,
             assigned_once: vec![false; workers.len()],
             adopted: workers.iter().map(|w| w.adopted).collect(),
+            timeline,
         }
     }
 
@@ -400,11 +416,16 @@ impl<L: WorkerLink> Controller<L> {
             }
         }
         let finished = self.table.is_finished();
-        self.save_checkpoint(if finished { "finished" } else { "failed" })
+        let stored = self
+            .save_checkpoint(if finished { "finished" } else { "failed" })
             .await;
+        if finished && stored {
+            self.timeline.image_stored = Some(self.cfg.clock.now());
+        }
         self.view.preview(&self.film, true);
         self.wind_down(&mut inbox).await;
         self.view.finish();
+        self.timeline.finished = Some(self.cfg.clock.now());
         self.view.event(
             json!({"event": if finished { "finished" } else { "failed" },
             "done": self.table.done()}),
@@ -424,6 +445,7 @@ impl<L: WorkerLink> Controller<L> {
             elapsed_s: self.started.elapsed().as_secs_f64(),
             finished,
             cost,
+            timeline: self.timeline,
         })
     }
 

@@ -5,8 +5,9 @@ use super::link::WorkerLink;
 use super::{spawn_with, ControllerConfig, ControllerHandle, Input, JobResult, WorkerProc};
 use crate::distrib::checkpoint::{self, Checkpointer, Restored, Store};
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::nodes::Outcome;
+use crate::distrib::nodes::{Outcome, Stage};
 use crate::distrib::strategy::Strategy;
+use crate::distrib::timeline::{JobClock, Timeline};
 use rem::{EventKind, Incoming, JobEvent, ProcId};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -149,6 +150,8 @@ impl Job {
             checkpointed: None,
             adopt: None,
             web,
+            clock: JobClock::at(0),
+            timeline: Timeline::default(),
         };
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);
@@ -423,5 +426,50 @@ async fn a_job_whose_only_worker_never_says_ready_ends_after_the_timeout() {
         link.0.lock().unwrap().killed.len(),
         1,
         "the hung worker is killed"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
+    let job = Job::start(6, 2, None);
+    let preparing = |stage: proto::preparing::Stage| {
+        Body::Preparing(proto::Preparing {
+            stage: stage as i32,
+        })
+    };
+    job.say(0, Body::Ready(proto::Ready::default())).await;
+    job.say(0, preparing(proto::preparing::Stage::Fetching)).await;
+    job.say(0, preparing(proto::preparing::Stage::Building)).await;
+    let request = proto::Request {
+        window: 2,
+        stamp_s: 5.0,
+        steps: Some(proto::WorkerSteps {
+            scene_ready_s: 4.0,
+            accel_ready_s: 4.5,
+        }),
+        ..Default::default()
+    };
+    job.say(0, Body::Request(request)).await;
+    // Node 2 is still building its accelerator when the job ends.
+    job.say(1, Body::Ready(proto::Ready::default())).await;
+    job.say(1, preparing(proto::preparing::Stage::Building)).await;
+    job.serve_until_done(0).await;
+    let (r, _) = job.end().await;
+    assert_image_complete(&r, 6);
+    let t = &r.timeline;
+    assert!(t.first_line.is_some() && t.last_line.is_some(), "{t:?}");
+    assert!(t.image_stored.is_some() && t.finished.is_some(), "{t:?}");
+    assert!(t.is_ordered(), "{t:?}");
+    let (done, idle) = (&r.nodes[0], &r.nodes[1]);
+    assert_eq!((done.stage, idle.stage), (Stage::Rendering, Stage::Building));
+    let n = &done.timeline;
+    let steps = [n.spawned, n.scene_ready, n.accel_ready, n.first_line];
+    assert!(steps.iter().all(Option::is_some), "{n:?}");
+    assert!(steps.windows(2).all(|w| w[0] <= w[1]), "{n:?}");
+    assert_eq!(idle.timeline.first_line, None);
+    let table = crate::distrib::nodes::table(&r.nodes);
+    assert!(
+        table.contains("rendered nothing: still building its accelerator"),
+        "{table}"
     );
 }

@@ -21,6 +21,7 @@ use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::JobStats;
 use crate::distrib::strategy::Strategy;
+use crate::distrib::timeline::JobClock;
 use crate::distrib::web_view;
 use crate::render::Settings;
 use prost::Message;
@@ -72,6 +73,7 @@ fn job_from_env() -> Result<(String, u64), FarmError> {
 
 /// Runs the job REM gave this process to its end.
 pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
+    let started = std::time::Instant::now();
     let (job, epoch) = job_from_env()?;
     let client = RemClient::from_env().await?;
     let relay = RemClient::attach_from_env().await?;
@@ -102,13 +104,18 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
     // What remd's web view shows, going on from the earlier controllers' history.
     let history = web_view::history(&client, &job, &host, epoch).await;
-    let cfg = controller_config(
+    let mut cfg = controller_config(
         &opts,
         (&job, epoch),
         (strategy, (width, height)),
         stored.scene,
         (checkpointed.clone(), history),
     );
+    // The job's timeline counts from its submit; this process started a moment ago.
+    let entry = job_record::from_record(&record);
+    cfg.clock = JobClock::at(entry.submitted_unix_ms);
+    cfg.timeline.controller_started =
+        Some((cfg.clock.now() - started.elapsed().as_secs_f64()).max(0.0));
     let checkpointer = Checkpointer::new(
         &job,
         spec.clone(),
@@ -117,7 +124,6 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     );
     // The scene's part of the totals, as `sunray render` and the in-process job give it,
     // from the counts `submit` stored (the model is not decoded here).
-    let entry = job_record::from_record(&record);
     let totals = Totals {
         header: stored.settings.stats_header_of(
             &entry.scene,

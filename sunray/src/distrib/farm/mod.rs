@@ -219,6 +219,7 @@ pub async fn submit(
         scene_primitives: plan.loaded.scene.prims.len() as u64,
         scene_unbounded: plan.loaded.scene.prims.unbounded_count() as u64,
         scene_bytes_sent: shipped.bytes_sent,
+        submitted_unix_ms: req.submitted_unix_ms,
         ..Default::default()
     };
     let mut args = vec![

@@ -10,6 +10,7 @@ use crate::distrib::checkpoint::{Checkpointer, Restored};
 use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
 use crate::distrib::nodes::{self, JobStats};
 use crate::distrib::strategy::Strategy;
+use crate::distrib::timeline::{JobClock, Timeline};
 use crate::film::Film;
 use crate::stats::RenderStats;
 use rem::RemClient;
@@ -106,6 +107,8 @@ pub(crate) fn controller_config(
         checkpointed: None,
         adopt: None,
         web: None,
+        clock: JobClock::at(0),
+        timeline: Timeline::default(),
     }
 }
 
@@ -113,9 +116,13 @@ pub(crate) fn controller_config(
 /// to stand down), and the statistics.
 pub(crate) async fn run_controller<S: ControllerSite>(
     site: &mut S,
-    start: Drive,
+    mut start: Drive,
     totals: Totals,
 ) -> Result<Ran, S::Error> {
+    let cfg = &mut start.cfg;
+    cfg.timeline
+        .controller_started
+        .get_or_insert(cfg.clock.now());
     let workers = site.workers(start.relay.id()).await?;
     let (job, strategy) = (start.cfg.job.clone(), start.cfg.strategy);
     let (sender, receiver) = start.relay.split();
@@ -156,6 +163,7 @@ fn job_stats(
         elapsed_s,
         finished,
         cost,
+        timeline,
     } = result;
     let mut sums = totals.header;
     sums.threads = nodes.iter().map(|n| n.threads as usize).sum();
@@ -175,6 +183,7 @@ fn job_stats(
         wait_share,
         tail_wait_share,
         nodes,
+        timeline,
     };
     Ended {
         finished,

@@ -13,6 +13,7 @@ use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::model_chunks;
+use crate::distrib::timeline::JobClock;
 
 /// Runs a job on `cluster` to its end: the image written when every line is in.
 pub async fn run(
@@ -189,6 +190,7 @@ fn controller_config(req: &JobRequest, plan: &Plan, scene_msg: Vec<u8>) -> Contr
         events: req.events,
         // remd's web view shows farm jobs; this one ends with this process.
         web: None,
+        clock: JobClock::at(req.submitted_unix_ms),
         ..drive::controller_config(
             &plan.job,
             plan.strategy,

@@ -75,6 +75,9 @@ pub struct JobRequest {
     pub show_bar: bool,
     /// Print JSON events on stderr instead of a progress bar.
     pub events: bool,
+    /// When the user submitted the job (Unix milliseconds; 0: when it starts): the origin of
+    /// its timeline.
+    pub submitted_unix_ms: u64,
 }
 
 /// The scene of a job.

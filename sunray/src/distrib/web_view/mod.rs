@@ -7,7 +7,9 @@
 //!   (`nodes`: `columns` and `rows`), the job's history for people (`events`: `unix_ms`,
 //!   `kind`, `text`; oldest first, the last [`MAX_EVENTS`], carried over from one controller
 //!   to the next) and what the image is (`image`: `width`, `height`, `lines` in it now,
-//!   `png_width`, `png_height`, and `full`: the last publication's full-size image).
+//!   `png_width`, `png_height`, and `full`: the last publication's full-size image) and the
+//!   job's timeline (`timeline`: seconds since submit of each step so far, see
+//!   [`Timeline`]).
 //! - `JOB.web.png` ([`png_key`]): the image so far (lines not yet in are black), shrunk by a
 //!   whole factor to at most [`LIVE_SIDE`] pixels a side while the job runs; at the end at
 //!   full size if the store takes a blob that large.
@@ -17,7 +19,8 @@
 //! the job never waits for it longer than a write's timeout.
 
 use super::checkpoint::{unix_ms, Store};
-use super::nodes::{NodeStats, Outcome};
+use super::nodes::{NodeStats, Outcome, Stage};
+use super::timeline::Timeline;
 use crate::film::Film;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -166,6 +169,8 @@ pub struct WebView {
     /// No publication before then (but the last).
     not_before: Option<Instant>,
     warned: bool,
+    /// The job's steps so far.
+    timeline: Timeline,
 }
 
 impl WebView {
@@ -178,6 +183,7 @@ impl WebView {
             shown: None,
             not_before: None,
             warned: false,
+            timeline: Timeline::default(),
         };
         history.into_iter().for_each(|e| view.push(e));
         view
@@ -194,6 +200,14 @@ impl WebView {
         }
         self.events.push_back(e);
         self.events_changed = true;
+    }
+
+    /// The job's timeline as it stands; a step more makes a publication due.
+    pub fn set_timeline(&mut self, timeline: &Timeline) {
+        if self.timeline != *timeline {
+            self.timeline = timeline.clone();
+            self.events_changed = true;
+        }
     }
 
     /// The job's events, oldest first.
@@ -308,6 +322,7 @@ impl WebView {
                 "nodes": {"columns": COLUMNS, "rows": rows},
                 "events": self.events,
                 "image": about,
+                "timeline": self.timeline,
             });
             let bytes = serde_json::to_vec(&page)?;
             if bytes.len() <= MAX_JSON_BYTES || rows.is_empty() {
@@ -332,11 +347,13 @@ const COLUMNS: [&str; 9] = [
 ];
 
 fn row(n: &NodeStats) -> Value {
-    let state = match n.outcome {
-        Outcome::Starting => "starting",
-        Outcome::Ok => "ok",
-        Outcome::Silent => "silent",
-        Outcome::Fault => "fault",
+    let state = match (n.outcome, n.stage) {
+        (Outcome::Fault, _) => "fault",
+        (_, Stage::Fetching) => "fetching",
+        (_, Stage::Building) => "building",
+        (Outcome::Silent, _) => "silent",
+        (Outcome::Starting, _) => "starting",
+        (Outcome::Ok, _) => "ok",
     };
     let centi = |s: f64| (s * 100.0).round() / 100.0;
     json!([

@@ -124,7 +124,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
         }
     };
     let owner = Owner::new(owner, &scene_msg);
-    let ready_scene = match ready_scene(scene_msg).await {
+    let ready_scene = match ready_scene(scene_msg, &link).await {
         Ok(r) => r,
         Err(e) => {
             report(&link, &me, &mut inbox, &e).await;
@@ -158,6 +158,10 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
         render_start,
         preprocess_s: ready_scene.preprocess_s,
         scene_fetch: ready_scene.fetch,
+        steps: proto::WorkerSteps {
+            scene_ready_s: (ready_scene.scene_at - started).as_secs_f64(),
+            accel_ready_s: (render_start - started).as_secs_f64(),
+        },
         ready,
     };
     render_loop
@@ -174,24 +178,29 @@ struct ReadyScene {
     fetch: proto::SceneFetch,
     /// Decoding the model and building the accelerator, in seconds.
     preprocess_s: f64,
+    /// When the model was decoded.
+    scene_at: Instant,
 }
 
 /// The Scene message made ready: its settings checked (before anything is fetched or
 /// allocated for them); then the host's prepared scene mapped, as it is or once a keeper
 /// made it ([`prepared_scene`]); failing that, its model fetched through this host's remd
-/// (cached there for the next worker or job) and its accelerator built or read.
-async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError> {
+/// (cached there for the next worker or job) and its accelerator built or read. The
+/// controller hears of each stage (Preparing), so a node that renders nothing says why.
+async fn ready_scene(scene_msg: proto::Scene, link: &Link) -> Result<ReadyScene, WorkerError> {
     let t0 = Instant::now();
     if let Some(path) = prepared_scene::path_of(&scene_msg)? {
-        if let Some(ready) = prepared_scene::ready(&scene_msg, path, t0).await {
+        if let Some(ready) = prepared_scene::ready(&scene_msg, path, t0, link).await {
             return Ok(ready);
         }
     }
+    link.preparing(proto::preparing::Stage::Fetching).await?;
     let client = RemClient::from_env().await?;
     let (scene, mut fetch) = model_chunks::fetch_scene(&client, &scene_msg)
         .await
         .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}")))?;
     let t_pre = Instant::now();
+    link.preparing(proto::preparing::Stage::Building).await?;
     let (scene, accel, settings, accel_cached) =
         tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
             .await
@@ -208,6 +217,7 @@ async fn ready_scene(scene_msg: proto::Scene) -> Result<ReadyScene, WorkerError>
         settings,
         fetch,
         preprocess_s: t_pre.elapsed().as_secs_f64(),
+        scene_at: t_pre,
     })
 }
 
@@ -297,6 +307,14 @@ impl Link {
             .send(&self.owner, messages::encode(body))
             .await
             .map_err(WorkerError::from)
+    }
+
+    /// Tells the controller what the worker is doing before its first Request.
+    async fn preparing(&self, stage: proto::preparing::Stage) -> Result<(), WorkerError> {
+        self.send(Body::Preparing(proto::Preparing {
+            stage: stage as i32,
+        }))
+        .await
     }
 }
 

@@ -5,7 +5,7 @@
 //! that goes wrong on the way is a warning: the worker then fetches and builds the scene
 //! itself, as without a cache.
 
-use super::{settings_of, ReadyScene, WorkerError};
+use super::{settings_of, Link, ReadyScene, WorkerError};
 use crate::distrib::messages::proto;
 use crate::distrib::model_chunks::{self, ModelSink};
 use crate::prepared::keeper;
@@ -17,8 +17,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 /// The scene of `msg` from the prepared scene at `path`, mapped: the one there, or the one a
-/// keeper makes; None (after a warning) when neither came.
-pub(super) async fn ready(msg: &proto::Scene, path: PathBuf, t0: Instant) -> Option<ReadyScene> {
+/// keeper makes (the controller told of its stages through `link`); None (after a warning)
+/// when neither came.
+pub(super) async fn ready(
+    msg: &proto::Scene,
+    path: PathBuf,
+    t0: Instant,
+    link: &Link,
+) -> Option<ReadyScene> {
     let hash = msg.model_hash;
     let fetch = proto::SceneFetch {
         cached: true,
@@ -29,6 +35,9 @@ pub(super) async fn ready(msg: &proto::Scene, path: PathBuf, t0: Instant) -> Opt
         return Some(r);
     }
     let settings = settings_of(msg).ok()?;
+    link.preparing(proto::preparing::Stage::Fetching)
+        .await
+        .ok()?;
     let mut child = keeper::spawn(&path, hash, &settings.accel)
         .map_err(|e| {
             warn(&format!(
@@ -50,6 +59,9 @@ pub(super) async fn ready(msg: &proto::Scene, path: PathBuf, t0: Instant) -> Opt
             return None;
         }
     };
+    link.preparing(proto::preparing::Stage::Building)
+        .await
+        .ok()?;
     let said = tokio::task::spawn_blocking(move || child.wait_with_output()).await;
     let said = match said {
         Ok(Ok(out)) if out.status.success() => String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -91,6 +103,7 @@ async fn mapped(
     fetch.scene_mapped = true;
     fetch.scene_ready_s = t0.elapsed().as_secs_f64();
     Some(ReadyScene {
+        scene_at: Instant::now(),
         scene: Arc::new(scene),
         accel: Arc::new(accel),
         settings,

@@ -38,6 +38,8 @@ pub(super) struct RenderLoop {
     pub(super) preprocess_s: f64,
     /// How the scene's model came (with every Request).
     pub(super) scene_fetch: proto::SceneFetch,
+    /// When the scene and the accelerator were ready (with every Request).
+    pub(super) steps: proto::WorkerSteps,
     /// What the worker said when it started (said again to a new owner).
     pub(super) ready: proto::Ready,
 }
@@ -106,6 +108,7 @@ impl RenderLoop {
             stamp_s: now,
             released,
             scene: Some(self.scene_fetch),
+            steps: Some(self.steps),
         })
     }
 

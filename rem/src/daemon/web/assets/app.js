@@ -127,6 +127,16 @@ function renderTable(table, nodes) {
   }));
 }
 
+// An application's timeline (`{step: seconds since submit or null}`) as one line, steps in
+// the order given, those that have not happened left out.
+function timelineText(timeline) {
+  if (!timeline || typeof timeline !== 'object') return '';
+  const steps = Object.entries(timeline)
+    .filter(([, s]) => typeof s === 'number')
+    .map(([k, s]) => k.replace(/_/g, ' ') + ' ' + s.toFixed(2) + ' s');
+  return steps.length ? 'Timeline (seconds since submit): ' + steps.join(', ') : '';
+}
+
 function renderJob(d) {
   const section = $('job');
   if (!d.job) {
@@ -157,6 +167,7 @@ function renderJob(d) {
       im.height + ' lines' + (scaled ? ' (shown at ' + im.png_width + '×' + im.png_height + ')' : '');
   }
   if (view.nodes) renderTable($('nodes'), view.nodes);
+  $('timeline').textContent = timelineText(view.timeline);
   const events = view.events || [];
   $('events').replaceChildren(...events.map((e) => {
     const li = el('li', new Date(e.unix_ms).toLocaleTimeString() + '  ' + e.text, e.kind);
