@@ -9,6 +9,8 @@
 //! - [`texture`]: Perlin noise and the solid textures (wood, marble, bumps, ...).
 //! - [`camera`], [`film`], [`sampler`]: eye rays, images and files, counter-based random numbers.
 //! - [`scene`]: a model ready to render; [`render`]: the scanline render loop.
+//! - [`prepared`]: scenes kept ready on a host (tables and BVH), mapped in place when used;
+//!   [`store`]: a table owned or viewed in a mapped file.
 //! - [`stats`]: counted statistics.
 //! - [`distrib`]: SunRay III: the controller and worker actors over REM, strategies, grants,
 //!   checkpoints and the per-node table.
@@ -21,9 +23,11 @@ pub mod cli;
 pub mod distrib;
 pub mod film;
 pub mod geometry;
+pub mod prepared;
 pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod shading;
 pub mod stats;
+pub mod store;
 pub mod texture;

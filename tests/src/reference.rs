@@ -147,6 +147,12 @@ pub fn accel_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
     per_node(stats, |n| n["accel_cached"].as_bool().unwrap())
 }
 
+/// Per node of a job's statistics: its host and whether it used its host's prepared scene,
+/// mapped in place.
+pub fn mapped_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
+    per_node(stats, |n| n["scene_mapped"].as_bool().unwrap())
+}
+
 /// The hosts whose worker got as far as asking for work (so its accelerator was built or
 /// read, and a built BVH kept): a worker still fetching or building when the image was done
 /// is killed at the job's end, and keeps nothing.

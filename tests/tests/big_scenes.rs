@@ -4,14 +4,16 @@
 //! REM's 16 MiB message limit, and at size 10 (1,048,576 triangles) to about 104 MB; both go
 //! through real remd daemons at their default settings, and the 1M one through the embedded
 //! default too. A host whose chunk cache sits on a full file system still renders the same
-//! image. The tests of this file take turns ([`heavy`]): each starts workers that hold a
+//! image. A host keeps the scene prepared (primitives and BVH) in its process cache, and a
+//! later job maps it and fetches nothing; a damaged or cut prepared scene or BVH file is
+//! made anew, and the image stays the same. The tests of this file take turns ([`heavy`]): each starts workers that hold a
 //! million triangles, and the machine may have two cores.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use sunray_e2e::bins::sunray;
-use sunray_e2e::reference::{accel_figures, reference, scene_figures, succeed};
+use sunray_e2e::reference::{accel_figures, mapped_figures, reference, scene_figures, succeed};
 use sunray_e2e::remd::LoopbackCluster;
 
 const FLAGS: [&str; 2] = ["--resolution", "48x32"];
@@ -117,8 +119,37 @@ fn a_scene_over_the_message_limit_renders_and_a_second_job_ships_nothing() {
         figures.iter().all(|f| f.1 == 0 && f.2),
         "every host had the scene cached: {figures:?}"
     );
+    let mapped = mapped_figures(&stats);
+    assert!(
+        mapped.len() == 3 && mapped.iter().all(|m| m.1),
+        "every host mapped the scene it kept prepared: {mapped:?}"
+    );
 
-    // A chunk corrupted in one host's cache is dropped and fetched again.
+    // A chunk corrupted in one host's cache is dropped and fetched again (b's prepared scene
+    // removed, so b needs the model); c's prepared scene damaged and a's cut short, with
+    // a's BVH: both are made anew, with a warning, and the image is the same.
+    let cache = |host: &str| {
+        cluster
+            .dir
+            .path()
+            .join(format!("state-{host}"))
+            .join("cache")
+    };
+    for (host, f) in ["a", "b", "c"].iter().flat_map(|h| files_in(&cache(h))) {
+        let mut bytes = std::fs::read(&f).unwrap();
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        match (host, name.ends_with(".v1")) {
+            ("b", _) => std::fs::remove_file(&f).unwrap(),
+            ("c", true) if name.starts_with("sunray-scene") => {
+                let at = bytes.len() / 2;
+                bytes[at] ^= 0x40;
+                std::fs::write(&f, bytes).unwrap();
+            }
+            ("a", true) => std::fs::write(&f, &bytes[..bytes.len() / 3]).unwrap(),
+            _ => {}
+        }
+    }
+    let damaged_at = std::time::SystemTime::now();
     let chunks = cluster.dir.path().join("state-b").join("chunks");
     let mut corrupted = 0;
     for sub in std::fs::read_dir(&chunks).unwrap().flatten() {
@@ -144,6 +175,43 @@ fn a_scene_over_the_message_limit_renders_and_a_second_job_ships_nothing() {
         b.iter().all(|f| !f.2 && f.1 > 0),
         "b fetched its corrupted chunks again: {b:?}"
     );
+    // Each host's keeper made its prepared scene anew, even where the job ended first; the
+    // next job maps them all.
+    let sealed = |h: &str| {
+        files_in(&cache(h)).iter().any(|(_, f)| {
+            let modified = std::fs::metadata(f).and_then(|m| m.modified()).ok();
+            f.to_string_lossy().ends_with(".v1.seal") && modified > Some(damaged_at)
+        })
+    };
+    let t0 = std::time::Instant::now();
+    while !["a", "b", "c"].iter().all(|h| sealed(h)) {
+        assert!(t0.elapsed().as_secs() < 120, "no prepared scene made anew");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    let fourth = dir.path().join("fourth.png");
+    let stats = submit(&cluster, &scene, &fourth);
+    assert!(std::fs::read(&fourth).unwrap() == want);
+    let mapped = mapped_figures(&stats);
+    assert!(
+        mapped.iter().all(|m| m.1),
+        "each host mapped the prepared scene made anew: {mapped:?}"
+    );
+}
+
+/// The files in `dir` (none when it is not there), each with `host`.
+fn files_in(dir: &Path) -> Vec<(&'static str, PathBuf)> {
+    let host = match dir
+        .parent()
+        .and_then(|p| p.file_name())
+        .map(|n| n.to_string_lossy())
+    {
+        Some(n) if n.ends_with('a') => "a",
+        Some(n) if n.ends_with('b') => "b",
+        _ => "c",
+    };
+    std::fs::read_dir(dir)
+        .map(|d| d.flatten().map(|e| (host, e.path())).collect())
+        .unwrap_or_default()
 }
 
 #[test]

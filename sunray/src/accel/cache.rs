@@ -66,11 +66,19 @@ pub fn build_or_load(
 
 impl Accel {
     /// The accelerator made of a BVH of `prims`.
-    fn of_bvh(prims: &Primitives, bvh: Bvh) -> Accel {
+    pub fn of_bvh(prims: &Primitives, bvh: Bvh) -> Accel {
         Accel {
             kind: AccelKind::Bvh,
             structure: Structure::Bvh(bvh),
             unbounded: prims.unbounded(),
+        }
+    }
+
+    /// The BVH, when the accelerator is one.
+    pub fn bvh(&self) -> Option<&Bvh> {
+        match &self.structure {
+            Structure::Bvh(bvh) => Some(bvh),
+            _ => None,
         }
     }
 }

@@ -13,6 +13,7 @@ pub mod convert;
 pub mod exit;
 pub mod farm;
 pub mod jobs;
+pub mod prepare_scene;
 pub mod render;
 pub mod spd;
 pub mod submit;
@@ -58,6 +59,9 @@ pub enum Command {
     /// The SunRay III worker process (started by REM for `submit`, not by hand).
     #[command(hide = true)]
     Worker(worker::WorkerArgs),
+    /// Builds and keeps a host's prepared scene (started by a worker, not by hand).
+    #[command(hide = true)]
+    PrepareScene(prepare_scene::PrepareSceneArgs),
     /// List SunRay III jobs and their state.
     Jobs(jobs::JobsArgs),
     /// Follow a job from any host until it ends (exit 0 finished, 3 failed, 4 cancelled).
@@ -83,6 +87,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Bench(args) => bench::run(args),
         Command::Submit(args) => submit::run(args),
         Command::Worker(args) => worker::run(args),
+        Command::PrepareScene(args) => prepare_scene::run(args),
         Command::Jobs(args) => jobs::run(args),
         Command::Watch(args) => farm::watch(args),
         Command::Fetch(args) => farm::fetch(args),

@@ -51,6 +51,26 @@ pub async fn ship(client: &RemClient, model: &[u8]) -> rem::Result<ShippedModel>
     })
 }
 
+/// What a fetched model's bytes go to, on a blocking thread, in order, as they arrive.
+pub trait ModelSink: Send + 'static {
+    /// What the whole model made.
+    type Out: Send + 'static;
+    /// Takes the next bytes of the model.
+    fn take(&mut self, piece: &[u8]) -> Result<(), String>;
+    /// Ends, once every byte arrived.
+    fn finish(self) -> Result<Self::Out, String>;
+}
+
+impl ModelSink for SceneStream {
+    type Out = Scene;
+    fn take(&mut self, piece: &[u8]) -> Result<(), String> {
+        self.feed(piece).map_err(|e| e.to_string())
+    }
+    fn finish(self) -> Result<Scene, String> {
+        SceneStream::finish(self).map_err(|e| e.to_string())
+    }
+}
+
 /// Fetches the model a Scene names through `client`'s daemon and builds the scene from it
 /// as its chunks arrive (decoded on a blocking thread, at most a few chunks in flight), so
 /// the worker never holds the whole model; how the fetch went is the SceneFetch a worker
@@ -59,30 +79,33 @@ pub async fn fetch_scene(
     client: &RemClient,
     scene: &proto::Scene,
 ) -> rem::Result<(Scene, proto::SceneFetch)> {
+    fetch_into(client, scene, SceneStream::new()).await
+}
+
+/// Fetches the model a Scene names through `client`'s daemon into `sink` as its chunks
+/// arrive; what the sink made of it, and how the fetch went. A model that is not the
+/// Scene's (its hash) or that the sink refuses is an error.
+pub async fn fetch_into<S: ModelSink>(
+    client: &RemClient,
+    scene: &proto::Scene,
+    mut sink: S,
+) -> rem::Result<(S::Out, proto::SceneFetch)> {
     let t0 = Instant::now();
     let (tx, mut rx) = tokio::sync::mpsc::channel::<Vec<u8>>(2);
     let decode = tokio::task::spawn_blocking(move || {
-        let mut stream = SceneStream::new();
         let mut hash = yari::modelfile::FNV_OFFSET;
-        let mut failed = None;
         while let Some(piece) = rx.blocking_recv() {
             hash = yari::modelfile::fnv1a_update(hash, &piece);
-            if let Err(e) = stream.feed(&piece) {
-                failed = Some(e);
-                break;
-            }
+            sink.take(&piece)?;
         }
-        match failed {
-            Some(e) => Err(e),
-            None => stream.finish().map(|scene| (scene, hash)),
-        }
+        sink.finish().map(|out| (out, hash))
     });
     let got = rem::client::blob::get_each(client, &scene.model_chunks, scene.model_size, tx).await;
     let decoded = decode
         .await
         .map_err(|e| rem::Error::Invalid(format!("decoding the model failed: {e}")))?;
     let got = got?;
-    let (built, hash) = decoded.map_err(|e| rem::Error::Invalid(e.to_string()))?;
+    let (built, hash) = decoded.map_err(rem::Error::Invalid)?;
     if hash != scene.model_hash {
         return Err(rem::Error::Invalid(
             "the model's chunks are not the scene's model (hash differs)".into(),
@@ -92,7 +115,7 @@ pub async fn fetch_scene(
         bytes_received: got.bytes_fetched,
         cached: got.cached,
         fetch_s: t0.elapsed().as_secs_f64(),
-        accel_cached: false,
+        ..proto::SceneFetch::default()
     };
     Ok((built, report))
 }

@@ -102,6 +102,10 @@ pub struct NodeStats {
     pub scene_fetch_s: f64,
     /// Whether the worker read its accelerator from its host's cache instead of building it.
     pub accel_cached: bool,
+    /// Whether the worker used its host's prepared scene, mapped in place.
+    pub scene_mapped: bool,
+    /// The worker's seconds from the Scene message to a scene ready to render.
+    pub scene_ready_s: f64,
     /// The worker's render threads' wall-clock seconds spent rendering.
     pub render_s: f64,
     /// Render threads' time waiting for their next fresh line, summed over threads (after
@@ -452,6 +456,8 @@ mod tests {
             "/scene_cached",
             "/scene_fetch_s",
             "/accel_cached",
+            "/scene_mapped",
+            "/scene_ready_s",
             "/render_s",
             "/outcome",
         ] {

@@ -3,7 +3,7 @@
 use super::{RayPre, Real, Vec3};
 
 /// An axis-aligned box in world coordinates; empty when `min > max` on any axis.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Aabb {
     /// The lower corner.
     pub min: Vec3,

@@ -10,7 +10,7 @@ use glam::DAffine3;
 use yari::model::Quadric;
 
 /// The shape of a primitive, in world coordinates.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub enum PrimitiveKind {
     /// A sphere given by centre and radius.
     Sphere {
@@ -40,7 +40,7 @@ pub enum PrimitiveKind {
 }
 
 /// One intersectable piece of the scene: a shape with its object, surface and motion.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Primitive {
     /// Its shape.
     pub kind: PrimitiveKind,
@@ -53,7 +53,7 @@ pub struct Primitive {
 }
 
 /// A primitive that could not be built, for a warning.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Dropped {
     /// Index of the model object that was dropped.
     pub object: usize,

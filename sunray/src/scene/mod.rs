@@ -59,6 +59,22 @@ impl Scene {
         }
     }
 
+    /// The scene of its parts (a prepared scene's, read back).
+    pub fn from_parts(
+        world: World,
+        prims: Primitives,
+        objects: usize,
+        dropped: Vec<Dropped>,
+    ) -> Scene {
+        Scene {
+            world,
+            prims,
+            objects,
+            dropped,
+            default_surface: Surface::default(),
+        }
+    }
+
     /// The surface of primitive `prim`.
     #[inline]
     pub fn surface(&self, prim: u32) -> &Surface {

@@ -29,7 +29,7 @@ pub const MAX_DEPTH: usize = 512;
 #[error("not a BVH of this scene: {0}")]
 pub struct BvhFileError(String);
 
-fn bad<T>(why: impl Into<String>) -> Result<T, BvhFileError> {
+pub(super) fn bad<T>(why: impl Into<String>) -> Result<T, BvhFileError> {
     Err(BvhFileError(why.into()))
 }
 
@@ -42,7 +42,7 @@ impl Bvh {
         for n in [prims.len(), self.nodes.len(), items] {
             out.extend_from_slice(&(n as u64).to_le_bytes());
         }
-        for node in &self.nodes {
+        for node in self.nodes.iter() {
             for plane in node.planes.iter().flatten().flatten() {
                 out.extend_from_slice(&plane.to_le_bytes());
             }
@@ -89,7 +89,10 @@ impl Bvh {
         check(&nodes, &order, prims)?;
         prims.adopt_order(&order);
         let items = LeafItems::new(prims, &order);
-        Ok(Bvh { nodes, items })
+        Ok(Bvh {
+            nodes: nodes.into(),
+            items,
+        })
     }
 }
 
@@ -138,7 +141,7 @@ fn contains(outer: &Aabb, inner: &Aabb) -> bool {
 }
 
 /// The whole check of a tree read back: see the module's text.
-fn check(nodes: &[Node], order: &[u32], prims: &Primitives) -> Result<(), BvhFileError> {
+pub fn check(nodes: &[Node], order: &[u32], prims: &Primitives) -> Result<(), BvhFileError> {
     let bounded = (0..prims.len() as u32)
         .filter(|&i| prims.bounds(i).is_some())
         .count();

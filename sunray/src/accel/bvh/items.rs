@@ -6,19 +6,44 @@
 
 use crate::geometry::primitives::Slot;
 use crate::geometry::{Primitives, RayPre, Real};
+use crate::store::Store;
 
 /// The BVH's leaf primitives in leaf order.
 #[derive(Clone, Debug)]
 pub struct LeafItems {
-    slots: Vec<Slot>,
+    slots: Store<Slot>,
 }
 
 impl LeafItems {
     /// The items of `order` (primitive numbers in leaf order).
     pub fn new(prims: &Primitives, order: &[u32]) -> LeafItems {
         LeafItems {
-            slots: order.iter().map(|&i| prims.slot(i)).collect(),
+            slots: order
+                .iter()
+                .map(|&i| prims.slot(i))
+                .collect::<Vec<_>>()
+                .into(),
         }
+    }
+
+    /// The items of `slots` (slots of `prims`' tables in leaf order), checked: each is the
+    /// slot of a bounded primitive.
+    pub fn of_slots(prims: &Primitives, slots: Store<Slot>) -> Option<LeafItems> {
+        let good = slots.iter().all(|&s| {
+            let i = prims.prim_of_checked(s);
+            i.is_some_and(|i| prims.slot(i) == s && prims.bounds(i).is_some())
+        });
+        good.then_some(LeafItems { slots })
+    }
+
+    /// The slots, in leaf order.
+    pub fn slots(&self) -> &[Slot] {
+        &self.slots
+    }
+
+    /// Whether the slots are a view into a mapped file.
+    pub fn is_mapped(&self) -> bool {
+        self.slots.is_mapped()
     }
 
     /// Primitive number of item `k`.
@@ -45,6 +70,6 @@ impl LeafItems {
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.slots.capacity() * 4
+        self.slots.owned_bytes()
     }
 }

@@ -2,7 +2,8 @@
 //! ([`binary`]), then collapsed into a 4-wide tree ([`wide`]) whose leaves list their
 //! primitives' slots in the scene's compact tables ([`items`]), which take the leaves' order.
 //!
-//! A built tree can be written and read back, checked ([`file`]).
+//! A built tree can be written and read back, checked ([`file`]), or made of tables viewed
+//! in place in a prepared scene file ([`tables`]).
 //!
 //! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
 //! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
@@ -11,6 +12,7 @@
 pub mod binary;
 pub mod file;
 pub mod items;
+pub mod tables;
 pub mod wide;
 
 use super::Hit;
@@ -24,7 +26,7 @@ use wide::{BoxRay, Child, WIDTH};
 /// A built BVH: the 4-wide nodes and the leaf primitives they point into.
 #[derive(Clone, Debug)]
 pub struct Bvh {
-    nodes: Vec<wide::Node>,
+    nodes: crate::store::Store<wide::Node>,
     items: LeafItems,
 }
 
@@ -47,7 +49,7 @@ impl Bvh {
         let costed = super::bounded(prims).map(|(i, b)| (i, b, prims.test_cost(i)));
         let bin = BinaryBvh::build(costed);
         prims.adopt_order(&bin.items);
-        let nodes = wide::collapse(&bin);
+        let nodes = wide::collapse(&bin).into();
         let items = LeafItems::new(prims, &bin.items);
         Bvh { nodes, items }
     }

@@ -14,6 +14,7 @@ pub const WIDTH: usize = 4;
 
 /// A child slot: an interior node, a leaf (a range of items), or nothing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
 pub struct Child {
     /// Interior: the node's index; leaf: its first item.
     pub index: u32,
@@ -30,13 +31,32 @@ impl Child {
 
 /// Four child boxes, one array per coordinate: `planes[0]` the minima, `planes[1]` the
 /// maxima. An empty slot's box is `+inf..+inf`, which no ray with a finite `t` limit hits.
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct Node {
     /// `planes[min or max][axis][child]`: the four children's boxes.
     pub planes: [[[Real; WIDTH]; 3]; 2],
     /// The four child slots, matching the columns of `planes`.
     pub children: [Child; WIDTH],
+}
+
+/// A node's bytes in memory: its planes and children (224), then padding to its alignment.
+pub const NODE_SIZE: usize = 256;
+const _: () = assert!(std::mem::size_of::<Node>() == NODE_SIZE);
+
+// SAFETY: `repr(C)`: 24 f64 planes, then 4 children of two u32, then 32 bytes of padding
+// (written as zeros); any bits are a valid Node.
+unsafe impl crate::store::Plain for Node {
+    fn put(&self, out: &mut Vec<u8>) {
+        for p in self.planes.iter().flatten().flatten() {
+            p.put(out);
+        }
+        for c in &self.children {
+            c.index.put(out);
+            c.count.put(out);
+        }
+        out.extend_from_slice(&[0; NODE_SIZE - 24 * 8 - WIDTH * 8]);
+    }
 }
 
 /// A ray prepared for the box tests: origin and inverse direction per axis, and which of

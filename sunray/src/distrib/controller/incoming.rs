@@ -88,6 +88,7 @@ impl<L: WorkerLink> Controller<L> {
                     (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
                         (f.bytes_received, f.cached, f.fetch_s);
                     n.accel_cached = f.accel_cached;
+                    (n.scene_mapped, n.scene_ready_s) = (f.scene_mapped, f.scene_ready_s);
                 }
                 self.table.release(i, &r.released);
                 self.stamps_to_echo[i] = Some(r.stamp_s);

@@ -16,6 +16,8 @@
 //!
 //! # Layout
 //! - [`owner`]: whom the worker answers to, and a farm job's takeover by a new controller.
+//! - [`prepared_scene`]: the scene mapped from the host's prepared scene, or made by a
+//!   keeper that a job's end does not interrupt.
 //! - [`render_loop`]: the loop once the scene is ready: Assign, render, Done.
 
 use super::messages::{self, proto, Body};
@@ -33,6 +35,7 @@ use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
 mod owner;
+mod prepared_scene;
 mod render_loop;
 
 /// How long a farm job's worker waits for a new controller: longer than REM's lease (10 s)
@@ -180,11 +183,17 @@ struct ReadyScene {
 }
 
 /// The Scene message made ready: its settings checked (before anything is fetched or
-/// allocated for them), its model fetched through this host's remd (cached there for the
-/// next worker or job), its accelerator built or read. The controller hears of each stage
-/// (Preparing), so a node that renders nothing says why.
+/// allocated for them); then the host's prepared scene mapped, as it is or once a keeper
+/// made it ([`prepared_scene`]); failing that, its model fetched through this host's remd
+/// (cached there for the next worker or job) and its accelerator built or read. The
+/// controller hears of each stage (Preparing), so a node that renders nothing says why.
 async fn ready_scene(scene_msg: proto::Scene, link: &Link) -> Result<ReadyScene, WorkerError> {
-    settings_of(&scene_msg)?;
+    let t0 = Instant::now();
+    if let Some(path) = prepared_scene::path_of(&scene_msg)? {
+        if let Some(ready) = prepared_scene::ready(&scene_msg, path, t0, link).await {
+            return Ok(ready);
+        }
+    }
     link.preparing(proto::preparing::Stage::Fetching).await?;
     let client = RemClient::from_env().await?;
     let (scene, mut fetch) = model_chunks::fetch_scene(&client, &scene_msg)
@@ -201,6 +210,7 @@ async fn ready_scene(scene_msg: proto::Scene, link: &Link) -> Result<ReadyScene,
                 )))
             })?;
     fetch.accel_cached = accel_cached;
+    fetch.scene_ready_s = t0.elapsed().as_secs_f64();
     Ok(ReadyScene {
         scene,
         accel,

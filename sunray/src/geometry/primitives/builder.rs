@@ -150,6 +150,7 @@ impl PrimitivesBuilder {
                 .add_polygon(&corners, t.normal, first, obj.surface);
             self.out
                 .slots
+                .edit()
                 .extend(range.clone().map(|k| TRIANGLE | k as u32));
             if range.len() > 1 && super::flat(vertices, t.normal) {
                 let end = first + range.len() as u32;
@@ -229,7 +230,7 @@ impl PrimitivesBuilder {
                 return;
             }
         };
-        self.out.slots.push(slot);
+        self.out.slots.edit().push(slot);
     }
 
     /// The primitives, and the objects dropped as degenerate.
@@ -248,7 +249,7 @@ impl PrimitivesBuilder {
         out.mesh.finish();
         out.smooth.finish();
         out.index_slots();
-        out.slots.shrink_to_fit();
+        out.slots.edit().shrink_to_fit();
         out.spheres.shrink_to_fit();
         out.others.shrink_to_fit();
         out.other_prims.shrink_to_fit();

@@ -10,6 +10,7 @@
 
 use super::super::polygon::plane_normal;
 use super::super::Vec3;
+use crate::store::{Plain, Store};
 use std::collections::HashMap;
 
 /// `MeshTriangle::normal`: the triangle is a face of a closed transparent mesh.
@@ -21,6 +22,7 @@ const RECOMPUTED: u32 = SOLID - 1;
 
 /// One triangle of the mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
 pub struct MeshTriangle {
     /// Its corners: indices into [`Mesh::vertices`], in the polygon's winding.
     pub v: [u32; 3],
@@ -34,13 +36,22 @@ pub struct MeshTriangle {
     normal: u32,
 }
 
+// SAFETY: `repr(C)` of six u32 (no padding, any bits valid), put in that order.
+unsafe impl Plain for MeshTriangle {
+    fn put(&self, out: &mut Vec<u8>) {
+        for w in self.v.iter().chain(&[self.prim, self.surface, self.normal]) {
+            w.put(out);
+        }
+    }
+}
+
 /// Indexed static triangles (see the module's text).
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// Distinct corners.
-    pub vertices: Vec<Vec3>,
+    pub vertices: Store<Vec3>,
     /// The triangles.
-    pub triangles: Vec<MeshTriangle>,
+    pub triangles: Store<MeshTriangle>,
     /// Normals that cannot be recomputed from a triangle's corners.
     normals: Vec<Vec3>,
     /// Corner positions (their exact bits) to their index, while the mesh is built.
@@ -73,7 +84,7 @@ impl Mesh {
                 })
             };
             let v = corners.map(|p| self.vertex(p));
-            self.triangles.push(MeshTriangle {
+            self.triangles.edit().push(MeshTriangle {
                 v,
                 prim: first_prim + k as u32,
                 surface,
@@ -92,7 +103,7 @@ impl Mesh {
             .entry(p.to_array().map(f64::to_bits))
             .or_insert(next);
         if id == next {
-            self.vertices.push(p);
+            self.vertices.edit().push(p);
         }
         id
     }
@@ -100,7 +111,7 @@ impl Mesh {
     /// Marks the triangles at `range` as faces of a closed transparent mesh, their normals
     /// negated when `flip`.
     pub fn make_solid(&mut self, range: std::ops::Range<usize>, flip: bool) {
-        for t in &mut self.triangles[range] {
+        for t in &mut self.triangles.edit()[range] {
             t.normal |= SOLID | if flip { FLIP } else { 0 };
         }
     }
@@ -149,40 +160,70 @@ impl Mesh {
     /// use, so nothing needs renumbering until the triangles are reordered.)
     pub fn finish(&mut self) {
         self.ids = HashMap::new();
-        self.triangles.shrink_to_fit();
-        self.vertices.shrink_to_fit();
+        self.triangles.edit().shrink_to_fit();
+        self.vertices.edit().shrink_to_fit();
         self.normals.shrink_to_fit();
     }
 
     /// Moves triangle `k` to `new[k]` (a permutation), and renumbers the corners by first
     /// use in the new order.
     pub fn permute(&mut self, new: &[u32]) {
-        super::permute(&mut self.triangles, new);
+        super::permute(&mut self.triangles.edit(), new);
         self.renumber_vertices();
     }
 
     /// Puts the corners in order of first use by the triangles.
     fn renumber_vertices(&mut self) {
-        let mut renumbered = vec![u32::MAX; self.vertices.len()];
-        let mut vertices = Vec::with_capacity(self.vertices.len());
-        for t in &mut self.triangles {
+        let old = std::mem::take(&mut self.vertices);
+        let mut renumbered = vec![u32::MAX; old.len()];
+        let mut vertices = Vec::with_capacity(old.len());
+        for t in self.triangles.edit().iter_mut() {
             for v in &mut t.v {
                 let new = &mut renumbered[*v as usize];
                 if *new == u32::MAX {
                     *new = vertices.len() as u32;
-                    vertices.push(self.vertices[*v as usize]);
+                    vertices.push(old[*v as usize]);
                 }
                 *v = *new;
             }
         }
-        self.vertices = vertices;
+        self.vertices = vertices.into();
     }
 
     /// Bytes held (for the memory figures).
     pub fn bytes(&self) -> usize {
-        self.vertices.capacity() * std::mem::size_of::<Vec3>()
-            + self.triangles.capacity() * std::mem::size_of::<MeshTriangle>()
+        self.vertices.owned_bytes()
+            + self.triangles.owned_bytes()
             + self.normals.capacity() * std::mem::size_of::<Vec3>()
+    }
+
+    /// Normals that cannot be recomputed from a triangle's corners (for a prepared scene).
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+
+    /// The mesh of finished tables (a prepared scene's, read back), checked: every corner
+    /// and stored normal a triangle names exists.
+    pub fn from_tables(
+        vertices: Store<Vec3>,
+        triangles: Store<MeshTriangle>,
+        normals: Vec<Vec3>,
+    ) -> Result<Mesh, String> {
+        let corners = vertices.len() as u32;
+        let stored = normals.len() as u32;
+        let bad = triangles.iter().any(|t| {
+            let n = t.normal & RECOMPUTED;
+            t.v.iter().any(|&v| v >= corners) || (n != RECOMPUTED && n >= stored)
+        });
+        if bad {
+            return Err("a triangle names a corner or normal that is not there".into());
+        }
+        Ok(Mesh {
+            vertices,
+            triangles,
+            normals,
+            ids: HashMap::new(),
+        })
     }
 }
 

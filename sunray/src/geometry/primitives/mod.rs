@@ -15,15 +15,19 @@
 //! - [`smooth`]: the side table of smooth triangles' corner normals.
 //! - [`builder`]: objects to primitives (triangulation, closed transparent meshes, dropped
 //!   objects), one object at a time, so a model can be decoded as a stream.
+//! - [`parts`]: the finished primitives as their large tables and the rest, for a prepared
+//!   scene file (the tables viewed in place when it is read back).
 
 pub mod builder;
 pub mod mesh;
+pub mod parts;
 pub mod smooth;
 
 use super::smooth::SmoothHit;
 use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
 use super::{Aabb, Primitive, PrimitiveKind, RayPre, Real, Vec3};
+use crate::store::Store;
 pub use builder::PrimitivesBuilder;
 use mesh::Mesh;
 use smooth::SmoothTable;
@@ -37,7 +41,7 @@ const KIND: u32 = 3 << 30;
 pub const MAX_PER_KIND: usize = (1 << 30) - 1;
 
 /// A static sphere.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StaticSphere {
     /// Centre in world units.
     pub centre: Vec3,
@@ -56,7 +60,7 @@ pub type Slot = u32;
 #[derive(Clone, Debug, Default)]
 pub struct Primitives {
     /// Primitive number to slot.
-    slots: Vec<Slot>,
+    slots: Store<Slot>,
     mesh: Mesh,
     spheres: Vec<StaticSphere>,
     /// Primitive numbers of `others`.
@@ -225,11 +229,12 @@ impl Primitives {
 
     /// Points every triangle's and sphere's slot at where it is.
     fn index_slots(&mut self) {
+        let mut slots = self.slots.edit();
         for (k, t) in self.mesh.triangles.iter().enumerate() {
-            self.slots[t.prim as usize] = TRIANGLE | k as u32;
+            slots[t.prim as usize] = TRIANGLE | k as u32;
         }
         for (k, s) in self.spheres.iter().enumerate() {
-            self.slots[s.prim as usize] = SPHERE | k as u32;
+            slots[s.prim as usize] = SPHERE | k as u32;
         }
     }
 
@@ -429,7 +434,7 @@ impl Primitives {
 
     /// Bytes the tables hold.
     pub fn bytes(&self) -> usize {
-        self.slots.capacity() * 4
+        self.slots.owned_bytes()
             + self.mesh.bytes()
             + self.smooth.bytes()
             + self.spheres.capacity() * std::mem::size_of::<StaticSphere>()

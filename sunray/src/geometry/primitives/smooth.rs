@@ -20,20 +20,22 @@ const NEGATE: u32 = 1 << 31;
 const EMPTY: u32 = u32::MAX;
 
 /// One smooth triangle: its primitive number and its corners' normals.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 struct Entry {
     prim: u32,
     normals: [u32; 3],
 }
 
 /// Corner normals of the smooth triangles (see the module's text).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct SmoothTable {
     entries: Vec<Entry>,
     /// Distinct unit normals.
     normals: Vec<Vec3>,
     /// While the table is built: open addressing (linear probing) over `normals`, each slot
-    /// an index into it or [`EMPTY`]; a power of two long, at most half full.
+    /// an index into it or [`EMPTY`]; a power of two long, at most half full. Not kept in a
+    /// prepared scene (a finished table has none).
+    #[serde(skip)]
     slots: Vec<u32>,
 }
 
