@@ -12,8 +12,9 @@
 3. strategies: SunRay I, II and III side by side on mount6 with three workers, one thread
                each, workers 1 and 2 pinned to CPU 0 and worker 3 pinned to CPU 1 at nice 10
                behind a CPU hog; the finish-time spread of the nodes per strategy.
-4. timeline:   the fixed cost of a job on a warm farm: mount6 64x64 on three remd daemons on
-               loopback, submitted --runs times (the first warms the hosts' caches); the
+4. timeline:   the fixed cost of a job on a warm farm: mount6 64x64 (or --timeline-scene at
+               --timeline-size) on three remd daemons on loopback, submitted --runs times
+               (the first warms the hosts' caches, and its timeline is printed too); the
                median of each step of the job's timeline (seconds since submit) and of the
                submit's wall time, next to `sunray render` of the same image.
 """
@@ -78,8 +79,8 @@ def submit(bin_dir, tmp, args, env=None, on_event=None):
         return json.load(f), wall
 
 
-def render(bin_dir, tmp, size, threads=None):
-    cmd = [os.path.join(bin_dir, "sunray"), "render", "-q", MOUNT6, "--resolution",
+def render(bin_dir, tmp, size, threads=None, scene=None):
+    cmd = [os.path.join(bin_dir, "sunray"), "render", "-q", scene or MOUNT6, "--resolution",
            f"{size}x{size}", "-o", os.path.join(tmp, "ref.png")]
     if threads:
         cmd += ["--threads", str(threads)]
@@ -174,7 +175,8 @@ def strategies(bin_dir, size, samples):
             stop(procs)
 
 
-def timeline(bin_dir, runs):
+def timeline(bin_dir, runs, scene=None, size=64):
+    scene = scene or MOUNT6
     steps = ["controller_started", "first_line", "last_line", "image_stored", "finished"]
     with tempfile.TemporaryDirectory() as tmp:
         procs, addrs, secret = remds(bin_dir, tmp, ["a", "b", "c"])
@@ -182,10 +184,11 @@ def timeline(bin_dir, runs):
         try:
             for i in range(runs + 1):
                 s, wall = submit(bin_dir, tmp, ["--remd", addrs[0], "--secret-file", secret,
-                                                "--hosts", "3", "--resolution", "64x64",
-                                                "--job", f"fixed{i}", MOUNT6])
+                                                "--hosts", "3", "--resolution", f"{size}x{size}",
+                                                "--job", f"fixed{i}", scene])
                 if i == 0:
-                    continue  # warms the caches
+                    print(f"  first job (caches cold): wall {wall:.3f} s; timeline {s['timeline']}")
+                    continue
                 walls.append(wall)
                 for k in steps:
                     if s["timeline"].get(k) is not None:
@@ -196,9 +199,10 @@ def timeline(bin_dir, runs):
                 print(f"  run {i}: wall {wall:.3f} s; nodes: {nodes}")
         finally:
             stop(procs)
-        local = sorted(render(bin_dir, tmp, 64) for _ in range(runs))
+        local = sorted(render(bin_dir, tmp, size, scene=scene) for _ in range(runs))
     med = lambda xs: sorted(xs)[len(xs) // 2] if xs else float("nan")
-    print(f"timeline: mount6 64x64, 3 workers on 3 loopback remd daemons, median of {runs} warm "
+    name = os.path.basename(scene)
+    print(f"timeline: {name} {size}x{size}, 3 workers on 3 loopback remd daemons, median of {runs} warm "
           "jobs, seconds since submit: " +
           ", ".join(f"{k} {med(v):.3f}" for k, v in got.items()) +
           f"; submit wall {med(walls):.3f} s against `sunray render` {med(local):.3f} s")
@@ -212,6 +216,8 @@ def main():
     ap.add_argument("--strategy-samples", type=int, default=4)
     ap.add_argument("--only", default="overhead,workers,strategies")
     ap.add_argument("--runs", type=int, default=5, help="warm jobs for the timeline")
+    ap.add_argument("--timeline-scene", help="the timeline's scene [default: mount6]")
+    ap.add_argument("--timeline-size", type=int, default=64)
     a = ap.parse_args()
     global MOUNT6
     scenes = tempfile.mkdtemp(prefix="bench-submit-scenes-")
@@ -229,7 +235,7 @@ def main():
               "3 workers of 1 thread, worker 3 at nice 10 behind a CPU hog")
         strategies(a.bin, a.strategy_size, a.strategy_samples)
     if "timeline" in only:
-        timeline(a.bin, a.runs)
+        timeline(a.bin, a.runs, a.timeline_scene, a.timeline_size)
 
 
 if __name__ == "__main__":
