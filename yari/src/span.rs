@@ -129,12 +129,7 @@ impl Source {
             else {
                 return (1, 1);
             };
-            let start = self.line_starts[i];
-            let end = self
-                .line_starts
-                .get(i + 1)
-                .copied()
-                .unwrap_or(self.text.len());
+            let (start, end) = self.kept_line(i);
             let at = (start + (offset as usize - kept.starts[i])).min(end);
             let col = self.text[start..floor_char_boundary(&self.text, at)]
                 .chars()
@@ -151,18 +146,24 @@ impl Source {
         (line + 1, col)
     }
 
+    /// Where the `i`th line kept of a file's excerpt starts and ends in `text`.
+    fn kept_line(&self, i: usize) -> (usize, usize) {
+        let start = self.line_starts[i];
+        let end = self
+            .line_starts
+            .get(i + 1)
+            .copied()
+            .unwrap_or(self.text.len());
+        (start, end)
+    }
+
     /// The text of 1-based line `line`, without its newline.
     pub fn line_text(&self, line: usize) -> &str {
         if let Some(kept) = &self.excerpt {
             let Ok(i) = kept.numbers.binary_search(&line) else {
                 return "";
             };
-            let start = self.line_starts[i];
-            let end = self
-                .line_starts
-                .get(i + 1)
-                .copied()
-                .unwrap_or(self.text.len());
+            let (start, end) = self.kept_line(i);
             let text = &self.text[start..end];
             return text
                 .strip_suffix('\n')

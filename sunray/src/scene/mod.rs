@@ -50,13 +50,7 @@ impl Scene {
     fn built(world: World, builder: PrimitivesBuilder) -> Scene {
         let objects = builder.objects();
         let (prims, dropped) = builder.finish();
-        Scene {
-            world,
-            prims,
-            objects,
-            dropped,
-            default_surface: Surface::default(),
-        }
+        Scene::from_parts(world, prims, objects, dropped)
     }
 
     /// The scene of its parts (a prepared scene's, read back).

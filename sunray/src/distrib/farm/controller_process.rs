@@ -75,8 +75,8 @@ fn job_from_env() -> Result<(String, u64), FarmError> {
 pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let started = std::time::Instant::now();
     let (job, epoch) = job_from_env()?;
-    let client = RemClient::from_env().await?;
-    let relay = RemClient::attach_from_env().await?;
+    let (client, relay) = tokio::join!(RemClient::from_env(), RemClient::attach_from_env());
+    let (client, relay) = (client?, relay?);
     let host = relay.host().to_string();
     let mut record = own_record(&client, &job, epoch).await?;
     // What the job is, where it can run and what remd's web view showed of it so far: read
@@ -89,16 +89,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let stored = stored?;
     let (width, height) = (stored.settings.render.width, stored.settings.render.height);
     let lines_in = stored.restored.lines.len() as u32;
-
-    record.state = "running".into();
-    record.controller = relay.id().to_string();
-    record.controller_host = host.clone();
-    record.progress_done = u64::from(lines_in);
-    if record.title.is_empty() {
-        record.title = job_record::title(&job_record::from_record(&record).scene, width, height);
-    }
-    put_record(&client, &record, &job).await?;
-
+    claim(&client, &mut record, &relay, (width, height), lines_in).await?;
     let live: Vec<rem::HostInfo> = hosts?
         .into_iter()
         .filter(|h| h.alive && h.accepting)
@@ -172,6 +163,27 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     )
     .await?;
     Ok(ControllerEnd::Finished)
+}
+
+/// Marks the job's `record` running under this controller (`relay`, on its host) with
+/// `lines_in` lines in the checkpoint, titled if it was not (a `width` x `height` image), and
+/// writes it.
+async fn claim(
+    client: &RemClient,
+    record: &mut rem::JobRecord,
+    relay: &rem::Relay,
+    (width, height): (u32, u32),
+    lines_in: u32,
+) -> Result<(), FarmError> {
+    record.state = "running".into();
+    record.controller = relay.id().to_string();
+    record.controller_host = relay.host().to_string();
+    record.progress_done = u64::from(lines_in);
+    if record.title.is_empty() {
+        record.title = job_record::title(&job_record::from_record(record).scene, width, height);
+    }
+    let job = record.id.clone();
+    put_record(client, record, &job).await
 }
 
 /// The controller's settings: its events go to REM's log of this process (`rem logs`), the
