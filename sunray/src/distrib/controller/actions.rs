@@ -7,7 +7,7 @@ use super::ControllerError;
 use super::{Controller, Input};
 use crate::distrib::grants::NodeState;
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
+use crate::distrib::nodes::{ControllerCost, Outcome};
 use serde_json::json;
 use std::time::Duration;
 use tokio::sync::mpsc;
@@ -176,15 +176,9 @@ impl<L: WorkerLink> Controller<L> {
     pub(super) async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
         self.finishing = true;
         let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
-        // A silent worker is not waited for, nor one still getting its scene ready: it reads
-        // nothing until it is, and the job's end must not wait for its build (which its
-        // host's scene keeper finishes and keeps for the next job, `crate::prepared`).
+        // A silent worker is not waited for.
         let wait_for: Vec<bool> = (0..self.procs.len())
-            .map(|i| {
-                !self.exited[i]
-                    && self.table.node_state(i) == Some(NodeState::Active)
-                    && matches!(self.nodes[i].stage, Stage::Rendering)
-            })
+            .map(|i| !self.exited[i] && self.table.node_state(i) == Some(NodeState::Active))
             .collect();
         for i in 0..self.procs.len() {
             if !self.exited[i] && self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
