@@ -96,7 +96,8 @@ async fn run_plan(
         .await
         .map_err(|e| cluster.rpc_error(e))?;
 
-    let (checkpointer, mut entry, epoch) = first_checkpoint(cluster, req, &plan).await?;
+    let (checkpointer, mut entry, epoch) =
+        first_checkpoint(cluster, req, &plan, shipped.hash).await?;
     let cfg = controller_config(req, &plan, scene_msg);
     let name = plan.loaded.source.display_name();
     let totals = Totals {
@@ -146,16 +147,18 @@ async fn run_plan(
     })
 }
 
-/// Writes the job's first checkpoint and its record (running) at the job's next epoch.
+/// Writes the job's first checkpoint (of the model with `model_hash`, as its shipping
+/// hashed it) and its record (running) at the job's next epoch.
 async fn first_checkpoint(
     cluster: &RemConnection,
     req: &JobRequest,
     plan: &Plan,
+    model_hash: u64,
 ) -> Result<(Checkpointer, proto::JobEntry, u64), JobError> {
     let mut checkpointer = Checkpointer::new(
         &plan.job,
         job_spec(req, plan),
-        messages::fnv1a(&plan.model),
+        model_hash,
         plan.restored.as_ref(),
     );
     checkpointer
