@@ -237,7 +237,8 @@ pub fn prepared_big(n: usize) -> Result<(f64, f64, f64), Box<dyn std::error::Err
     let kept = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut scene = Scene::read_model(&mut &model[..])?;
-    let (_, got) = crate::accel::cache::build_or_load(&mut scene.prims, &opts, hash, Some(dir.path()));
+    let (_, got) =
+        crate::accel::cache::build_or_load(&mut scene.prims, &opts, hash, Some(dir.path()));
     let decoded = t.elapsed().as_secs_f64();
     if !got.cached {
         return Err("the kept BVH was not read back".into());

