@@ -213,7 +213,11 @@ def bigscene_section(data, out, name="bigscene"):
                "fetched MB | scene cached | BVH cached |")
     out.append("|---|---|---|---|---|---|---|---|---|")
     for size in data["settings"]["sizes"]:
-        for run in ["first", "second"]:
+        local = data.get(f"{size}-local")
+        if local:
+            out.append(f"| {local['stats']['primitives']:,} | `sunray render` on ws1 | - | "
+                       f"{local['wall_s']:.1f} | - | ws1 | - | - | - |")
+        for run in ["first", "second", "third"]:
             r = data.get(f"{size}-{run}")
             if not r:
                 continue
@@ -225,6 +229,18 @@ def bigscene_section(data, out, name="bigscene"):
                        f"{', '.join(n['host'] for n in nodes)} | {fetched / 1e6:.1f} | "
                        f"{sum(1 for n in nodes if n['scene_cached'])}/{len(nodes)} | "
                        f"{sum(1 for n in nodes if n['accel_cached'])}/{len(nodes)} |")
+    out.append("")
+    out.append("Each job's timeline (seconds since submit; `sunray submit --stats-json`):\n")
+    for size in data["settings"]["sizes"]:
+        local = data.get(f"{size}-local")
+        for run in ["first", "second", "third"]:
+            r = data.get(f"{size}-{run}")
+            if not r:
+                continue
+            t = r["summary"].get("timeline", {})
+            steps = ", ".join(f"{k} {v:.2f}" for k, v in t.items() if isinstance(v, (int, float)))
+            ratio = f"; total {r['wall_s'] / local['wall_s']:.2f}x the local render" if local else ""
+            out.append(f"- tetra {size} {run}: {steps}{ratio}")
     out.append("")
 
 

@@ -72,12 +72,14 @@ pub fn remd_bin() -> PathBuf {
     ensure_built().join("remd")
 }
 
-/// `sunray` with no REM configuration from the environment.
+/// `sunray` with no REM configuration from the environment, and the tests' own cache of
+/// scenes shipped before (not the user's `~/.cache/sunray`).
 pub fn sunray() -> Command {
     let mut c = Command::new(sunray_bin());
     c.env_remove("REM_ADDR")
         .env_remove("REM_SECRET")
-        .env_remove("REM_SECRET_FILE");
+        .env_remove("REM_SECRET_FILE")
+        .env("SUNRAY_CACHE_DIR", bin_dir().join("e2e-sunray-cache"));
     c
 }
 

@@ -14,7 +14,7 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 use sunray_e2e::bins::signal;
 use sunray_e2e::fixtures::spd;
-use sunray_e2e::reference::{reference, succeed};
+use sunray_e2e::reference::{read_json, reference, succeed};
 use sunray_e2e::remd::LoopbackCluster;
 use sunray_e2e::submit_run::SubmitRun;
 
@@ -518,4 +518,61 @@ fn a_job_whose_record_holders_are_all_lost_is_reported_failed() {
         said.contains("job orphan failed") && said.contains("no live host holds its record"),
         "{said}"
     );
+}
+
+/// A second submit of an unchanged scene compiles nothing and sends nothing: the submitting
+/// host remembers what the job needs of the scene and its model's chunks, still with its
+/// remd. A count planted in the remembered entry shows that the second job took it from
+/// there; a changed scene (a comment added) is compiled and shipped again.
+#[test]
+fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
+    let cluster = LoopbackCluster::start(2);
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let scene = dir.path().join("mount6.nff");
+    std::fs::copy(spd("mount6"), &scene).unwrap();
+    let (want, _) = reference(dir.path(), &scene, &FLAGS);
+    let run = |name: &str| {
+        let (out, json) = (
+            dir.path().join(format!("{name}.png")),
+            dir.path().join(format!("{name}.json")),
+        );
+        succeed(
+            cluster
+                .submit()
+                .env("SUNRAY_CACHE_DIR", &cache)
+                .args(["--hosts", "2", "-q"])
+                .args(FLAGS)
+                .arg(&scene)
+                .arg("-o")
+                .arg(&out)
+                .arg("--stats-json")
+                .arg(&json),
+        );
+        assert!(std::fs::read(&out).unwrap() == want, "{name}: differs from sunray render");
+        read_json(&json)
+    };
+    let first = run("first");
+    let objects = first["totals"]["objects"].as_u64().unwrap();
+    assert!(first["scene_bytes_sent"].as_u64().unwrap() > 0, "a shipped the model once");
+    let entries: Vec<_> = std::fs::read_dir(cache.join("shipped"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert_eq!(entries.len(), 1, "{entries:?}");
+    let mut entry: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&entries[0]).unwrap()).unwrap();
+    entry["summary"]["objects"] = 424_242.into();
+    std::fs::write(&entries[0], serde_json::to_vec(&entry).unwrap()).unwrap();
+
+    let second = run("second");
+    assert_eq!(second["totals"]["objects"], 424_242, "the remembered entry was used");
+    assert_eq!(second["scene_bytes_sent"], 0);
+
+    let mut text = std::fs::read(&scene).unwrap();
+    text.extend_from_slice(b"# the same scene, other bytes\n");
+    std::fs::write(&scene, text).unwrap();
+    let third = run("third");
+    assert_eq!(third["totals"]["objects"], objects, "a changed scene is compiled again");
 }

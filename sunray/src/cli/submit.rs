@@ -11,6 +11,7 @@ use super::render::RenderArgs;
 use crate::distrib::connection::RemConnection;
 use crate::distrib::farm::follow::{self, Ended, WatchView};
 use crate::distrib::farm::{self, ControllerFlags, FarmError, Submitted};
+use crate::distrib::job::input::{JobInput, Recalled};
 use crate::distrib::job::{self, JobRequest, JobScene};
 use crate::distrib::strategy::Strategy;
 use crate::scene::load::BUILTIN;
@@ -129,18 +130,11 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     if for_farm || (args.remd.is_some() && args.resume.is_none() && !args.in_process) {
         return in_farm(&args, &request);
     }
-    // A new job's scene is compiled before anything else, so a bad scene starts nothing.
-    let scene = match &args.resume {
-        None => {
-            let loaded = args.render.load_for_job()?;
-            // Settings out of bounds are refused before a remd or a worker is started.
-            request.overrides.settings(&loaded.scene)?;
-            JobScene::New(loaded)
-        }
-        Some(job) => JobScene::Resume {
-            job: job.clone(),
-            scene: args.render.source().path().map(Path::to_path_buf),
-        },
+    // A new job's scene is compiled before anything else, so a bad scene starts nothing
+    // (unless it was shipped before, unchanged: then it is not compiled at all).
+    let new_scene = match &args.resume {
+        None => Some(recall_or_compile(&args, &request)?),
+        Some(_) => None,
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -153,7 +147,21 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
             &request.worker_program,
         )
         .await?;
-        let outcome = job::run(&cluster, &request, scene).await;
+        let scene = match (new_scene, &args.resume) {
+            (Some((recalled, compiled)), _) => {
+                scene_input(&args, &request, &cluster, recalled, compiled)
+                    .await
+                    .map(JobScene::New)
+            }
+            (None, job) => Ok(JobScene::Resume {
+                job: job.clone().unwrap_or_default(),
+                scene: args.render.source().path().map(Path::to_path_buf),
+            }),
+        };
+        let outcome = match scene {
+            Ok(scene) => job::run(&cluster, &request, scene).await.map_err(Into::into),
+            Err(e) => Err(e),
+        };
         cluster.close().await;
         outcome
     })?;
@@ -176,11 +184,63 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The new job's scene as remembered from an earlier submit of the same file (checked
+/// against the farm later, in [`scene_input`]), else compiled now, its settings checked, so
+/// that a bad scene or bad settings start nothing.
+fn recall_or_compile(
+    args: &SubmitArgs,
+    request: &JobRequest,
+) -> anyhow::Result<(Recalled, Option<JobInput>)> {
+    let colours = args.render.colours.colors.as_deref();
+    let recalled = Recalled::look_up(&args.render.source(), colours);
+    if let Some(entry) = &recalled.entry {
+        request.overrides.settings_for(&entry.summary)?;
+        return Ok((recalled, None));
+    }
+    let compiled = compile(args, request, &recalled)?;
+    Ok((recalled, Some(compiled)))
+}
+
+/// The scene compiled here, its warnings printed and its settings checked.
+fn compile(
+    args: &SubmitArgs,
+    request: &JobRequest,
+    recalled: &Recalled,
+) -> anyhow::Result<JobInput> {
+    let input = JobInput::loaded(args.render.load_for_job()?, recalled.remember.clone())?;
+    // Settings out of bounds are refused before a remd or a worker is started.
+    request.overrides.settings_for(&input.summary)?;
+    Ok(input)
+}
+
+/// The new job's input: compiled already, or remembered and every chunk of its model still
+/// with the local remd (its warnings printed again), else compiled now.
+async fn scene_input(
+    args: &SubmitArgs,
+    request: &JobRequest,
+    cluster: &RemConnection,
+    recalled: Recalled,
+    compiled: Option<JobInput>,
+) -> anyhow::Result<JobInput> {
+    if let Some(input) = compiled {
+        return Ok(input);
+    }
+    let source = args.render.source();
+    match recalled.still_shipped(&cluster.client, &source).await {
+        Some(input) => {
+            for w in &input.warnings {
+                eprintln!("{w}");
+            }
+            Ok(input)
+        }
+        None => tokio::task::block_in_place(|| compile(args, request, &recalled)),
+    }
+}
+
 /// Hands the job to the farm; with `--detach` prints its id, else follows it to its end
 /// and writes its image and statistics here.
 fn in_farm(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> {
-    let loaded = args.render.load_for_job()?;
-    request.overrides.settings(&loaded.scene)?;
+    let (recalled, compiled) = recall_or_compile(args, request)?;
     let flags = ControllerFlags {
         checkpoint_ms: args.checkpoint_ms.max(50),
         worker_timeout_ms: args.worker_timeout_ms,
@@ -193,7 +253,8 @@ fn in_farm(args: &SubmitArgs, request: &JobRequest) -> anyhow::Result<ExitCode> 
             &request.worker_program,
         )
         .await?;
-        let outcome = match farm::submit(&cluster, request, loaded, &flags).await {
+        let input = scene_input(args, request, &cluster, recalled, compiled).await?;
+        let outcome = match farm::submit(&cluster, request, input, &flags).await {
             Ok(job) if args.detach => {
                 println!("{}", job.job);
                 Ok(ExitCode::SUCCESS)

@@ -27,7 +27,9 @@
 //!   far), and when.
 //! - [`worker`]: the worker process; [`pool`]: its render threads; [`window`]: how many
 //!   lines it holds.
-//! - [`model_chunks`]: the scene's model shipped as REM chunks and fetched by the workers.
+//! - [`model_chunks`]: the scene's model shipped as REM chunks and fetched by the workers;
+//!   [`shipped_scenes`]: the scenes this user shipped before, so a second submit of a file
+//!   compiles and sends nothing.
 //! - [`connection`]: reaching REM; [`embedded`]: the private remd of the default set-up.
 //! - [`job`]: a job from start to end (plan, first checkpoint, workers, controller, totals),
 //!   one path wherever its controller runs: in `submit` (`--in-process`) or in the farm.
@@ -47,6 +49,7 @@ pub mod model_chunks;
 pub mod nodes;
 pub mod pool;
 pub mod progress;
+pub mod shipped_scenes;
 pub mod strategy;
 pub mod timeline;
 pub mod web_view;

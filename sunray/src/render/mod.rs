@@ -38,10 +38,15 @@ pub struct RenderOptions {
 impl RenderOptions {
     /// The scene's own resolution and samples, default ray-tree limits.
     pub fn for_scene(scene: &Scene) -> RenderOptions {
+        RenderOptions::asked(scene.world.resolution, scene.world.samples)
+    }
+
+    /// The defaults for a scene that asks for `resolution` and `samples` (0 counts as 1).
+    pub fn asked(resolution: [u32; 2], samples: u32) -> RenderOptions {
         RenderOptions {
-            width: scene.world.resolution[0].max(1),
-            height: scene.world.resolution[1].max(1),
-            samples: scene.world.samples.max(1),
+            width: resolution[0].max(1),
+            height: resolution[1].max(1),
+            samples: samples.max(1),
             trace: TraceOptions::default(),
         }
     }

@@ -14,6 +14,7 @@
 
 use super::RenderOptions;
 use crate::accel::{AccelKind, AccelOptions};
+use crate::scene::summary::SceneSummary;
 use crate::scene::Scene;
 use crate::shading::TraceOptions;
 use crate::stats::RenderStats;
@@ -217,7 +218,13 @@ impl Overrides {
     /// sample count of 0 and a split threshold of 0 count as 1); refused if out of bounds
     /// ([`Settings::check`]), whether the scene or the flags asked for it.
     pub fn settings(&self, scene: &Scene) -> Result<Settings, SettingsError> {
-        let mut render = RenderOptions::for_scene(scene);
+        self.settings_for(&SceneSummary::of(scene))
+    }
+
+    /// [`Overrides::settings`] from the scene's summary alone (a farm job whose scene is not
+    /// compiled again on the submitting host).
+    pub fn settings_for(&self, scene: &SceneSummary) -> Result<Settings, SettingsError> {
+        let mut render = RenderOptions::asked(scene.resolution, scene.samples);
         if let Some((w, h)) = self.resolution {
             (render.width, render.height) = (w, h);
         }

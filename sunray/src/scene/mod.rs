@@ -1,7 +1,9 @@
 //! A scene ready to render: the compiled model and its primitives. [`load`] says where a
-//! scene comes from (a file or the built-in example) and loads it.
+//! scene comes from (a file or the built-in example) and loads it; [`summary`] is what a farm
+//! job needs of it besides the model.
 
 pub mod load;
+pub mod summary;
 
 use crate::geometry::primitive::Dropped;
 use crate::geometry::primitives::PrimitivesBuilder;

@@ -180,6 +180,15 @@ impl Rem for Service {
         Ok(Response::new(self.0.get_chunk(&who, hash).await?))
     }
 
+    async fn cached_chunks(
+        &self,
+        req: Request<proto::HasChunksRequest>,
+    ) -> Result<Response<proto::HasChunksReply>, Status> {
+        self.user(&req)?;
+        let has = self.0.has_chunks(&req.get_ref().hashes).await?;
+        Ok(Response::new(proto::HasChunksReply { has }))
+    }
+
     async fn list_jobs(
         &self,
         req: Request<proto::ListJobsRequest>,

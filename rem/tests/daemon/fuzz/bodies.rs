@@ -146,7 +146,7 @@ impl Gen<'_> {
                 hash: self.string(),
             }
             .encode_to_vec(),
-            Rpc::HasChunks => proto::HasChunksRequest {
+            Rpc::HasChunks | Rpc::CachedChunks => proto::HasChunksRequest {
                 hashes: self.strings(),
             }
             .encode_to_vec(),

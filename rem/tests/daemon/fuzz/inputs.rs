@@ -25,6 +25,7 @@ pub(super) enum Rpc {
     StartJob,
     PutChunk,
     GetChunk,
+    CachedChunks,
     AdoptProcess,
     StartLocal,
     KillLocal,
@@ -41,7 +42,7 @@ pub(super) enum Rpc {
     AdoptLocal,
 }
 
-const RPCS: [Rpc; 27] = [
+const RPCS: [Rpc; 28] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -55,6 +56,7 @@ const RPCS: [Rpc; 27] = [
     Rpc::StartJob,
     Rpc::PutChunk,
     Rpc::GetChunk,
+    Rpc::CachedChunks,
     Rpc::AdoptProcess,
     Rpc::StartLocal,
     Rpc::KillLocal,
@@ -97,6 +99,7 @@ impl Rpc {
             Rpc::ListJobsLocal => "ListJobsLocal",
             Rpc::PutChunk => "PutChunk",
             Rpc::GetChunk => "GetChunk",
+            Rpc::CachedChunks => "CachedChunks",
             Rpc::StoreChunk => "StoreChunk",
             Rpc::HasChunks => "HasChunks",
             Rpc::FetchChunk => "FetchChunk",

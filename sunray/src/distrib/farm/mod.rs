@@ -27,12 +27,11 @@ pub mod tail;
 
 use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
 use super::connection::RemConnection;
+use super::job::input::JobInput;
 use super::job::{self, JobError, JobRequest};
 use super::job_record;
 use super::messages::proto;
-use super::model_chunks;
 use super::web_view;
-use crate::scene::load::LoadedScene;
 use prost::Message;
 
 /// The key of a job's Scene message in REM's store.
@@ -149,18 +148,19 @@ pub struct Submitted {
     pub output: std::path::PathBuf,
 }
 
-/// Stores a new job of `loaded` in the farm and starts its controller.
+/// Stores a new job of `input` in the farm and starts its controller. A scene compiled here
+/// is remembered once shipped ([`JobInput::remember`]).
 pub async fn submit(
     cluster: &RemConnection,
     req: &JobRequest,
-    loaded: LoadedScene,
+    input: JobInput,
     flags: &ControllerFlags,
 ) -> Result<Submitted, FarmError> {
     if cluster.is_embedded() {
         return Err(FarmError::DetachNeedsCluster);
     }
     req.check()?;
-    let plan = job::new_plan(req, loaded)?;
+    let plan = job::new_plan(req, input)?;
     let client = &cluster.client;
     // Independent reads and writes go at once, not one round trip after another (each is
     // a fixed cost of every job, DESIGN section 10).
@@ -190,12 +190,12 @@ pub async fn submit(
     };
     // The model goes as REM chunks; the stored Scene names them (the controller's epoch is
     // set when it sends the scene).
-    let shipped = model_chunks::ship(client, &plan.model).await?;
+    let shipped = plan.ship(client).await?;
     let scene_msg = shipped.scene(plan.settings.to_proto(), &plan.job, 0);
     let mut checkpointer =
         Checkpointer::new(&plan.job, job::job_spec(req, &plan), shipped.hash, None);
     let (width, height) = (plan.settings.render.width, plan.settings.render.height);
-    let title = job_record::title(&plan.loaded.source.display_name(), width, height);
+    let title = job_record::title(&plan.source.display_name(), width, height);
     // The Scene message, the first checkpoint and remd's web view (the page of a job used
     // again by this id starts afresh), at once.
     let key = scene_key(&plan.job);
@@ -211,15 +211,15 @@ pub async fn submit(
     }
     let entry = proto::JobEntry {
         job: plan.job.clone(),
-        scene: plan.loaded.source.display_name(),
+        scene: plan.source.display_name(),
         state: "queued".into(),
         height: plan.settings.render.height,
         hosts: plan.hosts,
         started_unix_ms: checkpoint::unix_ms(),
         output: plan.output.display().to_string(),
-        scene_objects: plan.loaded.scene.objects as u64,
-        scene_primitives: plan.loaded.scene.prims.len() as u64,
-        scene_unbounded: plan.loaded.scene.prims.unbounded_count() as u64,
+        scene_objects: plan.summary.objects as u64,
+        scene_primitives: plan.summary.primitives as u64,
+        scene_unbounded: plan.summary.unbounded as u64,
         scene_bytes_sent: shipped.bytes_sent,
         submitted_unix_ms: req.submitted_unix_ms,
         ..Default::default()

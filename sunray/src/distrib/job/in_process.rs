@@ -12,7 +12,6 @@ use crate::distrib::connection::RemConnection;
 use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::model_chunks;
 use crate::distrib::timeline::JobClock;
 
 /// Runs a job on `cluster` to its end: the image written when every line is in.
@@ -23,7 +22,7 @@ pub async fn run(
 ) -> Result<JobOutcome, JobError> {
     req.check()?;
     let plan = match scene {
-        JobScene::New(loaded) => new_plan(req, loaded)?,
+        JobScene::New(input) => new_plan(req, input)?,
         JobScene::Resume { job, scene } => resume_plan(req, cluster, job, scene).await?,
     };
     run_plan(cluster, req, plan).await
@@ -81,7 +80,8 @@ async fn run_plan(
     let live = cluster.live_hosts().await?;
     check_hosts(&mut plan, req, allow_same_host, &live)?;
     // The model goes as REM chunks (no message limit; hosts that have them fetch nothing).
-    let shipped = model_chunks::ship(&cluster.client, &plan.model)
+    let shipped = plan
+        .ship(&cluster.client)
         .await
         .map_err(|e| cluster.rpc_error(e))?;
     // In-process: nobody takes this controller's workers over (epoch 0).
@@ -99,9 +99,12 @@ async fn run_plan(
     let (checkpointer, mut entry, epoch) =
         first_checkpoint(cluster, req, &plan, shipped.hash).await?;
     let cfg = controller_config(req, &plan, scene_msg);
-    let name = plan.loaded.source.display_name();
+    let name = plan.source.display_name();
+    let s = &plan.summary;
     let totals = Totals {
-        header: plan.settings.stats_header(&name, &plan.loaded.scene),
+        header: plan
+            .settings
+            .stats_header_of(&name, s.objects, s.primitives, s.unbounded),
         hosts: plan.hosts,
         scene_bytes_sent: shipped.bytes_sent,
     };
@@ -167,7 +170,7 @@ async fn first_checkpoint(
         .map_err(JobError::FirstCheckpoint)?;
     let entry = proto::JobEntry {
         job: plan.job.clone(),
-        scene: plan.loaded.source.display_name(),
+        scene: plan.source.display_name(),
         state: "running".into(),
         lines_done: checkpointer.lines_done(),
         height: plan.settings.render.height,

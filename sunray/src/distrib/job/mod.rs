@@ -10,9 +10,11 @@
 //! - [`drive`]: one run of a job's controller wherever it runs (workers, the controller
 //!   actor, the statistics); where it runs is a [`drive::ControllerSite`].
 //! - [`in_process`]: the job whose controller runs in this process (`--in-process`).
+//! - [`input`]: a new job's scene: compiled here, or shipped before and still in REM.
 
 pub(crate) mod drive;
 mod in_process;
+pub mod input;
 mod plan;
 
 pub use in_process::run;
@@ -27,7 +29,7 @@ use super::strategy::Strategy;
 use crate::film::FilmError;
 use crate::render::settings::SettingsError;
 use crate::render::Overrides;
-use crate::scene::load::{LoadedScene, SceneLoadError};
+use crate::scene::load::SceneLoadError;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -85,7 +87,7 @@ pub struct JobRequest {
 #[allow(clippy::large_enum_variant)]
 pub enum JobScene {
     /// A new job of a scene already loaded (so a bad scene starts nothing).
-    New(LoadedScene),
+    New(input::JobInput),
     /// Continue job `job` from its checkpoint, with its own scene unless `scene` names one.
     Resume {
         /// The job to continue.
@@ -247,7 +249,7 @@ impl JobRequest {
 pub(crate) fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
     let path_string = |p: &Path| p.display().to_string();
     proto::JobSpec {
-        scene: plan.loaded.source.remembered(),
+        scene: plan.source.remembered(),
         settings: Some(plan.settings.to_proto()),
         output: path_string(
             &std::path::absolute(&plan.output).unwrap_or_else(|_| plan.output.clone()),

@@ -1,5 +1,5 @@
 //! A job's plan: everything decided before the workers start, for a new scene
-//! ([`new_plan`]: settings, output and job id from the request) or for a job resumed from
+//! ([`new_plan`]: settings, output and job id from the request and the [input](JobInput)) or for a job resumed from
 //! its checkpoint ([`resume_plan`]: the same scene, checked against the checkpoint's model
 //! hash, with the settings it was started with).
 
@@ -10,15 +10,21 @@ use crate::distrib::messages;
 use crate::distrib::strategy::Strategy;
 use crate::film::Format;
 use crate::render::Settings;
-use crate::scene::load::{self, LoadedScene, SceneSource};
+use super::input::{JobInput, JobModel, Remember};
+use crate::distrib::model_chunks::ShippedModel;
+use crate::scene::load::{self, SceneSource};
+use crate::scene::summary::SceneSummary;
 use std::path::PathBuf;
 
 /// Everything decided before the workers start.
 pub(crate) struct Plan {
     pub(crate) job: String,
-    pub(crate) loaded: LoadedScene,
+    pub(crate) source: SceneSource,
+    pub(crate) summary: SceneSummary,
     pub(crate) settings: Settings,
-    pub(crate) model: Vec<u8>,
+    pub(crate) model: JobModel,
+    /// Where a model compiled here is remembered once shipped, with its warnings.
+    pub(crate) remember: Option<(Remember, Vec<String>)>,
     pub(crate) output: PathBuf,
     pub(crate) colours: Option<PathBuf>,
     pub(crate) strategy: Strategy,
@@ -28,13 +34,13 @@ pub(crate) struct Plan {
     pub(crate) restored: Option<Restored>,
 }
 
-/// The plan of a new job: `loaded` rendered with the request's settings.
-pub(crate) fn new_plan(req: &JobRequest, mut loaded: LoadedScene) -> Result<Plan, JobError> {
-    let settings = req.overrides.settings(&loaded.scene)?;
+/// The plan of a new job: `input` rendered with the request's settings.
+pub(crate) fn new_plan(req: &JobRequest, input: JobInput) -> Result<Plan, JobError> {
+    let settings = req.overrides.settings_for(&input.summary)?;
     let output = req
         .output
         .clone()
-        .unwrap_or_else(|| loaded.source.default_output());
+        .unwrap_or_else(|| input.source.default_output());
     Format::from_path(&output)?;
     let job = req.job.clone().unwrap_or_else(|| {
         format!(
@@ -45,7 +51,10 @@ pub(crate) fn new_plan(req: &JobRequest, mut loaded: LoadedScene) -> Result<Plan
     });
     Ok(Plan {
         job,
-        model: loaded.take_model()?,
+        source: input.source,
+        summary: input.summary,
+        remember: input.remember.map(|r| (r, input.warnings)),
+        model: input.model,
         settings,
         output,
         colours: req.colours.clone(),
@@ -54,8 +63,19 @@ pub(crate) fn new_plan(req: &JobRequest, mut loaded: LoadedScene) -> Result<Plan
         nice: req.nice,
         threads: req.threads.filter(|&t| t > 0),
         restored: None,
-        loaded,
     })
+}
+
+impl Plan {
+    /// Ships the model through `client`'s daemon, and remembers a model compiled here as
+    /// shipped.
+    pub(crate) async fn ship(&self, client: &rem::RemClient) -> rem::Result<ShippedModel> {
+        let shipped = self.model.ship(client).await?;
+        if let Some((r, warnings)) = &self.remember {
+            r.keep(self.summary, warnings.clone(), &shipped);
+        }
+        Ok(shipped)
+    }
 }
 
 /// The plan of resuming `job` from its checkpoint on `cluster` (its scene from `scene`, or
@@ -105,9 +125,11 @@ pub(super) async fn resume_plan(
     Format::from_path(&output)?;
     Ok(Plan {
         job,
-        loaded,
+        source: loaded.source,
+        summary: SceneSummary::of(&loaded.scene),
         settings,
-        model,
+        model: JobModel::Bytes(model),
+        remember: None,
         output,
         colours,
         strategy: req
