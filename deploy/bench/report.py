@@ -202,7 +202,8 @@ def bigscene_section(data, out, name="bigscene"):
     flags = data["settings"].get("flags", "--resolution " + data["settings"]["resolution"])
     out.append(f"tetra at {', '.join(str(4 ** s) for s in data['settings']['sizes'])} "
                f"triangles on the six workstations, `{flags}`, "
-               f"each submitted twice from ws1 (`deploy/bench/run.sh {name}`). "
+               f"each submitted {'three times' if any(k.endswith('-third') for k in data) else 'twice'} "
+               f"from ws1 (`deploy/bench/run.sh {name}`). "
                "First line: from the start of `sunray submit` to the first finished line; "
                "sent: what the submitting host's remd sent of the model.\n")
     out.append("Hosts that rendered: those whose worker had the scene and its BVH ready before "
@@ -230,6 +231,9 @@ def bigscene_section(data, out, name="bigscene"):
                        f"{sum(1 for n in nodes if n['scene_cached'])}/{len(nodes)} | "
                        f"{sum(1 for n in nodes if n['accel_cached'])}/{len(nodes)} |")
     out.append("")
+    if not any(data.get(f"{z}-first", {}).get("summary", {}).get("timeline")
+               for z in data["settings"]["sizes"]):
+        return
     out.append("Each job's timeline (seconds since submit; `sunray submit --stats-json`):\n")
     for size in data["settings"]["sizes"]:
         local = data.get(f"{size}-local")
@@ -238,6 +242,8 @@ def bigscene_section(data, out, name="bigscene"):
             if not r:
                 continue
             t = r["summary"].get("timeline", {})
+            if not t:
+                continue
             steps = ", ".join(f"{k} {v:.2f}" for k, v in t.items() if isinstance(v, (int, float)))
             ratio = f"; total {r['wall_s'] / local['wall_s']:.2f}x the local render" if local else ""
             out.append(f"- tetra {size} {run}: {steps}{ratio}")

@@ -7,7 +7,7 @@ use super::ControllerError;
 use super::{Controller, Input};
 use crate::distrib::grants::NodeState;
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::nodes::{ControllerCost, Outcome};
+use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
 use serde_json::json;
 use std::time::Duration;
 use tokio::sync::mpsc;
@@ -176,9 +176,8 @@ impl<L: WorkerLink> Controller<L> {
     pub(super) async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
         self.finishing = true;
         let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
-        // A silent worker is not waited for.
         let wait_for: Vec<bool> = (0..self.procs.len())
-            .map(|i| !self.exited[i] && self.table.node_state(i) == Some(NodeState::Active))
+            .map(|i| waited_for(self.exited[i], self.table.node_state(i), self.nodes[i].stage))
             .collect();
         for i in 0..self.procs.len() {
             if !self.exited[i] && self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
@@ -201,4 +200,13 @@ impl<L: WorkerLink> Controller<L> {
             }
         }
     }
+}
+
+/// Whether the wind-down waits for a worker to exit: one that has not, is active (a silent
+/// one is not waited for) and is not building its scene. A worker building has told how its
+/// model came, and its host's keeper (a process group of its own, with the whole model)
+/// finishes the prepared scene whether the worker is stopped or not; one still fetching is
+/// waited for, so that its keeper gets the whole model.
+pub(super) fn waited_for(exited: bool, state: Option<NodeState>, stage: Stage) -> bool {
+    !exited && state == Some(NodeState::Active) && stage != Stage::Building
 }

@@ -75,6 +75,10 @@ impl<L: WorkerLink> Controller<L> {
                     proto::preparing::Stage::Fetching => Stage::Fetching,
                     proto::preparing::Stage::Building => Stage::Building,
                 };
+                if let Some(f) = &p.fetch {
+                    (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
+                        (f.bytes_received, f.cached, f.fetch_s);
+                }
             }
             Body::Request(r) => {
                 n.stage = Stage::Rendering;

@@ -435,6 +435,7 @@ async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
     let preparing = |stage: proto::preparing::Stage| {
         Body::Preparing(proto::Preparing {
             stage: stage as i32,
+            fetch: None,
         })
     };
     job.say(0, Body::Ready(proto::Ready::default())).await;
@@ -454,8 +455,17 @@ async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
     job.say(0, Body::Request(request)).await;
     // Node 2 is still building its accelerator when the job ends.
     job.say(1, Body::Ready(proto::Ready::default())).await;
-    job.say(1, preparing(proto::preparing::Stage::Building))
-        .await;
+    let fetched = proto::SceneFetch {
+        bytes_received: 1234,
+        cached: false,
+        fetch_s: 0.5,
+        ..Default::default()
+    };
+    let building = proto::Preparing {
+        stage: proto::preparing::Stage::Building as i32,
+        fetch: Some(fetched),
+    };
+    job.say(1, Body::Preparing(building)).await;
     job.serve_until_done(0).await;
     let (r, _) = job.end().await;
     assert_image_complete(&r, 6);
@@ -473,9 +483,28 @@ async fn the_timeline_is_kept_and_a_node_that_renders_nothing_says_why() {
     assert!(steps.iter().all(Option::is_some), "{n:?}");
     assert!(steps.windows(2).all(|w| w[0] <= w[1]), "{n:?}");
     assert_eq!(idle.timeline.first_line, None);
+    assert_eq!(
+        (idle.scene_bytes_received, idle.scene_cached, idle.scene_fetch_s),
+        (1234, false, 0.5),
+        "a node stopped while building keeps how its model came"
+    );
     let table = crate::distrib::nodes::table(&r.nodes);
     assert!(
         table.contains("rendered nothing: still building its accelerator"),
         "{table}"
     );
+}
+
+#[test]
+fn the_wind_down_waits_only_for_active_workers_not_building() {
+    use super::actions::waited_for;
+    use crate::distrib::grants::NodeState;
+    let active = Some(NodeState::Active);
+    assert!(waited_for(false, active, Stage::Rendering));
+    assert!(waited_for(false, active, Stage::Fetching), "its keeper needs the whole model");
+    assert!(waited_for(false, active, Stage::Spawned));
+    assert!(!waited_for(false, active, Stage::Building), "its keeper goes on without it");
+    assert!(!waited_for(true, active, Stage::Rendering), "exited");
+    assert!(!waited_for(false, Some(NodeState::Silent), Stage::Rendering));
+    assert!(!waited_for(false, None, Stage::Rendering));
 }

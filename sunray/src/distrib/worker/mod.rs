@@ -194,13 +194,15 @@ async fn ready_scene(scene_msg: proto::Scene, link: &Link) -> Result<ReadyScene,
             return Ok(ready);
         }
     }
-    link.preparing(proto::preparing::Stage::Fetching).await?;
+    link.preparing(proto::preparing::Stage::Fetching, None)
+        .await?;
     let client = RemClient::from_env().await?;
     let (scene, mut fetch) = model_chunks::fetch_scene(&client, &scene_msg)
         .await
         .map_err(|e| WorkerError::BadScene(format!("cannot get the scene's model: {e}")))?;
     let t_pre = Instant::now();
-    link.preparing(proto::preparing::Stage::Building).await?;
+    link.preparing(proto::preparing::Stage::Building, Some(&fetch))
+        .await?;
     let (scene, accel, settings, accel_cached) =
         tokio::task::spawn_blocking(move || prepare(scene_msg, scene))
             .await
@@ -309,10 +311,16 @@ impl Link {
             .map_err(WorkerError::from)
     }
 
-    /// Tells the controller what the worker is doing before its first Request.
-    async fn preparing(&self, stage: proto::preparing::Stage) -> Result<(), WorkerError> {
+    /// Tells the controller what the worker is doing before its first Request (and, once
+    /// the model is in, how it came).
+    async fn preparing(
+        &self,
+        stage: proto::preparing::Stage,
+        fetch: Option<&proto::SceneFetch>,
+    ) -> Result<(), WorkerError> {
         self.send(Body::Preparing(proto::Preparing {
             stage: stage as i32,
+            fetch: fetch.cloned(),
         }))
         .await
     }

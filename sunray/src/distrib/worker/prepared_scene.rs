@@ -35,7 +35,7 @@ pub(super) async fn ready(
         return Some(r);
     }
     let settings = settings_of(msg).ok()?;
-    link.preparing(proto::preparing::Stage::Fetching)
+    link.preparing(proto::preparing::Stage::Fetching, None)
         .await
         .ok()?;
     let mut child = keeper::spawn(&path, hash, &settings.accel)
@@ -59,7 +59,7 @@ pub(super) async fn ready(
             ..proto::SceneFetch::default()
         },
     };
-    link.preparing(proto::preparing::Stage::Building)
+    link.preparing(proto::preparing::Stage::Building, Some(&fetch))
         .await
         .ok()?;
     let said = tokio::task::spawn_blocking(move || child.wait_with_output()).await;
