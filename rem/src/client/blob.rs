@@ -58,6 +58,28 @@ pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<
     Ok(out)
 }
 
+/// Which of `chunks` `client`'s daemon has in its own cache (`CachedChunks`), in order, asked
+/// 1024 names at a time (the daemon's limit): a blob put before is still there when every
+/// answer is true.
+pub async fn cached(client: &RemClient, chunks: &[String]) -> Result<Vec<bool>> {
+    let mut has = Vec::with_capacity(chunks.len());
+    for part in chunks.chunks(1024) {
+        let req = crate::wire::proto::HasChunksRequest {
+            hashes: part.to_vec(),
+        };
+        let answer = client.rpc_mut().cached_chunks(req).await?.into_inner().has;
+        if answer.len() != part.len() {
+            return Err(Error::Invalid(format!(
+                "the daemon answered {} of {} chunk names",
+                answer.len(),
+                part.len()
+            )));
+        }
+        has.extend(answer);
+    }
+    Ok(has)
+}
+
 /// Reads the blob of `chunks` through `client`'s daemon; `size` is its length (checked).
 pub async fn get(client: &RemClient, chunks: &[String], size: u64) -> Result<Got> {
     let (tx, mut rx) = tokio::sync::mpsc::channel::<Vec<u8>>(2);

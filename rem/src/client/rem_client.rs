@@ -464,27 +464,6 @@ impl RemClient {
         Ok(self.rpc.clone().put_chunk(req).await?.into_inner())
     }
 
-    /// Which of `hashes` this daemon has in its own cache, in order (asked 1024 names at a
-    /// time, the daemon's limit).
-    pub async fn cached_chunks(&self, hashes: &[String]) -> Result<Vec<bool>> {
-        let mut has = Vec::with_capacity(hashes.len());
-        for part in hashes.chunks(1024) {
-            let req = proto::HasChunksRequest {
-                hashes: part.to_vec(),
-            };
-            let reply = self.rpc.clone().cached_chunks(req).await?.into_inner();
-            if reply.has.len() != part.len() {
-                return Err(Error::Invalid(format!(
-                    "the daemon answered {} of {} chunk names",
-                    reply.has.len(),
-                    part.len()
-                )));
-            }
-            has.extend(reply.has);
-        }
-        Ok(has)
-    }
-
     /// Chunk `hash`, from this daemon's cache or through it from a peer (checked).
     pub async fn get_chunk(&self, hash: &str) -> Result<proto::GetChunkReply> {
         let req = proto::GetChunkRequest {

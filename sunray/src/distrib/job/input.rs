@@ -114,7 +114,7 @@ impl Recalled {
     /// when there is no entry or a chunk is gone (the scene is then compiled again).
     pub async fn still_shipped(&self, client: &RemClient, source: &SceneSource) -> Option<JobInput> {
         let entry = self.entry.as_ref()?;
-        let held = client.cached_chunks(&entry.chunks).await.ok()?;
+        let held = rem::client::blob::cached(client, &entry.chunks).await.ok()?;
         held.iter()
             .all(|&h| h)
             .then(|| JobInput::shipped_before(source.clone(), entry))
