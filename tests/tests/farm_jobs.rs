@@ -549,12 +549,18 @@ fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
                 .arg("--stats-json")
                 .arg(&json),
         );
-        assert!(std::fs::read(&out).unwrap() == want, "{name}: differs from sunray render");
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "{name}: differs from sunray render"
+        );
         read_json(&json)
     };
     let first = run("first");
     let objects = first["totals"]["objects"].as_u64().unwrap();
-    assert!(first["scene_bytes_sent"].as_u64().unwrap() > 0, "a shipped the model once");
+    assert!(
+        first["scene_bytes_sent"].as_u64().unwrap() > 0,
+        "a shipped the model once"
+    );
     let entries: Vec<_> = std::fs::read_dir(cache.join("shipped"))
         .unwrap()
         .flatten()
@@ -567,12 +573,18 @@ fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
     std::fs::write(&entries[0], serde_json::to_vec(&entry).unwrap()).unwrap();
 
     let second = run("second");
-    assert_eq!(second["totals"]["objects"], 424_242, "the remembered entry was used");
+    assert_eq!(
+        second["totals"]["objects"], 424_242,
+        "the remembered entry was used"
+    );
     assert_eq!(second["scene_bytes_sent"], 0);
 
     let mut text = std::fs::read(&scene).unwrap();
     text.extend_from_slice(b"# the same scene, other bytes\n");
     std::fs::write(&scene, text).unwrap();
     let third = run("third");
-    assert_eq!(third["totals"]["objects"], objects, "a changed scene is compiled again");
+    assert_eq!(
+        third["totals"]["objects"], objects,
+        "a changed scene is compiled again"
+    );
 }

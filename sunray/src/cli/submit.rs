@@ -159,7 +159,9 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
             }),
         };
         let outcome = match scene {
-            Ok(scene) => job::run(&cluster, &request, scene).await.map_err(Into::into),
+            Ok(scene) => job::run(&cluster, &request, scene)
+                .await
+                .map_err(Into::into),
             Err(e) => Err(e),
         };
         cluster.close().await;

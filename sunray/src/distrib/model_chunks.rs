@@ -13,8 +13,9 @@ use crate::distrib::messages::proto;
 use crate::scene::{Scene, SceneStream};
 use rem::RemClient;
 
-/// A model put into REM, as the Scene message names it.
-#[derive(Clone, Debug, Default)]
+/// A model put into REM, as the Scene message names it (and as a submitting host remembers
+/// it, without what that one put cost: [`shipped_scenes`](super::shipped_scenes)).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ShippedModel {
     /// The chunks' names, in order.
     pub chunks: Vec<String>,
@@ -23,6 +24,7 @@ pub struct ShippedModel {
     /// FNV-1a 64 of the model (the checkpoint's `model_hash`).
     pub hash: u64,
     /// Bytes the submitting host's remd sent to its peers.
+    #[serde(skip)]
     pub bytes_sent: u64,
 }
 

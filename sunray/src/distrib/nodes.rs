@@ -131,6 +131,18 @@ impl NodeStats {
         self.eye_rays = self.counters.eye;
         self.secondary_rays = self.counters.rays() - self.counters.eye;
     }
+
+    /// Takes how its model came, as the worker told it (once fetched, in Preparing; whole,
+    /// in its first Request).
+    pub fn scene_came(&mut self, f: &super::messages::proto::SceneFetch) {
+        (
+            self.scene_bytes_received,
+            self.scene_cached,
+            self.scene_fetch_s,
+        ) = (f.bytes_received, f.cached, f.fetch_s);
+        self.accel_cached = f.accel_cached;
+        (self.scene_mapped, self.scene_ready_s) = (f.scene_mapped, f.scene_ready_s);
+    }
 }
 
 /// Line accounting of a job.

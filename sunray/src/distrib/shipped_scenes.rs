@@ -51,7 +51,9 @@ impl SceneKey {
             hash_file(&mut h, c)?;
         }
         let digest = h.finalize();
-        Ok(SceneKey(digest.iter().map(|b| format!("{b:02x}")).collect()))
+        Ok(SceneKey(
+            digest.iter().map(|b| format!("{b:02x}")).collect(),
+        ))
     }
 }
 
@@ -88,12 +90,9 @@ pub struct ShippedScene {
     pub summary: SceneSummary,
     /// The compiler's warnings, as printed when it was compiled.
     pub warnings: Vec<String>,
-    /// The model's chunks, in order.
-    pub chunks: Vec<String>,
-    /// The model's length in bytes.
-    pub size: u64,
-    /// The model's hash (the checkpoint's `model_hash`).
-    pub hash: u64,
+    /// The model as it was shipped (what that cost is not kept: shipped again, it sends
+    /// nothing).
+    pub model: ShippedModel,
 }
 
 impl ShippedScene {
@@ -103,32 +102,26 @@ impl ShippedScene {
             version: ENTRY_VERSION,
             summary,
             warnings,
-            chunks: model.chunks.clone(),
-            size: model.size,
-            hash: model.hash,
-        }
-    }
-
-    /// The model as shipped again (nothing sent).
-    pub fn model(&self) -> ShippedModel {
-        ShippedModel {
-            chunks: self.chunks.clone(),
-            size: self.size,
-            hash: self.hash,
-            bytes_sent: 0,
+            model: ShippedModel {
+                bytes_sent: 0,
+                ..model.clone()
+            },
         }
     }
 
     /// True when the entry is one this build wrote: its version, chunk names REM takes, no
     /// more chunks than a model may have, and a size they can hold.
     fn is_sound(&self) -> bool {
+        let (chunks, size) = (&self.model.chunks, self.model.size);
         let chunk = rem::client::blob::CHUNK_BYTES as u64;
         self.version == ENTRY_VERSION
-            && !self.chunks.is_empty()
-            && self.chunks.len() <= rem::client::blob::MAX_CHUNKS
-            && self.chunks.iter().all(|c| rem::wire::chunk_name::is_chunk_name(c))
-            && self.size <= self.chunks.len() as u64 * chunk
-            && self.size > (self.chunks.len() as u64 - 1) * chunk
+            && !chunks.is_empty()
+            && chunks.len() <= rem::client::blob::MAX_CHUNKS
+            && chunks
+                .iter()
+                .all(|c| rem::wire::chunk_name::is_chunk_name(c))
+            && size <= chunks.len() as u64 * chunk
+            && size > (chunks.len() as u64 - 1) * chunk
     }
 }
 
@@ -149,7 +142,11 @@ impl ShippedScenes {
     /// This user's: under `$SUNRAY_CACHE_DIR`, else `$XDG_CACHE_HOME/sunray`, else
     /// `$HOME/.cache/sunray`; none when none of these is set.
     pub fn for_user() -> Option<ShippedScenes> {
-        let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+        let var = |k: &str| {
+            std::env::var_os(k)
+                .filter(|v| !v.is_empty())
+                .map(PathBuf::from)
+        };
         let cache = var(CACHE_DIR_ENV)
             .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("sunray")))
             .or_else(|| var("HOME").map(|d| d.join(".cache").join("sunray")))?;

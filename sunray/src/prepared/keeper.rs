@@ -156,14 +156,44 @@ pub fn bound_time() {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_keeper_keeps_the_model_it_reads_and_refuses_another() {
+    /// A small tetra's model (its world, bytes and hash), a folder for its prepared file,
+    /// the default accelerator options, and that file's path.
+    struct Fixture {
+        world: yari::model::World,
+        bytes: Vec<u8>,
+        hash: u64,
+        dir: tempfile::TempDir,
+        opts: AccelOptions,
+        path: std::path::PathBuf,
+    }
+
+    fn fixture() -> Fixture {
         let world = crate::bench::spd_world(yari::spd::Database::Tetra, 2).unwrap();
         let bytes = yari::modelfile::to_bytes(&world).unwrap();
         let hash = yari::modelfile::fnv1a(&bytes);
         let dir = tempfile::tempdir().unwrap();
         let opts = AccelOptions::default();
         let path = super::super::path_of(dir.path(), hash, &opts).unwrap();
+        Fixture {
+            world,
+            bytes,
+            hash,
+            dir,
+            opts,
+            path,
+        }
+    }
+
+    #[test]
+    fn a_keeper_keeps_the_model_it_reads_and_refuses_another() {
+        let Fixture {
+            world,
+            bytes,
+            hash,
+            dir,
+            opts,
+            path,
+        } = fixture();
         let cached = keep_model(&mut &bytes[..], &path, hash, &opts, Some(dir.path())).unwrap();
         assert!(!cached);
         let (scene, _) = super::super::load(&path, hash).unwrap().unwrap();
@@ -190,12 +220,14 @@ mod tests {
 
     #[test]
     fn a_second_keeper_waits_its_turn_and_keeps_nothing_when_the_file_is_kept() {
-        let world = crate::bench::spd_world(yari::spd::Database::Tetra, 2).unwrap();
-        let bytes = yari::modelfile::to_bytes(&world).unwrap();
-        let hash = yari::modelfile::fnv1a(&bytes);
-        let dir = tempfile::tempdir().unwrap();
-        let opts = AccelOptions::default();
-        let path = super::super::path_of(dir.path(), hash, &opts).unwrap();
+        let Fixture {
+            bytes,
+            hash,
+            dir: _dir,
+            opts,
+            path,
+            ..
+        } = fixture();
         keep_model(&mut &bytes[..], &path, hash, &opts, None).unwrap();
         let turn = KeepLock::take(&path).unwrap();
         let read = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));

@@ -177,7 +177,13 @@ impl<L: WorkerLink> Controller<L> {
         self.finishing = true;
         let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
         let wait_for: Vec<bool> = (0..self.procs.len())
-            .map(|i| waited_for(self.exited[i], self.table.node_state(i), self.nodes[i].stage))
+            .map(|i| {
+                waited_for(
+                    self.exited[i],
+                    self.table.node_state(i),
+                    self.nodes[i].stage,
+                )
+            })
             .collect();
         for i in 0..self.procs.len() {
             if !self.exited[i] && self.link.send(&self.procs[i], stop.clone()).await.is_ok() {

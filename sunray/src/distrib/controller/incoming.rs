@@ -76,8 +76,7 @@ impl<L: WorkerLink> Controller<L> {
                     proto::preparing::Stage::Building => Stage::Building,
                 };
                 if let Some(f) = &p.fetch {
-                    (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
-                        (f.bytes_received, f.cached, f.fetch_s);
+                    n.scene_came(f);
                 }
             }
             Body::Request(r) => {
@@ -89,10 +88,7 @@ impl<L: WorkerLink> Controller<L> {
                 }
                 n.preprocess_s = r.preprocess_s;
                 if let Some(f) = &r.scene {
-                    (n.scene_bytes_received, n.scene_cached, n.scene_fetch_s) =
-                        (f.bytes_received, f.cached, f.fetch_s);
-                    n.accel_cached = f.accel_cached;
-                    (n.scene_mapped, n.scene_ready_s) = (f.scene_mapped, f.scene_ready_s);
+                    n.scene_came(f);
                 }
                 self.table.release(i, &r.released);
                 self.stamps_to_echo[i] = Some(r.stamp_s);

@@ -61,7 +61,7 @@ impl JobInput {
         JobInput {
             source,
             summary: entry.summary,
-            model: JobModel::Shipped(entry.model()),
+            model: JobModel::Shipped(entry.model.clone()),
             warnings: entry.warnings.clone(),
             remember: None,
         }
@@ -75,14 +75,6 @@ impl JobModel {
         match self {
             JobModel::Bytes(bytes) => model_chunks::ship(client, bytes).await,
             JobModel::Shipped(m) => Ok(m.clone()),
-        }
-    }
-
-    /// The model's hash (the checkpoint's `model_hash`).
-    pub fn hash(&self) -> u64 {
-        match self {
-            JobModel::Bytes(bytes) => crate::distrib::messages::fnv1a(bytes),
-            JobModel::Shipped(m) => m.hash,
         }
     }
 }
@@ -112,9 +104,15 @@ impl Recalled {
 
     /// The entry's input when `client`'s daemon still has every chunk of its model; none
     /// when there is no entry or a chunk is gone (the scene is then compiled again).
-    pub async fn still_shipped(&self, client: &RemClient, source: &SceneSource) -> Option<JobInput> {
+    pub async fn still_shipped(
+        &self,
+        client: &RemClient,
+        source: &SceneSource,
+    ) -> Option<JobInput> {
         let entry = self.entry.as_ref()?;
-        let held = rem::client::blob::cached(client, &entry.chunks).await.ok()?;
+        let held = rem::client::blob::cached(client, &entry.model.chunks)
+            .await
+            .ok()?;
         held.iter()
             .all(|&h| h)
             .then(|| JobInput::shipped_before(source.clone(), entry))

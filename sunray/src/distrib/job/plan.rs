@@ -3,15 +3,15 @@
 //! its checkpoint ([`resume_plan`]: the same scene, checked against the checkpoint's model
 //! hash, with the settings it was started with).
 
+use super::input::{JobInput, JobModel, Remember};
 use super::{check_job_id, JobError, JobRequest};
 use crate::distrib::checkpoint::{self, Restored};
 use crate::distrib::connection::RemConnection;
 use crate::distrib::messages;
+use crate::distrib::model_chunks::ShippedModel;
 use crate::distrib::strategy::Strategy;
 use crate::film::Format;
 use crate::render::Settings;
-use super::input::{JobInput, JobModel, Remember};
-use crate::distrib::model_chunks::ShippedModel;
 use crate::scene::load::{self, SceneSource};
 use crate::scene::summary::SceneSummary;
 use std::path::PathBuf;
