@@ -306,14 +306,20 @@ async fn follow_here(
         FarmError::Rem(e) => FarmError::from_rem(e, &cluster.addr, job),
         e => e,
     };
-    follow::fetch(&cluster.client, job, &submitted.output)
-        .await
-        .map_err(lost)?;
+    // The image and the statistics at once: two reads, one wait.
+    let stats = async {
+        match &args.render.stats_json {
+            Some(_) => follow::stats_json(&cluster.client, job).await,
+            None => Ok(None),
+        }
+    };
+    let (fetched, stats) = tokio::join!(
+        follow::fetch(&cluster.client, job, &submitted.output),
+        stats
+    );
+    fetched.map_err(lost)?;
     if let Some(path) = &args.render.stats_json {
-        match follow::stats_json(&cluster.client, job)
-            .await
-            .map_err(lost)?
-        {
+        match stats.map_err(lost)? {
             Some(bytes) => crate::film::write_atomically(path, &bytes)?,
             None => eprintln!("sunray: warning: job {job} left no statistics for --stats-json"),
         }

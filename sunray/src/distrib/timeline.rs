@@ -52,7 +52,9 @@ pub struct Timeline {
     pub last_line: Option<f64>,
     /// The finished image (every line) was stored in REM's checkpoint store.
     pub image_stored: Option<f64>,
-    /// The job ended: its workers stopped and its statistics were made.
+    /// The job ended: its statistics were made. A farm job ends when its image is stored
+    /// (its record says finished, `submit` fetches the image) and its workers wind down
+    /// after; a job in the submitting process ends when its workers have stopped.
     pub finished: Option<f64>,
 }
 

@@ -4,7 +4,7 @@
 
 use super::link::WorkerLink;
 use super::ControllerError;
-use super::{Controller, Input};
+use super::{Controller, Input, JobResult};
 use crate::distrib::grants::NodeState;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
@@ -24,6 +24,25 @@ impl<L: WorkerLink> Controller<L> {
             messages_out: self.messages_out,
             cpu_ms_per_line: cpu_s * 1000.0 / lines,
             messages_per_line: messages / lines,
+        }
+    }
+
+    /// The job's result as it stands (the image and figures are copies).
+    pub(super) fn result(&mut self, finished: bool) -> JobResult {
+        let counts = self.table.counts();
+        self.lines.requeued = counts.requeued;
+        self.lines.released = counts.released;
+        self.lines.duplicated = counts.duplicated;
+        self.lines.dropped = counts.dropped;
+        JobResult {
+            film: self.film.clone(),
+            nodes: self.nodes.clone(),
+            counters: self.counters,
+            lines: self.lines.clone(),
+            elapsed_s: self.started.elapsed().as_secs_f64(),
+            finished,
+            cost: self.cost(),
+            timeline: self.timeline.clone(),
         }
     }
 
@@ -172,39 +191,53 @@ impl<L: WorkerLink> Controller<L> {
     }
 
     /// Tells every worker still there to stop, waits a bounded time for them to exit
-    /// (late completions are counted as dropped), then kills the rest.
+    /// (`finish_grace`; `fetch_grace` for one still fetching its scene; late completions are
+    /// counted as dropped), then kills the rest.
     pub(super) async fn wind_down(&mut self, inbox: &mut mpsc::Receiver<Input>) {
         self.finishing = true;
         let stop = messages::encode(Body::NoMoreWork(proto::NoMoreWork {}));
-        let wait_for: Vec<bool> = (0..self.procs.len())
-            .map(|i| {
-                waited_for(
-                    self.exited[i],
-                    self.table.node_state(i),
-                    self.nodes[i].stage,
-                )
-            })
-            .collect();
         for i in 0..self.procs.len() {
             if !self.exited[i] && self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
                 self.messages_out += 1;
             }
         }
-        let deadline = Instant::now() + self.cfg.finish_grace;
-        while (0..self.procs.len()).any(|i| wait_for[i] && !self.exited[i]) {
-            match tokio::time::timeout_at(deadline, inbox.recv()).await {
+        // Asked again after every message and at every deadline: a worker that finishes
+        // building meanwhile says so, sees NoMoreWork and exits, and is waited for like the
+        // others; one still fetching is waited for longer (its keeper needs the whole model).
+        let began = Instant::now();
+        loop {
+            let until = (0..self.procs.len())
+                .filter(|&i| self.waits_for(i))
+                .map(|i| match self.nodes[i].stage {
+                    Stage::Fetching => began + self.cfg.fetch_grace,
+                    _ => began + self.cfg.finish_grace,
+                })
+                .filter(|&d| d > Instant::now())
+                .min();
+            let Some(until) = until else { break };
+            match tokio::time::timeout_at(until, inbox.recv()).await {
                 Ok(Some(Input::Relay(Ok(incoming)))) => self.on_incoming(incoming),
-                _ => break,
+                Ok(_) => break,
+                Err(_) => {}
             }
         }
         for i in 0..self.procs.len() {
             if !self.exited[i] {
-                if self.table.node_state(i) != Some(NodeState::Gone) {
+                // One still building was not needed, not silent: its keeper goes on.
+                if self.waits_for(i) {
                     self.nodes[i].outcome = Outcome::Silent;
                 }
                 self.link.kill(&self.procs[i]).await;
             }
         }
+    }
+
+    fn waits_for(&self, i: usize) -> bool {
+        waited_for(
+            self.exited[i],
+            self.table.node_state(i),
+            self.nodes[i].stage,
+        )
     }
 }
 

@@ -3,7 +3,8 @@
 //! messages and job events) through a bounded channel, hands out lines, takes completions
 //! (first one wins), gives back the lines of failed or silent workers, duplicates
 //! stragglers at the end, checkpoints every few seconds and, when every line is in, tells
-//! the workers to stop.
+//! the workers to stop. The image is the user's as soon as it is stored: the handle's
+//! `image` has the job's result then, before the workers have wound down.
 //!
 //! # Layout
 //! - [`incoming`]: what the relay delivers (worker messages, job events).
@@ -30,7 +31,7 @@ use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use serde_json::json;
 use std::collections::HashMap;
 use std::time::Duration;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, oneshot};
 use tokio::time::Instant;
 
 /// How the controller runs.
@@ -61,6 +62,9 @@ pub struct ControllerConfig {
     pub events: bool,
     /// How long finished workers get to exit before they are killed.
     pub finish_grace: Duration,
+    /// How long the end waits for a worker still fetching its scene (its host's keeper, which
+    /// a job's end does not stop, needs the whole model to keep the scene for the next job).
+    pub fetch_grace: Duration,
     /// Set to the lines in the checkpoint after each save (for whoever reports progress).
     pub checkpointed: Option<std::sync::Arc<std::sync::atomic::AtomicU32>>,
     /// The encoded Adopt message that workers taken over from a previous controller get
@@ -176,16 +180,32 @@ pub struct ControllerHandle {
     pub tx: mpsc::Sender<Input>,
     /// The actor's task; its value is the job's result.
     pub task: tokio::task::JoinHandle<Result<JobResult, ControllerError>>,
+    /// The job's result as it is when its finished image is stored, before the workers
+    /// wind down; closed without one when the image was not stored.
+    pub image: oneshot::Receiver<JobResult>,
 }
 
 impl ControllerHandle {
     /// Drops this handle's sender and waits for the actor's result (a panic becomes
     /// [`ControllerError::Task`]).
     pub async fn join(self) -> Result<JobResult, ControllerError> {
-        drop(self.tx);
-        self.task
-            .await
-            .unwrap_or_else(|e| Err(ControllerError::Task(e.to_string())))
+        self.split().1.await
+    }
+
+    /// The job's result when its image is stored, and (as [`join`](Self::join)) at its end.
+    pub fn split(
+        self,
+    ) -> (
+        oneshot::Receiver<JobResult>,
+        impl std::future::Future<Output = Result<JobResult, ControllerError>>,
+    ) {
+        let ControllerHandle { tx, task, image } = self;
+        let joined = async move {
+            drop(tx);
+            task.await
+                .unwrap_or_else(|e| Err(ControllerError::Task(e.to_string())))
+        };
+        (image, joined)
     }
 }
 
@@ -248,10 +268,13 @@ pub fn spawn_with<L: WorkerLink>(
     checkpointer: Checkpointer,
 ) -> ControllerHandle {
     let (tx, rx) = mpsc::channel(256);
-    let c = Controller::new(cfg, link, workers, restored, checkpointer);
+    let (image_tx, image) = oneshot::channel();
+    let mut c = Controller::new(cfg, link, workers, restored, checkpointer);
+    c.image_stored = Some(image_tx);
     ControllerHandle {
         tx,
         task: tokio::spawn(c.run(rx)),
+        image,
     }
 }
 
@@ -287,6 +310,8 @@ struct Controller<L> {
     adopted: Vec<bool>,
     /// The job's steps so far.
     timeline: Timeline,
+    /// Told the job's result once its finished image is stored.
+    image_stored: Option<oneshot::Sender<JobResult>>,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -372,6 +397,7 @@ impl<L: WorkerLink> Controller<L> {
             assigned_once: vec![false; workers.len()],
             adopted: workers.iter().map(|w| w.adopted).collect(),
             timeline,
+            image_stored: None,
         }
     }
 
@@ -421,6 +447,11 @@ impl<L: WorkerLink> Controller<L> {
             .await;
         if finished && stored {
             self.timeline.image_stored = Some(self.cfg.clock.now());
+            if let Some(tell) = self.image_stored.take() {
+                let mut now = self.result(finished);
+                now.timeline.finished = now.timeline.image_stored;
+                let _ = tell.send(now);
+            }
         }
         self.view.preview(&self.film, true);
         self.wind_down(&mut inbox).await;
@@ -431,22 +462,7 @@ impl<L: WorkerLink> Controller<L> {
             "done": self.table.done()}),
         );
         self.publish(true).await;
-        let counts = self.table.counts();
-        self.lines.requeued = counts.requeued;
-        self.lines.released = counts.released;
-        self.lines.duplicated = counts.duplicated;
-        self.lines.dropped = counts.dropped;
-        let cost = self.cost();
-        Ok(JobResult {
-            film: self.film,
-            nodes: self.nodes,
-            counters: self.counters,
-            lines: self.lines,
-            elapsed_s: self.started.elapsed().as_secs_f64(),
-            finished,
-            cost,
-            timeline: self.timeline,
-        })
+        Ok(self.result(finished))
     }
 
     /// One item of the inbox: a relay item is handled; the relay's failure ends the job.

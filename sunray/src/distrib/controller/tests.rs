@@ -124,6 +124,17 @@ impl Job {
         restored: Option<Restored>,
         web: Option<Vec<crate::distrib::web_view::Event>>,
     ) -> Job {
+        Job::configured(link, height, n, restored, |cfg| cfg.web = web)
+    }
+
+    /// A job whose configuration `edit` changes.
+    fn configured(
+        link: FakeLink,
+        height: u32,
+        n: usize,
+        restored: Option<Restored>,
+        edit: impl FnOnce(&mut ControllerConfig),
+    ) -> Job {
         let procs: Vec<ProcId> = (0..n).map(|i| ProcId::new(&format!("h{i}"), 1)).collect();
         let workers = procs
             .iter()
@@ -135,7 +146,7 @@ impl Job {
                 adopted: false,
             })
             .collect();
-        let cfg = ControllerConfig {
+        let mut cfg = ControllerConfig {
             job: JOB.into(),
             strategy: Strategy::Dynamic,
             width: WIDTH,
@@ -148,12 +159,14 @@ impl Job {
             show_bar: false,
             events: false,
             finish_grace: Duration::from_millis(200),
+            fetch_grace: Duration::from_millis(200),
             checkpointed: None,
             adopt: None,
-            web,
+            web: None,
             clock: JobClock::at(0),
             timeline: Timeline::default(),
         };
+        edit(&mut cfg);
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);
         Job {
@@ -233,7 +246,7 @@ impl Job {
 
     /// Waits for the job's end (its input stays open, as the relay's would).
     async fn end(self) -> (JobResult, FakeLink) {
-        let ControllerHandle { tx, task } = self.handle;
+        let ControllerHandle { tx, task, .. } = self.handle;
         let result = task.await.unwrap().unwrap();
         drop(tx);
         (result, self.link)

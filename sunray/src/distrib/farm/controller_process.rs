@@ -148,20 +148,23 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         all_in,
         record,
         checkpointed,
+        told_finished: false,
     };
     let ended = match drive::run_controller(&mut site, start, totals).await? {
         Ran::Superseded(why) => return Ok(ControllerEnd::Superseded(why)),
         Ran::Ended(ended) if !ended.finished => return Ok(ControllerEnd::Unfinished),
         Ran::Ended(ended) => ended,
     };
-    store_finished(
-        &client,
-        &mut site.record,
-        (&job, epoch),
-        height,
-        &ended.stats,
-    )
-    .await?;
+    if !site.told_finished {
+        store_finished(
+            &client,
+            &mut site.record,
+            (&job, epoch),
+            height,
+            &ended.stats,
+        )
+        .await?;
+    }
     Ok(ControllerEnd::Finished)
 }
 
@@ -186,6 +189,10 @@ async fn claim(
     put_record(client, record, &job).await
 }
 
+/// How long a farm job's end waits for a worker still fetching its scene (after the record
+/// says finished: nobody waits for it).
+pub const FETCH_GRACE: Duration = Duration::from_secs(60);
+
 /// The controller's settings: its events go to REM's log of this process (`rem logs`), the
 /// workers it takes over get Adopt (at `epoch`), and the job is published for remd's web
 /// view, its events going on from `history`.
@@ -204,6 +211,9 @@ fn controller_config(
             epoch,
         }))),
         web: Some(history),
+        // The job is the user's once its image is stored; its end goes on here and waits for
+        // the hosts still fetching, so that each keeps the scene for the next job.
+        fetch_grace: FETCH_GRACE,
         ..drive::controller_config(
             job,
             strategy,
@@ -283,6 +293,8 @@ struct FarmSite<'a> {
     all_in: bool,
     record: rem::JobRecord,
     checkpointed: Arc<AtomicU32>,
+    /// The record says finished (from when the image was stored).
+    told_finished: bool,
 }
 
 impl ControllerSite for FarmSite<'_> {
@@ -338,6 +350,22 @@ impl ControllerSite for FarmSite<'_> {
         keep_lease(self.client, &mut self.record, &self.checkpointed, self.job)
             .await
             .to_string()
+    }
+
+    /// The record says finished as soon as the image is stored: `watch` (and `submit`)
+    /// fetch it while the workers wind down.
+    async fn image_stored(&mut self, ended: &drive::Ended) -> Result<(), FarmError> {
+        let height = ended.film.height;
+        store_finished(
+            self.client,
+            &mut self.record,
+            (self.job, self.epoch),
+            height,
+            &ended.stats,
+        )
+        .await?;
+        self.told_finished = true;
+        Ok(())
     }
 
     fn controller_failed(&self, e: ControllerError) -> FarmError {

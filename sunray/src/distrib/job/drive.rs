@@ -30,6 +30,14 @@ pub(crate) trait ControllerSite {
     /// controller must stand down, with why.
     async fn hold(&mut self) -> String;
 
+    /// The job's image is stored and every line is in (`ended` is the job as it is then);
+    /// its workers are winding down. The farm's controller says now that the job is
+    /// finished; a job in this process ends with its controller.
+    async fn image_stored(&mut self, ended: &Ended) -> Result<(), Self::Error> {
+        let _ = ended;
+        Ok(())
+    }
+
     /// The error of a controller that failed (a newer controller's refusal is not one: that
     /// is [`Ran::Superseded`]).
     fn controller_failed(&self, e: ControllerError) -> Self::Error;
@@ -52,6 +60,7 @@ pub(crate) struct Drive {
 }
 
 /// The parts of the job's statistics known before it runs.
+#[derive(Clone)]
 pub(crate) struct Totals {
     /// The scene and image ([`Settings::stats_header`](crate::render::Settings::stats_header)).
     pub(crate) header: RenderStats,
@@ -81,6 +90,10 @@ pub(crate) struct Ended {
     pub(crate) stats: JobStats,
 }
 
+/// How long a job's end waits for its workers to exit (see
+/// [`ControllerConfig::finish_grace`]).
+pub(crate) const FINISH_GRACE: Duration = Duration::from_secs(3);
+
 /// A controller's settings for `job`, as they are wherever it runs; the site sets what it
 /// shows (bar, events, preview, web view) and what a farm controller takes over.
 pub(crate) fn controller_config(
@@ -103,7 +116,8 @@ pub(crate) fn controller_config(
         preview_every: Duration::from_secs(3600),
         show_bar: false,
         events: false,
-        finish_grace: Duration::from_secs(3),
+        finish_grace: FINISH_GRACE,
+        fetch_grace: FINISH_GRACE,
         checkpointed: None,
         adopt: None,
         web: None,
@@ -136,9 +150,33 @@ pub(crate) async fn run_controller<S: ControllerSite>(
         checkpointer: start.checkpointer,
         epoch: start.epoch,
     });
-    let result = tokio::select! {
-        r = handle.join() => r,
-        why = site.hold() => return Ok(Ran::Superseded(why)),
+    // What comes first: the controller's end, its stored image, or the site's word to stand
+    // down (the farm's lease). Once the image is stored the job is finished: the lease is
+    // not held while the workers wind down.
+    enum First {
+        Joined(Result<controller::JobResult, ControllerError>),
+        Image(controller::JobResult),
+        StandDown(String),
+    }
+    let (mut image, joined) = handle.split();
+    tokio::pin!(joined);
+    let first = tokio::select! {
+        r = &mut joined => First::Joined(r),
+        Ok(now) = &mut image => First::Image(now),
+        why = site.hold() => First::StandDown(why),
+    };
+    let result = match first {
+        First::StandDown(why) => return Ok(Ran::Superseded(why)),
+        First::Joined(r) => r,
+        First::Image(now) => {
+            let at_image = job_stats(&job, strategy, totals.clone(), now);
+            site.image_stored(&at_image).await?;
+            match joined.await {
+                Ok(result) => return Ok(Ran::Ended(job_stats(&job, strategy, totals, result))),
+                // The job was finished already; its wind-down failing changes nothing.
+                Err(_) => return Ok(Ran::Ended(at_image)),
+            }
+        }
     };
     match result {
         Ok(result) => Ok(Ran::Ended(job_stats(&job, strategy, totals, result))),
