@@ -244,7 +244,11 @@ def bigscene_section(data, out, name="bigscene"):
             t = r["summary"].get("timeline", {})
             if not t:
                 continue
-            steps = ", ".join(f"{k} {v:.2f}" for k, v in t.items() if isinstance(v, (int, float)))
+            order = ["model_ready", "model_stored", "controller_started", "first_line",
+                     "last_line", "image_stored", "finished", "image_written"]
+            done = sorted((v, order.index(k) if k in order else len(order), k)
+                          for k, v in t.items() if isinstance(v, (int, float)))
+            steps = ", ".join(f"{k} {v:.2f}" for v, _, k in done)
             ratio = f"; total {r['wall_s'] / local['wall_s']:.2f}x the local render" if local else ""
             out.append(f"- tetra {size} {run}: {steps}{ratio}")
     out.append("")

@@ -39,8 +39,8 @@ pub fn read_json(path: &Path) -> serde_json::Value {
     v
 }
 
-/// A job's timeline (seconds since submit) as its statistics give it: the controller's
-/// start and the job's end always; the first and last line when lines were rendered; the
+/// A job's timeline (seconds since submit) as its statistics give it: the model ready and
+/// stored by the submitting host when known; the controller's start and the job's end always; the first and last line when lines were rendered; the
 /// image stored when every line is in; every node spawned, and one that rendered has its
 /// scene and accelerator ready and its first line; each in order.
 pub fn check_timeline(stats: &serde_json::Value) -> Result<(), String> {
@@ -50,11 +50,15 @@ pub fn check_timeline(stats: &serde_json::Value) -> Result<(), String> {
     let rendered = count("rendered") > 0;
     let complete = count("resumed") + count("rendered") == count("total");
     let job_steps = [
+        // Unknown (0) when the submit took less than a millisecond to get there.
+        ("model_ready", false),
+        ("model_stored", false),
         ("controller_started", true),
         ("first_line", rendered),
         ("last_line", rendered),
         ("image_stored", complete),
         ("finished", true),
+        ("image_written", false),
     ];
     in_order(t, &job_steps, "the job")?;
     let last = t["last_line"].as_f64().unwrap_or(f64::INFINITY);

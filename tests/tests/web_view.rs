@@ -184,6 +184,8 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
         .collect();
     let names: Vec<&str> = steps.iter().map(|s| s.0).collect();
     let names_wanted = [
+        "model ready",
+        "model stored",
         "controller",
         "first line",
         "last line",
@@ -349,7 +351,7 @@ fn the_page_shows_hosts_a_job_filling_in_and_a_lost_worker_host() {
         Duration::from_secs(90),
     );
     page.wait_for(
-        "/^Timeline \\(seconds since submit\\): controller [0-9.]+ s, first line .*, finished [0-9.]+ s$/.test(document.getElementById('timeline').textContent)",
+        "/^Timeline \\(seconds since submit\\): model ready [0-9.]+ s, model stored [0-9.]+ s, controller [0-9.]+ s, first line .*, finished [0-9.]+ s$/.test(document.getElementById('timeline').textContent)",
         "the job's timeline on its page",
         Duration::from_secs(15),
     );

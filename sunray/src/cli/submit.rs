@@ -14,6 +14,7 @@ use crate::distrib::farm::{self, ControllerFlags, FarmError, Submitted};
 use crate::distrib::job::input::{JobInput, Recalled};
 use crate::distrib::job::{self, JobRequest, JobScene};
 use crate::distrib::strategy::Strategy;
+use crate::distrib::timeline::JobClock;
 use crate::scene::load::BUILTIN;
 use anyhow::Context;
 use clap::Args;
@@ -318,9 +319,13 @@ async fn follow_here(
         stats
     );
     fetched.map_err(lost)?;
+    let written_s = JobClock::at(request.submitted_unix_ms).now();
     if let Some(path) = &args.render.stats_json {
         match stats.map_err(lost)? {
-            Some(bytes) => crate::film::write_atomically(path, &bytes)?,
+            Some(bytes) => {
+                let bytes = follow::with_image_written(&bytes, written_s);
+                crate::film::write_atomically(path, &bytes)?
+            }
             None => eprintln!("sunray: warning: job {job} left no statistics for --stats-json"),
         }
     }

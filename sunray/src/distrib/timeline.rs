@@ -44,6 +44,12 @@ impl JobClock {
 /// The job's steps, in seconds since it was submitted.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timeline {
+    /// The submitting host had the job's model: compiled, or recalled from an earlier
+    /// submit of the same file (and its remd connected).
+    pub model_ready: Option<f64>,
+    /// The model was in REM: its chunks put through the submitting host's remd, or found
+    /// there.
+    pub model_stored: Option<f64>,
     /// The controller started (this run's: a restarted controller's own start).
     pub controller_started: Option<f64>,
     /// The first line of this run came in.
@@ -56,6 +62,9 @@ pub struct Timeline {
     /// (its record says finished, `submit` fetches the image) and its workers wind down
     /// after; a job in the submitting process ends when its workers have stopped.
     pub finished: Option<f64>,
+    /// `sunray submit`, following a farm job, had written its image (set by submit in the
+    /// statistics it writes; the stored ones end at `finished`).
+    pub image_written: Option<f64>,
 }
 
 /// A node's steps, in seconds since its job was submitted.
@@ -102,11 +111,14 @@ impl Timeline {
     /// The steps that happened, in order, with their names.
     pub fn steps(&self) -> Vec<(&'static str, f64)> {
         [
+            ("model ready", self.model_ready),
+            ("model stored", self.model_stored),
             ("controller", self.controller_started),
             ("first line", self.first_line),
             ("last line", self.last_line),
             ("image stored", self.image_stored),
             ("finished", self.finished),
+            ("image written", self.image_written),
         ]
         .into_iter()
         .filter_map(|(name, t)| t.map(|t| (name, t)))
@@ -124,6 +136,17 @@ impl Timeline {
         format!("timeline (seconds since submit): {}", steps.join(", "))
     }
 
+    /// The timeline of a job whose submitting host had its model at `ready_s` and stored
+    /// it in REM at `stored_s` (seconds since the submit; 0: not known).
+    pub fn submitted(ready_s: f64, stored_s: f64) -> Timeline {
+        let known = |t: f64| (t > 0.0 && t.is_finite()).then_some(t);
+        Timeline {
+            model_ready: known(ready_s),
+            model_stored: known(stored_s),
+            ..Timeline::default()
+        }
+    }
+
     /// True when the steps that happened are in their order.
     pub fn is_ordered(&self) -> bool {
         self.steps().windows(2).all(|w| w[0].1 <= w[1].1)
@@ -137,11 +160,14 @@ mod tests {
     #[test]
     fn the_line_lists_the_steps_that_happened_in_order() {
         let t = Timeline {
+            model_ready: None,
+            model_stored: None,
             controller_started: Some(0.1),
             first_line: Some(0.25),
             last_line: Some(1.5),
             image_stored: None,
             finished: Some(1.75),
+            image_written: None,
         };
         assert_eq!(
             t.line(),
@@ -196,6 +222,20 @@ mod tests {
         assert!((1.4..10.0).contains(&clock.now()), "{}", clock.now());
         assert!(JobClock::at(0).now() < 1.0);
         assert_eq!(JobClock::at(u64::MAX).now(), 0.0);
+    }
+
+    #[test]
+    fn the_submit_steps_come_first_and_unknown_ones_are_left_out() {
+        let t = Timeline {
+            controller_started: Some(2.5),
+            ..Timeline::submitted(1.25, 2.0)
+        };
+        assert_eq!(
+            t.line(),
+            "timeline (seconds since submit): model ready 1.25 s, model stored 2.00 s, controller 2.50 s"
+        );
+        assert!(t.is_ordered());
+        assert_eq!(Timeline::submitted(0.0, f64::NAN), Timeline::default());
     }
 
     #[test]

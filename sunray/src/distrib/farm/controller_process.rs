@@ -21,7 +21,7 @@ use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::JobStats;
 use crate::distrib::strategy::Strategy;
-use crate::distrib::timeline::JobClock;
+use crate::distrib::timeline::{JobClock, Timeline};
 use crate::distrib::web_view;
 use crate::render::Settings;
 use prost::Message;
@@ -108,6 +108,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     // The job's timeline counts from its submit; this process started a moment ago.
     let entry = job_record::from_record(&record);
     cfg.clock = JobClock::at(entry.submitted_unix_ms);
+    cfg.timeline = Timeline::submitted(entry.model_ready_s, entry.model_stored_s);
     cfg.timeline.controller_started =
         Some((cfg.clock.now() - started.elapsed().as_secs_f64()).max(0.0));
     let checkpointer = Checkpointer::new(

@@ -252,6 +252,21 @@ pub async fn stats_json(client: &RemClient, job: &str) -> Result<Option<Vec<u8>>
     Ok(client.get_checkpoint(&super::stats_key(job)).await?)
 }
 
+/// The statistics JSON `stats` with `timeline.image_written` set to `at_s` (seconds since
+/// the submit); unchanged when it is not a job's statistics.
+pub fn with_image_written(stats: &[u8], at_s: f64) -> Vec<u8> {
+    let Ok(mut v) = serde_json::from_slice::<serde_json::Value>(stats) else {
+        return stats.to_vec();
+    };
+    match v.get_mut("timeline").and_then(|t| t.as_object_mut()) {
+        Some(t) => {
+            t.insert("image_written".into(), json!(at_s));
+            serde_json::to_vec_pretty(&v).unwrap_or_else(|_| stats.to_vec())
+        }
+        None => stats.to_vec(),
+    }
+}
+
 /// Writes job `job`'s finished image to `out` (.png, .ppm or .pfm, as `sunray render`).
 pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), FarmError> {
     Format::from_path(out)?;
@@ -344,5 +359,18 @@ mod tests {
         assert_eq!(moved[0]["host"], "h2");
         let ended = changes(Some(&record("running", 2, 9)), &record("finished", 2, 9));
         assert_eq!(ended[0]["state"], "finished");
+    }
+
+    #[test]
+    fn the_written_image_is_the_last_step_of_the_statistics_submit_writes() {
+        let stats = br#"{"job": "j", "timeline": {"finished": 1.5, "image_written": null}}"#;
+        let v: serde_json::Value =
+            serde_json::from_slice(&with_image_written(stats, 1.75)).unwrap();
+        assert_eq!(v["timeline"]["image_written"], 1.75);
+        assert_eq!(v["timeline"]["finished"], 1.5);
+        assert_eq!(v["job"], "j");
+        for not_stats in [&b"not json"[..], br#"{"job": "j"}"#] {
+            assert_eq!(with_image_written(not_stats, 1.0), not_stats);
+        }
     }
 }

@@ -31,6 +31,7 @@ use super::job::input::JobInput;
 use super::job::{self, JobError, JobRequest};
 use super::job_record;
 use super::messages::proto;
+use super::timeline::JobClock;
 use super::web_view;
 use prost::Message;
 
@@ -160,6 +161,8 @@ pub async fn submit(
         return Err(FarmError::DetachNeedsCluster);
     }
     req.check()?;
+    let clock = JobClock::at(req.submitted_unix_ms);
+    let model_ready_s = clock.now();
     let plan = job::new_plan(req, input)?;
     let client = &cluster.client;
     // Independent reads and writes go at once, not one round trip after another (each is
@@ -191,6 +194,7 @@ pub async fn submit(
     // The model goes as REM chunks; the stored Scene names them (the controller's epoch is
     // set when it sends the scene).
     let shipped = plan.ship(client).await?;
+    let model_stored_s = clock.now();
     let scene_msg = shipped.scene(plan.settings.to_proto(), &plan.job, 0);
     let mut checkpointer =
         Checkpointer::new(&plan.job, job::job_spec(req, &plan), shipped.hash, None);
@@ -222,6 +226,8 @@ pub async fn submit(
         scene_unbounded: plan.summary.unbounded as u64,
         scene_bytes_sent: shipped.bytes_sent,
         submitted_unix_ms: req.submitted_unix_ms,
+        model_ready_s,
+        model_stored_s,
         ..Default::default()
     };
     let mut args = vec![

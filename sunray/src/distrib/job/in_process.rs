@@ -12,7 +12,7 @@ use crate::distrib::connection::RemConnection;
 use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
-use crate::distrib::timeline::JobClock;
+use crate::distrib::timeline::{JobClock, Timeline};
 
 /// Runs a job on `cluster` to its end: the image written when every line is in.
 pub async fn run(
@@ -76,6 +76,8 @@ async fn run_plan(
     req: &JobRequest,
     mut plan: Plan,
 ) -> Result<JobOutcome, JobError> {
+    let clock = JobClock::at(req.submitted_unix_ms);
+    let model_ready_s = clock.now();
     let allow_same_host = cluster.is_embedded() || req.same_host;
     let live = cluster.live_hosts().await?;
     check_hosts(&mut plan, req, allow_same_host, &live)?;
@@ -84,6 +86,7 @@ async fn run_plan(
         .ship(&cluster.client)
         .await
         .map_err(|e| cluster.rpc_error(e))?;
+    let model_stored_s = clock.now();
     // In-process: nobody takes this controller's workers over (epoch 0).
     let scene_msg = messages::encode(Body::Scene(shipped.scene(
         plan.settings.to_proto(),
@@ -98,7 +101,8 @@ async fn run_plan(
 
     let (checkpointer, mut entry, epoch) =
         first_checkpoint(cluster, req, &plan, shipped.hash).await?;
-    let cfg = controller_config(req, &plan, scene_msg);
+    let mut cfg = controller_config(req, &plan, scene_msg);
+    cfg.timeline = Timeline::submitted(model_ready_s, model_stored_s);
     let name = plan.source.display_name();
     let s = &plan.summary;
     let totals = Totals {
