@@ -38,7 +38,13 @@ pub fn chunk_names(data: &[u8], chunk_bytes: usize) -> Vec<String> {
     data.chunks(chunk_bytes.max(1)).map(name_of).collect()
 }
 
-/// Puts `data` in chunks of `chunk_bytes` through `client`'s daemon.
+/// Chunks one [`put`] has on their way at once: the daemon checks, stores and copies each to
+/// a peer (hashing it twice and sending it twice), so one chunk at a time leaves the cores
+/// waiting on the network and the network on the cores.
+pub const PUTS_IN_FLIGHT: usize = 4;
+
+/// Puts `data` in chunks of `chunk_bytes` through `client`'s daemon, [`PUTS_IN_FLIGHT`] at
+/// a time; the first failure ends it.
 pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<Put> {
     let chunk_bytes = chunk_bytes.max(1);
     let count = data.len().div_ceil(chunk_bytes);
@@ -48,12 +54,32 @@ pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<
             limit: MAX_CHUNKS * chunk_bytes,
         });
     }
-    let mut out = Put::default();
-    for piece in data.chunks(chunk_bytes) {
-        let hash = name_of(piece);
-        let reply = client.put_chunk(&hash, piece.to_vec()).await?;
-        out.bytes_sent += reply.bytes_sent;
-        out.chunks.push(hash);
+    let mut out = Put {
+        chunks: vec![String::new(); count],
+        bytes_sent: 0,
+    };
+    let mut pieces = data.chunks(chunk_bytes).enumerate();
+    let mut flying = tokio::task::JoinSet::new();
+    loop {
+        while flying.len() < PUTS_IN_FLIGHT {
+            let Some((i, piece)) = pieces.next() else {
+                break;
+            };
+            let (client, piece) = (client.clone(), piece.to_vec());
+            flying.spawn(async move {
+                let hash = name_of(&piece);
+                let reply = client.put_chunk(&hash, piece).await?;
+                Ok::<_, Error>((i, hash, reply.bytes_sent))
+            });
+        }
+        let Some(done) = flying.join_next().await else {
+            break;
+        };
+        let (i, hash, sent) = done.map_err(|e| {
+            Error::Io(std::io::Error::other(format!("a chunk's put stopped: {e}")))
+        })??;
+        out.bytes_sent += sent;
+        out.chunks[i] = hash;
     }
     Ok(out)
 }

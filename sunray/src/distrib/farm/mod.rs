@@ -230,6 +230,18 @@ pub async fn submit(
         model_stored_s,
         ..Default::default()
     };
+    let mut record = job_record::to_record(&entry, width, 1);
+    record.controller_spawn = Some(controller_spawn(req, flags).to_proto());
+    let stored = client.start_job(record, flags.anywhere).await?;
+    Ok(Submitted {
+        job: stored.id,
+        output: plan.output,
+    })
+}
+
+/// How REM starts (and starts again) the job's controller: `sunray controller` of the
+/// worker program, with the job's flags and the submitter's environment for workers.
+fn controller_spawn(req: &JobRequest, flags: &ControllerFlags) -> rem::SpawnRequest {
     let mut args = vec![
         "controller".to_string(),
         "--checkpoint-ms".to_string(),
@@ -240,17 +252,10 @@ pub async fn submit(
     if let Some(ms) = flags.worker_timeout_ms {
         args.extend(["--worker-timeout-ms".to_string(), ms.to_string()]);
     }
-    let spawn = rem::SpawnRequest {
+    rem::SpawnRequest {
         program: req.worker_program.display().to_string(),
         args,
         env: job::worker_env(std::env::vars()),
         ..rem::SpawnRequest::default()
-    };
-    let mut record = job_record::to_record(&entry, width, 1);
-    record.controller_spawn = Some(spawn.to_proto());
-    let stored = client.start_job(record, flags.anywhere).await?;
-    Ok(Submitted {
-        job: stored.id,
-        output: plan.output,
-    })
+    }
 }
