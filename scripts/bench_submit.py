@@ -177,7 +177,8 @@ def strategies(bin_dir, size, samples):
 
 def timeline(bin_dir, runs, scene=None, size=64):
     scene = scene or MOUNT6
-    steps = ["controller_started", "first_line", "last_line", "image_stored", "finished"]
+    steps = ["model_ready", "model_stored", "controller_started", "first_line", "last_line",
+             "image_stored", "finished", "image_written"]
     with tempfile.TemporaryDirectory() as tmp:
         procs, addrs, secret = remds(bin_dir, tmp, ["a", "b", "c"])
         got, walls = {k: [] for k in steps}, []
@@ -204,7 +205,7 @@ def timeline(bin_dir, runs, scene=None, size=64):
     name = os.path.basename(scene)
     print(f"timeline: {name} {size}x{size}, 3 workers on 3 loopback remd daemons, median of {runs} warm "
           "jobs, seconds since submit: " +
-          ", ".join(f"{k} {med(v):.3f}" for k, v in got.items()) +
+          ", ".join(f"{k} {med(v):.3f}" for k, v in got.items() if v) +
           f"; submit wall {med(walls):.3f} s against `sunray render` {med(local):.3f} s")
 
 

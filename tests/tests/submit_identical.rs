@@ -39,9 +39,13 @@ fn identical(cluster: &LoopbackCluster, scene: &str, strategy: &str) {
     assert_eq!(hosts.len(), 3, "one worker per host: {hosts:?}");
     let lines: u64 = nodes.iter().map(|n| n["scanlines"].as_u64().unwrap()).sum();
     assert_eq!(lines, 64, "every line accepted exactly once");
+    // The statistics are those of the moment the image was stored: a worker may not have
+    // said Ready by then ("starting"); none failed or went silent.
     for n in nodes {
-        assert_eq!(n["outcome"], "ok", "{n}");
-        assert!(n["cores"].as_u64().unwrap() >= 1);
+        assert!(n["outcome"] == "ok" || n["outcome"] == "starting", "{n}");
+        if n["outcome"] == "ok" {
+            assert!(n["cores"].as_u64().unwrap() >= 1, "{n}");
+        }
     }
     assert_eq!(s["lines"]["rendered"], 64);
     // Counted, not estimated: the totals are those of the local render.
