@@ -11,7 +11,7 @@ use std::time::Duration;
 use sunray::distrib::messages::{self, proto, Body};
 use sunray::distrib::model_chunks;
 use sunray::render::{Overrides, Settings};
-use sunray::scene::load::{load_with_model, SceneSource};
+use sunray::scene::load::{compile_for_job, SceneSource};
 use sunray_e2e::bins::sunray_bin;
 use sunray_e2e::remd::{LoopbackCluster, SECRET};
 
@@ -20,9 +20,11 @@ const STEP: Duration = Duration::from_secs(30);
 
 /// The built-in scene's model and its own (valid) settings, as `sunray submit` sends them.
 fn scene_and_settings() -> (Vec<u8>, Settings) {
-    let mut loaded = load_with_model(&SceneSource::Builtin, None).unwrap();
-    let settings = Overrides::default().settings(&loaded.scene).unwrap();
-    (loaded.take_model().unwrap(), settings)
+    let compiled = compile_for_job(&SceneSource::Builtin, None).unwrap();
+    let settings = Overrides::default()
+        .settings_for(&compiled.summary)
+        .unwrap();
+    (compiled.model, settings)
 }
 
 /// What the worker said and how it ended.

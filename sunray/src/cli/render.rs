@@ -3,7 +3,7 @@
 use super::colours::ColourArgs;
 use crate::accel::{Accel, AccelKind, AccelOptions};
 use crate::render::{render_image, Overrides, Progress};
-use crate::scene::load::{self, LoadedScene, SceneSource};
+use crate::scene::load::{self, CompiledScene, LoadedScene, SceneSource};
 use crate::stats::process_cpu_seconds;
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
@@ -115,20 +115,23 @@ impl RenderArgs {
 
     /// Loads the scene, printing its warnings.
     pub fn load(&self) -> anyhow::Result<LoadedScene> {
-        self.print_warnings(load::load(&self.source(), self.colours.colors.as_deref())?)
-    }
-
-    /// [`RenderArgs::load`], keeping the compiled model to ship to workers.
-    pub fn load_for_job(&self) -> anyhow::Result<LoadedScene> {
-        let colours = self.colours.colors.as_deref();
-        self.print_warnings(load::load_with_model(&self.source(), colours)?)
-    }
-
-    fn print_warnings(&self, loaded: LoadedScene) -> anyhow::Result<LoadedScene> {
-        for w in &loaded.warnings {
-            eprintln!("{w}");
-        }
+        let loaded = load::load(&self.source(), self.colours.colors.as_deref())?;
+        print_warnings(&loaded.warnings);
         Ok(loaded)
+    }
+
+    /// Compiles the scene for a job that ships it to workers, printing its warnings.
+    pub fn compile_for_job(&self) -> anyhow::Result<CompiledScene> {
+        let colours = self.colours.colors.as_deref();
+        let compiled = load::compile_for_job(&self.source(), colours)?;
+        print_warnings(&compiled.warnings);
+        Ok(compiled)
+    }
+}
+
+fn print_warnings(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("{w}");
     }
 }
 

@@ -210,7 +210,7 @@ fn compile(
     request: &JobRequest,
     recalled: &Recalled,
 ) -> anyhow::Result<JobInput> {
-    let input = JobInput::loaded(args.render.load_for_job()?, recalled.remember.clone())?;
+    let input = JobInput::compiled(args.render.compile_for_job()?, recalled.remember.clone());
     // Settings out of bounds are refused before a remd or a worker is started.
     request.overrides.settings_for(&input.summary)?;
     Ok(input)

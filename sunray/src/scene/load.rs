@@ -2,11 +2,14 @@
 //! read or compiled, its primitives built, and every warning (the compiler's, and the objects
 //! dropped as degenerate) collected for the caller to print.
 //!
-//! Every kind is read as a stream: each object becomes primitives (and, for a job that ships
-//! the model, model file bytes) as soon as it is compiled or decoded, so neither the world's
-//! objects nor a second copy of the model are ever held whole.
+//! Every kind is read as a stream: each object becomes primitives as soon as it is compiled
+//! or decoded, so the world's objects are never held whole. A job's scene
+//! ([`compile_for_job`]) becomes model file bytes and counts instead: the submitting host
+//! ships it and builds no primitive.
 
+use super::summary::SceneSummary;
 use super::Scene;
+use crate::geometry::primitive::Dropped;
 use crate::geometry::primitives::PrimitivesBuilder;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -109,9 +112,6 @@ pub struct LoadedScene {
     pub source: SceneSource,
     /// The model and its primitives.
     pub scene: Scene,
-    /// The compiled model file's bytes, as shipped to SunRay III workers, when asked for
-    /// ([`load_with_model`]).
-    pub model: Option<Vec<u8>>,
     /// The compiler's warnings (with carets) and one line per dropped object, ready to print.
     pub warnings: Vec<String>,
     /// Seconds spent reading and compiling.
@@ -124,69 +124,145 @@ pub struct LoadedScene {
 /// built-in table. The file is read as a stream, each object becoming primitives as it is
 /// compiled or decoded.
 pub fn load(source: &SceneSource, colours: Option<&Path>) -> Result<LoadedScene, SceneLoadError> {
-    load_as(source, colours, false)
-}
-
-/// [`load`], keeping the compiled model's bytes too ([`LoadedScene::model`]), for a job
-/// that ships it.
-pub fn load_with_model(
-    source: &SceneSource,
-    colours: Option<&Path>,
-) -> Result<LoadedScene, SceneLoadError> {
-    load_as(source, colours, true)
-}
-
-fn load_as(
-    source: &SceneSource,
-    colours: Option<&Path>,
-    keep_model: bool,
-) -> Result<LoadedScene, SceneLoadError> {
     let t_load = Instant::now();
     let table = ColourTable::for_run(colours)?;
     if let Some(path) = source.path().filter(|p| is_model_file(p)) {
-        return load_model_file(source, path, keep_model, t_load);
+        return load_model_file(source, path, t_load);
     }
     let mut builder = PrimitivesBuilder::new();
-    let mut encoder = keep_model.then(ModelEncoder::new);
-    let mut out = |surfaces: &[Surface], o: Object| {
-        if let Some(e) = encoder.as_mut() {
-            e.push(&o);
-        }
-        builder.add(surfaces, &o);
-    };
-    let loaded = match source {
-        SceneSource::File(p) => yari::load::stream_path(p, &table, &mut out)?,
+    let loaded = stream(source, &table, &mut |surfaces, o| builder.add(surfaces, &o))?;
+    let warnings = compiler_warnings(&loaded);
+    // Compiling and building the primitives go together: all of it counts as loading.
+    let load_s = t_load.elapsed().as_secs_f64();
+    let scene = Scene::built(loaded.world, builder);
+    Ok(finish(source, scene, warnings, load_s, Instant::now()))
+}
+
+/// A scene compiled for a job that ships it: its model file's bytes, as SunRay III workers
+/// get them, and what the job's statistics need of it. The submitting host never renders
+/// it, so its primitives are counted ([`PrimitivesBuilder::counting`]), never built.
+pub struct CompiledScene {
+    /// Where it came from.
+    pub source: SceneSource,
+    /// The compiled model file's bytes.
+    pub model: Vec<u8>,
+    /// Its counts and its own render settings.
+    pub summary: SceneSummary,
+    /// The compiler's warnings (with carets) and one line per dropped object, ready to print.
+    pub warnings: Vec<String>,
+    /// Seconds spent reading, compiling and counting.
+    pub load_s: f64,
+}
+
+/// Compiles a scene for a job ([`CompiledScene`]), with the colour names of `colours`: read
+/// as a stream, each object encoded and counted as it is compiled; a compiled model is read
+/// whole (it is what is shipped) and counted.
+pub fn compile_for_job(
+    source: &SceneSource,
+    colours: Option<&Path>,
+) -> Result<CompiledScene, SceneLoadError> {
+    let t_load = Instant::now();
+    let table = ColourTable::for_run(colours)?;
+    let mut counter = PrimitivesBuilder::counting();
+    if let Some(path) = source.path().filter(|p| is_model_file(p)) {
+        let name = path.display().to_string();
+        let model = std::fs::read(path).map_err(|e| {
+            SceneLoadError::Scene(LoadError::Io {
+                path: path.to_path_buf(),
+                source: e,
+            })
+        })?;
+        let world = yari::modelfile::read_stream(&mut &model[..], &mut |head, _, o| {
+            counter.add(&head.surfaces, &o)
+        })
+        .map_err(|e| model_error(e, &name))?;
+        return Ok(compiled(source, world, counter, model, Vec::new(), t_load));
+    }
+    let mut encoder = ModelEncoder::new();
+    let loaded = stream(source, &table, &mut |surfaces, o| {
+        encoder.push(&o);
+        counter.add(surfaces, &o);
+    })?;
+    let warnings = compiler_warnings(&loaded);
+    let model = encoder
+        .finish(&loaded.world)
+        .map_err(|e| model_error(e, "the compiled scene"))?;
+    Ok(compiled(
+        source,
+        loaded.world,
+        counter,
+        model,
+        warnings,
+        t_load,
+    ))
+}
+
+fn compiled(
+    source: &SceneSource,
+    world: yari::model::World,
+    counter: PrimitivesBuilder,
+    model: Vec<u8>,
+    mut warnings: Vec<String>,
+    t_load: Instant,
+) -> CompiledScene {
+    warnings.extend(dropped_lines(source, counter.dropped()));
+    let counts = counter.counts();
+    CompiledScene {
+        source: source.clone(),
+        model,
+        summary: SceneSummary {
+            objects: counter.objects(),
+            primitives: counts.primitives,
+            unbounded: counts.unbounded,
+            resolution: world.resolution,
+            samples: world.samples,
+        },
+        warnings,
+        load_s: t_load.elapsed().as_secs_f64(),
+    }
+}
+
+/// Streams the scene of `source` (a text scene, or the built-in one) to `out`, object by
+/// object.
+fn stream(
+    source: &SceneSource,
+    table: &ColourTable,
+    out: &mut dyn FnMut(&[Surface], Object),
+) -> Result<yari::load::Loaded, SceneLoadError> {
+    Ok(match source {
+        SceneSource::File(p) => yari::load::stream_path(p, table, out)?,
         SceneSource::Builtin => yari::load::stream_str(
             "built-in example",
             DEFAULT_SCENE,
             InputKind::Yari,
-            &table,
-            &mut out,
+            table,
+            out,
         )?,
-    };
-    let mut warnings = Vec::new();
+    })
+}
+
+/// The compiler's warnings, as one block ready to print (none when it had nothing to say).
+fn compiler_warnings(loaded: &yari::load::Loaded) -> Vec<String> {
     let compiler = loaded.render_warnings();
-    if !compiler.trim().is_empty() {
-        warnings.push(compiler.trim_end().to_string());
+    if compiler.trim().is_empty() {
+        Vec::new()
+    } else {
+        vec![compiler.trim_end().to_string()]
     }
-    let model = match encoder {
-        Some(e) => Some(
-            e.finish(&loaded.world)
-                .map_err(|source| model_error(source, "the compiled scene"))?,
-        ),
-        None => None,
-    };
-    // Compiling and building the primitives go together: all of it counts as loading.
-    let load_s = t_load.elapsed().as_secs_f64();
-    let scene = Scene::built(loaded.world, builder);
-    Ok(finish(
-        source,
-        scene,
-        model,
-        warnings,
-        load_s,
-        Instant::now(),
-    ))
+}
+
+/// One warning line per object dropped as degenerate.
+fn dropped_lines(source: &SceneSource, dropped: &[Dropped]) -> Vec<String> {
+    let name = source.display_name();
+    dropped
+        .iter()
+        .map(|d| {
+            format!(
+                "sunray: warning: {name}: object {} dropped: {}",
+                d.object, d.reason
+            )
+        })
+        .collect()
 }
 
 /// True when the file at `path` starts like a compiled model (whatever its name).
@@ -204,12 +280,10 @@ fn model_error(source: yari::modelfile::ModelFileError, path: &str) -> SceneLoad
     })
 }
 
-/// A compiled model file, decoded as a stream into the scene's primitives (and kept whole
-/// only when `keep_model`).
+/// A compiled model file, decoded as a stream into the scene's primitives.
 fn load_model_file(
     source: &SceneSource,
     path: &Path,
-    keep_model: bool,
     t_load: Instant,
 ) -> Result<LoadedScene, SceneLoadError> {
     let io = |e: std::io::Error| {
@@ -218,64 +292,34 @@ fn load_model_file(
             source: e,
         })
     };
-    let (scene, model) = if keep_model {
-        let bytes = std::fs::read(path).map_err(io)?;
-        let scene = Scene::read_model(&mut &bytes[..]);
-        (scene, Some(bytes))
-    } else {
-        let mut file = std::io::BufReader::new(std::fs::File::open(path).map_err(io)?);
-        (Scene::read_model(&mut file), None)
-    };
-    let scene = scene.map_err(|e| model_error(e, &path.display().to_string()))?;
+    let mut file = std::io::BufReader::new(std::fs::File::open(path).map_err(io)?);
+    let scene =
+        Scene::read_model(&mut file).map_err(|e| model_error(e, &path.display().to_string()))?;
     // Decoding and building the primitives go together: all of it counts as loading.
     let load_s = t_load.elapsed().as_secs_f64();
-    Ok(finish(
-        source,
-        scene,
-        model,
-        Vec::new(),
-        load_s,
-        Instant::now(),
-    ))
+    Ok(finish(source, scene, Vec::new(), load_s, Instant::now()))
 }
 
 fn finish(
     source: &SceneSource,
     scene: Scene,
-    model: Option<Vec<u8>>,
     mut warnings: Vec<String>,
     load_s: f64,
     t_prepare: Instant,
 ) -> LoadedScene {
     let prepare_s = t_prepare.elapsed().as_secs_f64();
-    let name = source.display_name();
-    warnings.extend(scene.dropped.iter().map(|d| {
-        format!(
-            "sunray: warning: {name}: object {} dropped: {}",
-            d.object, d.reason
-        )
-    }));
+    warnings.extend(dropped_lines(source, &scene.dropped));
     LoadedScene {
         source: source.clone(),
         scene,
-        model,
         warnings,
         load_s,
         prepare_s,
     }
 }
 
-impl LoadedScene {
-    /// The compiled model as shipped to SunRay III workers (kept by [`load_with_model`]).
-    pub fn take_model(&mut self) -> Result<Vec<u8>, yari::modelfile::ModelFileError> {
-        self.model.take().ok_or_else(|| {
-            yari::modelfile::ModelFileError::Corrupt(
-                "the scene was loaded without its model".into(),
-            )
-        })
-    }
-}
-
+#[cfg(test)]
+mod counting_tests;
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,7 @@
 
 use crate::distrib::model_chunks::{self, ShippedModel};
 use crate::distrib::shipped_scenes::{SceneKey, ShippedScene, ShippedScenes};
-use crate::scene::load::{LoadedScene, SceneSource};
+use crate::scene::load::{CompiledScene, SceneSource};
 use crate::scene::summary::SceneSummary;
 use rem::RemClient;
 
@@ -41,19 +41,15 @@ pub struct JobInput {
 }
 
 impl JobInput {
-    /// The input of a scene compiled here (loaded with its model).
-    pub fn loaded(
-        mut loaded: LoadedScene,
-        remember: Option<Remember>,
-    ) -> Result<JobInput, yari::modelfile::ModelFileError> {
-        let model = loaded.take_model()?;
-        Ok(JobInput {
-            summary: SceneSummary::of(&loaded.scene),
-            source: loaded.source,
-            model: JobModel::Bytes(model),
-            warnings: loaded.warnings,
+    /// The input of a scene compiled here.
+    pub fn compiled(compiled: CompiledScene, remember: Option<Remember>) -> JobInput {
+        JobInput {
+            summary: compiled.summary,
+            source: compiled.source,
+            model: JobModel::Bytes(compiled.model),
+            warnings: compiled.warnings,
             remember,
-        })
+        }
     }
 
     /// The input of a scene shipped before (`entry`), from `source`.

@@ -103,8 +103,8 @@ pub(super) async fn resume_plan(
         None => SceneSource::from_remembered(&spec.scene),
     };
     let colours = (!spec.colours.is_empty()).then(|| PathBuf::from(&spec.colours));
-    let mut loaded = load::load_with_model(&source, colours.as_deref())?;
-    let model = loaded.take_model()?;
+    let compiled = load::compile_for_job(&source, colours.as_deref())?;
+    let model = compiled.model;
     if messages::fnv1a(&model) != restored.header.model_hash {
         return Err(JobError::SceneChanged(job));
     }
@@ -125,8 +125,8 @@ pub(super) async fn resume_plan(
     Format::from_path(&output)?;
     Ok(Plan {
         job,
-        source: loaded.source,
-        summary: SceneSummary::of(&loaded.scene),
+        source: compiled.source,
+        summary: compiled.summary,
         settings,
         model: JobModel::Bytes(model),
         remember: None,

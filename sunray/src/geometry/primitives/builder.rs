@@ -5,6 +5,10 @@
 //! and listed, never turned into NaNs. Transparent static polygons are remembered until
 //! [`PrimitivesBuilder::finish`], which finds the closed meshes among them
 //! ([`crate::geometry::solid`]) and makes their triangles solid faces.
+//!
+//! A builder made by [`PrimitivesBuilder::counting`] goes through the same rules (the same
+//! triangulation, limits and dropped objects) but keeps only the counts
+//! ([`PrimitiveCounts`]): what a submitting host needs of a scene it ships and never renders.
 
 use super::super::polygon::{triangulate_indexed, Degenerate};
 use super::super::primitive::Dropped;
@@ -26,6 +30,36 @@ pub struct PrimitivesBuilder {
     dropped: Vec<Dropped>,
     candidates: Vec<Candidate>,
     objects: usize,
+    /// `Some` when only counting ([`PrimitivesBuilder::counting`]).
+    counts: Option<PrimitiveCounts>,
+}
+
+/// What a counting builder keeps: the primitives the scene would have, by table.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PrimitiveCounts {
+    /// Primitives in all.
+    pub primitives: usize,
+    /// Of those, the ones without bounds (planes, unclipped quadrics).
+    pub unbounded: usize,
+    /// Static triangles (the mesh).
+    pub triangles: usize,
+    /// Static spheres.
+    pub spheres: usize,
+    /// The others (ellipsoids, quadrics, moving shapes).
+    pub others: usize,
+}
+
+impl PrimitiveCounts {
+    /// The counts of built primitives.
+    pub fn of(p: &Primitives) -> PrimitiveCounts {
+        PrimitiveCounts {
+            primitives: p.len(),
+            unbounded: p.unbounded_count(),
+            triangles: p.mesh.triangles.len(),
+            spheres: p.spheres.len(),
+            others: p.others.len(),
+        }
+    }
 }
 
 impl Default for PrimitivesBuilder {
@@ -42,7 +76,28 @@ impl PrimitivesBuilder {
             dropped: Vec::new(),
             candidates: Vec::new(),
             objects: 0,
+            counts: None,
         }
+    }
+
+    /// A builder that only counts: it keeps no primitive, only [`PrimitiveCounts`] and the
+    /// objects dropped, as [`PrimitivesBuilder::new`]'s would be.
+    pub fn counting() -> PrimitivesBuilder {
+        PrimitivesBuilder {
+            counts: Some(PrimitiveCounts::default()),
+            ..PrimitivesBuilder::new()
+        }
+    }
+
+    /// The counts so far: a counting builder's, else those of the primitives built.
+    pub fn counts(&self) -> PrimitiveCounts {
+        self.counts
+            .unwrap_or_else(|| PrimitiveCounts::of(&self.out))
+    }
+
+    /// The objects dropped so far.
+    pub fn dropped(&self) -> &[Dropped] {
+        &self.dropped
     }
 
     /// Objects added so far.
@@ -138,6 +193,14 @@ impl PrimitivesBuilder {
                 let negate = against(&n, t.normal);
                 (n, negate)
             });
+        if let Some(c) = self.counts.as_mut().filter(|_| motion == Vec3::ZERO) {
+            if c.triangles + t.triangles.len() > MAX_PER_KIND {
+                return Err("polygon beyond the most triangles a scene may have (2^30)");
+            }
+            c.triangles += t.triangles.len();
+            c.primitives += t.triangles.len();
+            return Ok(());
+        }
         let corners: Vec<[Vec3; 3]> = t.triangles.iter().map(|c| c.map(|k| vertices[k])).collect();
         let first = self.out.slots.len() as u32;
         if motion == Vec3::ZERO {
@@ -194,6 +257,9 @@ impl PrimitivesBuilder {
     /// Adds one primitive as the next one (static triangles go to the mesh, as open or
     /// solid faces by their `solid`; static spheres to their table).
     pub fn add_primitive(&mut self, p: Primitive) {
+        if self.counts.is_some() {
+            return self.count_primitive(&p);
+        }
         let prim = self.out.slots.len() as u32;
         let slot = match p.kind {
             PrimitiveKind::Triangle { v, normal, solid }
@@ -222,15 +288,47 @@ impl PrimitivesBuilder {
                 self.out.others.push(p);
                 OTHER | (self.out.others.len() - 1) as u32
             }
-            _ => {
-                self.dropped.push(Dropped {
-                    object: p.object as usize,
-                    reason: "beyond the most primitives a scene may have".into(),
-                });
-                return;
-            }
+            _ => return self.too_many(&p),
         };
         self.out.slots.edit().push(slot);
+    }
+
+    /// [`add_primitive`](Self::add_primitive) of a counting builder: the same tables and
+    /// limits, counted.
+    fn count_primitive(&mut self, p: &Primitive) {
+        let Some(c) = self.counts.as_mut() else {
+            return;
+        };
+        let fits = match p.kind {
+            PrimitiveKind::Triangle { .. }
+                if p.motion == Vec3::ZERO && c.triangles < MAX_PER_KIND =>
+            {
+                c.triangles += 1;
+                true
+            }
+            PrimitiveKind::Sphere { .. } if p.motion == Vec3::ZERO && c.spheres < MAX_PER_KIND => {
+                c.spheres += 1;
+                true
+            }
+            _ if c.others < MAX_PER_KIND => {
+                c.others += 1;
+                c.unbounded += usize::from(p.bounds().is_none());
+                true
+            }
+            _ => false,
+        };
+        if fits {
+            c.primitives += 1;
+        } else {
+            self.too_many(p);
+        }
+    }
+
+    fn too_many(&mut self, p: &Primitive) {
+        self.dropped.push(Dropped {
+            object: p.object as usize,
+            reason: "beyond the most primitives a scene may have".into(),
+        });
     }
 
     /// The primitives, and the objects dropped as degenerate.

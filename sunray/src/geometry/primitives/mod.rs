@@ -28,7 +28,7 @@ use super::sphere::intersect_sphere;
 use super::triangle::intersect_triangle;
 use super::{Aabb, Primitive, PrimitiveKind, RayPre, Real, Vec3};
 use crate::store::Store;
-pub use builder::PrimitivesBuilder;
+pub use builder::{PrimitiveCounts, PrimitivesBuilder};
 use mesh::Mesh;
 use smooth::SmoothTable;
 
