@@ -261,12 +261,11 @@ fn compile_text<R: BufRead>(
             while lines.advance() {
                 text.push_str(lines.line());
             }
-            let scene = crate::parse::parse(&Source::new(name, text))?;
-            // Each item of the tree is freed once it is compiled.
-            for item in scene.body.items {
-                compiler.item(&item, &mut *out);
-            }
-            (scene.view, Diagnostics::default())
+            // Each item of the world block is compiled as soon as it is parsed, and freed:
+            // the tree is never whole (the text is).
+            let src = Source::new(name, text);
+            let view = crate::parse::parse_each(&src, &mut |item| compiler.item(&item, &mut *out))?;
+            (view, Diagnostics::default())
         }
     };
     let (world, compiled) = compiler.finish(&view)?;

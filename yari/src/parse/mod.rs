@@ -15,7 +15,7 @@ mod body;
 mod values;
 mod view;
 
-use crate::ast::{Block, BodyItem, Scene, Spanned};
+use crate::ast::{Block, BodyItem, Scene, Spanned, ViewStmt};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::lexer::{Lexer, Token, TokenKind};
 use crate::span::{Source, Span};
@@ -33,6 +33,23 @@ pub fn parse(src: &Source) -> Result<Scene, Diagnostics> {
         Err(p.diags)
     } else {
         Ok(scene)
+    }
+}
+
+/// Parses `src` as [`parse`] does, but hands each item of the world block to `item` as soon
+/// as it is parsed (a nested block whole) instead of keeping the tree, so a reader that
+/// compiles each item at once never holds the whole tree. The preamble statements, or every
+/// diagnostic when there is an error (the items handed over are then to be thrown away).
+pub fn parse_each(
+    src: &Source,
+    item: &mut dyn FnMut(Spanned<BodyItem>),
+) -> Result<Vec<Spanned<ViewStmt>>, Diagnostics> {
+    let mut p = Parser::new(&src.text);
+    let (view, _) = p.scene_each(item);
+    if p.diags.has_errors() {
+        Err(p.diags)
+    } else {
+        Ok(view)
     }
 }
 
@@ -262,7 +279,20 @@ impl<'a> Parser<'a> {
     // ---- file structure ---------------------------------------------------------------
 
     fn scene(&mut self) -> Scene {
-        let mut scene = Scene::default();
+        let mut items = Vec::new();
+        let (view, span) = self.scene_each(&mut |i| items.push(i));
+        Scene {
+            view,
+            body: Block { items, span },
+        }
+    }
+
+    /// The preamble, and the world block's span, its items handed to `item` one by one.
+    fn scene_each(
+        &mut self,
+        item: &mut dyn FnMut(Spanned<BodyItem>),
+    ) -> (Vec<Spanned<ViewStmt>>, Span) {
+        let mut view = Vec::new();
         loop {
             match self.tok.kind {
                 TokenKind::Eof => {
@@ -270,14 +300,14 @@ impl<'a> Parser<'a> {
                         let at = self.tok.span;
                         self.error(at, "missing the world block: expected `begin`");
                     }
-                    return scene;
+                    return (view, Span::default());
                 }
                 TokenKind::Ident if self.at_word("begin") => break,
                 TokenKind::Ident => {
                     let word = self.text(self.tok);
                     if VIEW_COMMANDS.contains(&word) {
                         if let Some(stmt) = self.view_statement() {
-                            scene.view.push(stmt);
+                            view.push(stmt);
                         }
                     } else {
                         let msg = if COMMANDS.contains(&word) {
@@ -298,7 +328,7 @@ impl<'a> Parser<'a> {
                 }
             }
         }
-        scene.body = self.block(1);
+        let span = self.block_each(1, item);
         if !self.at(TokenKind::Eof) {
             let at = self.tok.span;
             let found = self.found();
@@ -307,13 +337,19 @@ impl<'a> Parser<'a> {
                 format!("expected end of file after the world block's `end`, found {found}"),
             );
         }
-        scene
+        (view, span)
     }
 
     /// A `begin ... end` block; the current token is `begin`; `depth` counts this block.
     fn block(&mut self, depth: usize) -> Block {
-        let begin = self.bump();
         let mut items = Vec::new();
+        let span = self.block_each(depth, &mut |i| items.push(i));
+        Block { items, span }
+    }
+
+    /// [`block`](Self::block), its items handed to `item` one by one; its span.
+    fn block_each(&mut self, depth: usize, item: &mut dyn FnMut(Spanned<BodyItem>)) -> Span {
+        let begin = self.bump();
         loop {
             match self.tok.kind {
                 TokenKind::Eof => {
@@ -337,14 +373,14 @@ impl<'a> Parser<'a> {
                     } else {
                         let inner = self.block(depth + 1);
                         let span = inner.span;
-                        items.push(Spanned::new(BodyItem::Block(inner), span));
+                        item(Spanned::new(BodyItem::Block(inner), span));
                     }
                     // `end;` is accepted as well as `end`.
                     self.eat(TokenKind::Semi);
                 }
                 TokenKind::Ident => {
-                    if let Some(item) = self.body_statement() {
-                        items.push(item);
+                    if let Some(statement) = self.body_statement() {
+                        item(statement);
                     }
                 }
                 _ => {
@@ -354,10 +390,7 @@ impl<'a> Parser<'a> {
                 }
             }
         }
-        Block {
-            items,
-            span: self.span_from(begin.span),
-        }
+        self.span_from(begin.span)
     }
 
     /// Skips a whole `begin ... end` (with everything nested in it) without recursion.

@@ -251,3 +251,25 @@ fn bad_normals_are_located_errors_with_a_caret() {
     let errs = errors("begin\n polygon(vertices = 3; 0 0 0 1 0 0 0 1 0; normals = 0 0 1);\n sphre(center=0,0,0);\nend");
     assert_eq!(errs.len(), 2, "{errs:?}");
 }
+
+#[test]
+fn parse_each_hands_over_the_items_of_the_tree_and_its_diagnostics() {
+    let good = "resolution(4,4);\nbegin\n  attribute(color = 1,0,0);\n  sphere(center=0,0,0; radius=1);\n  begin translate(1,0,0); sphere(center=0,0,0; radius=1); end\n  polygon(vertices = 3; 0,0,0 1,0,0 0,1,0);\nend\n";
+    let src = Source::new("t", good);
+    let mut items = Vec::new();
+    let view = parse_each(&src, &mut |i| items.push(i)).unwrap();
+    let tree = parse(&src).unwrap();
+    assert_eq!(view, tree.view);
+    assert_eq!(items, tree.body.items);
+    assert_eq!(items.len(), 4, "a nested block is one item");
+    for bad in [
+        "begin\n  sphere(center=0,0,0; radius=1)\nend\n",
+        "resolution(4,4);\nbegin\n  sphere(center=0,0,0; radius=1);\n",
+        "begin end extra",
+    ] {
+        let src = Source::new("bad", bad);
+        let each = parse_each(&src, &mut |_| {}).unwrap_err();
+        let whole = parse(&src).unwrap_err();
+        assert_eq!(each.render(&src), whole.render(&src), "{bad}");
+    }
+}
