@@ -565,6 +565,7 @@ fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
         .unwrap()
         .flatten()
         .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
         .collect();
     assert_eq!(entries.len(), 1, "{entries:?}");
     let mut entry: serde_json::Value =

@@ -11,6 +11,9 @@
 //! still has every chunk it names (`CachedChunks`); else the scene is compiled and shipped as
 //! for a first submit, and the entry written anew.
 //!
+//! The key is found without reading the file when its stamp (its inode, size and times, see
+//! [`stamps`]) is the one it had when it was last hashed.
+//!
 //! Entries are small JSON files in `$SUNRAY_CACHE_DIR`, else `$XDG_CACHE_HOME/sunray`, else
 //! `~/.cache/sunray` (folder `shipped/`), written whole or not at all; at most
 //! [`MAX_ENTRIES`] are kept, the least recently used removed first. An entry that does not
@@ -183,23 +186,31 @@ impl ShippedScenes {
 
     /// Removes the least recently used entries beyond `keep`.
     fn prune(&self, keep: usize) {
-        let Ok(dir) = std::fs::read_dir(&self.dir) else {
-            return;
-        };
-        let mut entries: Vec<(std::time::SystemTime, PathBuf)> = dir
-            .flatten()
-            .filter(|e| e.file_name().to_string_lossy().ends_with(".json"))
-            .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
-            .collect();
-        if entries.len() <= keep {
-            return;
-        }
-        entries.sort();
-        for (_, path) in &entries[..entries.len() - keep] {
-            let _ = std::fs::remove_file(path);
-        }
+        prune(&self.dir, ".json", keep);
     }
 }
 
+/// Removes the least recently used files of `dir` whose names end with `suffix`, beyond
+/// `keep`.
+fn prune(dir: &Path, suffix: &str, keep: usize) {
+    let Ok(files) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut entries: Vec<(std::time::SystemTime, PathBuf)> = files
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(suffix))
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
+        .collect();
+    if entries.len() <= keep {
+        return;
+    }
+    entries.sort();
+    for (_, path) in &entries[..entries.len() - keep] {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+mod stamps;
 #[cfg(test)]
 mod tests;

@@ -91,7 +91,7 @@ impl Recalled {
     pub fn look_up(source: &SceneSource, colours: Option<&std::path::Path>) -> Recalled {
         let remember = source.path().and_then(|path| {
             let scenes = ShippedScenes::for_user()?;
-            let key = SceneKey::of(path, colours).ok()?;
+            let key = scenes.key_of(path, colours).ok()?;
             Some(Remember { scenes, key })
         });
         let entry = remember.as_ref().and_then(|r| r.scenes.find(&r.key));

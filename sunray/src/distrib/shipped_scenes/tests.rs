@@ -118,3 +118,46 @@ fn the_least_recently_used_entries_go_first() {
     let kept: Vec<bool> = keys.iter().map(|k| scenes.path(k).exists()).collect();
     assert_eq!(kept, [true, false, false, true]);
 }
+
+#[test]
+fn a_stamp_names_the_key_of_an_unchanged_file_and_never_of_a_changed_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = ShippedScenes::at(&dir.path().join("cache"));
+    let scene = dir.path().join("s.nff");
+    std::fs::write(&scene, "b 0 0 0\n").unwrap();
+    let now = std::time::Duration::ZERO;
+    let hashed = SceneKey::of(&scene, None).unwrap();
+    assert_eq!(scenes.key_after(&scene, None, now).unwrap(), hashed);
+    let stamps = dir.path().join("cache").join("shipped").join("stamps");
+    assert_eq!(std::fs::read_dir(&stamps).unwrap().count(), 1, "stamped");
+    // The stamp answers without reading the file: a stamp that lies is believed ...
+    let stamp = std::fs::read_dir(&stamps)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    std::fs::write(&stamp, "ab".repeat(32)).unwrap();
+    assert_eq!(
+        scenes.key_after(&scene, None, now).unwrap().0,
+        "ab".repeat(32)
+    );
+    // ... but any write to the file (the same length here) makes another stamp (the
+    // file system's clock is coarse: a few milliseconds on, its times differ).
+    std::thread::sleep(std::time::Duration::from_millis(50));
+    std::fs::write(&scene, "b 0 0 1\n").unwrap();
+    let changed = scenes.key_after(&scene, None, now).unwrap();
+    assert_eq!(changed, SceneKey::of(&scene, None).unwrap());
+    assert_ne!(changed, hashed);
+    // A colour file is part of the stamp; a file changed just now is not stamped.
+    let colours = dir.path().join("c.col");
+    std::fs::write(&colours, "teal 0 0.5 0.5\n").unwrap();
+    let before = std::fs::read_dir(&stamps).unwrap().count();
+    let coloured = scenes.key_of(&scene, Some(&colours)).unwrap();
+    assert_eq!(coloured, SceneKey::of(&scene, Some(&colours)).unwrap());
+    assert_eq!(
+        std::fs::read_dir(&stamps).unwrap().count(),
+        before,
+        "not settled"
+    );
+}
