@@ -5,6 +5,7 @@
 use super::link::WorkerLink;
 use super::ControllerError;
 use super::{Controller, Input, JobResult};
+use crate::film::Film;
 use crate::distrib::grants::NodeState;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
@@ -29,13 +30,24 @@ impl<L: WorkerLink> Controller<L> {
 
     /// The job's result as it stands (the image and figures are copies).
     pub(super) fn result(&mut self, finished: bool) -> JobResult {
+        let film = self.film.clone();
+        self.result_with(finished, film)
+    }
+
+    /// The job's result at its end: the image is moved out, not copied.
+    pub(super) fn into_result(mut self, finished: bool) -> JobResult {
+        let film = std::mem::replace(&mut self.film, Film::new(0, 0));
+        self.result_with(finished, film)
+    }
+
+    fn result_with(&mut self, finished: bool, film: Film) -> JobResult {
         let counts = self.table.counts();
         self.lines.requeued = counts.requeued;
         self.lines.released = counts.released;
         self.lines.duplicated = counts.duplicated;
         self.lines.dropped = counts.dropped;
         JobResult {
-            film: self.film.clone(),
+            film,
             nodes: self.nodes.clone(),
             counters: self.counters,
             lines: self.lines.clone(),

@@ -462,7 +462,7 @@ impl<L: WorkerLink> Controller<L> {
             "done": self.table.done()}),
         );
         self.publish(true).await;
-        Ok(self.result(finished))
+        Ok(self.into_result(finished))
     }
 
     /// One item of the inbox: a relay item is handled; the relay's failure ends the job.

@@ -142,10 +142,23 @@ fn a_stamp_names_the_key_of_an_unchanged_file_and_never_of_a_changed_one() {
         scenes.key_after(&scene, None, now).unwrap().0,
         "ab".repeat(32)
     );
-    // ... but any write to the file (the same length here) makes another stamp (the
-    // file system's clock is coarse: a few milliseconds on, its times differ).
-    std::thread::sleep(std::time::Duration::from_millis(50));
-    std::fs::write(&scene, "b 0 0 1\n").unwrap();
+    // ... but any write to the file (the same length here) makes another stamp. The file
+    // system's clock is coarse: the write is made again until its times differ (a bound of
+    // a second; a tick is a few milliseconds).
+    let times = |p: &Path| {
+        let m = std::fs::metadata(p).unwrap();
+        (m.modified().unwrap(), std::os::unix::fs::MetadataExt::ctime_nsec(&m))
+    };
+    let before = times(&scene);
+    let t0 = std::time::Instant::now();
+    loop {
+        std::fs::write(&scene, "b 0 0 1\n").unwrap();
+        if times(&scene) != before {
+            break;
+        }
+        assert!(t0.elapsed().as_secs() < 1, "the file's times never changed");
+        std::thread::yield_now();
+    }
     let changed = scenes.key_after(&scene, None, now).unwrap();
     assert_eq!(changed, SceneKey::of(&scene, None).unwrap());
     assert_ne!(changed, hashed);
