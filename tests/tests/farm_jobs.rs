@@ -5,6 +5,9 @@
 //! and `sunray fetch` gives an image byte-identical to `sunray render`. A cancelled job ends
 //! its processes, is not restarted, and `sunray jobs` counts the lines of its checkpoint.
 //!
+//! Following a job ([`following`]): Ctrl-C and a lost remd stop the following, not the job.
+//! A scene submitted again unchanged is not compiled again ([`remembered_scenes`]).
+//!
 //! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
 //! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
@@ -17,6 +20,11 @@ use sunray_e2e::fixtures::spd;
 use sunray_e2e::reference::{read_json, reference, succeed};
 use sunray_e2e::remd::LoopbackCluster;
 use sunray_e2e::submit_run::SubmitRun;
+
+#[path = "farm_jobs/following.rs"]
+mod following;
+#[path = "farm_jobs/remembered_scenes.rs"]
+mod remembered_scenes;
 
 const FLAGS: [&str; 2] = ["--resolution", "64x96"];
 const LINES: u64 = 96;
@@ -450,142 +458,4 @@ fn a_controller_whose_job_moved_on_stands_down_and_the_job_finishes() {
     // ... and the job, with no controller at epoch 2, is started again and finishes.
     let r = check_finished(&cluster, "b", &job, dir.path());
     assert!(r.epoch >= 3, "{r:?}");
-}
-
-#[test]
-fn ctrl_c_stops_following_and_not_the_job() {
-    let cluster = LoopbackCluster::start(3);
-    let dir = tempfile::tempdir().unwrap();
-    let mut run = follow(&cluster, "ctrlc", 100, dir.path());
-    signal(run.child.id() as i32, libc::SIGINT);
-    let status = run.wait(Duration::from_secs(20));
-    assert_eq!(status.code(), Some(130), "{}", run.text());
-    let said = run.text();
-    assert!(
-        said.contains("stopped following job ctrlc")
-            && said.contains("`sunray watch ctrlc`")
-            && said.contains("`sunray cancel ctrlc`"),
-        "{said}"
-    );
-    let r = check_finished(&cluster, "b", "ctrlc", dir.path());
-    assert_eq!(r.epoch, 1, "the job was not disturbed: {r:?}");
-}
-
-#[test]
-fn losing_the_followed_remd_is_one_line_and_the_job_finishes_in_the_farm() {
-    let mut cluster = LoopbackCluster::start(3);
-    let dir = tempfile::tempdir().unwrap();
-    let mut run = follow(&cluster, "lostremd", 100, dir.path());
-    // The remd `submit` talks to dies, and the controller with it.
-    cluster.kill_daemon("a");
-    let status = run.wait(Duration::from_secs(20));
-    assert!(!status.success());
-    let text = run.text();
-    let errors: Vec<&str> = text.lines().filter(|l| l.contains("error")).collect();
-    assert_eq!(errors.len(), 1, "one line, not a chain:\n{text}");
-    assert!(
-        errors[0].contains("lost remd at") && errors[0].contains("`sunray watch lostremd`"),
-        "{text}"
-    );
-    assert!(!text.contains("h2 protocol"), "{text}");
-    let r = check_finished(&cluster, "c", "lostremd", dir.path());
-    assert!(r.epoch >= 2, "{r:?}");
-}
-
-#[test]
-fn a_job_whose_record_holders_are_all_lost_is_reported_failed() {
-    let mut cluster = LoopbackCluster::start(3);
-    let job = submit(&cluster, "orphan", 150);
-    wait_mid_job(&cluster, &job);
-    // Every write of the record goes through daemon a (submit, controller, supervisor), so
-    // it is kept on a and on the peer the job id hashes to.
-    let holder = rem::store::replicas::order(&job, ["b", "c"])[0];
-    let other = if holder == "b" { "c" } else { "b" };
-    let mut watch = SubmitRun::start({
-        let mut c = cluster.sunray_via(other);
-        c.args(["watch", &job]);
-        c
-    });
-    watch.wait_until(Duration::from_secs(20), |seen| {
-        seen.iter().any(|v| v["event"] == "state").then_some(())
-    });
-    cluster.kill_daemon("a");
-    cluster.kill_daemon(holder);
-    let status = watch.wait(Duration::from_secs(20));
-    assert_eq!(status.code(), Some(3), "{}", watch.text());
-    let said = watch.text();
-    assert!(
-        said.contains("job orphan failed") && said.contains("no live host holds its record"),
-        "{said}"
-    );
-}
-
-/// A second submit of an unchanged scene compiles nothing and sends nothing: the submitting
-/// host remembers what the job needs of the scene and its model's chunks, still with its
-/// remd. A count planted in the remembered entry shows that the second job took it from
-/// there; a changed scene (a comment added) is compiled and shipped again.
-#[test]
-fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
-    let cluster = LoopbackCluster::start(2);
-    let dir = tempfile::tempdir().unwrap();
-    let cache = dir.path().join("cache");
-    let scene = dir.path().join("mount6.nff");
-    std::fs::copy(spd("mount6"), &scene).unwrap();
-    let (want, _) = reference(dir.path(), &scene, &FLAGS);
-    let run = |name: &str| {
-        let (out, json) = (
-            dir.path().join(format!("{name}.png")),
-            dir.path().join(format!("{name}.json")),
-        );
-        succeed(
-            cluster
-                .submit()
-                .env("SUNRAY_CACHE_DIR", &cache)
-                .args(["--hosts", "2", "-q"])
-                .args(FLAGS)
-                .arg(&scene)
-                .arg("-o")
-                .arg(&out)
-                .arg("--stats-json")
-                .arg(&json),
-        );
-        assert!(
-            std::fs::read(&out).unwrap() == want,
-            "{name}: differs from sunray render"
-        );
-        read_json(&json)
-    };
-    let first = run("first");
-    let objects = first["totals"]["objects"].as_u64().unwrap();
-    assert!(
-        first["scene_bytes_sent"].as_u64().unwrap() > 0,
-        "a shipped the model once"
-    );
-    let entries: Vec<_> = std::fs::read_dir(cache.join("shipped"))
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|x| x == "json"))
-        .collect();
-    assert_eq!(entries.len(), 1, "{entries:?}");
-    let mut entry: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&entries[0]).unwrap()).unwrap();
-    entry["summary"]["objects"] = 424_242.into();
-    std::fs::write(&entries[0], serde_json::to_vec(&entry).unwrap()).unwrap();
-
-    let second = run("second");
-    assert_eq!(
-        second["totals"]["objects"], 424_242,
-        "the remembered entry was used"
-    );
-    assert_eq!(second["scene_bytes_sent"], 0);
-
-    let mut text = std::fs::read(&scene).unwrap();
-    text.extend_from_slice(b"# the same scene, other bytes\n");
-    std::fs::write(&scene, text).unwrap();
-    let third = run("third");
-    assert_eq!(
-        third["totals"]["objects"], objects,
-        "a changed scene is compiled again"
-    );
 }

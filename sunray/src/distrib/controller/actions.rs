@@ -5,10 +5,10 @@
 use super::link::WorkerLink;
 use super::ControllerError;
 use super::{Controller, Input, JobResult};
-use crate::film::Film;
 use crate::distrib::grants::NodeState;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
+use crate::film::Film;
 use serde_json::json;
 use std::time::Duration;
 use tokio::sync::mpsc;

@@ -147,7 +147,10 @@ fn a_stamp_names_the_key_of_an_unchanged_file_and_never_of_a_changed_one() {
     // a second; a tick is a few milliseconds).
     let times = |p: &Path| {
         let m = std::fs::metadata(p).unwrap();
-        (m.modified().unwrap(), std::os::unix::fs::MetadataExt::ctime_nsec(&m))
+        (
+            m.modified().unwrap(),
+            std::os::unix::fs::MetadataExt::ctime_nsec(&m),
+        )
     };
     let before = times(&scene);
     let t0 = std::time::Instant::now();
