@@ -2,14 +2,28 @@
 //!
 //! Tokens are identifiers, numbers, and the punctuation `( ) ; , =`. Blanks and `/* ... */`
 //! comments separate tokens. A token is a small `Copy` value (kind, span, numeric value); the
-//! text of an identifier is a slice of the source, so scanning allocates nothing.
+//! text of an identifier is read back from the lexer's window ([`Lexer::slice`]), so scanning
+//! allocates nothing.
+//!
+//! The text is either whole ([`Lexer::new`]) or read line by line as the scan needs it
+//! ([`Lexer::streaming`]): then the lexer holds a window of the text, from the point its
+//! reader still needs ([`Lexer::keep_from`]) to a little past the current token, and a file
+//! of any size is scanned in a window of tens of kilobytes. A token never spans lines, so a
+//! window always ends on a line's end; only a comment is read across lines. Spans are offsets
+//! in the whole text either way.
 //!
 //! Numbers are `[+-]? digits? (. digits?)? ([eE] [+-]? digits)?` with at least one digit
 //! before the exponent: `1`, `-1`, `.5176`, `-.816497`, `5.`, `1e-3`. A number that overflows
 //! to infinity is an error, and so is a number glued to letters (`3x`).
 
 use crate::diag::Diagnostic;
+use crate::lines::LineSupply;
 use crate::span::Span;
+use std::borrow::Cow;
+
+/// How much text a streaming lexer reads at a time, and the dead prefix it lets grow before
+/// it drops it from its window.
+const WINDOW_STEP: usize = 1 << 16;
 
 /// What a token is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,28 +78,79 @@ pub struct Token {
 
 /// Scans tokens one at a time from a source text.
 pub struct Lexer<'a> {
-    text: &'a str,
-    bytes: &'a [u8],
+    /// The window: the text from offset `base` on (the whole text for [`Lexer::new`]).
+    text: Cow<'a, str>,
+    base: usize,
+    /// The scan position in the window.
     pos: usize,
+    /// The offset in the whole text from which the reader may still ask for text.
+    keep: usize,
+    supply: Option<&'a mut dyn LineSupply>,
+    /// How much a streaming lexer reads at a time ([`WINDOW_STEP`] but in tests).
+    step: usize,
     errors: Vec<Diagnostic>,
 }
 
 impl<'a> Lexer<'a> {
     /// A lexer at the start of `text` (after a byte-order mark, if any).
     pub fn new(text: &'a str) -> Lexer<'a> {
-        // A leading byte-order mark (from some Windows editors) is skipped.
-        let pos = if text.starts_with('\u{feff}') { 3 } else { 0 };
-        Lexer {
-            text,
-            bytes: text.as_bytes(),
-            pos,
+        let mut lexer = Lexer {
+            text: Cow::Borrowed(text),
+            base: 0,
+            pos: 0,
+            keep: 0,
+            supply: None,
+            step: WINDOW_STEP,
             errors: Vec::new(),
+        };
+        lexer.skip_byte_order_mark();
+        lexer
+    }
+
+    /// A lexer over the lines of `supply`, read as the scan needs them.
+    pub fn streaming(supply: &'a mut dyn LineSupply) -> Lexer<'a> {
+        Lexer::streaming_in_steps(supply, WINDOW_STEP)
+    }
+
+    /// [`Lexer::streaming`], reading `step` bytes at a time (a line at least).
+    pub(crate) fn streaming_in_steps(supply: &'a mut dyn LineSupply, step: usize) -> Lexer<'a> {
+        let mut lexer = Lexer {
+            text: Cow::Owned(String::new()),
+            base: 0,
+            pos: 0,
+            keep: 0,
+            supply: Some(supply),
+            step,
+            errors: Vec::new(),
+        };
+        lexer.fill();
+        lexer.skip_byte_order_mark();
+        lexer
+    }
+
+    /// A leading byte-order mark (from some Windows editors) is skipped.
+    fn skip_byte_order_mark(&mut self) {
+        if self.text.starts_with('\u{feff}') {
+            self.pos = 3;
         }
     }
 
-    /// The source text of a span (used for identifiers).
-    pub fn slice(&self, span: Span) -> &'a str {
-        &self.text[span.start as usize..span.end as usize]
+    /// Says that the text before `offset` (in the whole text) will not be asked for again:
+    /// a streaming lexer may drop it from its window.
+    pub fn keep_from(&mut self, offset: usize) {
+        self.keep = self.keep.max(offset);
+    }
+
+    /// The source text of a span (used for identifiers). A span that starts before the point
+    /// given to [`Lexer::keep_from`] may be gone from a streaming lexer's window: its text is
+    /// then empty.
+    pub fn slice(&self, span: Span) -> &str {
+        let (start, end) = (span.start as usize, span.end as usize);
+        debug_assert!(start >= self.base, "span {start} read after it was dropped");
+        match (start.checked_sub(self.base), end.checked_sub(self.base)) {
+            (Some(s), Some(e)) => self.text.get(s..e).unwrap_or(""),
+            _ => "",
+        }
     }
 
     /// True when lexical errors are waiting in [`Lexer::take_errors`].
@@ -98,40 +163,91 @@ impl<'a> Lexer<'a> {
         std::mem::take(&mut self.errors)
     }
 
+    /// Reads more lines into the window (about [`WINDOW_STEP`] bytes), first dropping the
+    /// text before both the kept point and the scan position once it is long enough; false
+    /// when there is nothing more to read.
+    fn fill(&mut self) -> bool {
+        let Some(supply) = self.supply.as_deref_mut() else {
+            return false;
+        };
+        let dead = self.keep.saturating_sub(self.base).min(self.pos);
+        let text = self.text.to_mut();
+        let worth = dead >= self.step || dead * 2 >= text.len();
+        if dead > 0 && worth && text.is_char_boundary(dead) {
+            text.drain(..dead);
+            self.base += dead;
+            self.pos -= dead;
+        }
+        let before = text.len();
+        while text.len() - before < self.step && supply.next_line(text) {}
+        text.len() > before
+    }
+
+    /// The length of the window (the whole text for [`Lexer::new`]).
+    #[cfg(test)]
+    fn window(&self) -> usize {
+        self.text.len()
+    }
+
+    /// A span from `start` to the scan position, both in the window, as offsets in the text.
+    fn span_to_pos(&self, start: usize) -> Span {
+        Span::new(self.base + start, self.base + self.pos)
+    }
+
     fn token(&self, kind: TokenKind, start: usize) -> Token {
         Token {
             kind,
-            span: Span::new(start, self.pos),
+            span: self.span_to_pos(start),
             value: 0.0,
         }
     }
 
     fn error(&mut self, start: usize, message: String) -> Token {
-        self.errors
-            .push(Diagnostic::error(Span::new(start, self.pos), message));
+        let span = self.span_to_pos(start);
+        self.errors.push(Diagnostic::error(span, message));
         self.token(TokenKind::Error, start)
     }
 
-    /// Skips blanks and comments; reports an unterminated comment.
+    /// Skips blanks and comments, reading more of a streamed text as it goes; reports an
+    /// unterminated comment.
     fn skip_trivia(&mut self) {
-        let b = self.bytes;
         loop {
+            let b = self.text.as_bytes();
             while self.pos < b.len() && b[self.pos].is_ascii_whitespace() {
                 self.pos += 1;
             }
-            if self.pos + 1 < b.len() && b[self.pos] == b'/' && b[self.pos + 1] == b'*' {
-                let start = self.pos;
-                match find_comment_end(&b[self.pos + 2..]) {
-                    Some(len) => self.pos += 2 + len + 2,
-                    None => {
-                        self.pos = b.len();
-                        self.errors.push(Diagnostic::error(
-                            Span::new(start, start + 2),
-                            "unterminated comment: `/*` has no closing `*/`",
-                        ));
-                    }
+            if self.pos == b.len() {
+                if self.fill() {
+                    continue;
                 }
-            } else {
+                return;
+            }
+            if !(self.pos + 1 < b.len() && b[self.pos] == b'/' && b[self.pos + 1] == b'*') {
+                return;
+            }
+            self.skip_comment();
+        }
+    }
+
+    /// Skips the comment at the scan position, through its `*/`, reading more of a streamed
+    /// text until it is found; at the end of the text, reports the comment unterminated.
+    fn skip_comment(&mut self) {
+        let opened = self.base + self.pos;
+        self.pos += 2;
+        loop {
+            let b = self.text.as_bytes();
+            if let Some(len) = find_comment_end(&b[self.pos..]) {
+                self.pos += len + 2;
+                return;
+            }
+            // A `*` at the window's end may open the `*/`: scanning goes on from it.
+            self.pos = b.len().saturating_sub(1).max(self.pos);
+            if !self.fill() {
+                self.pos = self.text.len();
+                self.errors.push(Diagnostic::error(
+                    Span::new(opened, opened + 2),
+                    "unterminated comment: `/*` has no closing `*/`",
+                ));
                 return;
             }
         }
@@ -140,7 +256,7 @@ impl<'a> Lexer<'a> {
     /// The next token; [`TokenKind::Eof`] forever at the end.
     pub fn next_token(&mut self) -> Token {
         self.skip_trivia();
-        let b = self.bytes;
+        let b = self.text.as_bytes();
         let start = self.pos;
         let Some(&c) = b.get(start) else {
             return self.token(TokenKind::Eof, start);
@@ -187,7 +303,7 @@ impl<'a> Lexer<'a> {
     }
 
     fn number(&mut self, start: usize) -> Token {
-        let b = self.bytes;
+        let b = self.text.as_bytes();
         let mut p = start;
         let negative = b[p] == b'-';
         if b[p] == b'-' || b[p] == b'+' {
@@ -222,6 +338,7 @@ impl<'a> Lexer<'a> {
             Ok(e) => e,
             Err(error) => return error,
         };
+        let b = self.text.as_bytes();
         self.pos = p;
         if p < b.len() && (is_ident_byte(b[p]) || b[p] == b'.') {
             while self.pos < b.len() && (is_ident_byte(b[self.pos]) || b[self.pos] == b'.') {
@@ -243,7 +360,7 @@ impl<'a> Lexer<'a> {
             };
             return Token {
                 kind: TokenKind::Number,
-                span: Span::new(start, p),
+                span: self.span_to_pos(start),
                 value: if negative { -v } else { v },
             };
         }
@@ -251,7 +368,7 @@ impl<'a> Lexer<'a> {
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => Token {
                 kind: TokenKind::Number,
-                span: Span::new(start, p),
+                span: self.span_to_pos(start),
                 value: v,
             },
             Ok(_) => self.error(
@@ -272,7 +389,7 @@ impl<'a> Lexer<'a> {
         p: usize,
         exact: &mut bool,
     ) -> Result<(i64, usize), Token> {
-        let b = self.bytes;
+        let b = self.text.as_bytes();
         let mut exponent: i64 = 0;
         if !(p < b.len() && (b[p] == b'e' || b[p] == b'E')) {
             return Ok((exponent, p));
@@ -345,99 +462,4 @@ fn find_comment_end(b: &[u8]) -> Option<usize> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn lex(text: &str) -> (Vec<(TokenKind, f64)>, Vec<String>) {
-        let mut l = Lexer::new(text);
-        let mut out = Vec::new();
-        loop {
-            let t = l.next_token();
-            if t.kind == TokenKind::Eof {
-                break;
-            }
-            out.push((t.kind, t.value));
-        }
-        (
-            out,
-            l.take_errors().into_iter().map(|d| d.message).collect(),
-        )
-    }
-
-    #[test]
-    fn numbers_in_every_written_form() {
-        let (toks, errs) = lex(".5176 -.816497 1e-3 +2 5. -1 0,0,-32 1E+2");
-        assert!(errs.is_empty(), "{errs:?}");
-        let values: Vec<f64> = toks
-            .iter()
-            .filter(|t| t.0 == TokenKind::Number)
-            .map(|t| t.1)
-            .collect();
-        assert_eq!(
-            values,
-            vec![0.5176, -0.816497, 1e-3, 2.0, 5.0, -1.0, 0.0, 0.0, -32.0, 100.0]
-        );
-    }
-
-    #[test]
-    fn fast_path_agrees_with_the_standard_parser() {
-        let mut x: u64 = 12345;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x
-        };
-        for i in 0..200_000 {
-            let bits = next();
-            let v = f64::from_bits(bits);
-            let scaled = (bits % 2_000_000) as f64 / 997.0 - 1000.0;
-            let text = match i % 6 {
-                0 if v.is_finite() => format!("{v}"),
-                1 if v.is_finite() => format!("{v:e}"),
-                2 => format!("{scaled:.3}"),
-                3 => format!("{scaled}"),
-                4 => format!("{}e{}", bits % 100_000, (bits >> 20) % 60).replace("e5", "e-5"),
-                _ => format!("{:.7}", scaled / 1e5).replacen("0.", ".", 1),
-            };
-            let mut l = Lexer::new(&text);
-            let t = l.next_token();
-            let expected: f64 = text.parse().unwrap();
-            if expected.is_finite() {
-                assert_eq!(t.kind, TokenKind::Number, "{text}");
-                assert_eq!(t.value.to_bits(), expected.to_bits(), "{text}");
-            }
-        }
-    }
-
-    #[test]
-    fn punctuation_identifiers_and_comments() {
-        let (toks, errs) = lex("camera( /* a * comment */ at = UNC_Blue ;)");
-        assert!(errs.is_empty());
-        let kinds: Vec<TokenKind> = toks.iter().map(|t| t.0).collect();
-        use TokenKind::*;
-        assert_eq!(
-            kinds,
-            vec![Ident, LParen, Ident, Equals, Ident, Semi, RParen]
-        );
-    }
-
-    #[test]
-    fn byte_order_mark_and_crlf_are_blanks() {
-        let (toks, errs) = lex("\u{feff}begin\r\nend\r\n");
-        assert!(errs.is_empty(), "{errs:?}");
-        assert_eq!(toks.len(), 2);
-    }
-
-    #[test]
-    fn errors_are_reported_not_panicked() {
-        for bad in [
-            "1e999", "-", "1e", "3x", "@", "/* open", "é", "*/", "/", "1..2", ".",
-        ] {
-            let (_, errs) = lex(bad);
-            assert_eq!(errs.len(), 1, "{bad}: {errs:?}");
-        }
-        assert!(lex("1e999").1[0].contains("out of range"));
-        assert!(lex("/* open").1[0].contains("unterminated comment"));
-    }
-}
+mod tests;

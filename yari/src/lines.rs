@@ -1,6 +1,6 @@
 //! A text read once, line by line, from a buffered reader: each line with the byte offset it
 //! starts at, checked as UTF-8 as it goes by. The streaming readers ([`crate::nff`],
-//! [`crate::off`]) tokenize it; an I/O error or a byte that is not UTF-8 ends it, and is
+//! [`crate::off`]) tokenize it, and the YARI lexer reads it through [`LineSupply`]; an I/O error or a byte that is not UTF-8 ends it, and is
 //! kept for the caller ([`TextLines::failure`]).
 
 use std::io::BufRead;
@@ -15,6 +15,22 @@ pub enum TextFailure {
     /// A line is not UTF-8.
     #[error("not a text file (not UTF-8)")]
     NotText,
+}
+
+/// Lines handed out one at a time, appended to a buffer (the streaming lexer's supply).
+pub trait LineSupply {
+    /// Appends the next line (with its `\n`, if it has one) to `out`; false at the end.
+    fn next_line(&mut self, out: &mut String) -> bool;
+}
+
+impl<R: BufRead> LineSupply for TextLines<R> {
+    fn next_line(&mut self, out: &mut String) -> bool {
+        if !self.advance() {
+            return false;
+        }
+        out.push_str(&self.line);
+        true
+    }
 }
 
 /// The lines of a text as they are read.

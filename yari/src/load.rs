@@ -6,9 +6,9 @@
 //!
 //! Every kind is read as a stream ([`stream_path`]): each object goes to the caller as soon
 //! as it is compiled or decoded, so a renderer builds its own geometry without the world's
-//! objects ever being held whole. NFF and OFF are read in one pass, straight from the file
-//! to the compiler; YARI is parsed whole (its text is freed once parsed, each item of its
-//! syntax tree once compiled). No text is kept: the lines that diagnostics point at are
+//! objects ever being held whole. NFF, OFF and YARI are read in one pass, straight from the
+//! file to the compiler (YARI through a window of its text around the statement being
+//! parsed; each item of its syntax tree is freed once compiled). No text is kept: the lines that diagnostics point at are
 //! read again to show them ([`Source::excerpt`]).
 
 use crate::colour::ColourTable;
@@ -148,7 +148,7 @@ pub fn stream_path(
     }
     let name = path.display().to_string();
     let mut lines = TextLines::new(input);
-    let compiled = compile_text(&mut lines, &name, kind, colours, out);
+    let compiled = compile_text(&mut lines, kind, colours, out);
     if let Some(failure) = lines.failure() {
         return Err(match failure {
             TextFailure::Io(source) => io(source),
@@ -220,7 +220,7 @@ pub fn stream_str(
     }
     let src = Source::new(name, text);
     let mut lines = TextLines::new(src.text.as_bytes());
-    match compile_text(&mut lines, name, kind, colours, out) {
+    match compile_text(&mut lines, kind, colours, out) {
         Ok((world, warnings)) => Ok(loaded(world, kind, warnings, Some(src))),
         Err(diagnostics) => Err(SceneError {
             source_text: src,
@@ -237,7 +237,6 @@ pub fn stream_str(
 /// only the compiler's.
 fn compile_text<R: BufRead>(
     lines: &mut TextLines<R>,
-    name: &str,
     kind: InputKind,
     colours: &ColourTable,
     out: &mut ObjectSink<'_>,
@@ -257,15 +256,13 @@ fn compile_text<R: BufRead>(
             crate::off::read_each(lines, &mut |item| compiler.item(&item, &mut *out))?
         }
         _ => {
-            let mut text = String::new();
-            while lines.advance() {
-                text.push_str(lines.line());
-            }
-            // Each item of the world block is compiled as soon as it is parsed, and freed:
-            // the tree is never whole (the text is).
-            let src = Source::new(name, text);
-            let view = crate::parse::parse_each(&src, &mut |item| compiler.item(&item, &mut *out))?;
-            (view, Diagnostics::default())
+            // Each item of the world block is compiled as soon as it is parsed, and freed;
+            // the text is read as the parse needs it, never held whole.
+            let view = crate::parse::parse_each_streamed(lines, &mut |item| {
+                compiler.item(&item, &mut *out)
+            });
+            lines.drain();
+            (view?, Diagnostics::default())
         }
     };
     let (world, compiled) = compiler.finish(&view)?;

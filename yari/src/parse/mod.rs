@@ -18,6 +18,7 @@ mod view;
 use crate::ast::{Block, BodyItem, Scene, Spanned, ViewStmt};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::lexer::{Lexer, Token, TokenKind};
+use crate::lines::LineSupply;
 use crate::span::{Source, Span};
 
 /// The deepest `begin ... end` nesting accepted (the world block is level 1).
@@ -27,7 +28,7 @@ const MAX_ERRORS: usize = 50;
 
 /// Parses a whole YARI scene file.
 pub fn parse(src: &Source) -> Result<Scene, Diagnostics> {
-    let mut p = Parser::new(&src.text);
+    let mut p = Parser::new(Lexer::new(&src.text));
     let scene = p.scene();
     if p.diags.has_errors() {
         Err(p.diags)
@@ -44,7 +45,23 @@ pub fn parse_each(
     src: &Source,
     item: &mut dyn FnMut(Spanned<BodyItem>),
 ) -> Result<Vec<Spanned<ViewStmt>>, Diagnostics> {
-    let mut p = Parser::new(&src.text);
+    each(Parser::new(Lexer::new(&src.text)), item)
+}
+
+/// [`parse_each`] over a text read line by line as the parse needs it: the text is never
+/// held whole, only a window around the statement being parsed. Spans are offsets in the
+/// text; the lines they point at are read again to show them ([`Source::excerpt`]).
+pub fn parse_each_streamed(
+    text: &mut dyn LineSupply,
+    item: &mut dyn FnMut(Spanned<BodyItem>),
+) -> Result<Vec<Spanned<ViewStmt>>, Diagnostics> {
+    each(Parser::new(Lexer::streaming(text)), item)
+}
+
+fn each(
+    mut p: Parser<'_>,
+    item: &mut dyn FnMut(Spanned<BodyItem>),
+) -> Result<Vec<Spanned<ViewStmt>>, Diagnostics> {
     let (view, _) = p.scene_each(item);
     if p.diags.has_errors() {
         Err(p.diags)
@@ -95,8 +112,7 @@ pub(crate) struct Parser<'a> {
 }
 
 impl<'a> Parser<'a> {
-    fn new(text: &'a str) -> Parser<'a> {
-        let mut lex = Lexer::new(text);
+    fn new(mut lex: Lexer<'a>) -> Parser<'a> {
         let tok = lex.next_token();
         let mut diags = Diagnostics::default();
         diags.items.extend(lex.take_errors());
@@ -132,7 +148,8 @@ impl<'a> Parser<'a> {
         t
     }
 
-    pub(crate) fn text(&self, t: Token) -> &'a str {
+    /// The text of a token of the statement being parsed (see [`Parser::statement`]).
+    pub(crate) fn text(&self, t: Token) -> &str {
         self.lex.slice(t.span)
     }
 
@@ -245,8 +262,10 @@ impl<'a> Parser<'a> {
         args: impl FnOnce(&mut Self, Span) -> PResult<T>,
     ) -> Option<(T, Span)> {
         let name = self.bump();
-        let word = self.text(name);
+        // The statement's text is kept from its name on: the name is read again at its end.
+        self.lex.keep_from(name.span.start as usize);
         if !self.at(TokenKind::LParen) {
+            let word = self.text(name).to_owned();
             self.unexpected(&format!("`(` after `{word}`"));
             self.recover(0);
             return None;
@@ -268,10 +287,9 @@ impl<'a> Parser<'a> {
         let span = self.span_from(name.span);
         if !self.eat(TokenKind::Semi) {
             let at = Span::new(self.prev_end, self.prev_end);
-            self.error(
-                at,
-                format!("expected `;` after `{word}(...)`, found {}", self.found()),
-            );
+            let word = self.text(name);
+            let msg = format!("expected `;` after `{word}(...)`, found {}", self.found());
+            self.error(at, msg);
         }
         Some((value, span))
     }

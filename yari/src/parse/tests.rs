@@ -273,3 +273,51 @@ fn parse_each_hands_over_the_items_of_the_tree_and_its_diagnostics() {
         assert_eq!(each.render(&src), whole.render(&src), "{bad}");
     }
 }
+
+/// What [`parse_each`] gives for `text` (its items and preamble, or its rendered errors), and
+/// the same read as a stream `step` bytes at a time.
+fn each_both_ways(text: &str, step: usize) -> (String, String) {
+    let src = Source::new("t.yari", text);
+    let say = |items: Vec<Spanned<BodyItem>>, r: Result<Vec<Spanned<ViewStmt>>, Diagnostics>| {
+        match r {
+            Ok(view) => format!("{view:?}\n{items:?}"),
+            Err(d) => d.render(&src),
+        }
+    };
+    let mut items = Vec::new();
+    let whole = parse_each(&src, &mut |i| items.push(i));
+    let whole = say(items, whole);
+    let mut lines = crate::lines::TextLines::new(text.as_bytes());
+    let mut items = Vec::new();
+    let parser = Parser::new(Lexer::streaming_in_steps(&mut lines, step));
+    let streamed = each(parser, &mut |i| items.push(i));
+    (whole, say(items, streamed))
+}
+
+#[test]
+fn a_streamed_parse_equals_the_whole_one() {
+    let mut texts: Vec<String> = ["tetra16.yari", "cubes.yari"]
+        .iter()
+        .map(|n| crate::test_support::thesis_example(n))
+        .collect();
+    let gears = crate::spd::generate(crate::spd::Database::Gears, 1).unwrap();
+    texts.push(crate::writer::write_scene(&crate::nff::to_yari(&gears)));
+    texts.push("resolution(4,4);\nbegin\n  sphere(center=0,0,0; radius=1)\nend\n".into());
+    texts.push("begin\n polygon(vertices = 3; 0 0 0 1 0 0 0 1 0; normals = 0 0 1);\n sphre(center=0,0,0);\nend".into());
+    texts.push("begin\n attribute(color = 1,0,0; color = 1,0,0);\n sphere(radius = 1);\n camera(at=0,0,0);\nend end".into());
+    texts.push(format!("begin\n{}end\n", "sphere(center=0,0,0 radius=1);\n".repeat(60)));
+    for text in &texts {
+        for step in [1, 100, 1 << 16] {
+            let (whole, streamed) = each_both_ways(text, step);
+            assert_eq!(whole, streamed, "step {step}: {text}");
+        }
+    }
+    // Every truncation of a scene with comments, blocks and an error.
+    let cut_me = "resolution(4,4); /* a\n comment */\nbegin\n attribute(color = 1,0,0);\n \
+                  begin translate(1,0,0); sphere(center=0,0,0; radius=1); end\n \
+                  polygon(vertices = 3; 0,0,0 1,0,0 0,1,0);\n sphere(center=0,0,0 radius=1);\nend\n";
+    for cut in 0..=cut_me.len() {
+        let (whole, streamed) = each_both_ways(&cut_me[..cut], 1);
+        assert_eq!(whole, streamed, "cut at {cut}");
+    }
+}

@@ -70,7 +70,7 @@ impl<'a> Parser<'a> {
     /// the value of each name and reports unknown names.
     pub(crate) fn fields(
         &mut self,
-        mut field: impl FnMut(&mut Self, &'a str, Span) -> PResult<()>,
+        mut field: impl FnMut(&mut Self, &str, Span) -> PResult<()>,
     ) -> PResult<()> {
         while !self.at(TokenKind::RParen) {
             if self.at(TokenKind::Ident) && super::COMMANDS.contains(&self.text(self.tok)) {
@@ -81,7 +81,9 @@ impl<'a> Parser<'a> {
             }
             let name = self.expect(TokenKind::Ident, "a field name")?;
             self.expect(TokenKind::Equals, "`=`")?;
-            field(self, self.text(name), name.span)?;
+            // The name is copied out of the lexer's window, which the value's parse moves.
+            let word = FieldName::of(self.text(name));
+            field(self, word.as_str(), name.span)?;
             if !self.eat(TokenKind::Semi) && !self.at(TokenKind::RParen) {
                 return Err(self.unexpected("`;` or `)`"));
             }
@@ -112,6 +114,34 @@ impl<'a> Parser<'a> {
                 let cmd = self.lex.slice(stmt);
                 Err(self.error(stmt, format!("`{cmd}` is missing `{name} = ...`")))
             }
+        }
+    }
+}
+
+/// A field's name copied out of the source: on the stack when it is short, as every known
+/// field's name is, so a field costs no allocation.
+enum FieldName {
+    Short([u8; 16], usize),
+    Long(String),
+}
+
+impl FieldName {
+    fn of(text: &str) -> FieldName {
+        let mut bytes = [0u8; 16];
+        match bytes.get_mut(..text.len()) {
+            Some(head) => {
+                head.copy_from_slice(text.as_bytes());
+                FieldName::Short(bytes, text.len())
+            }
+            None => FieldName::Long(text.to_owned()),
+        }
+    }
+
+    fn as_str(&self) -> &str {
+        match self {
+            // A copy of a whole `str`, so always UTF-8.
+            FieldName::Short(bytes, len) => std::str::from_utf8(&bytes[..*len]).unwrap_or(""),
+            FieldName::Long(s) => s,
         }
     }
 }
