@@ -78,15 +78,27 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let (client, relay) = tokio::join!(RemClient::from_env(), RemClient::attach_from_env());
     let (client, relay) = (client?, relay?);
     let host = relay.host().to_string();
-    let mut record = own_record(&client, &job, epoch).await?;
-    // What the job is, where it can run and what remd's web view showed of it so far: read
-    // at once, not one round trip after another (a fixed cost of every job).
-    let (stored, hosts, history) = tokio::join!(
+    // A controller that takes over reads the checkpoint only once the record shows its
+    // epoch: from then on its predecessor's writes are refused. The first has none.
+    let fenced = match epoch {
+        0 | 1 => None,
+        _ => Some(own_record(&client, &job, epoch).await?),
+    };
+    // The job's record, what the job is, where it can run and what remd's web view showed
+    // of it so far: read at once, not one round trip after another (a fixed cost of every
+    // job). Nothing is written before the record shows this controller's epoch.
+    let (record, stored, hosts, history) = tokio::join!(
+        async {
+            match fenced {
+                Some(r) => Ok(r),
+                None => own_record(&client, &job, epoch).await,
+            }
+        },
         StoredJob::load(&client, &job),
         client.hosts(),
         web_view::history(&client, &job, &host, epoch)
     );
-    let stored = stored?;
+    let (mut record, stored) = (record?, stored?);
     let (width, height) = (stored.settings.render.width, stored.settings.render.height);
     let lines_in = stored.restored.lines.len() as u32;
     claim(&client, &mut record, &relay, (width, height), lines_in).await?;
@@ -245,21 +257,19 @@ struct StoredJob {
 }
 
 impl StoredJob {
-    /// Reads `JOB.scene` and the checkpoint, which must be of the same model.
+    /// Reads `JOB.scene` and the checkpoint (at once), which must be of the same model.
     async fn load(client: &RemClient, job: &str) -> Result<StoredJob, FarmError> {
         let stored = |reason: &str| FarmError::Stored {
             job: job.to_string(),
             reason: reason.to_string(),
         };
-        let scene_bytes = client
-            .get_checkpoint(&scene_key(job))
-            .await?
-            .ok_or_else(|| stored("its scene is not in REM's store"))?;
+        let key = scene_key(job);
+        let (scene_bytes, restored) =
+            tokio::join!(client.get_checkpoint(&key), checkpoint::load(client, job));
+        let scene_bytes = scene_bytes?.ok_or_else(|| stored("its scene is not in REM's store"))?;
         let scene = proto::Scene::decode(scene_bytes.as_slice())
             .map_err(|e| stored(&format!("its stored scene does not decode: {e}")))?;
-        let restored = checkpoint::load(client, job)
-            .await?
-            .ok_or_else(|| stored("it has no checkpoint"))?;
+        let restored = restored?.ok_or_else(|| stored("it has no checkpoint"))?;
         if scene.model_hash != restored.header.model_hash {
             return Err(stored("its stored scene is not the checkpoint's"));
         }
