@@ -10,6 +10,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Maps in field order, so that a message encodes to the same bytes on both sides
         // (peer calls sign a digest of their body).
         .btree_map(".")
+        // A chunk's bytes are a slice of the caller's buffer, shared, not copied; and a
+        // daemon passes them on to a peer the same way.
+        .bytes(".rem.v1.PutChunkRequest.data")
         .compile_fds(files)?;
     Ok(())
 }

@@ -88,7 +88,9 @@ fn refusal(job: &str, settings: proto::RenderSettings) -> Refusal {
             "the worker exited before its Scene: {events:?}"
         );
 
-        let shipped = model_chunks::ship(&client, &model).await.unwrap();
+        let shipped = model_chunks::ship(&client, &model.clone().into())
+            .await
+            .unwrap();
         let scene = messages::encode(Body::Scene(shipped.scene(settings, job, 0)));
         sender.send(&worker, scene).await.unwrap();
 

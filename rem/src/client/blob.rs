@@ -45,7 +45,8 @@ pub const PUTS_IN_FLIGHT: usize = 4;
 
 /// Puts `data` in chunks of `chunk_bytes` through `client`'s daemon, [`PUTS_IN_FLIGHT`] at
 /// a time; the first failure ends it.
-pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<Put> {
+/// Each chunk is a slice of `data`, shared with the call that sends it, never a copy.
+pub async fn put(client: &RemClient, data: &bytes::Bytes, chunk_bytes: usize) -> Result<Put> {
     let chunk_bytes = chunk_bytes.max(1);
     let count = data.len().div_ceil(chunk_bytes);
     if count > MAX_CHUNKS {
@@ -58,14 +59,16 @@ pub async fn put(client: &RemClient, data: &[u8], chunk_bytes: usize) -> Result<
         chunks: vec![String::new(); count],
         bytes_sent: 0,
     };
-    let mut pieces = data.chunks(chunk_bytes).enumerate();
+    let mut pieces = (0..count)
+        .map(|i| data.slice(i * chunk_bytes..data.len().min((i + 1) * chunk_bytes)))
+        .enumerate();
     let mut flying = tokio::task::JoinSet::new();
     loop {
         while flying.len() < PUTS_IN_FLIGHT {
             let Some((i, piece)) = pieces.next() else {
                 break;
             };
-            let (client, piece) = (client.clone(), piece.to_vec());
+            let client = client.clone();
             flying.spawn(async move {
                 let hash = name_of(&piece);
                 let reply = client.put_chunk(&hash, piece).await?;

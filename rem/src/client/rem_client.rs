@@ -456,7 +456,7 @@ impl RemClient {
 
     /// Caches chunk `hash` (the SHA-256 of `data`, see [`crate::wire::chunk_name::name_of`]) on
     /// this daemon's host and on one more.
-    pub async fn put_chunk(&self, hash: &str, data: Vec<u8>) -> Result<proto::PutChunkReply> {
+    pub async fn put_chunk(&self, hash: &str, data: bytes::Bytes) -> Result<proto::PutChunkReply> {
         let req = proto::PutChunkRequest {
             hash: hash.to_string(),
             data,

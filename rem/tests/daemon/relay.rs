@@ -226,7 +226,9 @@ async fn a_blob_put_several_chunks_at_once_reads_back_in_order_from_the_other_ho
     let (a, b) = (cluster.client(0).await, cluster.client(1).await);
     // 23 chunks of 1000 bytes (the last one short), each different.
     let data: Vec<u8> = (0..22_500u32).map(|i| (i * 7 + i / 1000) as u8).collect();
-    let put = rem::client::blob::put(&a, &data, 1000).await.unwrap();
+    let put = rem::client::blob::put(&a, &data.clone().into(), 1000)
+        .await
+        .unwrap();
     assert_eq!(put.chunks, rem::client::blob::chunk_names(&data, 1000));
     assert!(put.bytes_sent > 0, "each chunk was copied to the peer");
     let got = rem::client::blob::get(&b, &put.chunks, data.len() as u64)

@@ -43,7 +43,7 @@ impl ShippedModel {
 }
 
 /// Puts `model` into REM through `client`'s daemon.
-pub async fn ship(client: &RemClient, model: &[u8]) -> rem::Result<ShippedModel> {
+pub async fn ship(client: &RemClient, model: &bytes::Bytes) -> rem::Result<ShippedModel> {
     let put = rem::client::blob::put(client, model, rem::client::blob::CHUNK_BYTES).await?;
     Ok(ShippedModel {
         chunks: put.chunks,

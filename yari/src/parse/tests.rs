@@ -278,12 +278,11 @@ fn parse_each_hands_over_the_items_of_the_tree_and_its_diagnostics() {
 /// the same read as a stream `step` bytes at a time.
 fn each_both_ways(text: &str, step: usize) -> (String, String) {
     let src = Source::new("t.yari", text);
-    let say = |items: Vec<Spanned<BodyItem>>, r: Result<Vec<Spanned<ViewStmt>>, Diagnostics>| {
-        match r {
+    let say =
+        |items: Vec<Spanned<BodyItem>>, r: Result<Vec<Spanned<ViewStmt>>, Diagnostics>| match r {
             Ok(view) => format!("{view:?}\n{items:?}"),
             Err(d) => d.render(&src),
-        }
-    };
+        };
     let mut items = Vec::new();
     let whole = parse_each(&src, &mut |i| items.push(i));
     let whole = say(items, whole);
@@ -305,7 +304,10 @@ fn a_streamed_parse_equals_the_whole_one() {
     texts.push("resolution(4,4);\nbegin\n  sphere(center=0,0,0; radius=1)\nend\n".into());
     texts.push("begin\n polygon(vertices = 3; 0 0 0 1 0 0 0 1 0; normals = 0 0 1);\n sphre(center=0,0,0);\nend".into());
     texts.push("begin\n attribute(color = 1,0,0; color = 1,0,0);\n sphere(radius = 1);\n camera(at=0,0,0);\nend end".into());
-    texts.push(format!("begin\n{}end\n", "sphere(center=0,0,0 radius=1);\n".repeat(60)));
+    texts.push(format!(
+        "begin\n{}end\n",
+        "sphere(center=0,0,0 radius=1);\n".repeat(60)
+    ));
     for text in &texts {
         for step in [1, 100, 1 << 16] {
             let (whole, streamed) = each_both_ways(text, step);

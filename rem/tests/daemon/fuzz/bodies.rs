@@ -140,7 +140,11 @@ impl Gen<'_> {
                 } else {
                     self.string()
                 };
-                proto::PutChunkRequest { hash, data }.encode_to_vec()
+                proto::PutChunkRequest {
+                    hash,
+                    data: data.into(),
+                }
+                .encode_to_vec()
             }
             Rpc::GetChunk | Rpc::FetchChunk => proto::GetChunkRequest {
                 hash: self.string(),

@@ -11,8 +11,8 @@ use rem::RemClient;
 
 /// A job's model.
 pub enum JobModel {
-    /// Compiled here: the bytes to ship.
-    Bytes(Vec<u8>),
+    /// Compiled here: the bytes to ship (shared: each chunk sent is a slice of them).
+    Bytes(bytes::Bytes),
     /// Shipped before: its chunks are in REM.
     Shipped(ShippedModel),
 }
@@ -46,7 +46,7 @@ impl JobInput {
         JobInput {
             summary: compiled.summary,
             source: compiled.source,
-            model: JobModel::Bytes(compiled.model),
+            model: JobModel::Bytes(compiled.model.into()),
             warnings: compiled.warnings,
             remember,
         }

@@ -128,7 +128,7 @@ pub(super) async fn resume_plan(
         source: compiled.source,
         summary: compiled.summary,
         settings,
-        model: JobModel::Bytes(model),
+        model: JobModel::Bytes(model.into()),
         remember: None,
         output,
         colours,
