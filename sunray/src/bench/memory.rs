@@ -1,5 +1,5 @@
 //! Peak memory of `sunray render` per triangle (issue "Production-size scenes"): writes
-//! tetra at the given size (4^size triangles) with `sunray spd` and compiles it into a model
+//! tetra at the given size (4^size triangles) with `sunray spd` (NFF and YARI) and compiles it into a model
 //! file (what workers receive) with `sunray compile`, renders each with 2 threads at a small
 //! resolution in a child process, and reads the child's peak resident set size (`wait4`'s
 //! `ru_maxrss`). With other programs (an older build) they are run alternately, round by
@@ -77,24 +77,27 @@ fn peak_of(mut cmd: Command, what: &'static str) -> Result<u64, MemoryBenchError
     Ok(usage.ru_maxrss as u64 * 1024)
 }
 
-/// Writes tetra at `size` into `dir` with `program spd`, and its compiled model with
-/// `program compile`; the model's path and the NFF file's.
+/// Writes tetra at `size` into `dir` with `program spd`, as NFF and as YARI, and its compiled
+/// model with `program compile`; the model's path, the NFF file's and the YARI file's.
 pub fn write_tetra(
     program: &Path,
     dir: &Path,
     size: u32,
-) -> Result<[PathBuf; 2], MemoryBenchError> {
+) -> Result<[PathBuf; 3], MemoryBenchError> {
     let nff = dir.join(format!("tetra{size}.nff"));
-    let mut cmd = Command::new(program);
-    cmd.args(["spd", "tetra", "--size", &size.to_string(), "-o"])
-        .arg(&nff);
-    peak_of(cmd, "spd")?;
+    let yari = nff.with_extension("yari");
+    for file in [&nff, &yari] {
+        let mut cmd = Command::new(program);
+        cmd.args(["spd", "tetra", "--size", &size.to_string(), "-o"])
+            .arg(file);
+        peak_of(cmd, "spd")?;
+    }
     let model = nff.with_extension(yari::modelfile::EXTENSION);
     let mut cmd = Command::new(program);
     cmd.arg("compile").arg(&nff).arg("-o").arg(&model);
     cmd.stdout(std::process::Stdio::null());
     peak_of(cmd, "compile")?;
-    Ok([model, nff])
+    Ok([model, nff, yari])
 }
 
 /// Writes the smooth twin of tetra's NFF file `nff` beside it (`NAME-smooth.nff`) and
