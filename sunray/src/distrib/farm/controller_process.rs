@@ -78,34 +78,10 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let (client, relay) = tokio::join!(RemClient::from_env(), RemClient::attach_from_env());
     let (client, relay) = (client?, relay?);
     let host = relay.host().to_string();
-    // A controller that takes over reads the checkpoint only once the record shows its
-    // epoch: from then on its predecessor's writes are refused. The first has none.
-    let fenced = match epoch {
-        0 | 1 => None,
-        _ => Some(own_record(&client, &job, epoch).await?),
-    };
-    // The job's record, what the job is, where it can run and what remd's web view showed
-    // of it so far: read at once, not one round trip after another (a fixed cost of every
-    // job). Nothing is written before the record shows this controller's epoch.
-    let (record, stored, hosts, history) = tokio::join!(
-        async {
-            match fenced {
-                Some(r) => Ok(r),
-                None => own_record(&client, &job, epoch).await,
-            }
-        },
-        StoredJob::load(&client, &job),
-        client.hosts(),
-        web_view::history(&client, &job, &host, epoch)
-    );
-    let (mut record, stored) = (record?, stored?);
+    let (mut record, stored, live, history) = read_job(&client, (&job, epoch), &host).await?;
     let (width, height) = (stored.settings.render.width, stored.settings.render.height);
     let lines_in = stored.restored.lines.len() as u32;
     claim(&client, &mut record, &relay, (width, height), lines_in).await?;
-    let live: Vec<rem::HostInfo> = hosts?
-        .into_iter()
-        .filter(|h| h.alive && h.accepting)
-        .collect();
     let spec = stored.restored.header.spec.clone().unwrap_or_default();
     let count = worker_count(&spec, live.len());
     let checkpointed = Arc::new(AtomicU32::new(lines_in));
@@ -179,6 +155,46 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         .await?;
     }
     Ok(ControllerEnd::Finished)
+}
+
+/// The job's record (once it shows this controller's `epoch`), what the job is, the live
+/// hosts that accept work and what remd's web view (on `host`) showed of the job so far: read
+/// at once, not one round trip after another (a fixed cost of every job). A controller that
+/// takes over reads the checkpoint only once the record shows its epoch: from then on its
+/// predecessor's writes are refused. The first has none.
+async fn read_job(
+    client: &RemClient,
+    (job, epoch): (&str, u64),
+    host: &str,
+) -> Result<
+    (
+        rem::JobRecord,
+        StoredJob,
+        Vec<rem::HostInfo>,
+        Vec<web_view::Event>,
+    ),
+    FarmError,
+> {
+    let fenced = match epoch {
+        0 | 1 => None,
+        _ => Some(own_record(client, job, epoch).await?),
+    };
+    let (record, stored, hosts, history) = tokio::join!(
+        async {
+            match fenced {
+                Some(r) => Ok(r),
+                None => own_record(client, job, epoch).await,
+            }
+        },
+        StoredJob::load(client, job),
+        client.hosts(),
+        web_view::history(client, job, host, epoch)
+    );
+    let live = hosts?
+        .into_iter()
+        .filter(|h| h.alive && h.accepting)
+        .collect();
+    Ok((record?, stored?, live, history))
 }
 
 /// Marks the job's `record` running under this controller (`relay`, on its host) with
