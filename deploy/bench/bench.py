@@ -14,7 +14,8 @@ failover   a detached job (`submit --detach`) on the six workstations, its contr
            job's total time with and without the fault.
 bigscene   tetra of 1,048,576 and 4,194,304 triangles (sizes 10 and 11; BENCH_BIG_SIZES) on
            the six workstations: `sunray render` on ws1 (the user's own workstation), then
-           the scene submitted three times from ws1: time to the first finished
+           the scene submitted three times from ws1, each later submit once no `sunray`
+           process runs on any host (the seconds waited are reported): time to the first finished
            line, total time, bytes the submitting host sent, per node the bytes fetched and
            whether the scene and the BVH were cached, the job's timeline; the later jobs
            find the model on every host (and ws1 finds it remembered: nothing compiled).
@@ -39,6 +40,7 @@ RESULTS = os.path.join(HERE, "results")
 RES = os.environ.get("BENCH_RES", "512x512")
 SAMPLES = os.environ.get("BENCH_SAMPLES", "")
 COUNTS = [int(n) for n in os.environ.get("BENCH_COUNTS", "1 2 4 6 8").split()]
+WORKSTATIONS = [f"ws{i}" for i in range(1, 7)]
 
 
 def compose_cmd():
@@ -88,6 +90,26 @@ class Farm:
             return json.loads(r.stdout)
         except ValueError:
             return []
+
+    def sunray_processes(self, hosts):
+        """How many `sunray` processes (workers, keepers, controllers) run in each of `hosts`'
+        containers, as `docker top` lists them."""
+        counts = {}
+        for host in hosts:
+            cid = self.compose("ps", "-q", host, capture_output=True, text=True).stdout.strip()
+            top = subprocess.run(["docker", "top", cid, "-eo", "pid,comm"], capture_output=True,
+                                 text=True).stdout if cid else ""
+            counts[host] = sum(1 for line in top.splitlines() if line.split()[-1:] == ["sunray"])
+        return counts
+
+    def wait_quiet(self, hosts, limit=300):
+        """Waits (at most `limit` seconds) until no `sunray` process runs on any of `hosts`:
+        the previous job's workers, and the keepers still preparing its scene for the next
+        job, have ended. The seconds waited."""
+        t0 = time.time()
+        while time.time() - t0 < limit and any(self.sunray_processes(hosts).values()):
+            time.sleep(1)
+        return time.time() - t0
 
     def exec_argv(self, via, argv):
         return compose_cmd() + ["-p", self.project, "-f", self.file, "exec", "-T", via] + argv
@@ -276,10 +298,14 @@ def bigscene(sizes=None, flags=None):
             runs[f"{size}-local"] = local_render(farm, "ws1", f"big{size}-local",
                                                  f"/scenes/tetra{size}.nff", flags)
             for run in ["first", "second", "third"]:
+                # A later job starts once the farm is quiet: the hosts that were still
+                # fetching or building the scene when the job before ended have kept it.
+                quiet_s = farm.wait_quiet(WORKSTATIONS) if run != "first" else 0.0
                 r = submit(farm, "ws1", f"big{size}-{run}", 6, scene=f"/scenes/tetra{size}.nff",
                            flags=flags)
                 st = r["stats"]
                 r["summary"] = {
+                    "waited_for_quiet_s": quiet_s,
                     "triangles": st["totals"]["primitives"],
                     "first_line_s": r["first_line_s"],
                     "total_s": r["wall_s"],

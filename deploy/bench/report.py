@@ -204,7 +204,11 @@ def bigscene_section(data, out, name="bigscene"):
                f"triangles on the six workstations, `{flags}`, "
                f"each submitted {'three times' if any(k.endswith('-third') for k in data) else 'twice'} "
                f"from ws1 (`deploy/bench/run.sh {name}`). "
-               "First line: from the start of `sunray submit` to the first finished line; "
+               + ("A later submit waits until no `sunray` process runs on any host: the hosts still "
+                  "fetching or building the scene when the job before ended keep it for the next. "
+                  if any("waited_for_quiet_s" in r.get("summary", {}) for r in data.values()
+                         if isinstance(r, dict)) else "")
+               + "First line: from the start of `sunray submit` to the first finished line; "
                "sent: what the submitting host's remd sent of the model.\n")
     out.append("Hosts that rendered: those whose worker had the scene and its BVH ready before "
                "the job ended (at this image size the slow hosts, 0.25 to 0.5 CPU, may still be "
@@ -250,7 +254,9 @@ def bigscene_section(data, out, name="bigscene"):
                           for k, v in t.items() if isinstance(v, (int, float)))
             steps = ", ".join(f"{k} {v:.2f}" for v, _, k in done)
             ratio = f"; total {r['wall_s'] / local['wall_s']:.2f}x the local render" if local else ""
-            out.append(f"- tetra {size} {run}: {steps}{ratio}")
+            quiet = r["summary"].get("waited_for_quiet_s")
+            waited = f" (submitted after {quiet:.0f} s waiting for the farm to be quiet)" if quiet else ""
+            out.append(f"- tetra {size} {run}{waited}: {steps}{ratio}")
     out.append("")
 
 
