@@ -52,7 +52,9 @@ fn percentile(sorted: &[Duration], p: f64) -> Duration {
 
 async fn run() {
     let mut cluster = RemdProcesses::new(REMD, "bench-cluster-secret");
-    cluster.start_all(3, |_| vec!["--allow".into(), ECHO.into()]);
+    cluster.start_all(3, |_| {
+        vec!["--allow".into(), ECHO.into(), "--allow-any-args".into()]
+    });
     cluster.converge(T).await;
     let client = cluster.client(0).await;
     let mut owner = client.attach(Some("bench")).await.unwrap();

@@ -11,6 +11,7 @@
 //! | `--join` (comma list) | `REMD_JOIN` | `join` (array) | none |
 //! | `--secret-file` | `REM_SECRET_FILE` (or the secret in `REM_SECRET`) | `secret_file` | required |
 //! | `--allow` (repeatable) | `REMD_ALLOW` (comma list) | `allow` (array) | nothing may be spawned |
+//! | `--allow-any-args` | `REMD_ALLOW_ANY_ARGS` | `allow_any_args` | false: every `allow` entry needs `:FIRST\|FIRST` |
 //! | `--env-allow` (repeatable) | `REMD_ENV_ALLOW` | `env_allow` (array) | `SUNRAY_WORKER_*`, `RUST_LOG` |
 //! | `--limit NAME=VALUE` (repeatable) | `REMD_LIMITS` | `[limits]` table | see [`Limits`] |
 //! | `--run-as` | `REMD_RUN_AS` | `run_as` | remd's own user |
@@ -64,6 +65,9 @@ pub struct DaemonOptions {
     /// only these first arguments, e.g. `/usr/local/bin/sunray:worker|controller` (repeatable).
     #[serde(default)]
     pub allow: Vec<String>,
+    /// Accept an `allow` entry without an argument rule (any client may then run it with any
+    /// arguments, as remd's user); refused otherwise.
+    pub allow_any_args: Option<bool>,
     /// Environment variables a spawn may set: names, or prefixes ending in `*` (repeatable)
     /// [default: SUNRAY_WORKER_*, RUST_LOG].
     #[serde(default)]
@@ -219,6 +223,8 @@ impl DaemonSettings {
             .iter()
             .map(|rule| ProgramRule::parse(rule))
             .collect::<Result<_>>()?;
+        let any_args = args.allow_any_args.or(file.allow_any_args).unwrap_or(false);
+        check_argument_rules(&s.policy.programs, any_args)?;
         let env_allow = pick(args.env_allow, file.env_allow);
         if !env_allow.is_empty() {
             s.policy.env_allow = env_allow;
@@ -292,6 +298,21 @@ fn limits_table<'de, D: serde::Deserializer<'de>>(
 }
 
 /// Refuses a secret file that other users may read (or that cannot be examined).
+/// Refuses an allowed program without an argument rule, unless the administrator said so
+/// (`any_args`): with any arguments a multi-tool such as `sunray` writes files wherever remd's
+/// user can (`sunray spd ... -o ANYPATH`) for whoever holds a client key.
+fn check_argument_rules(programs: &[ProgramRule], any_args: bool) -> Result<()> {
+    match programs.iter().find(|r| r.first_args.is_none()) {
+        Some(rule) if !any_args => Err(Error::Config(format!(
+            "--allow {0}: no argument rule, so any client could run it with any arguments; \
+             write {0}:FIRST|FIRST (for sunray: {0}:worker|controller), or add \
+             --allow-any-args to mean it",
+            rule.path.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
 fn check_secret_file(path: &Path) -> Result<()> {
     use std::os::unix::fs::PermissionsExt;
     let meta = std::fs::metadata(path)
@@ -353,6 +374,7 @@ mod tests {
             format!(
                 "name = \"filehost\"\nlisten = \"127.0.0.1:9000\"\nsecret_file = {:?}\n\
                  allow = [\"/bin/true\", \"/usr/bin/sunray:worker|controller\"]\n\
+                 allow_any_args = true\n\
                  probe_ms = 100\nsuspect_ms = 600\n[limits]\nspawn_count = 8\n\
                  mailbox_bytes = \"2M\"\n",
                 secret
@@ -432,6 +454,43 @@ mod tests {
     }
 
     #[test]
+    fn a_program_without_an_argument_rule_needs_allow_any_args() {
+        let dir = tempfile::tempdir().unwrap();
+        let secret = dir.path().join("secret");
+        std::fs::write(&secret, "x").unwrap();
+        private(&secret);
+        let sf = secret.to_str().unwrap();
+        let base = ["remd", "--secret-file", sf, "--allow", "/usr/bin/sunray"];
+        let err = DaemonSettings::from_options(options(base))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("--allow /usr/bin/sunray: no argument rule")
+                && err.contains("/usr/bin/sunray:worker|controller")
+                && err.contains("--allow-any-args"),
+            "{err}"
+        );
+        let ruled = [
+            "remd",
+            "--secret-file",
+            sf,
+            "--allow",
+            "/usr/bin/sunray:worker",
+        ];
+        assert!(DaemonSettings::from_options(options(ruled)).is_ok());
+        let said = [
+            "remd",
+            "--secret-file",
+            sf,
+            "--allow",
+            "/bin/true",
+            "--allow-any-args",
+        ];
+        let s = DaemonSettings::from_options(options(said)).unwrap();
+        assert_eq!(s.policy.programs[0].first_args, None);
+    }
+
+    #[test]
     fn the_shipped_config_file_parses() {
         let text = include_str!("../../../deploy/remd.toml");
         let file: DaemonOptions = toml::from_str(text).unwrap();
@@ -451,6 +510,10 @@ mod tests {
         let mut o = DaemonOptions::default();
         let mut it = argv.into_iter().skip(1);
         while let Some(flag) = it.next() {
+            if flag == "--allow-any-args" {
+                o.allow_any_args = Some(true);
+                continue;
+            }
             let value = it.next().unwrap();
             match flag {
                 "--config" => o.config = Some(value.into()),

@@ -28,14 +28,18 @@ impl Candidate {
     }
 }
 
-/// The host for each of `count` processes, in order.
+/// The host for each of `count` processes, in order; `count` is checked against `max` (the
+/// daemon's spawn_count limit) before anything is allocated for it.
 pub fn place(
     candidates: &[Candidate],
     count: u32,
     allow_same_host: bool,
+    max: u32,
 ) -> Result<Vec<String>, Error> {
-    if count == 0 {
-        return Err(Error::Invalid("count must be at least 1".into()));
+    if count == 0 || count > max {
+        return Err(Error::Invalid(format!(
+            "count {count} is outside 1..={max}"
+        )));
     }
     let mut ranked: Vec<Candidate> = candidates.to_vec();
     let key = |c: &Candidate| {
@@ -94,15 +98,15 @@ mod tests {
     #[test]
     fn least_loaded_first_ties_by_name() {
         let hosts = [c("c", 0.5, 2), c("b", 0.1, 2), c("a", 0.5, 2)];
-        assert_eq!(place(&hosts, 1, false).unwrap(), ["b"]);
-        assert_eq!(place(&hosts, 2, false).unwrap(), ["b", "a"]);
-        assert_eq!(place(&hosts, 3, false).unwrap(), ["b", "a", "c"]);
+        assert_eq!(place(&hosts, 1, false, 256).unwrap(), ["b"]);
+        assert_eq!(place(&hosts, 2, false, 256).unwrap(), ["b", "a"]);
+        assert_eq!(place(&hosts, 3, false, 256).unwrap(), ["b", "a", "c"]);
     }
 
     #[test]
     fn too_few_hosts_is_an_error() {
         let hosts = [c("a", 0.0, 1), c("b", 0.0, 1)];
-        let err = place(&hosts, 3, false).unwrap_err();
+        let err = place(&hosts, 3, false, 256).unwrap_err();
         assert!(matches!(
             err,
             Error::NotEnoughHosts {
@@ -111,15 +115,20 @@ mod tests {
                 ..
             }
         ));
-        assert!(place(&[], 1, true).is_err());
-        assert!(place(&hosts, 0, true).is_err());
+        assert!(place(&[], 1, true, 256).is_err());
+        assert!(place(&hosts, 0, true, 256).is_err());
+        // A count over the limit is refused before anything is reserved for it (u32::MAX
+        // placements would ask for about 100 GB).
+        let err = place(&hosts, u32::MAX, true, 256).unwrap_err();
+        assert!(err.to_string().contains("outside 1..=256"), "{err}");
+        assert_eq!(place(&hosts, 256, true, 256).unwrap().len(), 256);
     }
 
     #[test]
     fn same_host_spreads_by_added_load() {
         // a has 4 cores, b has 1: four processes go a, a, b?, ...
         let hosts = [c("a", 0.0, 4), c("b", 0.1, 1)];
-        let got = place(&hosts, 5, true).unwrap();
+        let got = place(&hosts, 5, true, 256).unwrap();
         // a: 0 -> .25 -> .5 (then b at .1 wins) ...
         assert_eq!(got, ["a", "b", "a", "a", "a"]);
         assert_eq!(got.len(), 5);
@@ -132,7 +141,7 @@ mod tests {
         a.capacity = 0.5;
         let mut b = c("b", 0.3, 8);
         b.capacity = 4.0;
-        let got = place(&[a, b], 4, true).unwrap();
+        let got = place(&[a, b], 4, true, 256).unwrap();
         // a: 0 -> 2; b: .3 -> .55 -> .8 -> 1.05
         assert_eq!(got, ["a", "b", "b", "b"]);
     }

@@ -284,6 +284,7 @@ async fn remd_takes_settings_from_environment_and_config_file() {
         .env("REMD_LISTEN", "127.0.0.1:0")
         .env("REM_SECRET_FILE", &secret)
         .env("REMD_ALLOW", ECHO)
+        .env("REMD_ALLOW_ANY_ARGS", "true")
         .env("RUST_LOG", "warn")
         .stdout(std::process::Stdio::piped())
         .spawn()
@@ -298,7 +299,7 @@ async fn remd_takes_settings_from_environment_and_config_file() {
     std::fs::write(
         &cfg,
         format!(
-            "name = \"filehost\"\nlisten = \"127.0.0.1:0\"\nsecret_file = {secret:?}\njoin = [{env_addr:?}]\nallow = [{ECHO:?}]\n"
+            "name = \"filehost\"\nlisten = \"127.0.0.1:0\"\nsecret_file = {secret:?}\njoin = [{env_addr:?}]\nallow = [{ECHO:?}]\nallow_any_args = true\n"
         ),
     )
     .unwrap();
@@ -334,4 +335,43 @@ async fn remd_takes_settings_from_environment_and_config_file() {
         let _ = child.kill();
         let _ = child.wait();
     }
+}
+
+#[test]
+fn remd_refuses_a_program_without_an_argument_rule_unless_told() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let secret = dir.path().join("secret");
+    rem::auth::secret::write_private(&secret, "rule-secret\n").unwrap();
+    let remd = |extra: &[&str]| {
+        std::process::Command::new(REMD)
+            .args(["--listen", "127.0.0.1:0", "--secret-file"])
+            .arg(&secret)
+            .args(["--allow", "/usr/local/bin/sunray"])
+            .args(extra)
+            .env("RUST_LOG", "warn")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    // Any client could run `sunray spd ... -o ANYPATH` as remd's user: refused, in one line.
+    let refused = remd(&[]).wait_with_output().unwrap();
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{said}");
+    assert_eq!(said.trim_end().lines().count(), 1, "{said}");
+    assert!(
+        said.contains("--allow /usr/local/bin/sunray: no argument rule")
+            && said.contains("/usr/local/bin/sunray:worker|controller"),
+        "{said}"
+    );
+    // The administrator says it is meant: the daemon starts.
+    let mut meant = remd(&["--allow-any-args"]);
+    let mut line = String::new();
+    std::io::BufReader::new(meant.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert!(rem::wire::listening_addr(&line).is_some(), "{line}");
+    meant.kill().unwrap();
+    meant.wait().unwrap();
 }

@@ -27,12 +27,14 @@ pub fn remds(n: usize, extra: &[&str]) -> RemdProcesses {
     remds_allowing(n, &[ECHO], extra)
 }
 
-/// Like [`remds`], with these `--allow` rules instead of rem-echo alone.
+/// Like [`remds`], with these `--allow` rules instead of rem-echo alone (rem-echo is a test
+/// program, allowed with any arguments: `--allow-any-args`).
 pub fn remds_allowing(n: usize, allow: &[&str], extra: &[&str]) -> RemdProcesses {
     let mut c = RemdProcesses::new(REMD, SECRET);
     let flags: Vec<String> = allow
         .iter()
         .flat_map(|r| ["--allow", r])
+        .chain(["--allow-any-args"])
         .chain(extra.iter().copied())
         .map(String::from)
         .collect();
@@ -47,7 +49,7 @@ pub fn start_daemon(
     join: Option<&str>,
     extra: &[&str],
 ) -> Remd {
-    let flags: Vec<String> = ["--allow", ECHO]
+    let flags: Vec<String> = ["--allow", ECHO, "--allow-any-args"]
         .iter()
         .chain(extra)
         .map(|s| s.to_string())

@@ -38,6 +38,10 @@ pub struct RemdArgs {
     /// only these first arguments, e.g. `/usr/local/bin/sunray:worker|controller` (repeatable).
     #[arg(long = "allow", env = "REMD_ALLOW", value_delimiter = ',')]
     pub allow: Vec<String>,
+    /// Accept `--allow PATH` without an argument rule: any client may then run PATH with any
+    /// arguments, as remd's user (refused without this flag).
+    #[arg(long, env = "REMD_ALLOW_ANY_ARGS")]
+    pub allow_any_args: bool,
     /// Environment variables a spawn may set: names, or prefixes ending in `*` (repeatable)
     /// [default: SUNRAY_WORKER_*, RUST_LOG].
     #[arg(long = "env-allow", env = "REMD_ENV_ALLOW", value_delimiter = ',')]
@@ -101,6 +105,7 @@ impl RemdArgs {
             join: self.join,
             secret_file: self.secret_file,
             allow: self.allow,
+            allow_any_args: self.allow_any_args.then_some(true),
             env_allow: self.env_allow,
             limits: self.limits,
             run_as: self.run_as,
@@ -133,6 +138,7 @@ mod tests {
             "h",
             "--allow",
             "/a,/b",
+            "--allow-any-args",
             "--limit",
             "spawn_count=8",
             "--insecure",
@@ -141,6 +147,7 @@ mod tests {
         assert_eq!(o.config, Some(PathBuf::from("c.toml")));
         assert_eq!(o.name.as_deref(), Some("h"));
         assert_eq!(o.allow, ["/a", "/b"]);
+        assert_eq!(o.allow_any_args, Some(true));
         assert_eq!(o.limits, ["spawn_count=8"]);
         assert_eq!(o.insecure, Some(true));
     }

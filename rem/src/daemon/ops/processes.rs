@@ -36,7 +36,12 @@ impl Daemon {
     ) -> Result<SpawnReply> {
         let job = self.check_spawn(who, &req)?;
         let candidates = self.candidates(&req)?;
-        let chosen = placement::place(&candidates, req.count, req.allow_same_host)?;
+        let chosen = placement::place(
+            &candidates,
+            req.count,
+            req.allow_same_host,
+            self.limits.spawn_count,
+        )?;
         let mut per_host: BTreeMap<String, u32> = BTreeMap::new();
         for h in chosen {
             *per_host.entry(h).or_default() += 1;
