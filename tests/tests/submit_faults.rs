@@ -266,6 +266,87 @@ fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
     assert_eq!(s["lines"]["resumed"].as_u64().unwrap(), kept);
 }
 
+/// Ctrl-C on the default set-up (the private remd, which ends with the command): one line
+/// says what the checkpoint kept and how to go on, the record says `interrupted` (never
+/// `running`), no worker is left, and `--resume` finishes the image byte-identical.
+#[test]
+fn ctrl_c_on_the_default_set_up_says_what_was_kept_and_the_job_resumes() {
+    let state = tempfile::tempdir().unwrap();
+    let job = job();
+    let id = "interrupted-1";
+    let here = || {
+        let mut c = sunray();
+        c.env("SUNRAY_STATE_DIR", state.path());
+        c
+    };
+    let mut c = here();
+    c.env("SUNRAY_WORKER_LINE_DELAY_MS", "60")
+        .args([
+            "submit",
+            "--hosts",
+            "2",
+            "--job",
+            id,
+            "--checkpoint-ms",
+            "100",
+        ])
+        .args(FLAGS)
+        .arg(spd("mount6"))
+        .arg("-o")
+        .arg(&job.out);
+    let mut run = SubmitRun::start(c);
+    let stored = run.wait_until(Duration::from_secs(60), |seen| {
+        seen.iter()
+            .filter(|v| v["event"] == "checkpoint")
+            .filter_map(|v| v["lines"].as_u64())
+            .find(|&l| l >= 12)
+    });
+    let workers: Vec<i32> = (1..=2).map(|n| run.worker_pid(n)).collect();
+    signal(run.child.id() as i32, libc::SIGINT);
+    let status = run.wait(Duration::from_secs(60));
+    let said = run.text();
+    assert_eq!(status.code(), Some(130), "{said}");
+    let lines: Vec<&str> = said.lines().collect();
+    assert_eq!(lines.len(), 1, "one line: {said}");
+    assert!(
+        lines[0].starts_with(&format!("sunray: job {id} interrupted: "))
+            && lines[0].ends_with(&format!("`sunray submit --resume {id}` continues it")),
+        "{said}"
+    );
+    assert!(!job.out.exists(), "no image from the interrupted run");
+    for pid in workers {
+        // SAFETY-free check: kill(pid, 0) fails once the worker is gone (its pid unused).
+        let gone = unsafe { libc::kill(pid, 0) } != 0;
+        assert!(gone, "worker {pid} outlived the interrupted job");
+    }
+    let out = output(here().args(["jobs", "--json"]));
+    let listed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let entry = &listed[0];
+    assert_eq!(
+        (&entry["job"], &entry["state"]),
+        (&id.into(), &"interrupted".into()),
+        "{listed}"
+    );
+    let kept = entry["lines_done"].as_u64().unwrap();
+    assert!(
+        (stored..LINES).contains(&kept),
+        "{entry}: {stored} were checkpointed"
+    );
+    assert!(
+        lines[0].contains(&format!(": {kept} of {LINES} lines")),
+        "{said}"
+    );
+
+    let out = output(
+        here()
+            .args(["submit", "--resume", id, "-q", "--stats-json"])
+            .arg(&job.json),
+    );
+    assert!(out.status.success());
+    let s = check(&job, 1, "ok");
+    assert_eq!(s["lines"]["resumed"].as_u64().unwrap(), kept);
+}
+
 /// Workers that hang before saying Ready (a worker test hook) are timed out like silent ones:
 /// the job does not wait for them forever; with none left it says so (exit 3).
 #[test]

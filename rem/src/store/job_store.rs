@@ -24,27 +24,30 @@ use crate::store::checkpoint::CheckpointStore;
 use crate::wire::proto::{Checkpoint, JobRecord};
 
 /// The states a record may be in.
-pub const STATES: [&str; 6] = [
+pub const STATES: [&str; 7] = [
     "queued",
     "running",
     "recovering",
     "finished",
     "failed",
     "cancelled",
+    "interrupted",
 ];
 
 /// Longest job title (`JobRecord.title`), in bytes.
 pub const MAX_TITLE: usize = 200;
 
-/// True for the states of a job that will not run again.
+/// True for the states of a job that will not run again (an interrupted job, stopped with the
+/// command that ran its controller, runs again only when a user resumes it).
 pub fn is_ended(state: &str) -> bool {
-    matches!(state, "finished" | "failed" | "cancelled")
+    matches!(state, "finished" | "failed" | "cancelled" | "interrupted")
 }
 
 /// How an ended job is said: "has finished", "has failed", "was cancelled".
 fn ended_verb(state: &str) -> String {
     match state {
         "cancelled" => "been cancelled".into(),
+        "interrupted" => "been interrupted".into(),
         s => s.to_string(),
     }
 }

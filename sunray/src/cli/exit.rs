@@ -18,3 +18,7 @@ pub const SUPERSEDED: u8 = 5;
 
 /// `sunray submit` following a farm job: Ctrl-C stopped the following; the job goes on.
 pub const STOPPED_FOLLOWING: u8 = 130;
+
+/// `sunray submit` running its job's controller here (the default set-up, `--in-process`,
+/// `--resume`): Ctrl-C stopped the job; its checkpoint keeps what was done.
+pub const INTERRUPTED: u8 = 130;

@@ -12,7 +12,7 @@ use crate::distrib::connection::RemConnection;
 use crate::distrib::farm::follow::{self, Ended, WatchView};
 use crate::distrib::farm::{self, ControllerFlags, FarmError, Submitted};
 use crate::distrib::job::input::{JobInput, Recalled};
-use crate::distrib::job::{self, JobRequest, JobScene};
+use crate::distrib::job::{self, JobError, JobRequest, JobScene};
 use crate::distrib::strategy::Strategy;
 use crate::distrib::timeline::JobClock;
 use crate::scene::load::BUILTIN;
@@ -167,7 +167,11 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         };
         cluster.close().await;
         outcome
-    })?;
+    });
+    let outcome = match outcome {
+        Ok(outcome) => outcome,
+        Err(e) => return interrupted_or(e),
+    };
     let stats = &outcome.stats;
     if !args.render.quiet {
         eprint!("{}", stats.summary());
@@ -185,6 +189,18 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::from(exit::NO_WORKERS_LEFT));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A job that Ctrl-C interrupted says so in one line (what its checkpoint kept, how to go on)
+/// and exits 130; any other error is returned.
+fn interrupted_or(e: anyhow::Error) -> anyhow::Result<ExitCode> {
+    match e.downcast_ref::<JobError>() {
+        Some(interrupted @ JobError::Interrupted { .. }) => {
+            eprintln!("sunray: {interrupted}");
+            Ok(ExitCode::from(exit::INTERRUPTED))
+        }
+        _ => Err(e),
+    }
 }
 
 /// The new job's scene as remembered from an earlier submit of the same file (checked

@@ -158,6 +158,8 @@ pub(crate) async fn run_controller<S: ControllerSite>(
         Image(controller::JobResult),
         StandDown(String),
     }
+    // A controller that stands down stops at once: it says and writes nothing more.
+    let stop = handle.task.abort_handle();
     let (mut image, joined) = handle.split();
     tokio::pin!(joined);
     let first = tokio::select! {
@@ -166,7 +168,10 @@ pub(crate) async fn run_controller<S: ControllerSite>(
         why = site.hold() => First::StandDown(why),
     };
     let result = match first {
-        First::StandDown(why) => return Ok(Ran::Superseded(why)),
+        First::StandDown(why) => {
+            stop.abort();
+            return Ok(Ran::Superseded(why));
+        }
         First::Joined(r) => r,
         First::Image(now) => {
             let at_image = job_stats(&job, strategy, totals.clone(), now);

@@ -37,6 +37,8 @@ struct InProcess<'a> {
     live: Vec<rem::HostInfo>,
     /// A resumed job's lines are all in already: no worker is started.
     all_in: bool,
+    /// Ctrl-C stopped the job.
+    interrupted: bool,
 }
 
 impl ControllerSite for InProcess<'_> {
@@ -54,9 +56,13 @@ impl ControllerSite for InProcess<'_> {
         Ok(WorkerProc::placed(&spawned, &self.live))
     }
 
-    /// Nobody takes an in-process job over: it never stands down.
+    /// Nobody takes an in-process job over; Ctrl-C stops it (it stops with this process).
     async fn hold(&mut self) -> String {
-        std::future::pending().await
+        if tokio::signal::ctrl_c().await.is_err() {
+            return std::future::pending().await;
+        }
+        self.interrupted = true;
+        "interrupted".into()
     }
 
     fn controller_failed(&self, e: ControllerError) -> JobError {
@@ -131,9 +137,13 @@ async fn run_plan(
         allow_same_host,
         live,
         all_in,
+        interrupted: false,
     };
     let ended = match drive::run_controller(&mut site, start, totals).await? {
         Ran::Ended(ended) => ended,
+        Ran::Superseded(_) if site.interrupted => {
+            return Err(interrupted(cluster, &plan, entry, epoch).await);
+        }
         Ran::Superseded(why) => {
             return Err(JobError::Controller(ControllerError::Superseded(why)));
         }
@@ -152,6 +162,29 @@ async fn run_plan(
         finished: ended.finished,
         stats,
     })
+}
+
+/// Ends a job that Ctrl-C interrupted: its record `interrupted` with the lines its checkpoint
+/// holds (what a `--resume` starts from), and the error that says so. Its workers end with
+/// this process's end (the private remd's, or their controller's link to remd).
+async fn interrupted(
+    cluster: &RemConnection,
+    plan: &Plan,
+    mut entry: proto::JobEntry,
+    epoch: u64,
+) -> JobError {
+    let kept = match checkpoint::load(&cluster.client, &plan.job).await {
+        Ok(Some(restored)) => restored.lines.len(),
+        _ => entry.lines_done as usize,
+    };
+    entry.lines_done = kept as u32;
+    entry.state = "interrupted".into();
+    record_update(cluster, &entry, plan.settings.render.width, epoch).await;
+    JobError::Interrupted {
+        job: plan.job.clone(),
+        kept,
+        lines: plan.settings.render.height,
+    }
 }
 
 /// Writes the job's first checkpoint (of the model with `model_hash`, as its shipping

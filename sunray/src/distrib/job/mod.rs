@@ -124,6 +124,16 @@ pub enum JobError {
     /// REM could not start the workers.
     #[error("starting the workers: {0}")]
     Spawn(ConnectionError),
+    /// Ctrl-C stopped a job whose controller runs in this process: it stops with it.
+    #[error("job {job} interrupted: {kept} of {lines} lines are in its checkpoint; `sunray submit --resume {job}` continues it")]
+    Interrupted {
+        /// The job.
+        job: String,
+        /// Lines its checkpoint holds.
+        kept: usize,
+        /// Lines of the image.
+        lines: u32,
+    },
     /// The checkpoint of a job to resume could not be read.
     #[error("reading the checkpoint of job {job}: {source}")]
     ReadCheckpoint {
