@@ -52,7 +52,7 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
                 .count();
             serde_json::json!({
                 "job": j.job,
-                "state": job_record::shown_state(j, workers, now, 15_000),
+                "state": job_record::shown_state(j, workers, now, job_record::STALE_MS),
                 "lines_done": j.lines_done,
                 "lines": j.height,
                 "hosts": j.hosts,

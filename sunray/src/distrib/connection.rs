@@ -3,7 +3,7 @@
 //! cluster's certificate, verified against `REM_TLS_DOMAIN`), or else a private embedded one.
 //! Every way this can fail gets its own clear error.
 
-use super::embedded;
+use super::{embedded, job_record};
 use rem::daemon::embedded::EmbeddedRemd;
 use rem::{RemClient, Secret};
 use std::path::Path;
@@ -114,6 +114,9 @@ impl RemConnection {
                     .map_err(ConnectionError::Embedded)?;
                 let opts = rem::ConnectOptions::new(rem.addr(), rem.secret().clone());
                 let client = connect(opts).await?;
+                // The private daemon's state outlives it: jobs of commands that ended without
+                // saying so are recorded interrupted, never left running.
+                job_record::close_abandoned(&client, crate::distrib::checkpoint::unix_ms()).await;
                 Ok(RemConnection {
                     client,
                     addr: rem.addr().to_string(),

@@ -70,4 +70,47 @@ mod tests {
             let _ = std::fs::remove_dir_all(dir);
         });
     }
+
+    #[test]
+    fn a_job_left_running_by_a_command_that_ended_is_recorded_interrupted() {
+        use crate::distrib::job_record::{self, close_abandoned, STALE_MS};
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        rt.block_on(async {
+            let dir = tempfile::tempdir().unwrap();
+            let rem = start(PathBuf::from("/bin/true"), Some(dir.path().to_path_buf()))
+                .await
+                .unwrap();
+            let client = rem.client().await.unwrap();
+            for (job, state) in [("gone", "running"), ("done", "finished")] {
+                let entry = crate::distrib::messages::proto::JobEntry {
+                    job: job.into(),
+                    state: state.into(),
+                    height: 64,
+                    lines_done: 9,
+                    ..Default::default()
+                };
+                job_record::update(&client, &entry, 64, 1).await.unwrap();
+            }
+            let states = || async {
+                let mut s: Vec<(String, String)> = job_record::list(&client)
+                    .await
+                    .unwrap()
+                    .into_iter()
+                    .map(|e| (e.job, e.state))
+                    .collect();
+                s.sort();
+                s
+            };
+            let now = crate::distrib::checkpoint::unix_ms();
+            // Written a moment ago: its command may still be running it.
+            close_abandoned(&client, now).await;
+            assert_eq!(states().await[1], ("gone".into(), "running".into()));
+            // Unwritten for longer than STALE_MS: its command is gone.
+            close_abandoned(&client, now + STALE_MS + 1_000).await;
+            let after = states().await;
+            assert_eq!(after[0], ("done".into(), "finished".into()));
+            assert_eq!(after[1], ("gone".into(), "interrupted".into()));
+            rem.stop().await;
+        });
+    }
 }

@@ -118,6 +118,32 @@ fn catch_up(e: &mut JobEntry, h: &CheckpointHeader) {
     e.updated_unix_ms = e.updated_unix_ms.max(h.updated_unix_ms);
 }
 
+/// How long a running job's record and checkpoint may go unwritten, with no live worker,
+/// before the job counts as interrupted.
+pub const STALE_MS: u64 = 15_000;
+
+/// Records `interrupted` for each job that a record still calls running but that counts as
+/// interrupted at `now_ms` ([`shown_state`] with no live worker): on the private daemon of the
+/// default set-up, whose state outlives it, such a job's command ended without saying so
+/// (killed, crashed) and nothing takes an in-process job over. A failure leaves the record as
+/// it was (`sunray jobs` still shows it interrupted).
+pub async fn close_abandoned(client: &rem::RemClient, now_ms: u64) {
+    let Ok(jobs) = list(client).await else {
+        return;
+    };
+    let abandoned = jobs
+        .iter()
+        .filter(|e| e.state == "running" && shown_state(e, 0, now_ms, STALE_MS) == "interrupted");
+    for e in abandoned {
+        if let Ok(Some(mut r)) = find(client, &e.job).await {
+            r.state = "interrupted".into();
+            r.progress_done = r.progress_done.max(u64::from(e.lines_done));
+            r.message = "its command ended before the job did".into();
+            let _ = client.put_job(r).await;
+        }
+    }
+}
+
 /// A job's state as `sunray jobs` shows it: a job marked running whose controller has not
 /// written for a while and has no live workers was interrupted.
 pub fn shown_state(entry: &JobEntry, live_workers: usize, now_ms: u64, stale_ms: u64) -> String {
