@@ -16,6 +16,7 @@ use super::messages::proto::{CheckpointHeader, CheckpointSegment, FinishedLine, 
 use super::messages::MessageError;
 use crate::film::Film;
 use crate::render::Settings;
+use futures_util::StreamExt;
 use prost::Message;
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -251,6 +252,9 @@ impl Checkpointer {
     }
 }
 
+/// How many of a checkpoint's segments [`load`] reads at once.
+const SEGMENT_READS: usize = 8;
+
 /// Reads the checkpoint of `job`; `None` when there is none.
 pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, CheckpointError> {
     let Some(bytes) = store.get(job).await? else {
@@ -284,15 +288,21 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
     }
     let line_bytes = width as usize * 12;
     let mut lines = BTreeMap::new();
-    for s in 0..header.segments {
-        let key = segment_key(job, s);
-        let bytes = store
-            .get(&key)
-            .await?
-            .ok_or_else(|| CheckpointError::MissingSegment {
-                job: job.to_string(),
-                segment: s,
-            })?;
+    // The segments are read SEGMENT_READS at a time, in order: one round trip each, to a
+    // replica that may be another host, is a fixed cost of every image fetched.
+    let keys: Vec<String> = (0..header.segments).map(|s| segment_key(job, s)).collect();
+    let mut segments = futures_util::stream::iter(keys.into_iter().zip(0..).map(
+        |(key, s): (String, u32)| async move {
+            let got = store.get(&key).await;
+            (key, s, got)
+        },
+    ))
+    .buffered(SEGMENT_READS);
+    while let Some((key, s, got)) = segments.next().await {
+        let bytes = got?.ok_or_else(|| CheckpointError::MissingSegment {
+            job: job.to_string(),
+            segment: s,
+        })?;
         let seg = CheckpointSegment::decode(bytes.as_slice()).map_err(|e| corrupt(&key, e))?;
         for l in seg.lines {
             if l.line >= height {
