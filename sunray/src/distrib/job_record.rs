@@ -104,8 +104,11 @@ pub async fn list(client: &rem::RemClient) -> Result<Vec<JobEntry>, rem::Error> 
     Ok(jobs)
 }
 
-/// A job's checkpoint header, if there is one that decodes.
-async fn header(store: &impl Store, job: &str) -> Result<Option<CheckpointHeader>, rem::Error> {
+/// A job's checkpoint header, if there is one that decodes (its segments are not read).
+pub(crate) async fn header(
+    store: &impl Store,
+    job: &str,
+) -> Result<Option<CheckpointHeader>, rem::Error> {
     Ok(store
         .get(job)
         .await?
@@ -128,14 +131,15 @@ pub const STALE_MS: u64 = 15_000;
 /// (killed, crashed) and nothing takes an in-process job over. A failure leaves the record as
 /// it was (`sunray jobs` still shows it interrupted).
 pub async fn close_abandoned(client: &rem::RemClient, now_ms: u64) {
-    let Ok(jobs) = list(client).await else {
+    let Ok(records) = client.list_jobs().await else {
         return;
     };
-    let abandoned = jobs
-        .iter()
-        .filter(|e| e.state == "running" && shown_state(e, 0, now_ms, STALE_MS) == "interrupted");
-    for e in abandoned {
-        if let Ok(Some(mut r)) = find(client, &e.job).await {
+    for mut r in records.into_iter().filter(|r| r.state == "running") {
+        let mut e = from_record(&r);
+        if let Ok(Some(h)) = header(client, &e.job).await {
+            catch_up(&mut e, &h);
+        }
+        if shown_state(&e, 0, now_ms, STALE_MS) == "interrupted" {
             r.state = "interrupted".into();
             r.progress_done = r.progress_done.max(u64::from(e.lines_done));
             r.message = "its command ended before the job did".into();

@@ -173,8 +173,9 @@ async fn interrupted(
     mut entry: proto::JobEntry,
     epoch: u64,
 ) -> JobError {
-    let kept = match checkpoint::load(&cluster.client, &plan.job).await {
-        Ok(Some(restored)) => restored.lines.len(),
+    // The checkpoint's header counts its lines: its segments need not be read.
+    let kept = match job_record::header(&cluster.client, &plan.job).await {
+        Ok(Some(h)) => h.lines_done as usize,
         _ => entry.lines_done as usize,
     };
     entry.lines_done = kept as u32;
