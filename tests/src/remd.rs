@@ -15,6 +15,9 @@ use rem::testing::RemdProcesses;
 /// that writes nothing for this long is replaced.
 pub const LEASE_MS: u64 = 3000;
 
+/// How long a [`LoopbackCluster`]'s daemons suspect a member before declaring it lost.
+const SUSPECT_MS: u64 = 300;
+
 /// The secret of a [`LoopbackCluster`].
 pub const SECRET: &str = "submit-test-secret";
 
@@ -44,13 +47,20 @@ impl LoopbackCluster {
     /// [`LoopbackCluster::start`], calling `prepare(name, state_dir)` before each daemon
     /// starts (to mount a file system at a part of its state directory, say).
     pub fn start_with(n: usize, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
-        LoopbackCluster::start_inner(n, false, prepare)
+        LoopbackCluster::start_inner(n, false, SUSPECT_MS, prepare)
+    }
+
+    /// [`LoopbackCluster::start`] with daemons that suspect a member that fails a probe for
+    /// `suspect_ms` before they declare it lost (a farm tuned against false alarms: a
+    /// stopped host counts as live that long).
+    pub fn start_suspecting_for(n: usize, suspect_ms: u64) -> LoopbackCluster {
+        LoopbackCluster::start_inner(n, false, suspect_ms, |_, _| {})
     }
 
     /// [`LoopbackCluster::start`], daemon `a` serving its web view too (`--web`, on a port the
     /// OS picks; [`LoopbackCluster::web_url`]).
     pub fn start_web(n: usize) -> LoopbackCluster {
-        LoopbackCluster::start_inner(n, true, |_, _| {})
+        LoopbackCluster::start_inner(n, true, SUSPECT_MS, |_, _| {})
     }
 
     /// The web view's URL of daemon `a` (started by [`LoopbackCluster::start_web`]).
@@ -58,13 +68,18 @@ impl LoopbackCluster {
         self.daemons[0].web.clone().expect("started with start_web")
     }
 
-    fn start_inner(n: usize, web: bool, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
+    fn start_inner(
+        n: usize,
+        web: bool,
+        suspect_ms: u64,
+        prepare: impl Fn(&str, &Path),
+    ) -> LoopbackCluster {
         let mut c = LoopbackCluster(RemdProcesses::new(remd_bin(), SECRET));
         for i in 0..n {
             let name = rem::testing::daemon_name(i);
             let join = c.daemons.first().map(|d| d.addr.clone());
             prepare(&name, &c.state_dir(&name));
-            let d = c.start_daemon(&name, join.as_deref(), web && i == 0);
+            let d = c.start_daemon(&name, join.as_deref(), web && i == 0, suspect_ms);
             c.daemons.push(d);
         }
         c.converge(n);
@@ -77,15 +92,16 @@ impl LoopbackCluster {
             .unwrap_or_default()
     }
 
-    fn start_daemon(&self, name: &str, join: Option<&str>, web: bool) -> Remd {
+    fn start_daemon(&self, name: &str, join: Option<&str>, web: bool, suspect_ms: u64) -> Remd {
         let log = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
             .open(self.dir.path().join(format!("remd-{name}.log")))
             .unwrap();
-        let mut flags: Vec<String> = ["--probe-ms", "150", "--suspect-ms", "300"]
+        let mut flags: Vec<String> = ["--probe-ms", "150", "--suspect-ms"]
             .map(String::from)
             .to_vec();
+        flags.push(suspect_ms.to_string());
         // A stopped farm-job controller is replaced after 3 s without a record write.
         flags.extend(["--limit".into(), format!("job_lease_ms={LEASE_MS}")]);
         flags.extend([

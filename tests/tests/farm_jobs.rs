@@ -6,7 +6,8 @@
 //! its processes, is not restarted, and `sunray jobs` counts the lines of its checkpoint.
 //!
 //! Following a job ([`following`]): Ctrl-C and a lost remd stop the following, not the job.
-//! A scene submitted again unchanged is not compiled again ([`remembered_scenes`]).
+//! A scene submitted again unchanged is not compiled again ([`remembered_scenes`]). The host
+//! keeping the copy of the job's checkpoint stopped holds up no line ([`frozen_replica`]).
 //!
 //! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
 //! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
@@ -23,6 +24,8 @@ use sunray_e2e::submit_run::SubmitRun;
 
 #[path = "farm_jobs/following.rs"]
 mod following;
+#[path = "farm_jobs/frozen_replica.rs"]
+mod frozen_replica;
 #[path = "farm_jobs/remembered_scenes.rs"]
 mod remembered_scenes;
 

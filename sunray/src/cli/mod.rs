@@ -55,7 +55,7 @@ pub enum Command {
     /// Benchmarks: the thesis's Tables 4.1 and 4.2 with our numbers, throughput, build time.
     Bench(bench::BenchArgs),
     /// Render a scene on the SunRay III farm: workers on the least-loaded hosts through REM.
-    Submit(submit::SubmitArgs),
+    Submit(Box<submit::SubmitArgs>),
     /// The SunRay III worker process (started by REM for `submit`, not by hand).
     #[command(hide = true)]
     Worker(worker::WorkerArgs),
@@ -85,7 +85,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::CheckBoard(args) => check_board::run(args),
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
-        Command::Submit(args) => submit::run(args),
+        Command::Submit(args) => submit::run(*args),
         Command::Worker(args) => worker::run(args),
         Command::PrepareScene(args) => prepare_scene::run(args),
         Command::Jobs(args) => jobs::run(args),

@@ -83,6 +83,10 @@ pub struct SubmitArgs {
     /// Allow more than one worker per host.
     #[arg(long)]
     pub same_host: bool,
+    /// Never start a worker on HOST, as REM names it (your own workstation, say); repeat
+    /// it or list several with commas. A farm job keeps to it when it moves.
+    #[arg(long = "avoid-host", value_name = "HOST", value_delimiter = ',')]
+    pub avoid_hosts: Vec<String>,
     /// A worker holding a line longer than this is silent [default: 10 s or 20 slowest lines].
     #[arg(long, hide = true)]
     pub worker_timeout_ms: Option<u64>,
@@ -103,6 +107,7 @@ impl SubmitArgs {
             nice: self.nice,
             strategy: self.strategy,
             same_host: self.same_host,
+            avoid_hosts: self.avoid_hosts.clone(),
             threads: self.render.threads,
             output: self.render.output.clone(),
             colours: self.render.colours.colors.clone(),
@@ -360,7 +365,7 @@ mod tests {
     fn submit(args: &[&str]) -> super::SubmitArgs {
         let argv = ["sunray", "submit"].iter().chain(args);
         match Cli::try_parse_from(argv).unwrap().command {
-            Command::Submit(a) => a,
+            Command::Submit(a) => *a,
             _ => unreachable!(),
         }
     }
@@ -386,5 +391,24 @@ mod tests {
         assert_eq!(a.render.resolution, Some((64, 32)));
         assert_eq!(a.render.source(), SceneSource::File("scene.yari".into()));
         assert!(Cli::try_parse_from(["sunray", "submit", "--job", "a", "--resume", "b"]).is_err());
+    }
+
+    #[test]
+    fn hosts_to_avoid_add_up_and_reach_the_request() {
+        let a = submit(&["--avoid-host", "b,c", "--avoid-host", "d"]);
+        assert_eq!(a.avoid_hosts, ["b", "c", "d"]);
+        let req = a.request("sunray".into());
+        assert_eq!(req.avoid_hosts, ["b", "c", "d"]);
+        let live: Vec<rem::HostInfo> = ["a", "b", "e"]
+            .map(|name| rem::HostInfo {
+                name: name.into(),
+                ..Default::default()
+            })
+            .to_vec();
+        let names: Vec<String> = req.eligible(&live).into_iter().map(|h| h.name).collect();
+        assert_eq!(names, ["a", "e"]);
+        let mut many = req.clone();
+        many.avoid_hosts = vec!["x".into(); rem::wire::MAX_AVOID_HOSTS + 1];
+        assert!(many.check().is_err());
     }
 }

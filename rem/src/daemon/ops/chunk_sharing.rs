@@ -69,14 +69,17 @@ impl Daemon {
             let has = HasChunksRequest {
                 hashes: vec![req.hash.clone()],
             };
+            // Each call is given up once the peer is no longer live (a host stopped).
             let held = self
-                .peers
-                .call(
+                .while_live(
                     &peer.name,
-                    &peer.addr,
-                    method::HAS_CHUNKS,
-                    has,
-                    |mut c, r| async move { c.has_chunks(r).await },
+                    self.peers.call(
+                        &peer.name,
+                        &peer.addr,
+                        method::HAS_CHUNKS,
+                        has,
+                        |mut c, r| async move { c.has_chunks(r).await },
+                    ),
                 )
                 .await;
             if held.is_ok_and(|h| h.has.first() == Some(&true)) {
@@ -84,14 +87,16 @@ impl Daemon {
                 break;
             }
             let sent = self
-                .peers
-                .call_proven(
+                .while_live(
                     &peer.name,
-                    &peer.addr,
-                    method::STORE_CHUNK,
-                    CHUNK_CALL,
-                    req.clone(),
-                    |mut c, r| async move { c.store_chunk(r).await },
+                    self.peers.call_proven(
+                        &peer.name,
+                        &peer.addr,
+                        method::STORE_CHUNK,
+                        CHUNK_CALL,
+                        req.clone(),
+                        |mut c, r| async move { c.store_chunk(r).await },
+                    ),
                 )
                 .await;
             if sent.is_ok() {

@@ -32,6 +32,9 @@ use crate::store::checkpoint::CheckpointStore;
 use crate::store::job_store::JobStore;
 use crate::wire::ids::ProcId;
 
+/// How often a call to a peer looks whether the peer is still live ([`Daemon::while_live`]).
+const LIVENESS_POLL: std::time::Duration = std::time::Duration::from_millis(200);
+
 /// The job epoch a checkpoint write carries (0: none), and the job record it belongs to
 /// (empty: the checkpoint's own key).
 #[derive(Clone, Debug, Default)]
@@ -84,6 +87,30 @@ impl Daemon {
             .into_iter()
             .skip(1)
             .filter(|h| h.alive)
+    }
+
+    /// `call` to peer `name`, given up as soon as the membership no longer counts `name`
+    /// live (a host stopped answers no call, and the peer timeout is longer than SWIM takes
+    /// to find it out): a write that waits for a replica waits for a live one.
+    pub(crate) async fn while_live<R>(
+        &self,
+        name: &str,
+        call: impl std::future::Future<Output = Result<R>>,
+    ) -> Result<R> {
+        tokio::pin!(call);
+        loop {
+            tokio::select! {
+                r = &mut call => return r,
+                () = tokio::time::sleep(LIVENESS_POLL) => {
+                    if !self.live_peers().any(|h| h.name == name) {
+                        return Err(Error::Unreachable {
+                            host: name.to_string(),
+                            reason: "no longer live in the membership".into(),
+                        });
+                    }
+                }
+            }
+        }
     }
 
     /// Asks every live peer the same thing at once; the replies of those that answered.

@@ -98,8 +98,11 @@ impl Daemon {
         let had_peers = !others.is_empty();
         for h in others {
             let stored_there = self
-                .peers
-                .call(&h.name, &h.addr, method, cp.clone(), call.clone())
+                .while_live(
+                    &h.name,
+                    self.peers
+                        .call(&h.name, &h.addr, method, cp.clone(), call.clone()),
+                )
                 .await;
             match stored_there {
                 Ok(_) => {

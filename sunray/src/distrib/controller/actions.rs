@@ -3,8 +3,10 @@
 //! the web view), and winding down when the image is done or no worker is left.
 
 use super::link::WorkerLink;
+use super::store_writer::Report;
 use super::ControllerError;
 use super::{Controller, Input, JobResult};
+use crate::distrib::checkpoint::CheckpointError;
 use crate::distrib::grants::NodeState;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
@@ -64,7 +66,7 @@ impl<L: WorkerLink> Controller<L> {
             .unwrap_or_else(|| Duration::from_secs_f64((20.0 * self.max_line_s).max(10.0)))
     }
 
-    pub(super) async fn on_tick(&mut self) {
+    pub(super) fn on_tick(&mut self) {
         let now = Instant::now();
         let mut silent = self.table.expire(now, self.timeout());
         // A worker says Ready as soon as it is attached; one that has not within the timeout
@@ -85,64 +87,74 @@ impl<L: WorkerLink> Controller<L> {
                 json!({"event": "silent", "node": i + 1, "host": n.host, "given_back": held}),
             );
         }
-        if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every
-            && self.checkpointer.has_pending()
-        {
-            self.save_checkpoint("running").await;
+        if self.last_checkpoint.elapsed() >= self.cfg.checkpoint_every && self.unsaved {
+            self.last_checkpoint = Instant::now();
+            self.unsaved = false;
+            self.writer.save("running");
         }
         self.view.preview(&self.film, false);
         self.view.set_workers(self.table.active_nodes());
-        self.publish(false).await;
+        self.publish(false);
     }
 
-    /// Publishes the job for remd's web view if it has one and a publication is due (or
-    /// `last`; the first tick is the start). A failure never stops the job: the first is a
-    /// warning; a refusal for a newer epoch stands this controller down, as the checkpoint's.
-    pub(super) async fn publish(&mut self, last: bool) {
+    /// Hands the job's publication for remd's web view to the store writer if it has one
+    /// and one is due (or `last`; the first tick is the start).
+    pub(super) fn publish(&mut self, last: bool) {
         let done = self.table.done();
         let Some(web) = self.view.web_mut() else {
             return;
         };
         web.set_timeline(&self.timeline);
-        match web
-            .publish(&self.link, &self.nodes, &self.film, done, last)
-            .await
-        {
-            Ok(()) => {}
-            Err(e) if e.is_fenced() => self.superseded = Some(e.to_string()),
-            Err(e) => {
-                let error = e.to_string();
-                self.view
-                    .note(&format!("sunray: warning: web view: {error}"));
-                self.view
-                    .event(json!({"event": "warning", "about": "web view", "error": error}));
-            }
+        if let Some(p) = web.take_due(&self.nodes, &self.film, done, last) {
+            self.writer.publish(p);
         }
     }
 
-    /// Saves the checkpoint in `state`; whether it was stored.
-    pub(super) async fn save_checkpoint(&mut self, state: &str) -> bool {
+    /// Saves the checkpoint in `state` and waits for it (the end of the job: the image is
+    /// the user's once stored); whether it was stored.
+    pub(super) async fn save_now(&mut self, state: &str) -> bool {
         self.last_checkpoint = Instant::now();
-        match self.checkpointer.save(&self.link, state).await {
-            Ok(()) => {
-                if let Some(c) = &self.cfg.checkpointed {
-                    c.store(
-                        self.checkpointer.lines_done(),
-                        std::sync::atomic::Ordering::Relaxed,
-                    );
-                }
+        let id = self.writer.save(state);
+        while let Some(report) = self.writer.reports.recv().await {
+            let answers = report.save_id() == Some(id);
+            let saved = matches!(report, Report::Saved { .. });
+            self.on_report(report);
+            if answers {
+                return saved;
+            }
+        }
+        false
+    }
+
+    /// What came of a write. A failure never stops the job: a checkpoint's is a warning
+    /// (its lines go in the next save), a publication's is one the first time; a refusal
+    /// for a newer epoch stands this controller down.
+    pub(super) fn on_report(&mut self, report: Report) {
+        match report {
+            Report::Saved { state, lines, .. } => self
+                .view
+                .event(json!({"event": "checkpoint", "state": state, "lines": lines})),
+            Report::SaveFailed {
+                error: CheckpointError::Rem(e),
+                ..
+            } if e.is_fenced() => self.superseded = Some(e.to_string()),
+            Report::SaveFailed { error, .. } => {
+                self.unsaved = true;
                 self.view
-                    .event(json!({"event": "checkpoint", "state": state,
-                    "lines": self.checkpointer.lines_done()}));
-                true
+                    .note(&format!("sunray: warning: checkpoint: {error}"));
             }
-            Err(crate::distrib::checkpoint::CheckpointError::Rem(e)) if e.is_fenced() => {
-                self.superseded = Some(e.to_string());
-                false
-            }
-            Err(e) => {
-                self.view.note(&format!("sunray: warning: checkpoint: {e}"));
-                false
+            Report::Published => {}
+            Report::PublishFailed(e) => {
+                let tell = self.view.web_mut().is_some_and(|w| w.failed(&e));
+                if e.is_fenced() {
+                    self.superseded = Some(e.to_string());
+                } else if tell {
+                    let error = e.to_string();
+                    self.view
+                        .note(&format!("sunray: warning: web view: {error}"));
+                    self.view
+                        .event(json!({"event": "warning", "about": "web view", "error": error}));
+                }
             }
         }
     }

@@ -146,11 +146,12 @@ impl<L: WorkerLink> Controller<L> {
                 self.timeline.last_line = Some(now);
                 self.counters += c;
                 self.lines.rendered += 1;
-                self.checkpointer.record(proto::FinishedLine {
+                self.writer.record(proto::FinishedLine {
                     line: d.line,
                     pixels: d.pixels,
                     counters: Some(proto_counters),
                 });
+                self.unsaved = true;
                 let done = self.table.done();
                 self.view.set_done(done);
                 self.view

@@ -10,10 +10,13 @@
 //! - [`incoming`]: what the relay delivers (worker messages, job events).
 //! - [`actions`]: what the controller does of itself (Assign, the tick, winding down).
 //! - [`link`]: how it reaches the workers and REM's store (REM, or a fake in tests).
+//! - [`store_writer`]: the checkpoint and web view writes, on tasks of their own so that a
+//!   slow store never holds up a grant or the judgement of a silent worker.
 
 mod actions;
 mod incoming;
 pub mod link;
+mod store_writer;
 #[cfg(test)]
 mod tests;
 
@@ -30,7 +33,9 @@ use link::{RemLink, WorkerLink};
 use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
 use serde_json::json;
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::Duration;
+use store_writer::StoreWriter;
 use tokio::sync::{mpsc, oneshot};
 use tokio::time::Instant;
 
@@ -280,7 +285,7 @@ pub fn spawn_with<L: WorkerLink>(
 
 struct Controller<L> {
     cfg: ControllerConfig,
-    link: L,
+    link: Arc<L>,
     procs: Vec<ProcId>,
     by_proc: HashMap<String, usize>,
     table: GrantTable,
@@ -288,7 +293,10 @@ struct Controller<L> {
     nodes: Vec<NodeStats>,
     exited: Vec<bool>,
     finishing: bool,
-    checkpointer: Checkpointer,
+    /// Writes the checkpoint and the web view's publications.
+    writer: StoreWriter,
+    /// Lines finished since the last save was asked for (or one failed).
+    unsaved: bool,
     last_checkpoint: Instant,
     counters: Counters,
     lines: LineCounts,
@@ -337,6 +345,8 @@ impl<L: WorkerLink> Controller<L> {
         let resumed = finished.iter().filter(|f| **f).count() as u32;
         let spawned = Some(cfg.clock.now());
         let timeline = cfg.timeline.clone();
+        let link = Arc::new(link);
+        let writer = StoreWriter::start(link.clone(), checkpointer, cfg.checkpointed.clone());
         let nodes = workers
             .iter()
             .enumerate()
@@ -382,7 +392,8 @@ impl<L: WorkerLink> Controller<L> {
             film,
             nodes,
             finishing: false,
-            checkpointer,
+            writer,
+            unsaved: false,
             last_checkpoint: Instant::now(),
             counters,
             max_line_s: 0.0,
@@ -423,14 +434,14 @@ impl<L: WorkerLink> Controller<L> {
                 input = inbox.recv() => {
                     self.on_input(input.ok_or(rem::Error::Closed)?)?;
                 }
+                Some(report) = self.writer.reports.recv() => self.on_report(report),
                 _ = tick.tick() => {
-                    // What came while the actor was busy (a checkpoint write held up by a
-                    // stopped replica can take seconds) is read before anyone is judged silent:
-                    // silence is the workers', not the controller's own stall.
+                    // What came while the actor was busy is read before anyone is judged
+                    // silent: silence is the workers', not the controller's own stall.
                     while let Ok(input) = inbox.try_recv() {
                         self.on_input(input)?;
                     }
-                    self.on_tick().await
+                    self.on_tick()
                 }
             }
             self.dispatch().await?;
@@ -443,7 +454,7 @@ impl<L: WorkerLink> Controller<L> {
         }
         let finished = self.table.is_finished();
         let stored = self
-            .save_checkpoint(if finished { "finished" } else { "failed" })
+            .save_now(if finished { "finished" } else { "failed" })
             .await;
         if finished && stored {
             self.timeline.image_stored = Some(self.cfg.clock.now());
@@ -461,7 +472,10 @@ impl<L: WorkerLink> Controller<L> {
             json!({"event": if finished { "finished" } else { "failed" },
             "done": self.table.done()}),
         );
-        self.publish(true).await;
+        self.publish(true);
+        for report in self.writer.close().await {
+            self.on_report(report);
+        }
         Ok(self.into_result(finished))
     }
 

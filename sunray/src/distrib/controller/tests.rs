@@ -16,6 +16,7 @@ use std::time::Duration;
 mod stall;
 mod timeline;
 mod web;
+mod writer;
 
 const WIDTH: u32 = 4;
 const JOB: &str = "job-under-test";
@@ -46,6 +47,8 @@ struct Record {
     sent: Vec<(String, Body)>,
     killed: Vec<String>,
     store: HashMap<String, Vec<u8>>,
+    /// The key of every `put` begun, in order.
+    puts: Vec<String>,
     /// How long each `put` takes (a store held up by a stopped replica).
     put_takes: Duration,
 }
@@ -55,7 +58,11 @@ struct FakeLink(Arc<Mutex<Record>>);
 
 impl Store for FakeLink {
     async fn put(&self, key: &str, data: Vec<u8>) -> Result<(), rem::Error> {
-        let takes = self.0.lock().unwrap().put_takes;
+        let takes = {
+            let mut r = self.0.lock().unwrap();
+            r.puts.push(key.to_string());
+            r.put_takes
+        };
         tokio::time::sleep(takes).await;
         self.0.lock().unwrap().store.insert(key.to_string(), data);
         Ok(())

@@ -344,7 +344,18 @@ impl ControllerSite for FarmSite<'_> {
         if more == 0 {
             return Ok(workers);
         }
-        let avoid: Vec<String> = workers.iter().map(|w| w.host.clone()).collect();
+        // Not where the taken-over workers run, nor where the user said.
+        let avoid: Vec<String> = workers
+            .iter()
+            .map(|w| w.host.clone())
+            .chain(
+                self.spec
+                    .avoid_hosts
+                    .iter()
+                    .take(rem::wire::MAX_AVOID_HOSTS)
+                    .cloned(),
+            )
+            .collect();
         let free = self
             .live
             .iter()

@@ -69,11 +69,14 @@ pub(super) async fn keep_lease(
     loop {
         tokio::time::sleep(LEASE_WRITE).await;
         record.progress_done = u64::from(checkpointed.load(Ordering::Relaxed));
-        match put_record(client, record, job).await {
-            Err(e @ FarmError::Superseded { .. }) => return e,
+        // REM stores the record here before it sends the copy to a peer; a peer that hangs
+        // (a host stopped) holds the answer up to REM's peer timeout, longer than a lease,
+        // so the write is left after LEASE_WRITE and the next one renews the lease.
+        match tokio::time::timeout(LEASE_WRITE, put_record(client, record, job)).await {
+            Ok(Err(e @ FarmError::Superseded { .. })) => return e,
             // A daemon that does not answer now may later: the lease is REM's to judge.
-            Err(e) => eprintln!("sunray controller: warning: the job's record: {e}"),
-            Ok(()) => {}
+            Ok(Err(e)) => eprintln!("sunray controller: warning: the job's record: {e}"),
+            Ok(Ok(())) | Err(_) => {}
         }
     }
 }

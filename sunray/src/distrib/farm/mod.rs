@@ -168,7 +168,7 @@ pub async fn submit(
     // Independent reads and writes go at once, not one round trip after another (each is
     // a fixed cost of every job, DESIGN section 10).
     let (live, existing) = tokio::join!(cluster.live_hosts(), job_record::find(client, &plan.job));
-    let live = live.map_err(JobError::from)?;
+    let live = req.eligible(&live.map_err(JobError::from)?);
     if !req.same_host && plan.hosts as usize > live.len() {
         return Err(JobError::TooFewHosts {
             asked: plan.hosts,

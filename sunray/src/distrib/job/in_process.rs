@@ -86,7 +86,7 @@ async fn run_plan(
     let model_ready_s = clock.now();
     let allow_same_host = cluster.is_embedded() || req.same_host;
     let live = cluster.live_hosts().await?;
-    check_hosts(&mut plan, req, allow_same_host, &live)?;
+    check_hosts(&mut plan, req, allow_same_host, &req.eligible(&live))?;
     // The model goes as REM chunks (no message limit; hosts that have them fetch nothing).
     let shipped = plan
         .ship(&cluster.client)
@@ -304,6 +304,7 @@ async fn start_workers(
             allow_same_host,
             job: Some(rem_job),
             owner: Some(owner),
+            avoid_hosts: req.avoid_hosts.clone(),
             ..worker_spawn(&req.worker_program, threads, plan.nice)
         })
         .await

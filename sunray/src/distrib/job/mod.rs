@@ -53,6 +53,8 @@ pub struct JobRequest {
     pub strategy: Option<Strategy>,
     /// Allow more than one worker per host (always so on the embedded default).
     pub same_host: bool,
+    /// Hosts no worker is started on.
+    pub avoid_hosts: Vec<String>,
     /// Render threads per worker [default: every core; on the embedded default, the cores
     /// shared among the workers; on resume, as before].
     pub threads: Option<usize>,
@@ -107,14 +109,17 @@ pub enum JobError {
     /// `--hosts 0`.
     #[error("--hosts must be at least 1")]
     NoHosts,
-    /// More workers asked for than there are live hosts, one per host.
-    #[error("asked for {asked} hosts, but the cluster has {} live host(s): {}", live.len(), live.join(", "))]
+    /// More workers asked for than there are live hosts (not avoided), one per host.
+    #[error("asked for {asked} hosts, but the cluster has {} live host(s) to start them on: {}", live.len(), live.join(", "))]
     TooFewHosts {
         /// Workers asked for.
         asked: u32,
-        /// The live hosts' names.
+        /// The live hosts' names (those not avoided).
         live: Vec<String>,
     },
+    /// More hosts to avoid than REM takes.
+    #[error("{0} hosts to avoid; at most {max}", max = rem::wire::MAX_AVOID_HOSTS)]
+    TooManyAvoided(usize),
     /// The model could not be encoded.
     #[error("cannot encode the model: {0}")]
     Model(#[from] yari::modelfile::ModelFileError),
@@ -251,7 +256,18 @@ impl JobRequest {
         if let Some(job) = &self.job {
             check_job_id(job)?;
         }
+        if self.avoid_hosts.len() > rem::wire::MAX_AVOID_HOSTS {
+            return Err(JobError::TooManyAvoided(self.avoid_hosts.len()));
+        }
         Ok(())
+    }
+
+    /// The `live` hosts a worker may be started on (those not avoided).
+    pub fn eligible(&self, live: &[rem::HostInfo]) -> Vec<rem::HostInfo> {
+        live.iter()
+            .filter(|h| !self.avoid_hosts.contains(&h.name))
+            .cloned()
+            .collect()
     }
 }
 
@@ -271,6 +287,7 @@ pub(crate) fn job_spec(req: &JobRequest, plan: &Plan) -> proto::JobSpec {
         spd_corners: req.overrides.spd_corners,
         threads: plan.threads.unwrap_or(0) as u32,
         same_host: req.same_host,
+        avoid_hosts: req.avoid_hosts.clone(),
     }
 }
 

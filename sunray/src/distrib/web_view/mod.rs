@@ -15,13 +15,16 @@
 //!   full size if the store takes a blob that large.
 //!
 //! A publication is due at the start, then at most once per [`EVERY`] when the lines in or
-//! the events changed, and once at the end. One that fails is tried again after [`RETRY`];
-//! the job never waits for it longer than a write's timeout.
+//! the events changed, and once at the end. One that fails is tried again after [`RETRY`].
+//! The controller takes a [`Publication`] when one is due and its store writer writes it
+//! ([`publication`]): the job never waits for the web view.
 
 use super::checkpoint::{unix_ms, Store};
 use super::nodes::{NodeStats, Outcome, Stage};
 use super::timeline::Timeline;
 use crate::film::Film;
+pub use publication::Publication;
+use publication::Snapshot;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::VecDeque;
@@ -39,11 +42,11 @@ pub const EVERY: Duration = Duration::from_secs(1);
 /// How long after a failed publication the next is tried (a remd that does not answer
 /// must not hold the controller up every second).
 pub const RETRY: Duration = Duration::from_secs(10);
-/// How long one write may take before the publication is given up. Short: the actor waits
-/// for it, and a write whose replica peer hangs (a frozen host) would otherwise add seconds
-/// to the checkpoint's own wait, until every worker looks silent (the compose cluster's
-/// hung-host test saw that once with 2 s).
-const PUT_TIMEOUT: Duration = Duration::from_millis(500);
+/// How long one write may take before the publication is given up. The controller's actor
+/// does not wait for it (its store writer does), but a write whose replica peer hangs (a
+/// frozen host) holds the next publication back, and a page a few seconds old is better
+/// than none.
+const PUT_TIMEOUT: Duration = Duration::from_secs(2);
 /// The longest event text, in characters (a worker's error message can be long).
 const MAX_TEXT: usize = 300;
 
@@ -121,15 +124,15 @@ pub async fn submitted(
     (width, height): (u32, u32),
 ) -> Result<(), WebError> {
     let text = format!("submitted: {title}, {hosts} worker(s)");
-    let view = WebView::new(job, vec![Event::now("submitted", &text)]);
-    view.write(
-        store,
-        &[],
-        Picture::black(width, height)?,
-        (width, height),
-        0,
-    )
-    .await
+    let publication = Publication {
+        job: job.to_string(),
+        events: vec![Event::now("submitted", &text)],
+        timeline: Vec::new(),
+        rows: Vec::new(),
+        image: Snapshot::black(width, height),
+        lines: 0,
+    };
+    publication.write(store).await
 }
 
 /// The events published in `JOB.web.json` (none if it does not parse), then this
@@ -264,9 +267,44 @@ impl WebView {
             && (self.shown != Some(lines) || self.events_changed)
     }
 
-    /// Writes the image and the page's data if due, or always when `last`. Errs on a
-    /// refusal for a newer epoch and on the first failure of any other kind; later ones pass
-    /// in silence (the job goes on, and a warning a second says nothing new).
+    /// The publication due now with `lines` in the image, or always when `last`: the page's
+    /// data and a copy of the image (shrunk while the job runs) as they are, for
+    /// [`Publication::write`] to encode and store (off the controller's actor). The next is
+    /// due after [`EVERY`]; [`WebView::failed`] says when one was not stored.
+    pub fn take_due(
+        &mut self,
+        nodes: &[NodeStats],
+        film: &Film,
+        lines: u32,
+        last: bool,
+    ) -> Option<Publication> {
+        if !last && !self.due(Instant::now(), lines) {
+            return None;
+        }
+        (self.shown, self.events_changed) = (Some(lines), false);
+        self.not_before = Some(Instant::now() + EVERY);
+        Some(Publication {
+            job: self.job.clone(),
+            events: self.events.iter().cloned().collect(),
+            timeline: self.timeline.steps(),
+            rows: nodes.iter().map(row).collect(),
+            image: Snapshot::of(film, last),
+            lines,
+        })
+    }
+
+    /// A publication taken from this view failed with `e`: the next is tried after
+    /// [`RETRY`]. Whether to tell: a refusal for a newer epoch always, any other failure the
+    /// first time only (the job goes on, and a warning a second says nothing new).
+    pub fn failed(&mut self, e: &WebError) -> bool {
+        self.shown = None;
+        self.events_changed = true;
+        self.not_before = Some(Instant::now() + RETRY);
+        e.is_fenced() || !std::mem::replace(&mut self.warned, true)
+    }
+
+    /// Takes the publication due and writes it at once (see [`WebView::take_due`]); errs
+    /// when [`WebView::failed`] says to tell.
     pub async fn publish(
         &mut self,
         store: &impl Store,
@@ -275,60 +313,12 @@ impl WebView {
         lines: u32,
         last: bool,
     ) -> Result<(), WebError> {
-        if !last && !self.due(Instant::now(), lines) {
+        let Some(publication) = self.take_due(nodes, film, lines, last) else {
             return Ok(());
-        }
-        let size = (film.width, film.height);
-        let result = match Picture::of(film, last, store.max_bytes()) {
-            Ok(picture) => self.write(store, nodes, picture, size, lines).await,
-            Err(e) => Err(e),
         };
-        let wait = if result.is_ok() {
-            (self.shown, self.events_changed) = (Some(lines), false);
-            EVERY
-        } else {
-            RETRY
-        };
-        self.not_before = Some(Instant::now() + wait);
-        match result {
-            Err(e) if !e.is_fenced() && std::mem::replace(&mut self.warned, true) => Ok(()),
-            r => r,
-        }
-    }
-
-    /// Writes the image (of a `width` x `height` film), then the page's data (so the data
-    /// never describes an image not yet stored).
-    async fn write(
-        &self,
-        store: &impl Store,
-        nodes: &[NodeStats],
-        picture: Picture,
-        (width, height): (u32, u32),
-        lines: u32,
-    ) -> Result<(), WebError> {
-        let about = json!({"width": width, "height": height, "lines": lines,
-            "full": picture.full, "png_width": picture.width, "png_height": picture.height});
-        let page = self.page(nodes, about)?;
-        put(store, png_key(&self.job), picture.png).await?;
-        put(store, json_key(&self.job), page).await
-    }
-
-    /// The page's data, under [`MAX_JSON_BYTES`] (rows of the table are left out if there
-    /// are thousands of nodes).
-    fn page(&self, nodes: &[NodeStats], about: Value) -> Result<Vec<u8>, WebError> {
-        let mut rows: Vec<Value> = nodes.iter().map(row).collect();
-        loop {
-            let page = json!({
-                "nodes": {"columns": COLUMNS, "rows": rows},
-                "events": self.events,
-                "image": about,
-                "timeline": self.timeline.steps(),
-            });
-            let bytes = serde_json::to_vec(&page)?;
-            if bytes.len() <= MAX_JSON_BYTES || rows.is_empty() {
-                return Ok(bytes);
-            }
-            rows.truncate(rows.len() / 2);
+        match publication.write(store).await {
+            Err(e) if self.failed(&e) => Err(e),
+            _ => Ok(()),
         }
     }
 }
@@ -374,62 +364,11 @@ fn lines(n: u64) -> String {
     format!("{n} line{}", if n == 1 { "" } else { "s" })
 }
 
-/// The image as published.
-struct Picture {
-    png: Vec<u8>,
-    /// The finished job's image at full size (only in the last publication).
-    full: bool,
-    width: u32,
-    height: u32,
-}
-
-impl Picture {
-    fn new(film: &Film, full: bool) -> Result<Picture, WebError> {
-        let (width, height) = (film.width, film.height);
-        let png = film.to_png()?;
-        Ok(Picture {
-            png,
-            full,
-            width,
-            height,
-        })
-    }
-
-    /// `film` shrunk to [`LIVE_SIDE`] while the job runs; at the end at full size if its
-    /// PNG fits `max_bytes`.
-    fn of(film: &Film, last: bool, max_bytes: usize) -> Result<Picture, WebError> {
-        if last {
-            let whole = Picture::new(film, true)?;
-            if whole.png.len() <= max_bytes {
-                return Ok(whole);
-            }
-        }
-        match live_factor(film.width, film.height) {
-            1 => Picture::new(film, false),
-            f => Picture::new(&film.downscaled(f), false),
-        }
-    }
-
-    /// A black `width` x `height` image as it is published while the job runs (without
-    /// making a film that large).
-    fn black(width: u32, height: u32) -> Result<Picture, WebError> {
-        let f = live_factor(width, height);
-        Picture::new(&Film::new(width.div_ceil(f), height.div_ceil(f)), false)
-    }
-}
-
 /// The whole factor that brings the longer side to at most [`LIVE_SIDE`].
 fn live_factor(width: u32, height: u32) -> u32 {
     width.max(height).div_ceil(LIVE_SIDE).max(1)
 }
 
-async fn put(store: &impl Store, key: String, data: Vec<u8>) -> Result<(), WebError> {
-    match tokio::time::timeout(PUT_TIMEOUT, store.put(&key, data)).await {
-        Ok(Ok(())) => Ok(()),
-        Ok(Err(source)) => Err(WebError::Rem { key, source }),
-        Err(_) => Err(WebError::Timeout(key)),
-    }
-}
-
+mod publication;
 #[cfg(test)]
 mod tests;
