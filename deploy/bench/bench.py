@@ -21,6 +21,9 @@ bigscene   tetra of 1,048,576 and 4,194,304 triangles (sizes 10 and 11; BENCH_BI
            find the model on every host (and ws1 finds it remembered: nothing compiled).
 bigscene-long  the same at 1M triangles, 1024x1024 and 256 samples: long enough for every
            workstation to get the scene and render.
+chaos      eight detached jobs of three users while containers are killed, frozen, cut off
+           and restarted (deploy/bench/chaos.py): every job finished and byte-identical,
+           nothing left running, and the table of faults, moves and time lost.
 
 Raw outputs go to deploy/bench/work/ (ignored by git); the report and plots to
 deploy/bench/results/. Every figure in the report is computed from the saved JSON.
@@ -110,6 +113,9 @@ class Farm:
         while time.time() - t0 < limit and any(self.sunray_processes(hosts).values()):
             time.sleep(1)
         return time.time() - t0
+
+    def network(self):
+        return f"{self.project}_farm"
 
     def exec_argv(self, via, argv):
         return compose_cmd() + ["-p", self.project, "-f", self.file, "exec", "-T", via] + argv
@@ -335,6 +341,22 @@ def local_render(farm, via, name, scene, flags):
     return {"wall_s": wall, "stats": stats}
 
 
+def chaos_soak():
+    import chaos
+    scenes = os.environ["SUNRAY_SCENES"]
+    sunray = os.path.join(os.environ.get("CARGO_TARGET_DIR", "target"), "release", "sunray")
+    for db, name in [("tetra", "tetra6"), ("balls", "balls4")]:
+        path = os.path.join(scenes, f"{name}.nff")
+        if not os.path.exists(path):
+            subprocess.run([sunray, "spd", db, "-o", path], check=True)
+    farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"),
+                {"SUNRAY_SCENES": scenes})
+    res = os.environ.get("CHAOS_RES", "96x128")
+    table = chaos.run(farm, WORK, res, os.environ.get("CHAOS_LINE_MS", "100"))
+    table["resolution"] = res
+    return table
+
+
 def hetero():
     scale = {"WS_CPUS_FAST": "0.5", "WS_CPUS_MEDIUM": "0.25", "WS_CPUS_SLOW": "0.125",
              "SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]}
@@ -374,7 +396,7 @@ def main():
             with open(seed) as f:
                 data = json.load(f)
             break
-    if any(not name.startswith("bigscene") for name in which):
+    if any(not name.startswith("bigscene") and name != "chaos" for name in which):
         # The mount6 runs' settings (bigscene keeps its own).
         data["settings"] = {"resolution": RES, "samples": SAMPLES or "default"}
         data["machine"] = (f"{os.cpu_count()} cores, load average "
@@ -382,9 +404,11 @@ def main():
     for name in which:
         data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault,
                       "failover": failover, "bigscene": bigscene,
-                      "bigscene-long": bigscene_long}[name]()
+                      "bigscene-long": bigscene_long, "chaos": chaos_soak}[name]()
         with open(path, "w") as f:
             json.dump(data, f, indent=1, default=str)
+        if name == "chaos" and not data[name]["passed"]:
+            raise SystemExit("chaos: something was lost or left (see the table above)")
     print(f"raw results in {path}")
 
 

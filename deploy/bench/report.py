@@ -196,6 +196,30 @@ def failover_section(data, out):
                    "(Adopt) and started new ones only for the rest.\n")
 
 
+def chaos_section(data, out):
+    out.append("## Chaos soak (faults that overlap, three users)\n")
+    out.append(f"`deploy/bench/run.sh chaos` (seed {data['seed']}, deploy/bench/chaos.py): "
+               f"eight detached jobs of three users (client keys), mount6, tetra6 and balls4 "
+               f"at {data.get('resolution', '?')}, the three strategies, `--hosts 3`, while "
+               f"{data['faults_total']} faults were injected over {data['injected_s']:.0f} s, "
+               "at most two workstations out at once.\n")
+    out.append("| what | count |")
+    out.append("|---|---|")
+    for kind, n in data["faults"].items():
+        out.append(f"| fault: {kind} | {n} |")
+    out.append(f"| controller moves (epochs past the first) | {data['controller_moves']} |")
+    out.append(f"| time lost against the quiet farm, all jobs | {data['time_lost_s']:.1f} s |")
+    out.append(f"| jobs finished, images byte-identical to `sunray render` | "
+               f"{sum(1 for j in data['jobs'] if j.get('identical'))} of {len(data['jobs'])} |")
+    out.append(f"| jobs or images lost | {len(data['lost'])} |")
+    out.append(f"| `sunray` processes left afterwards | {sum(data['sunray_left'].values())} |")
+    biggest = max(data["state_bytes"].values())
+    out.append(f"| largest state directory | {biggest / 1e6:.1f} MB "
+               f"(limit {data['state_limit'] / 1e6:.0f} MB) |")
+    out.append(f"| daemons answering at the end | {len(data['answering'])} of 6 |")
+    out.append("")
+
+
 def bigscene_section(data, out, name="bigscene"):
     if name == "bigscene":
         out.append("## Production-size scenes (chunked, cached, compact)\n")
@@ -281,6 +305,8 @@ def main():
         bigscene_section(data["bigscene"], out)
     if "bigscene-long" in data:
         bigscene_section(data["bigscene-long"], out, "bigscene-long")
+    if "chaos" in data:
+        chaos_section(data["chaos"], out)
     with open(os.path.join(RESULTS, "report.md"), "w") as f:
         f.write("\n".join(out) + "\n")
     shutil.copy(os.path.join(WORK, "bench.json"), os.path.join(RESULTS, "bench.json"))

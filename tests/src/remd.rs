@@ -147,11 +147,21 @@ impl LoopbackCluster {
 
     /// Waits (bounded) until daemon `via` sees exactly `n` hosts alive.
     pub fn wait_alive(&self, via: &str, n: usize) {
+        self.wait_hosts(via, |alive| alive == n)
+    }
+
+    /// Waits (bounded) until daemon `via` sees at least `n` hosts alive (a daemon just
+    /// started again has heard of its peers).
+    pub fn wait_alive_at_least(&self, via: &str, n: usize) {
+        self.wait_hosts(via, |alive| alive >= n)
+    }
+
+    fn wait_hosts(&self, via: &str, enough: impl Fn(usize) -> bool) {
         self.with_client_of(via, |client| async move {
             let end = Instant::now() + Duration::from_secs(20);
             loop {
                 let hosts = client.hosts().await.unwrap();
-                if hosts.iter().filter(|h| h.alive).count() == n {
+                if enough(hosts.iter().filter(|h| h.alive).count()) {
                     return;
                 }
                 assert!(Instant::now() < end, "cluster did not converge: {hosts:#?}");
@@ -247,6 +257,26 @@ impl LoopbackCluster {
         let d = self.daemons.iter_mut().find(|d| d.name == name).unwrap();
         let _ = d.child.kill();
         let _ = d.child.wait();
+    }
+
+    /// Ends daemon `name` with SIGTERM (it ends its processes first) and waits for it
+    /// (bounded; then SIGKILL).
+    pub fn stop_daemon(&mut self, name: &str) {
+        let d = self.daemons.iter_mut().find(|d| d.name == name).unwrap();
+        d.signal(libc::SIGTERM);
+        if d.wait_exit(Duration::from_secs(10)).is_none() {
+            let _ = d.child.kill();
+            let _ = d.child.wait();
+        }
+    }
+
+    /// Starts daemon `name` (killed or stopped before) again on its state directory, joining
+    /// the cluster through daemon `join_via`; it listens on a new port.
+    pub fn restart_daemon(&mut self, name: &str, join_via: &str) {
+        let join = self.daemon(join_via).addr.clone();
+        let d = self.start_daemon(name, Some(&join), false, SUSPECT_MS);
+        let slot = self.daemons.iter_mut().find(|d| d.name == name).unwrap();
+        *slot = d;
     }
 
     /// `sunray submit` against daemon `a`.
