@@ -18,6 +18,7 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 use sunray_e2e::bins::sunray;
 use sunray_e2e::reference::{accel_figures, mapped_figures, reference, scene_figures, succeed};
 use sunray_e2e::remd::LoopbackCluster;
+use sunray_e2e::small_fs::SmallFs;
 
 const FLAGS: [&str; 2] = ["--resolution", "48x32"];
 
@@ -374,64 +375,13 @@ fn cache_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
     files
 }
 
-/// A small tmpfs mounted on a folder of its own, unmounted when dropped.
-struct SmallFs {
-    dir: tempfile::TempDir,
-}
-
-impl SmallFs {
-    /// Mounts a tmpfs of `size` (as mount(8) says it: "10m") or says why it cannot.
-    fn mount(size: &str) -> Result<SmallFs, String> {
-        use std::ffi::CString;
-        use std::os::unix::ffi::OsStrExt;
-        let dir = tempfile::tempdir().unwrap();
-        let target = CString::new(dir.path().as_os_str().as_bytes()).unwrap();
-        let tmpfs = CString::new("tmpfs").unwrap();
-        let data = CString::new(format!("size={size},mode=0755")).unwrap();
-        // SAFETY: every pointer is a NUL-terminated string that outlives the call.
-        let rc = unsafe {
-            libc::mount(
-                tmpfs.as_ptr(),
-                target.as_ptr(),
-                tmpfs.as_ptr(),
-                0,
-                data.as_ptr().cast(),
-            )
-        };
-        if rc != 0 {
-            return Err(std::io::Error::last_os_error().to_string());
-        }
-        Ok(SmallFs { dir })
-    }
-
-    fn path(&self) -> &Path {
-        self.dir.path()
-    }
-}
-
-impl Drop for SmallFs {
-    fn drop(&mut self) {
-        let target = std::ffi::CString::new(self.dir.path().to_string_lossy().as_bytes()).unwrap();
-        // SAFETY: a NUL-terminated path; a lazy unmount has no other precondition.
-        unsafe {
-            libc::umount2(target.as_ptr(), libc::MNT_DETACH);
-        }
-    }
-}
-
 #[test]
 fn a_chunk_cache_on_a_full_file_system_still_gives_the_same_image() {
     let _turn = heavy();
     // Host b's chunk cache is a 10 MiB tmpfs: two of tetra9's seven 4 MiB chunks fit, the
     // third write runs out of space half way.
-    let fs = match SmallFs::mount("10m") {
-        Ok(fs) => fs,
-        // SAFETY: geteuid(2) has no preconditions.
-        Err(why) if unsafe { libc::geteuid() } != 0 => {
-            eprintln!("skipped: not root, so no small tmpfs can be mounted here ({why})");
-            return;
-        }
-        Err(why) => panic!("as root, mounting a 10 MiB tmpfs failed: {why}"),
+    let Some(fs) = SmallFs::mount_as_root("10m") else {
+        return;
     };
     let cluster = LoopbackCluster::start_with(3, |name, state| {
         if name == "b" {

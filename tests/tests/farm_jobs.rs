@@ -7,7 +7,8 @@
 //!
 //! Following a job ([`following`]): Ctrl-C and a lost remd stop the following, not the job.
 //! A scene submitted again unchanged is not compiled again ([`remembered_scenes`]). The host
-//! keeping the copy of the job's checkpoint stopped holds up no line ([`frozen_replica`]).
+//! keeping the copy of the job's checkpoint stopped holds up no line ([`frozen_replica`]); a
+//! full state directory on the controller's host loses nothing ([`full_disk`]).
 //!
 //! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
 //! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
@@ -26,6 +27,8 @@ use sunray_e2e::submit_run::SubmitRun;
 mod following;
 #[path = "farm_jobs/frozen_replica.rs"]
 mod frozen_replica;
+#[path = "farm_jobs/full_disk.rs"]
+mod full_disk;
 #[path = "farm_jobs/remembered_scenes.rs"]
 mod remembered_scenes;
 

@@ -189,7 +189,7 @@ impl CheckpointStore {
         let tmp = user_dir.join(format!(".{}.tmp", cp.job));
         let bytes = cp.encode_to_vec();
         let tmp2 = tmp.clone();
-        tokio::task::spawn_blocking(move || -> std::io::Result<()> {
+        let written = tokio::task::spawn_blocking(move || -> std::io::Result<()> {
             use std::io::Write;
             let mut f = std::fs::File::create(&tmp2)?;
             f.write_all(&bytes)?;
@@ -197,7 +197,14 @@ impl CheckpointStore {
             Ok(())
         })
         .await
-        .map_err(|e| Error::Io(std::io::Error::other(e)))??;
+        .map_err(std::io::Error::other)
+        .and_then(|r| r);
+        if let Err(e) = written {
+            // A full disk: the part written is removed (it is never read: only `*.ckpt` is),
+            // so it does not hold the space the next write needs.
+            let _ = tokio::fs::remove_file(&tmp).await;
+            return Err(Error::Io(e));
+        }
         tokio::fs::rename(&tmp, &path).await?;
         Ok(())
     }

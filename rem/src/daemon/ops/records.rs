@@ -56,22 +56,28 @@ impl Daemon {
             epoch: fence.epoch,
         };
         self.checkpoints.seal(&mut cp);
-        self.checkpoints.put(&cp).await?;
+        let here = kept_here(self.checkpoints.put(&cp).await, &cp.job)?;
         let stored = self
-            .replicate(&cp, method::STORE, |mut c, r| async move {
-                c.store_replica(r).await
-            })
+            .replicate(
+                &cp,
+                method::STORE,
+                |mut c, r| async move { c.store_replica(r).await },
+                here,
+            )
             .await?;
         Ok((cp.version, stored))
     }
 
-    /// Sends `cp` (stored here already) to one more live host, the first in the key's
-    /// rendezvous order that takes it; the hosts that hold it. An error when there are peers and none took it.
+    /// Sends `cp` to live peers in the key's rendezvous order until two hosts hold it: one
+    /// peer when it is stored `here` already, two when this host's disk could not take it
+    /// (a full disk: [`kept_here`]); the hosts that hold it. An error when two hosts could
+    /// hold it and fewer do, or when none does.
     async fn replicate<F, Fut>(
         &self,
         cp: &Checkpoint,
         method: &'static str,
         call: F,
+        here: bool,
     ) -> Result<Vec<String>>
     where
         F: FnOnce(crate::membership::peers::PeerRpc, tonic::Request<Checkpoint>) -> Fut
@@ -85,7 +91,11 @@ impl Daemon {
                 >,
             > + Send,
     {
-        let mut stored = vec![self.name.clone()];
+        let mut stored = if here {
+            vec![self.name.clone()]
+        } else {
+            Vec::new()
+        };
         let mut others: Vec<_> = self.live_peers().collect();
         // The same peer for the same key every time (see `replicas`).
         others.sort_by(|a, b| {
@@ -95,8 +105,11 @@ impl Daemon {
             );
             wb.cmp(&wa).then_with(|| a.name.cmp(&b.name))
         });
-        let had_peers = !others.is_empty();
+        let could_hold = (usize::from(here) + others.len()).min(2);
         for h in others {
+            if stored.len() >= 2 {
+                break;
+            }
             let stored_there = self
                 .while_live(
                     &h.name,
@@ -105,19 +118,21 @@ impl Daemon {
                 )
                 .await;
             match stored_there {
-                Ok(_) => {
-                    stored.push(h.name);
-                    break;
-                }
+                Ok(_) => stored.push(h.name),
                 // A newer epoch is kept there: the writer has been superseded.
                 Err(e) if e.code() == tonic::Code::Aborted => return Err(e),
                 Err(_) => {}
             }
         }
-        if had_peers && stored.len() < 2 {
+        if stored.len() < could_hold.max(1) {
+            let reason = match (here, stored.len()) {
+                (true, _) => "stored only on this host: no live peer took a replica",
+                (false, 0) => "this host's state directory cannot take it and no live peer did",
+                (false, _) => "this host's state directory cannot take it and one peer only did",
+            };
             return Err(Error::Unreachable {
                 host: "any peer".into(),
-                reason: "stored only on this host: no live peer took a replica".into(),
+                reason: reason.into(),
             });
         }
         Ok(stored)
@@ -151,10 +166,13 @@ impl Daemon {
         record.user = who.user.clone();
         record.updated_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
         let cp = self.job_store.seal(&record, &self.name);
-        self.job_store.put(&cp).await?;
-        self.replicate(&cp, method::STORE_JOB, |mut c, r| async move {
-            c.store_job(r).await
-        })
+        let here = kept_here(self.job_store.put(&cp).await, &cp.job)?;
+        self.replicate(
+            &cp,
+            method::STORE_JOB,
+            |mut c, r| async move { c.store_job(r).await },
+            here,
+        )
         .await
     }
 
@@ -219,5 +237,19 @@ impl Daemon {
             }
         }
         Ok(best)
+    }
+}
+
+/// What storing key `key` on this host came to: `Ok(true)` kept; `Ok(false)` this host's disk
+/// could not take it (an I/O error: a full or failing state directory), so two peers keep it
+/// instead, with a warning; any other error (a quota, a newer epoch) is the write's.
+fn kept_here(stored: Result<()>, key: &str) -> Result<bool> {
+    match stored {
+        Ok(()) => Ok(true),
+        Err(Error::Io(e)) => {
+            tracing::warn!(%key, "cannot keep it here ({e}); two peers keep it instead");
+            Ok(false)
+        }
+        Err(e) => Err(e),
     }
 }
