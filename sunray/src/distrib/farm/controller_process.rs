@@ -11,12 +11,12 @@
 //! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
 //! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
 
+use super::job_workers::{start_workers, take_over_workers};
 use super::lease::{keep_lease, own_record, put_record};
 use super::{scene_key, stats_key, FarmError};
 use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Restored, Store};
-use crate::distrib::controller::{self, ControllerConfig, ControllerError, WorkerProc};
+use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
 use crate::distrib::job::drive::{self, ControllerSite, Drive, Ran, Totals};
-use crate::distrib::job::worker_spawn;
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::JobStats;
@@ -370,7 +370,7 @@ impl ControllerSite for FarmSite<'_> {
             0 => Ok(Vec::new()),
             _ => {
                 let spawn = (&self.spec, (job, epoch), more, me);
-                start_workers(client, self.opts, spawn, &self.live, avoid).await
+                start_workers(client, &self.opts.worker_program, spawn, &self.live, avoid).await
             }
         };
         match placed {
@@ -445,65 +445,4 @@ async fn store_finished(
     record.progress_done = u64::from(height);
     record.message.clear();
     put_record(client, record, job).await
-}
-
-/// The running workers of this job's earlier controllers (REM jobs `JOB.wE`, E < `epoch`),
-/// adopted in REM by this controller (`me`): their Exited and Lost events come here now. A
-/// worker that exits meanwhile is left out.
-async fn take_over_workers(
-    client: &RemClient,
-    job: &str,
-    epoch: u64,
-    me: &rem::ProcId,
-    live: &[rem::HostInfo],
-) -> Vec<WorkerProc> {
-    let Ok(procs) = client.ps().await else {
-        return Vec::new();
-    };
-    let prefix = format!("{job}.w");
-    let mut workers = Vec::new();
-    let running = procs.iter().filter(|p| p.state == "running").filter(|p| {
-        p.job
-            .strip_prefix(&prefix)
-            .and_then(|e| e.parse::<u64>().ok())
-            .is_some_and(|e| e < epoch)
-    });
-    for p in running {
-        let Some(proc_id) = rem::ProcId::parse(&p.proc_id) else {
-            continue;
-        };
-        match client.adopt(&proc_id, me).await {
-            Ok(_) => workers.push(WorkerProc {
-                proc_id,
-                host: p.host.clone(),
-                pid: p.pid,
-                load_at_start: controller::load_per_core(live, &p.host),
-                adopted: true,
-            }),
-            Err(e) => eprintln!("sunray controller: not taking over {proc_id}: {e}"),
-        }
-    }
-    workers
-}
-
-/// Starts `count` workers of `spec` owned by this controller (`me`), not on `avoid_hosts`.
-async fn start_workers(
-    client: &RemClient,
-    opts: &ControllerOptions,
-    (spec, (job, epoch), count, me): (&proto::JobSpec, (&str, u64), u32, &rem::ProcId),
-    live: &[rem::HostInfo],
-    avoid_hosts: Vec<String>,
-) -> Result<Vec<WorkerProc>, FarmError> {
-    let threads = (spec.threads > 0).then_some(spec.threads as usize);
-    let spawned = client
-        .spawn(rem::SpawnRequest {
-            count,
-            allow_same_host: spec.same_host,
-            job: Some(format!("{job}.w{epoch}")),
-            owner: Some(me.clone()),
-            avoid_hosts,
-            ..worker_spawn(&opts.worker_program, threads, spec.nice)
-        })
-        .await?;
-    Ok(WorkerProc::placed(&spawned, live))
 }

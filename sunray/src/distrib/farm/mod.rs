@@ -17,11 +17,13 @@
 //! - [`controller_process`]: `sunray controller`, the process REM keeps running for a farm
 //!   job; it runs the [controller actor](super::controller) of the job.
 //! - [`follow`]: `watch`, `fetch` and `cancel`.
+//! - [`job_workers`]: the workers a farm controller takes over or starts.
 //! - [`lease`]: the controller's lease on its job (its record, written at its epoch).
 //! - [`tail`]: the controller's output, read through REM as it is written.
 
 pub mod controller_process;
 pub mod follow;
+mod job_workers;
 mod lease;
 pub mod tail;
 
