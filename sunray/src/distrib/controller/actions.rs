@@ -105,7 +105,8 @@ impl<L: WorkerLink> Controller<L> {
             return;
         };
         web.set_timeline(&self.timeline);
-        if let Some(p) = web.take_due(&self.nodes, &self.film, done, last) {
+        let max_bytes = self.link.max_bytes();
+        if let Some(p) = web.take_due(&self.nodes, &self.film, (done, last), max_bytes) {
             self.writer.publish(p);
         }
     }

@@ -268,15 +268,16 @@ impl WebView {
     }
 
     /// The publication due now with `lines` in the image, or always when `last`: the page's
-    /// data and a copy of the image (shrunk while the job runs) as they are, for
-    /// [`Publication::write`] to encode and store (off the controller's actor). The next is
-    /// due after [`EVERY`]; [`WebView::failed`] says when one was not stored.
+    /// data and a copy of the image shrunk to [`LIVE_SIDE`] as they are, for
+    /// [`Publication::write`] to encode and store (off the controller's actor); the last
+    /// one's image is encoded now (whole if its PNG fits `max_bytes`), not copied. The next
+    /// is due after [`EVERY`]; [`WebView::failed`] says when one was not stored.
     pub fn take_due(
         &mut self,
         nodes: &[NodeStats],
         film: &Film,
-        lines: u32,
-        last: bool,
+        (lines, last): (u32, bool),
+        max_bytes: usize,
     ) -> Option<Publication> {
         if !last && !self.due(Instant::now(), lines) {
             return None;
@@ -288,7 +289,7 @@ impl WebView {
             events: self.events.iter().cloned().collect(),
             timeline: self.timeline.steps(),
             rows: nodes.iter().map(row).collect(),
-            image: Snapshot::of(film, last),
+            image: Snapshot::of(film, last, max_bytes),
             lines,
         })
     }
@@ -313,7 +314,8 @@ impl WebView {
         lines: u32,
         last: bool,
     ) -> Result<(), WebError> {
-        let Some(publication) = self.take_due(nodes, film, lines, last) else {
+        let taken = self.take_due(nodes, film, (lines, last), store.max_bytes());
+        let Some(publication) = taken else {
             return Ok(());
         };
         match publication.write(store).await {

@@ -1,8 +1,9 @@
 //! One publication of a job's web view, taken from the [`WebView`](super::WebView) when it
 //! is due and written by whoever holds the store: the page's data (table rows, events,
-//! timeline) and a copy of the image as they were then. Encoding the PNG and the JSON and
-//! both writes happen in [`Publication::write`], so the controller's actor, which only takes
-//! the copy, never waits for them.
+//! timeline) and the image as it was then. While the job runs that is a copy shrunk to
+//! [`super::LIVE_SIDE`], encoded and written in [`Publication::write`], so the controller's
+//! actor never waits for them; the last publication's image is encoded when it is taken, at
+//! the job's end, so the whole image is never copied.
 
 use super::{
     json_key, live_factor, png_key, Event, WebError, COLUMNS, MAX_JSON_BYTES, PUT_TIMEOUT,
@@ -27,29 +28,35 @@ pub struct Publication {
 /// The image of a publication.
 #[derive(Debug)]
 pub(super) struct Snapshot {
-    /// The image, shrunk by [`live_factor`] unless `last`.
-    film: Film,
+    image: Image,
     /// The job's image size.
     width: u32,
     height: u32,
-    /// The last publication's: whole if its PNG fits the store, else shrunk.
-    last: bool,
+}
+
+#[derive(Debug)]
+enum Image {
+    /// While the job runs: a copy shrunk by [`live_factor`], encoded when written.
+    Live(Film),
+    /// The last publication's, encoded already: whole if its PNG fits the store, else
+    /// shrunk.
+    Last(Result<Picture, WebError>),
 }
 
 impl Snapshot {
-    /// A copy of `film` as published: shrunk to [`super::LIVE_SIDE`] while the job runs;
-    /// whole at the end (`last`; [`Publication::write`] shrinks it if it does not fit).
-    pub(super) fn of(film: &Film, last: bool) -> Snapshot {
+    /// `film` as published: a copy shrunk to [`super::LIVE_SIDE`] while the job runs; at the
+    /// end (`last`) its PNG, whole if it fits `max_bytes`.
+    pub(super) fn of(film: &Film, last: bool, max_bytes: usize) -> Snapshot {
         let f = live_factor(film.width, film.height);
+        let image = match (last, f) {
+            (true, _) => Image::Last(Picture::last(film, max_bytes)),
+            (false, 1) => Image::Live(film.clone()),
+            (false, f) => Image::Live(film.downscaled(f)),
+        };
         Snapshot {
-            film: if last || f == 1 {
-                film.clone()
-            } else {
-                film.downscaled(f)
-            },
+            image,
             width: film.width,
             height: film.height,
-            last,
         }
     }
 
@@ -58,10 +65,9 @@ impl Snapshot {
     pub(super) fn black(width: u32, height: u32) -> Snapshot {
         let f = live_factor(width, height);
         Snapshot {
-            film: Film::new(width.div_ceil(f), height.div_ceil(f)),
+            image: Image::Live(Film::new(width.div_ceil(f), height.div_ceil(f))),
             width,
             height,
-            last: false,
         }
     }
 }
@@ -69,10 +75,15 @@ impl Snapshot {
 impl Publication {
     /// Writes the image, then the page's data (so the data never describes an image not yet
     /// stored), each within its time.
-    pub async fn write(self, store: &impl Store) -> Result<(), WebError> {
-        let image = &self.image;
-        let picture = Picture::of(&image.film, image.last, store.max_bytes())?;
-        let about = json!({"width": image.width, "height": image.height, "lines": self.lines,
+    pub async fn write(mut self, store: &impl Store) -> Result<(), WebError> {
+        let (width, height) = (self.image.width, self.image.height);
+        // Taken out (an empty film left in its place), so the page's data is still at hand.
+        let image = std::mem::replace(&mut self.image.image, Image::Live(Film::new(0, 0)));
+        let picture = match image {
+            Image::Live(film) => Picture::new(&film, false)?,
+            Image::Last(picture) => picture?,
+        };
+        let about = json!({"width": width, "height": height, "lines": self.lines,
             "full": picture.full, "png_width": picture.width, "png_height": picture.height});
         let page = self.page(about)?;
         put(store, png_key(&self.job), picture.png).await?;
@@ -100,6 +111,7 @@ impl Publication {
 }
 
 /// The image as published.
+#[derive(Debug)]
 struct Picture {
     png: Vec<u8>,
     /// The finished job's image at full size (only in the last publication).
@@ -120,12 +132,9 @@ impl Picture {
         })
     }
 
-    /// `film` as a snapshot holds it; at the end (`last`, a whole film) at full size if its
-    /// PNG fits `max_bytes`, else shrunk as while running.
-    fn of(film: &Film, last: bool, max_bytes: usize) -> Result<Picture, WebError> {
-        if !last {
-            return Picture::new(film, false);
-        }
+    /// The finished job's image: at full size if its PNG fits `max_bytes`, else shrunk as
+    /// while the job runs.
+    fn last(film: &Film, max_bytes: usize) -> Result<Picture, WebError> {
         let whole = Picture::new(film, true)?;
         if whole.png.len() <= max_bytes {
             return Ok(whole);

@@ -33,7 +33,9 @@ async fn a_publication_not_yet_begun_is_replaced_by_the_newest() {
     let (link, mut writer) = slow_writer(8, Duration::from_secs(1));
     let mut view = WebView::new(JOB, Vec::new());
     for lines in 1..=4 {
-        let p = view.take_due(&[], &Film::new(4, 8), lines, true).unwrap();
+        let p = view
+            .take_due(&[], &Film::new(4, 8), (lines, true), 1 << 20)
+            .unwrap();
         writer.publish(p);
         tokio::time::sleep(Duration::from_millis(1)).await;
     }
