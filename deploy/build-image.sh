@@ -34,5 +34,6 @@ printf 'root:x:0:0:root:/:/bin/remd\nnobody:x:65534:65534:nobody:/nonexistent:/b
   > "$root/etc/passwd"
 printf 'root:x:0:\nnogroup:x:65534:\n' > "$root/etc/group"
 cp deploy/Dockerfile "$ctx/Dockerfile"
-docker build -q -t "$image" "$ctx" >/dev/null
+# The build time as a label: every build is a new image, even of the same binaries.
+docker build -q --label "sunray.built=$(date -u +%Y-%m-%dT%H:%M:%SZ)" -t "$image" "$ctx" >/dev/null
 echo "built $image"

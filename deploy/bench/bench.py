@@ -24,6 +24,10 @@ bigscene-long  the same at 1M triangles, 1024x1024 and 256 samples: long enough 
 chaos      eight detached jobs of three users while containers are killed, frozen, cut off
            and restarted (deploy/bench/chaos.py): every job finished and byte-identical,
            nothing left running, and the table of faults, moves and time lost.
+upgrade    a rolling upgrade (deploy/bench/upgrade.py): while a long job runs, ws1..ws6 are
+           replaced one at a time by containers of a newly built image announcing a newer
+           protocol; the job finishes byte-identical, each old daemon says once per upgraded
+           peer that it is newer, and none panics.
 
 Raw outputs go to deploy/bench/work/ (ignored by git); the report and plots to
 deploy/bench/results/. Every figure in the report is computed from the saved JSON.
@@ -67,6 +71,10 @@ class Farm:
         self.env = env_for(project)
         self.env.update(extra_env or {})
         self.env["COMPOSE_FILE"] = file
+
+    def compose_argv(self, *args):
+        """The compose command line for `args` (which may name compose files of their own)."""
+        return compose_cmd() + ["-p", self.project, *args]
 
     def compose(self, *args, **kw):
         return subprocess.run(compose_cmd() + ["-p", self.project, "-f", self.file, *args],
@@ -357,6 +365,21 @@ def chaos_soak():
     return table
 
 
+def rolling_upgrade():
+    import upgrade
+    if not os.environ.get("UPGRADE_TO"):
+        # A newly built image of the same binaries (a new image id: its build time is a
+        # label), to upgrade to.
+        subprocess.run([os.path.join(DEPLOY, "build-image.sh")], check=True,
+                       env=dict(os.environ, SUNRAY_IMAGE="sunray-rem:next", SKIP_CARGO="1"))
+    farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"),
+                {"SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]})
+    res = os.environ.get("UPGRADE_RES", "128x192")
+    table = upgrade.run(farm, WORK, res, os.environ.get("UPGRADE_LINE_MS", "400"))
+    table["resolution"] = res
+    return table
+
+
 def hetero():
     scale = {"WS_CPUS_FAST": "0.5", "WS_CPUS_MEDIUM": "0.25", "WS_CPUS_SLOW": "0.125",
              "SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]}
@@ -396,7 +419,8 @@ def main():
             with open(seed) as f:
                 data = json.load(f)
             break
-    if any(not name.startswith("bigscene") and name != "chaos" for name in which):
+    if any(not name.startswith("bigscene") and name not in ("chaos", "upgrade")
+           for name in which):
         # The mount6 runs' settings (bigscene keeps its own).
         data["settings"] = {"resolution": RES, "samples": SAMPLES or "default"}
         data["machine"] = (f"{os.cpu_count()} cores, load average "
@@ -404,11 +428,12 @@ def main():
     for name in which:
         data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault,
                       "failover": failover, "bigscene": bigscene,
-                      "bigscene-long": bigscene_long, "chaos": chaos_soak}[name]()
+                      "bigscene-long": bigscene_long, "chaos": chaos_soak,
+                      "upgrade": rolling_upgrade}[name]()
         with open(path, "w") as f:
             json.dump(data, f, indent=1, default=str)
-        if name == "chaos" and not data[name]["passed"]:
-            raise SystemExit("chaos: something was lost or left (see the table above)")
+        if name in ("chaos", "upgrade") and not data[name]["passed"]:
+            raise SystemExit(f"{name}: something was lost or left (see the table above)")
     print(f"raw results in {path}")
 
 

@@ -220,6 +220,29 @@ def chaos_section(data, out):
     out.append("")
 
 
+def upgrade_section(data, out):
+    out.append("## Rolling upgrade (every remd replaced mid-job)\n")
+    to = data.get("to_protocol")
+    out.append(f"`deploy/bench/run.sh upgrade` (deploy/bench/upgrade.py): a farm job (mount6 at "
+               f"{data.get('resolution', '?')}, `--hosts 3`, lines slowed) on the six "
+               f"workstations while ws1 .. ws6 were replaced one at a time by containers of "
+               f"{data['to_image']} on their own state volumes"
+               + (f", announcing protocol {to} to the old daemons' {data['from_protocol']}"
+                  if to else "")
+               + f": all six in {data['upgraded_s']:.0f} s.\n")
+    out.append("| host | out (s), from `up` to alive on the new image | notices of newer peers |")
+    out.append("|---|---|---|")
+    for h in data["hosts"]:
+        said = ", ".join(f"{p}: {n}" for p, n in h["newer_noticed"].items()) or "-"
+        out_s = f"{h['out_s']:.1f}" if h["out_s"] is not None else "never"
+        out.append(f"| {h['host']} | {out_s} | {said} |")
+    out.append("")
+    out.append(f"The job {data['state']} at epoch {data['epoch']} after {data['job_s']:.0f} s; "
+               f"image byte-identical to `sunray render`: {'yes' if data['identical'] else 'NO'}; "
+               f"panics: {sum(h['panics'] for h in data['hosts'])}; lost: "
+               f"{'; '.join(data['lost']) or 'nothing'}.\n")
+
+
 def bigscene_section(data, out, name="bigscene"):
     if name == "bigscene":
         out.append("## Production-size scenes (chunked, cached, compact)\n")
@@ -307,6 +330,8 @@ def main():
         bigscene_section(data["bigscene-long"], out, "bigscene-long")
     if "chaos" in data:
         chaos_section(data["chaos"], out)
+    if "upgrade" in data:
+        upgrade_section(data["upgrade"], out)
     with open(os.path.join(RESULTS, "report.md"), "w") as f:
         f.write("\n".join(out) + "\n")
     shutil.copy(os.path.join(WORK, "bench.json"), os.path.join(RESULTS, "bench.json"))

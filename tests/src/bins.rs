@@ -72,6 +72,11 @@ pub fn remd_bin() -> PathBuf {
     ensure_built().join("remd")
 }
 
+/// This build's `rem`.
+pub fn rem_bin() -> PathBuf {
+    ensure_built().join("rem")
+}
+
 /// `sunray` with no REM configuration from the environment, and the tests' own cache of
 /// scenes shipped before (not the user's `~/.cache/sunray`).
 pub fn sunray() -> Command {

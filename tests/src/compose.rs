@@ -372,7 +372,7 @@ impl ComposeCluster {
     /// daemon: the cluster's secret, and TLS when `tls`.
     pub fn rem_from_outside(&self, host: &str, tls: bool) -> Command {
         let creds = self.dir.path().join("credentials");
-        let mut c = Command::new(ensure_built().join("rem"));
+        let mut c = Command::new(super::bins::rem_bin());
         c.arg("--remd")
             .arg(format!("{}:7070", self.ip(host)))
             .arg("--secret-file")

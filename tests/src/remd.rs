@@ -79,7 +79,7 @@ impl LoopbackCluster {
             let name = rem::testing::daemon_name(i);
             let join = c.daemons.first().map(|d| d.addr.clone());
             prepare(&name, &c.state_dir(&name));
-            let d = c.start_daemon(&name, join.as_deref(), web && i == 0, suspect_ms);
+            let d = c.start_daemon(&name, join.as_deref(), web && i == 0, suspect_ms, &[]);
             c.daemons.push(d);
         }
         c.converge(n);
@@ -92,7 +92,14 @@ impl LoopbackCluster {
             .unwrap_or_default()
     }
 
-    fn start_daemon(&self, name: &str, join: Option<&str>, web: bool, suspect_ms: u64) -> Remd {
+    fn start_daemon(
+        &self,
+        name: &str,
+        join: Option<&str>,
+        web: bool,
+        suspect_ms: u64,
+        extra: &[&str],
+    ) -> Remd {
         let log = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
@@ -111,6 +118,7 @@ impl LoopbackCluster {
         if web {
             flags.extend(["--web".into(), "127.0.0.1:0".into()]);
         }
+        flags.extend(extra.iter().map(|f| f.to_string()));
         self.launch(name, join, &flags, Stdio::from(log))
     }
 
@@ -273,8 +281,14 @@ impl LoopbackCluster {
     /// Starts daemon `name` (killed or stopped before) again on its state directory, joining
     /// the cluster through daemon `join_via`; it listens on a new port.
     pub fn restart_daemon(&mut self, name: &str, join_via: &str) {
+        self.restart_daemon_with(name, join_via, &[]);
+    }
+
+    /// [`LoopbackCluster::restart_daemon`] with `extra` flags (a newer announced protocol,
+    /// say: what an upgraded daemon would be).
+    pub fn restart_daemon_with(&mut self, name: &str, join_via: &str, extra: &[&str]) {
         let join = self.daemon(join_via).addr.clone();
-        let d = self.start_daemon(name, Some(&join), false, SUSPECT_MS);
+        let d = self.start_daemon(name, Some(&join), false, SUSPECT_MS, extra);
         let slot = self.daemons.iter_mut().find(|d| d.name == name).unwrap();
         *slot = d;
     }

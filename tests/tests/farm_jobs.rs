@@ -8,7 +8,8 @@
 //! Following a job ([`following`]): Ctrl-C and a lost remd stop the following, not the job.
 //! A scene submitted again unchanged is not compiled again ([`remembered_scenes`]). The host
 //! keeping the copy of the job's checkpoint stopped holds up no line ([`frozen_replica`]); a
-//! full state directory on the controller's host loses nothing ([`full_disk`]).
+//! full state directory on the controller's host loses nothing ([`full_disk`]). Every daemon
+//! restarted in turn on a newer protocol, the job finishes ([`rolling_upgrade`]).
 //!
 //! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
 //! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
@@ -31,6 +32,8 @@ mod frozen_replica;
 mod full_disk;
 #[path = "farm_jobs/remembered_scenes.rs"]
 mod remembered_scenes;
+#[path = "farm_jobs/rolling_upgrade.rs"]
+mod rolling_upgrade;
 
 const FLAGS: [&str; 2] = ["--resolution", "64x96"];
 const LINES: u64 = 96;

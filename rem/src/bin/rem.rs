@@ -390,6 +390,8 @@ fn host_json(h: &rem::HostInfo) -> serde_json::Value {
         "load_per_core": l.load_per_core, "cpu_busy": l.cpu_busy, "mem_free_bytes": l.mem_free_bytes,
         "mem_total_bytes": l.mem_total_bytes, "rem_processes": l.rem_processes, "alive": h.alive,
         "accepting": h.accepting,
+        // The protocol the host announces (1: a remd from before it was announced).
+        "protocol": h.load.map(|l| rem::wire::protocol::announced(l.protocol)),
         "last_heard_ms": if h.last_heard_ms == u64::MAX { None } else { Some(h.last_heard_ms) },
     })
 }
@@ -406,7 +408,7 @@ fn proc_json(p: &rem::ProcessInfo) -> serde_json::Value {
 fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result<()> {
     writeln!(
         out,
-        "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10}",
+        "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10} PROTOCOL",
         "NAME", "ADDRESS", "CPUS", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD"
     )?;
     for h in hosts {
@@ -422,9 +424,13 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
             u64::MAX => "never".to_string(),
             ms => format!("{:.1}s ago", ms as f64 / 1000.0),
         };
+        let protocol = match h.load {
+            Some(l) => rem::wire::protocol::announced(l.protocol).to_string(),
+            None => "-".to_string(),
+        };
         writeln!(
             out,
-            "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:<9} {:>10}",
+            "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:<9} {:>10} {:>8}",
             h.name,
             h.addr,
             cpus(&l),
@@ -433,7 +439,8 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
             mib(l.mem_free_bytes),
             l.rem_processes,
             state,
-            heard
+            heard,
+            protocol
         )?;
     }
     Ok(())

@@ -36,6 +36,7 @@ use crate::daemon::policy::{ProgramRule, SpawnPolicy, DEFAULT_ENV_ALLOW};
 use crate::daemon::process::child::RunAs;
 use crate::error::{Error, Result};
 use crate::membership::swim::SwimConfig;
+use crate::wire::protocol::PROTOCOL;
 use crate::wire::transport::ServerTlsFiles;
 
 pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
@@ -106,6 +107,10 @@ pub struct DaemonOptions {
     pub tls_ca: Option<PathBuf>,
     /// Name to expect in other daemons' certificates.
     pub tls_domain: Option<String>,
+    /// The REM protocol to announce, when newer than this build's (to try a mixed farm, as
+    /// during an upgrade); not a key of the file.
+    #[serde(skip)]
+    pub announce_protocol: Option<u32>,
 }
 
 /// Everything a daemon runs with.
@@ -147,6 +152,8 @@ pub struct DaemonSettings {
     pub kill_grace: Duration,
     /// TLS certificate and key to serve with (`None`: plain HTTP/2).
     pub tls: Option<ServerTlsFiles>,
+    /// The REM protocol announced to peers [default: this build's].
+    pub protocol: u32,
 }
 
 impl DaemonSettings {
@@ -181,6 +188,7 @@ impl DaemonSettings {
             max_message: DEFAULT_MAX_MESSAGE,
             queue: 4096,
             kill_grace: Duration::from_secs(2),
+            protocol: PROTOCOL,
             tls: None,
         }
     }
@@ -262,6 +270,7 @@ impl DaemonSettings {
         if let Some(ms) = args.kill_grace_ms.or(file.kill_grace_ms) {
             s.kill_grace = Duration::from_millis(ms);
         }
+        s.protocol = announced_protocol(args.announce_protocol)?;
         let cert = args.tls_cert.or(file.tls_cert);
         let key = args.tls_key.or(file.tls_key);
         s.tls = match (cert, key) {
@@ -279,6 +288,18 @@ impl DaemonSettings {
             }
         };
         Ok(s)
+    }
+}
+
+/// The protocol to announce: this build's, or a newer one asked for (`--announce-protocol`).
+fn announced_protocol(asked: Option<u32>) -> Result<u32> {
+    match asked {
+        Some(p) if p < PROTOCOL => Err(Error::Config(format!(
+            "--announce-protocol {p}: this remd speaks protocol {PROTOCOL}, and announces no \
+             older one"
+        ))),
+        Some(p) => Ok(p),
+        None => Ok(PROTOCOL),
     }
 }
 
@@ -351,6 +372,14 @@ fn load_file(path: &Path) -> Result<DaemonOptions> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_this_builds_protocol_or_a_newer_one_is_announced() {
+        assert_eq!(announced_protocol(None).unwrap(), PROTOCOL);
+        assert_eq!(announced_protocol(Some(PROTOCOL + 1)).unwrap(), PROTOCOL + 1);
+        let e = announced_protocol(Some(PROTOCOL - 1)).unwrap_err().to_string();
+        assert!(e.contains("announces no older one"), "{e}");
+    }
 
     #[test]
     fn the_default_address_is_loopback_on_the_default_port() {

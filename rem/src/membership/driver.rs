@@ -27,8 +27,13 @@ use tokio::sync::{broadcast, watch};
 use crate::membership::load::LoadGauge;
 use crate::membership::peers::PeerPool;
 use crate::membership::swim::reports::ReportTable;
+use crate::membership::swim::seal::Rejected;
 use crate::membership::swim::{Change, MemberId, Outbox, SwimConfig, SwimNode, SwimTimer};
-use crate::wire::proto::HostInfo;
+use crate::wire::proto::{HostInfo, Load};
+use crate::wire::protocol::ProtocolNotices;
+
+/// Senders of newer-sealed datagrams whose notice was logged, at most.
+const MAX_NEWER_SENDERS: usize = 256;
 
 /// A change in who is alive.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -61,6 +66,9 @@ pub struct MembershipConfig {
     pub swim: SwimConfig,
     /// The cluster secret (datagrams are sealed with a key derived from it).
     pub secret: Vec<u8>,
+    /// The REM protocol announced in this daemon's load reports
+    /// ([`crate::wire::protocol::PROTOCOL`]; a newer one only to try a mixed farm).
+    pub protocol: u32,
 }
 
 /// Cloneable handle to the membership actor.
@@ -101,6 +109,9 @@ impl Membership {
         let mut seed = [0u8; 8];
         getrandom::getrandom(&mut seed).map_err(|e| std::io::Error::other(e.to_string()))?;
         let node = SwimNode::new(me, &cfg.secret, cfg.swim.clone(), u64::from_le_bytes(seed));
+        let reports = node.reports();
+        reports.lock().unwrap_or_else(|e| e.into_inner()).notices =
+            ProtocolNotices::new(cfg.protocol);
         let (view_tx, view) = watch::channel(Arc::new(View::default()));
         let (events, _) = broadcast::channel(256);
         let handle = Membership {
@@ -109,7 +120,7 @@ impl Membership {
             me: Arc::new(cfg),
             gauge,
             accepting,
-            reports: node.reports(),
+            reports,
         };
         let actor = Actor {
             handle: handle.clone(),
@@ -123,6 +134,7 @@ impl Membership {
             waiting: HashSet::new(),
             report_now: false,
             peers,
+            newer_senders: HashSet::new(),
         };
         tokio::spawn(actor.run(stop));
         Ok(handle)
@@ -132,12 +144,20 @@ impl Membership {
         &self.me.name
     }
 
+    /// This host's current load report, with the protocol it announces.
+    fn own_load(&self) -> Load {
+        Load {
+            protocol: self.me.protocol,
+            ..self.gauge.current()
+        }
+    }
+
     /// This daemon's own entry, with current load.
     pub fn me(&self) -> HostInfo {
         HostInfo {
             name: self.me.name.clone(),
             addr: self.me.addr.clone(),
-            load: Some(self.gauge.current()),
+            load: Some(self.own_load()),
             alive: true,
             last_heard_ms: 0,
             accepting: self.accepting.load(Ordering::Relaxed),
@@ -215,6 +235,8 @@ struct Actor {
     /// A member came up: report this host's load again at once, for it.
     report_now: bool,
     peers: PeerPool,
+    /// Addresses that sent datagrams of a newer membership protocol (each logged once).
+    newer_senders: HashSet<SocketAddr>,
 }
 
 impl Actor {
@@ -236,7 +258,7 @@ impl Actor {
                 r = self.socket.recv_from(&mut buf) => match r {
                     Ok((n, from)) => {
                         if let Err(e) = self.node.datagram(&buf[..n], unix_ms()) {
-                            tracing::debug!(%from, "membership datagram not believed: {e}");
+                            self.not_believed(from, e);
                         }
                     }
                     Err(e) => tracing::debug!("membership socket: {e}"),
@@ -261,8 +283,24 @@ impl Actor {
         }
     }
 
+    /// A datagram from `from` was not believed: said once per sender when it is of a newer
+    /// protocol (this daemon is the one to upgrade), else only in the debug log.
+    fn not_believed(&mut self, from: SocketAddr, e: Rejected) {
+        if matches!(e, Rejected::Newer(_))
+            && self.newer_senders.len() < MAX_NEWER_SENDERS
+            && self.newer_senders.insert(from)
+        {
+            tracing::warn!(
+                "a membership datagram from {from} is {e}: that host runs a newer remd, and \
+                 this daemon cannot count it as a member until it is upgraded too"
+            );
+        } else {
+            tracing::debug!(%from, "membership datagram not believed: {e}");
+        }
+    }
+
     fn report_load(&mut self) {
-        let load = self.handle.gauge.current();
+        let load = self.handle.own_load();
         let accepting = self.handle.accepting.load(Ordering::Relaxed);
         self.node.report_load(accepting, &load, unix_ms());
     }

@@ -103,6 +103,8 @@ pub fn to_load(s: &Sample, rem_processes: u32) -> proto::Load {
         rem_processes,
         load_per_core: (load + rem_processes as f64) / capacity,
         capacity,
+        // What this build speaks; membership announces the configured one.
+        protocol: crate::wire::protocol::PROTOCOL,
     }
 }
 

@@ -9,11 +9,13 @@
 //! - [`ids`]: host names, job ids, [`ProcId`](ids::ProcId).
 //! - [`transport`]: channels, plain or TLS (rustls).
 //! - [`chunk_name`]: a chunk's name, the SHA-256 of its bytes.
+//! - [`protocol`]: the protocol a daemon speaks, and what it says of peers of another.
 //! - this module: the default address, limits, remd's first lines of output, and [`env`].
 
 pub mod chunk_name;
 pub mod ids;
 pub mod proto;
+pub mod protocol;
 pub mod transport;
 
 /// Default address of remd and of the `rem` client.

@@ -337,6 +337,7 @@ impl Sim {
             rem_processes: procs,
             load_per_core: busy + f64::from(procs) / f64::from(cores),
             capacity: f64::from(cores),
+            protocol: rem::wire::protocol::PROTOCOL,
         }
     }
 

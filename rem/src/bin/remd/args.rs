@@ -92,6 +92,10 @@ pub struct RemdArgs {
     /// Name to expect in other daemons' certificates.
     #[arg(long, env = "REMD_TLS_DOMAIN")]
     pub tls_domain: Option<String>,
+    /// Announce this REM protocol instead of the build's own (only newer): to try how a farm
+    /// of mixed versions behaves before an upgrade (docs/cluster.md).
+    #[arg(long, env = "REMD_ANNOUNCE_PROTOCOL", hide = true)]
+    pub announce_protocol: Option<u32>,
 }
 
 impl RemdArgs {
@@ -120,6 +124,7 @@ impl RemdArgs {
             tls_key: self.tls_key,
             tls_ca: self.tls_ca,
             tls_domain: self.tls_domain,
+            announce_protocol: self.announce_protocol,
         }
     }
 }

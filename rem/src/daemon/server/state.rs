@@ -150,6 +150,7 @@ async fn start_membership(
                 .daemon_key()
                 .ok_or_else(|| Error::Config("a daemon needs the cluster secret".into()))?
                 .to_vec(),
+            protocol: settings.protocol,
         },
         udp,
         gauge.clone(),

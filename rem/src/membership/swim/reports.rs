@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::member::MemberId;
 use crate::wire::proto::Load;
+use crate::wire::protocol::{ProtocolNotices, PROTOCOL};
 
 /// Members whose reports are kept at most.
 pub const MAX_REPORTS: usize = 16_384;
@@ -44,11 +45,23 @@ pub struct Report {
 }
 
 /// The newest report of every member heard of.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct ReportTable {
     reports: HashMap<String, Report>,
     /// Items that did not decode or were out of bounds.
     pub refused: u64,
+    /// Says once when a member announces a protocol other than this daemon's.
+    pub notices: ProtocolNotices,
+}
+
+impl Default for ReportTable {
+    fn default() -> ReportTable {
+        ReportTable {
+            reports: HashMap::new(),
+            refused: 0,
+            notices: ProtocolNotices::new(PROTOCOL),
+        }
+    }
 }
 
 impl ReportTable {
@@ -152,6 +165,9 @@ impl BroadcastHandler<MemberId> for LoadReports {
         if known.is_none() && table.reports.len() >= MAX_REPORTS {
             return Ok(None);
         }
+        if let Some(line) = table.notices.notice(&item.name, load.protocol) {
+            tracing::warn!("{line}");
+        }
         table.reports.insert(
             item.name.clone(),
             Report {
@@ -188,6 +204,16 @@ mod tests {
         assert_eq!((got.seq, got.sent_ms, got.accepting), (2, 200, false));
         assert_eq!(got.load.cores, 4);
         assert!(h.receive_item(b"\xff\xff\xff", None).unwrap().is_none());
+        let newer = Load {
+            protocol: PROTOCOL + 1,
+            ..load(1)
+        };
+        let r3 = LoadReports::encode("a", 3, 300, true, &newer);
+        assert!(
+            h.receive_item(&r3, None).unwrap().is_some(),
+            "a newer peer is heard"
+        );
+        assert_eq!(h.table().get("a").unwrap().load.protocol, PROTOCOL + 1);
         let bad = LoadReports::encode("../x", 1, 1, true, &load(1));
         assert!(h.receive_item(&bad, None).unwrap().is_none());
         assert_eq!(h.table().refused, 2);

@@ -43,6 +43,9 @@ pub enum Rejected {
     /// Seen before, or too far behind its sender's newest.
     #[error("replayed")]
     Replay,
+    /// Sealed by a newer membership protocol ("RS2" and on): its sender runs a newer remd.
+    #[error("sealed as RS{0}, a newer membership protocol than this daemon's RS1")]
+    Newer(u8),
 }
 
 struct Window {
@@ -93,7 +96,10 @@ impl Sealer {
     /// The payload of `datagram`, if it is believed at `now_ms`.
     pub fn open<'a>(&mut self, datagram: &'a [u8], now_ms: u64) -> Result<&'a [u8], Rejected> {
         if datagram.len() < OVERHEAD || !datagram.starts_with(MAGIC) {
-            return Err(Rejected::Malformed);
+            return Err(match datagram {
+                [b'R', b'S', n @ b'2'..=b'9', ..] => Rejected::Newer(n - b'0'),
+                _ => Rejected::Malformed,
+            });
         }
         let (body, tag) = datagram.split_at(datagram.len() - TAG);
         let mut mac = self.mac();
@@ -173,6 +179,10 @@ mod tests {
             b.open(&other.seal(b"ping", 1_000_000), 1_000_000),
             Err(Rejected::Tag)
         );
+        let mut newer = a.seal(b"ping", 1_000_000);
+        newer[2] = b'2';
+        assert_eq!(b.open(&newer, 1_000_000), Err(Rejected::Newer(2)));
+        assert_eq!(b.open(b"RSx", 1_000_000), Err(Rejected::Malformed));
         let mut flipped = a.seal(b"down", 1_000_000);
         flipped[30] ^= 1;
         assert_eq!(b.open(&flipped, 1_000_000), Err(Rejected::Tag));
