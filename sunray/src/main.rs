@@ -13,7 +13,7 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             eprintln!("sunray: error: {}", sunray::cli::error_line(&e));
-            ExitCode::FAILURE
+            ExitCode::from(sunray::cli::exit::code_of(&e))
         }
     }
 }

@@ -17,6 +17,9 @@ fn sunray(args: &[&str]) -> Output {
 mod support;
 use support::spd_file;
 
+#[path = "cli_import/meshes.rs"]
+mod meshes;
+
 /// A fresh scratch directory for one test.
 fn scratch(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("sunray-cli-import-{}-{test}", std::process::id()));
@@ -216,8 +219,8 @@ fn convert_off_and_refuse_unknown_formats() {
         .contains("bad.off:6:7: error: vertex index 3 is out of range"));
     assert!(out.stdout.is_empty());
 
-    let unknown = dir.join("scene.obj");
-    std::fs::write(&unknown, "v 0 0 0\n").unwrap();
+    let unknown = dir.join("scene.stl");
+    std::fs::write(&unknown, "solid x\n").unwrap();
     let out = sunray(&["convert", unknown.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--from"));

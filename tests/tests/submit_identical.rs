@@ -1,6 +1,6 @@
 //! `sunray submit` on three real remd daemons on loopback gives a PNG byte-identical to
 //! `sunray render`, with every strategy, and its statistics count every line exactly once.
-//! Also: the embedded default (no remd) and the built-in scene.
+//! Also: the embedded default (no remd) and the built-in scene, and a PLY mesh.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
 use sunray_e2e::bins::sunray;
@@ -131,4 +131,38 @@ fn the_embedded_default_renders_the_built_in_scene() {
         .unwrap_or_else(|| panic!("{job} not in {listed}"));
     assert_eq!(entry["state"], "finished");
     assert_eq!(entry["lines_done"], 40);
+}
+
+#[test]
+fn a_ply_mesh_goes_through_the_farm_identical_to_sunray_render() {
+    let cluster = LoopbackCluster::start(2);
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("teapot.ply");
+    let st = sunray()
+        .args(["spd", "teapot", "--size", "2", "-o"])
+        .arg(&ply)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let flags = ["--resolution", "48x48"];
+    let (want, _) = reference(dir.path(), &ply, &flags);
+    let out = dir.path().join("submit.png");
+    let st = output(
+        cluster
+            .submit()
+            .args(["--hosts", "2", "-q"])
+            .args(flags)
+            .arg(&ply)
+            .arg("-o")
+            .arg(&out),
+    );
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "the PLY's image through the farm differs from sunray render"
+    );
 }

@@ -15,8 +15,9 @@
 //! - [`cpu`]: the CPU features the build assumes, checked when a binary starts.
 //! - [`compile`]: the compiler (`yc`) from [`ast::Scene`] to [`model::World`].
 //! - [`modelfile`]: the compiled model in binary (`.srw`), for workers.
-//! - [`load`]: any scene file (YARI, NFF, OFF, model) to a compiled world.
+//! - [`load`]: any scene file (YARI, NFF, OFF, OBJ, PLY, model) to a compiled world.
 //! - [`nff`], [`off`]: converters from NFF and OFF to the syntax tree (`nff2gfx`, `off2gfx`).
+//! - [`mesh`]: today's mesh files (OBJ with MTL, PLY) as a stream of YARI polygons, framed.
 //! - [`polygon`]: polygons cut into triangles, the same way for the renderer and the writers.
 //! - [`pov`]: a compiled world written as POV-Ray 3.7 SDL, to compare with POV-Ray.
 //! - [`spd`]: Haines's Standard Procedural Databases (`tetra`, `mount`, `balls`) and `check`
@@ -42,6 +43,7 @@ pub mod diag;
 pub mod lexer;
 pub mod lines;
 pub mod load;
+pub mod mesh;
 pub mod model;
 pub mod modelfile;
 pub mod nff;

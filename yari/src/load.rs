@@ -2,7 +2,8 @@
 //!
 //! The kind is found from the content and the extension: a file that starts with the model
 //! file magic is a compiled model ([`crate::modelfile`]); otherwise `.yari` is YARI,
-//! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), and `.srw` is a model file.
+//! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), `.obj` and `.ply` are meshes
+//! ([`crate::mesh`], framed and compiled), and `.srw` is a model file.
 //!
 //! Every kind is read as a stream ([`stream_path`]): each object goes to the caller as soon
 //! as it is compiled or decoded, so a renderer builds its own geometry without the world's
@@ -15,6 +16,7 @@ use crate::colour::ColourTable;
 use crate::compile::{CompileStream, ObjectSink};
 use crate::diag::{Diagnostics, SceneError};
 use crate::lines::{TextFailure, TextLines};
+use crate::mesh::{MeshError, MeshKind, MeshSummary, ToYari};
 use crate::model::World;
 use crate::modelfile::{self, ModelFileError};
 use crate::span::Source;
@@ -30,6 +32,10 @@ pub enum InputKind {
     Nff,
     /// Object File Format (`.off`), a polygon mesh converted to YARI and compiled.
     Off,
+    /// Wavefront OBJ (`.obj`), with its MTL materials, framed and compiled.
+    Obj,
+    /// PLY (`.ply`), ASCII or binary, framed and compiled.
+    Ply,
     /// A compiled model file.
     Model,
 }
@@ -42,9 +48,20 @@ impl InputKind {
             "yari" => InputKind::Yari,
             "nff" => InputKind::Nff,
             "off" => InputKind::Off,
+            "obj" => InputKind::Obj,
+            "ply" => InputKind::Ply,
             e if e == modelfile::EXTENSION => InputKind::Model,
             _ => return None,
         })
+    }
+
+    /// The mesh format of this kind, if it is one.
+    pub fn mesh(self) -> Option<MeshKind> {
+        match self {
+            InputKind::Obj => Some(MeshKind::Obj),
+            InputKind::Ply => Some(MeshKind::Ply),
+            _ => None,
+        }
     }
 }
 
@@ -59,6 +76,8 @@ pub struct Loaded {
     pub warnings: Diagnostics,
     /// The text the warnings point into (`None` for a model file).
     pub source: Option<Source>,
+    /// For a mesh file: what it held (counts and bounds).
+    pub mesh: Option<MeshSummary>,
 }
 
 impl Loaded {
@@ -91,7 +110,7 @@ pub enum LoadError {
         path: PathBuf,
     },
     /// Neither the model file magic nor a known extension.
-    #[error("{}: unknown scene format; expected a .yari, .nff or .off scene or a .srw model", path.display())]
+    #[error("{}: unknown scene format; expected a .yari, .nff, .off, .obj or .ply scene or a .srw model", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -99,6 +118,9 @@ pub enum LoadError {
     /// The scene does not parse or compile; the error holds every diagnostic.
     #[error("{}", .0.to_string().trim_end())]
     Scene(#[from] SceneError),
+    /// A mesh file that cannot be read: one line with the file and the line or byte.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
     /// A model file that is damaged, of another version, or breaks the compiler's guarantees.
     #[error("{}: {source}", path.display())]
     Model {
@@ -147,6 +169,9 @@ pub fn stream_path(
         return Ok(loaded(world, kind, Diagnostics::default(), None));
     }
     let name = path.display().to_string();
+    if let Some(mesh) = kind.mesh() {
+        return compile_mesh(mesh, kind, path, &name, &mut input, colours, out);
+    }
     let mut lines = TextLines::new(input);
     let compiled = compile_text(&mut lines, kind, colours, out);
     if let Some(failure) = lines.failure() {
@@ -188,6 +213,39 @@ fn loaded(world: World, kind: InputKind, warnings: Diagnostics, source: Option<S
         kind,
         warnings,
         source,
+        mesh: None,
+    }
+}
+
+/// Reads and compiles the mesh `input` (the file `path`, called `name`), each face as soon
+/// as it is read, framed by [`crate::mesh::frame`]. The compiler's diagnostics have no place
+/// in the file (they come with its name and the compiler's words).
+fn compile_mesh(
+    mesh: MeshKind,
+    kind: InputKind,
+    path: &Path,
+    name: &str,
+    input: &mut dyn BufRead,
+    colours: &ColourTable,
+    out: &mut ObjectSink<'_>,
+) -> Result<Loaded, LoadError> {
+    let mut compiler = CompileStream::new(colours);
+    let mut to_yari = ToYari::default();
+    let summary = crate::mesh::read_each(mesh, path, input, &mut |face| {
+        to_yari.face(face, &mut |item| compiler.item(&item, &mut *out))
+    })?;
+    let view = crate::mesh::frame::view(&summary.bounds);
+    let source = Source::new(name, "");
+    match compiler.finish(&view) {
+        Ok((world, warnings)) => Ok(Loaded {
+            mesh: Some(summary),
+            ..loaded(world, kind, warnings, Some(source))
+        }),
+        Err(diagnostics) => Err(SceneError {
+            source_text: source,
+            diagnostics,
+        }
+        .into()),
     }
 }
 
@@ -219,6 +277,10 @@ pub fn stream_str(
         });
     }
     let src = Source::new(name, text);
+    if let Some(mesh) = kind.mesh() {
+        let mut input = src.text.as_bytes();
+        return compile_mesh(mesh, kind, Path::new(name), name, &mut input, colours, out);
+    }
     let mut lines = TextLines::new(src.text.as_bytes());
     match compile_text(&mut lines, kind, colours, out) {
         Ok((world, warnings)) => Ok(loaded(world, kind, warnings, Some(src))),
@@ -256,7 +318,7 @@ fn compile_text<R: BufRead>(
             crate::off::read_each(lines, &mut |item| compiler.item(&item, &mut *out))?
         }
         _ => {
-            // Each item of the world block is compiled as soon as it is parsed, and freed;
+            // YARI (meshes and models never come here). Each item of the world block is compiled as soon as it is parsed, and freed;
             // the text is read as the parse needs it, never held whole.
             let view = crate::parse::parse_each_streamed(lines, &mut |item| {
                 compiler.item(&item, &mut *out)

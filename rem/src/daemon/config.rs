@@ -376,8 +376,13 @@ mod tests {
     #[test]
     fn only_this_builds_protocol_or_a_newer_one_is_announced() {
         assert_eq!(announced_protocol(None).unwrap(), PROTOCOL);
-        assert_eq!(announced_protocol(Some(PROTOCOL + 1)).unwrap(), PROTOCOL + 1);
-        let e = announced_protocol(Some(PROTOCOL - 1)).unwrap_err().to_string();
+        assert_eq!(
+            announced_protocol(Some(PROTOCOL + 1)).unwrap(),
+            PROTOCOL + 1
+        );
+        let e = announced_protocol(Some(PROTOCOL - 1))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("announces no older one"), "{e}");
     }
 

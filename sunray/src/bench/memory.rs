@@ -1,5 +1,6 @@
 //! Peak memory of `sunray render` per triangle (issue "Production-size scenes"): writes
-//! tetra at the given size (4^size triangles) with `sunray spd` (NFF and YARI) and compiles it into a model
+//! tetra at the given size (4^size triangles) with `sunray spd` (NFF and YARI, and a binary
+//! PLY mesh measured with this build only) and compiles it into a model
 //! file (what workers receive) with `sunray compile`, renders each with 2 threads at a small
 //! resolution in a child process, and reads the child's peak resident set size (`wait4`'s
 //! `ru_maxrss`). With other programs (an older build) they are run alternately, round by
@@ -98,6 +99,17 @@ pub fn write_tetra(
     cmd.stdout(std::process::Stdio::null());
     peak_of(cmd, "compile")?;
     Ok([model, nff, yari])
+}
+
+/// Writes tetra at `size` as a binary PLY mesh (`tetraN.ply`, corners shared as meshes
+/// share them) with `program spd`: issue "Meshes"'s 160-bytes-a-triangle target. Its path.
+pub fn write_ply(program: &Path, dir: &Path, size: u32) -> Result<PathBuf, MemoryBenchError> {
+    let ply = dir.join(format!("tetra{size}.ply"));
+    let mut cmd = Command::new(program);
+    cmd.args(["spd", "tetra", "--size", &size.to_string(), "-o"])
+        .arg(&ply);
+    peak_of(cmd, "spd")?;
+    Ok(ply)
 }
 
 /// Writes the smooth twin of tetra's NFF file `nff` beside it (`NAME-smooth.nff`) and

@@ -133,6 +133,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             let mut programs = vec![me.clone()];
             programs.extend(args.against.iter().cloned());
             let mut peaks = memory::measure(&programs, &scenes, args.rounds, dir.path())?;
+            let ply = memory::write_ply(&me, dir.path(), args.tetra_size)?;
+            peaks.extend(memory::measure(
+                std::slice::from_ref(&me),
+                &[ply],
+                args.rounds,
+                dir.path(),
+            )?);
             if args.smooth {
                 let twin = memory::write_smooth_twin(&me, &scenes[1])?;
                 peaks.extend(memory::measure(&[me], &[twin], args.rounds, dir.path())?);

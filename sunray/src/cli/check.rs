@@ -11,7 +11,7 @@ use yari::model::World;
 /// The flags of `sunray check`.
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// The scene: .yari, .nff, .off, or a compiled .srw model.
+    /// The scene: .yari, .nff, .off, an .obj or .ply mesh, or a compiled .srw model.
     pub scene: PathBuf,
     /// The colour-name table (`--colors`).
     #[command(flatten)]
@@ -26,6 +26,9 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         Ok(loaded) => {
             eprint!("{}", loaded.render_warnings());
             println!("{}", summary(&display_name(&args.scene), &loaded.world));
+            if let Some(mesh) = &loaded.mesh {
+                println!("{}", mesh_summary(mesh));
+            }
             Ok(ExitCode::SUCCESS)
         }
         Err(e @ LoadError::Scene(_)) => {
@@ -41,6 +44,27 @@ pub fn display_name(path: &std::path::Path) -> String {
     path.file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string())
+}
+
+/// `mesh: 2048 vertices, 4096 faces (4096 triangles), no normals; bounds -1,-1,-1 to 1,1,1`.
+pub fn mesh_summary(m: &yari::mesh::MeshSummary) -> String {
+    let point = |p: [f64; 3]| format!("{},{},{}", p[0], p[1], p[2]);
+    let bounds = if m.bounds.is_empty() {
+        "no bounds (no faces)".to_string()
+    } else {
+        format!("bounds {} to {}", point(m.bounds.min), point(m.bounds.max))
+    };
+    format!(
+        "mesh: {} vertices, {} faces ({} triangles), {}; {bounds}",
+        m.vertices,
+        m.faces,
+        m.triangles,
+        if m.normals {
+            "vertex normals"
+        } else {
+            "no normals"
+        }
+    )
 }
 
 fn plural(n: usize, one: &str, many: &str) -> String {

@@ -6,7 +6,7 @@
 //!     --center 0,0,-0.5 --rotate 0,0,45 -o board.yari
 //! ```
 
-use super::convert::{output_format, render_scene, write_output, OutputFormat};
+use super::convert::{output_format, render_scene, write_bytes, OutputFormat};
 use anyhow::{bail, Context};
 use clap::Args;
 use std::path::PathBuf;
@@ -62,7 +62,7 @@ pub fn run(args: CheckBoardArgs) -> anyhow::Result<ExitCode> {
     };
     let scene = checkerboard(&options)?;
     let format = output_format(args.format, args.output.as_deref());
-    write_output(args.output.as_deref(), &render_scene(&scene, format))?;
+    write_bytes(args.output.as_deref(), &render_scene(&scene, format)?)?;
     Ok(ExitCode::SUCCESS)
 }
 

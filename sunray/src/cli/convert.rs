@@ -1,5 +1,7 @@
 //! `sunray convert IN [-o OUT.yari]`: NFF or OFF to YARI (the thesis's `nff2gfx` and
-//! `off2gfx`); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to POV-Ray
+//! `off2gfx`), or an OBJ or PLY mesh to YARI (polygons with normals, framed as
+//! [`yari::mesh`] frames a mesh on its own); `sunray convert IN.nff -o OUT.obj|OUT.ply`: an NFF
+//! scene's polygons as a mesh (binary PLY); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to POV-Ray
 //! SDL ([`yari::pov`]), for the side-by-side benchmark in bench/pov. Also the output helpers the scene generators (`spd`, `check-board`) share:
 //! YARI or NFF text chosen by the output's extension, written to a temporary file and
 //! renamed, or printed to stdout.
@@ -11,8 +13,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use yari::span::Source;
 
-/// Convert an NFF (`.nff`) or OFF (`.off`) scene to YARI, or any scene to POV-Ray SDL
-/// (`-o OUT.pov`).
+/// Convert an NFF (`.nff`) or OFF (`.off`) scene, or an OBJ (`.obj`) or PLY (`.ply`) mesh, to
+/// YARI, or any scene to POV-Ray SDL (`-o OUT.pov`).
 #[derive(Args, Debug)]
 pub struct ConvertArgs {
     /// The scene to convert (`-` reads stdin; then give --from).
@@ -30,6 +32,8 @@ pub struct ConvertArgs {
 pub(crate) enum InputFormat {
     Nff,
     Off,
+    Obj,
+    Ply,
 }
 
 /// Formats the generators write.
@@ -37,6 +41,14 @@ pub(crate) enum InputFormat {
 pub(crate) enum OutputFormat {
     Yari,
     Nff,
+    /// Wavefront OBJ: the scene's polygons only.
+    Obj,
+    /// PLY, binary little-endian: the scene's polygons only.
+    Ply,
+    /// PLY, ASCII.
+    PlyAscii,
+    /// PLY, binary big-endian.
+    PlyBigEndian,
 }
 
 /// Converts the scene and writes it (or prints it on stdout).
@@ -51,19 +63,46 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
         None => match extension(&args.input).as_deref() {
             Some("nff") => InputFormat::Nff,
             Some("off") => InputFormat::Off,
+            Some("obj") => InputFormat::Obj,
+            Some("ply") => InputFormat::Ply,
             _ => bail!(
-                "cannot tell the format of {} from its name; give --from nff or --from off",
+                "cannot tell the format of {} from its name; give --from nff, off, obj or ply",
                 args.input.display()
             ),
         },
     };
+    let mesh_out = args
+        .output
+        .as_deref()
+        .and_then(|out| match extension(out).as_deref() {
+            Some("obj") => Some(OutputFormat::Obj),
+            Some("ply") => Some(OutputFormat::Ply),
+            _ => None,
+        });
     if let Some(out) = &args.output {
-        if matches!(extension(out).as_deref(), Some("nff" | "off")) {
+        if matches!(extension(out).as_deref(), Some("nff" | "off"))
+            || (mesh_out.is_some() && format != InputFormat::Nff)
+        {
             bail!(
-                "convert writes YARI; name the output {} with a .yari extension",
+                "convert writes YARI (or, from NFF, an .obj or .ply mesh); name the output {} \
+                 with a .yari extension",
                 out.display()
             );
         }
+    }
+    let mesh = match format {
+        InputFormat::Obj => Some(yari::mesh::MeshKind::Obj),
+        InputFormat::Ply => Some(yari::mesh::MeshKind::Ply),
+        _ => None,
+    };
+    if let Some(kind) = mesh {
+        // A mesh may be binary: read from its file (beside its material libraries).
+        if args.input.as_os_str() == "-" {
+            bail!("a mesh is read from its file, not stdin");
+        }
+        let (scene, _) = yari::mesh::parse_path(kind, &args.input)?;
+        write_output(args.output.as_deref(), &yari::writer::write_scene(&scene))?;
+        return Ok(ExitCode::SUCCESS);
     }
     let (name, text) = if args.input.as_os_str() == "-" {
         let mut text = String::new();
@@ -75,9 +114,12 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
         (args.input.display().to_string(), text)
     };
     let src = Source::new(name, text);
+    if let Some(mesh) = mesh_out {
+        return nff_to_mesh(&src, mesh, args.output.as_deref());
+    }
     let result = match format {
         InputFormat::Nff => yari::nff::parse_with_warnings(&src),
-        InputFormat::Off => yari::off::parse_with_warnings(&src),
+        _ => yari::off::parse_with_warnings(&src),
     };
     match result {
         Ok((scene, warnings)) => {
@@ -94,6 +136,22 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
                 if n == 1 { "" } else { "s" },
                 src.name
             );
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+/// An NFF scene's polygons as a mesh (`format` OBJ or PLY), exactly as the file gives them.
+fn nff_to_mesh(src: &Source, format: OutputFormat, out: Option<&Path>) -> anyhow::Result<ExitCode> {
+    match yari::nff::read(src) {
+        Ok((scene, warnings)) => {
+            eprint!("{}", warnings.render(src));
+            write_bytes(out, &render_scene(&scene, format)?)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(diags) => {
+            eprint!("{}", diags.render(src));
+            eprintln!("sunray: {} not converted; nothing written", src.name);
             Ok(ExitCode::FAILURE)
         }
     }
@@ -122,28 +180,54 @@ fn extension(path: &Path) -> Option<String> {
 }
 
 /// The format to write: `--format` if given, else the output's extension (`.nff` is NFF,
-/// anything else YARI), else YARI on stdout.
+/// `.obj` OBJ, `.ply` binary PLY, anything else YARI), else YARI on stdout.
 pub(crate) fn output_format(flag: Option<OutputFormat>, output: Option<&Path>) -> OutputFormat {
     flag.unwrap_or_else(|| match output.and_then(extension).as_deref() {
         Some("nff") => OutputFormat::Nff,
+        Some("obj") => OutputFormat::Obj,
+        Some("ply") => OutputFormat::Ply,
         _ => OutputFormat::Yari,
     })
 }
 
-/// A generated NFF scene as text in `format`.
-pub(crate) fn render_scene(scene: &yari::nff::NffScene, format: OutputFormat) -> String {
-    match format {
-        OutputFormat::Nff => yari::nff::write(scene),
-        OutputFormat::Yari => yari::writer::write_scene(&yari::nff::to_yari(scene)),
-    }
+/// A generated NFF scene in `format`: text, or for PLY perhaps binary. A mesh format holds
+/// only the scene's polygons (their geometry and normals): a scene with spheres or cones is
+/// refused (`--patches` makes them polygons).
+pub(crate) fn render_scene(
+    scene: &yari::nff::NffScene,
+    format: OutputFormat,
+) -> anyhow::Result<Vec<u8>> {
+    use yari::mesh::write;
+    let ply = |encoding| -> anyhow::Result<Vec<u8>> {
+        let mut out = Vec::new();
+        write::ply(&yari::mesh::faces_of(scene)?, encoding, &mut out)?;
+        Ok(out)
+    };
+    Ok(match format {
+        OutputFormat::Nff => yari::nff::write(scene).into_bytes(),
+        OutputFormat::Yari => yari::writer::write_scene(&yari::nff::to_yari(scene)).into_bytes(),
+        OutputFormat::Obj => {
+            let mut out = Vec::new();
+            write::obj(&yari::mesh::faces_of(scene)?, &mut out)?;
+            out
+        }
+        OutputFormat::Ply => ply(write::PlyEncoding::BinaryLittleEndian)?,
+        OutputFormat::PlyAscii => ply(write::PlyEncoding::Ascii)?,
+        OutputFormat::PlyBigEndian => ply(write::PlyEncoding::BinaryBigEndian)?,
+    })
 }
 
 /// Writes `text` to `path` through a temporary file in the same directory and a rename, so a
 /// failed run leaves no half-written file; `None` prints to stdout.
 pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
+    write_bytes(path, text.as_bytes())
+}
+
+/// [`write_output`] of bytes.
+pub fn write_bytes(path: Option<&Path>, text: &[u8]) -> anyhow::Result<()> {
     let Some(path) = path else {
         let mut out = std::io::stdout().lock();
-        out.write_all(text.as_bytes())
+        out.write_all(text)
             .and_then(|_| out.flush())
             .context("writing to stdout")?;
         return Ok(());
@@ -161,7 +245,7 @@ pub fn write_output(path: Option<&Path>, text: &str) -> anyhow::Result<()> {
         std::process::id()
     ));
     let written = std::fs::File::create(&tmp)
-        .and_then(|mut f| f.write_all(text.as_bytes()).and_then(|_| f.sync_all()))
+        .and_then(|mut f| f.write_all(text).and_then(|_| f.sync_all()))
         .and_then(|_| std::fs::rename(&tmp, path));
     if let Err(e) = written {
         let _ = std::fs::remove_file(&tmp);

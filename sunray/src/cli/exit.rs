@@ -1,5 +1,25 @@
 //! The exit codes of `sunray`, named once. 0 is success and 1 any error (a message on stderr).
 
+/// A mesh file (OBJ, PLY) that cannot be read: the file and the line or byte on stderr.
+pub const BAD_MESH: u8 = 2;
+
+/// The exit code of the error `e` a command ended with: [`BAD_MESH`] for a mesh file that
+/// cannot be read, else 1.
+pub fn code_of(e: &anyhow::Error) -> u8 {
+    let mesh = e.chain().any(|c| {
+        c.downcast_ref::<yari::mesh::MeshError>().is_some()
+            || matches!(
+                c.downcast_ref::<yari::load::LoadError>(),
+                Some(yari::load::LoadError::Mesh(_))
+            )
+    });
+    if mesh {
+        BAD_MESH
+    } else {
+        1
+    }
+}
+
 /// `sunray submit`: no worker was left to finish the image; its lines are in the checkpoint
 /// and `sunray submit --resume JOB` continues it.
 pub const NO_WORKERS_LEFT: u8 = 3;

@@ -2,10 +2,10 @@
 //! [--size N] [--patches [--patch-resolution N]] [-o OUT]`: Haines's Standard Procedural
 //! Databases, generated exactly as his programs do (`tetra 6`, `mount 6` and `balls 4` equal
 //! the reference files; every database prints his program's NFF text, and with `--patches`
-//! the text his programs print with `-t`). `.nff` output is Haines's own text; anything else
-//! (and stdout) is YARI.
+//! the text his programs print with `-t`). `.nff` output is Haines's own text; `.obj` and
+//! `.ply` a mesh of the scene's polygons (docs/meshes.md); anything else (and stdout) is YARI.
 
-use super::convert::{output_format, render_scene, write_output, OutputFormat};
+use super::convert::{output_format, render_scene, write_bytes, OutputFormat};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
 use std::path::PathBuf;
@@ -35,7 +35,8 @@ pub struct SpdArgs {
     /// default his programs' own, 3, and 2 for jacks).
     #[arg(long, value_name = "R", requires = "patches")]
     pub patch_resolution: Option<u32>,
-    /// Where to write (`.nff` for NFF, else YARI; default: YARI on stdout).
+    /// Where to write (`.nff` for NFF, `.obj` for OBJ, `.ply` for binary PLY, else YARI;
+    /// default: YARI on stdout). A mesh holds the scene's polygons only.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Force the output format regardless of the extension.
@@ -61,6 +62,6 @@ pub fn run(args: SpdArgs) -> anyhow::Result<ExitCode> {
     };
     let scene = generate_with(db, args.size.unwrap_or(db.default_size()), curves)?;
     let format = output_format(args.format, args.output.as_deref());
-    write_output(args.output.as_deref(), &render_scene(&scene, format))?;
+    write_bytes(args.output.as_deref(), &render_scene(&scene, format)?)?;
     Ok(ExitCode::SUCCESS)
 }
