@@ -2,7 +2,8 @@
 //!
 //! The kind is found from the content and the extension: a file that starts with the model
 //! file magic is a compiled model ([`crate::modelfile`]); otherwise `.yari` is YARI,
-//! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), `.obj` and `.ply` are meshes
+//! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), `.obj`, `.ply`, `.gltf` and
+//! `.glb` are meshes
 //! ([`crate::mesh`], framed and compiled), and `.srw` is a model file.
 //!
 //! Every kind is read as a stream ([`stream_path`]): each object goes to the caller as soon
@@ -36,6 +37,8 @@ pub enum InputKind {
     Obj,
     /// PLY (`.ply`), ASCII or binary, framed and compiled.
     Ply,
+    /// glTF 2.0 (`.gltf`, `.glb`), framed and compiled.
+    Gltf,
     /// A compiled model file.
     Model,
 }
@@ -50,6 +53,7 @@ impl InputKind {
             "off" => InputKind::Off,
             "obj" => InputKind::Obj,
             "ply" => InputKind::Ply,
+            "gltf" | "glb" => InputKind::Gltf,
             e if e == modelfile::EXTENSION => InputKind::Model,
             _ => return None,
         })
@@ -60,6 +64,7 @@ impl InputKind {
         match self {
             InputKind::Obj => Some(MeshKind::Obj),
             InputKind::Ply => Some(MeshKind::Ply),
+            InputKind::Gltf => Some(MeshKind::Gltf),
             _ => None,
         }
     }
@@ -110,7 +115,7 @@ pub enum LoadError {
         path: PathBuf,
     },
     /// Neither the model file magic nor a known extension.
-    #[error("{}: unknown scene format; expected a .yari, .nff, .off, .obj or .ply scene or a .srw model", path.display())]
+    #[error("{}: unknown scene format; expected a .yari, .nff, .off, .obj, .ply, .gltf or .glb scene or a .srw model", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,

@@ -1,5 +1,5 @@
-//! Meshes from today's tools: Wavefront OBJ (with its MTL materials) and PLY (ASCII, and
-//! binary in either byte order), read as a stream of faces and mapped to YARI polygons, so a
+//! Meshes from today's tools: Wavefront OBJ (with its MTL materials), PLY (ASCII, and
+//! binary in either byte order) and glTF 2.0, read as a stream of faces and mapped to YARI polygons, so a
 //! scanned statue renders with no converter of the user's own (docs/meshes.md).
 //!
 //! Each face becomes a `polygon` as soon as it is read (with `normals = ...` where the file
@@ -16,11 +16,14 @@
 //! - this file: the face, the error, and the mapping of faces to YARI items ([`ToYari`]).
 //! - [`frame`]: the bounding box and the preamble that frames it.
 //! - [`ply`]: PLY through the `ply-rs-bw` crate, element by element.
+//! - [`gltf`]: glTF 2.0 (`.gltf`, `.glb`) through the `gltf` crate, node transforms and
+//!   metallic-roughness materials.
 //! - [`obj`]: OBJ, streamed by our own reader (tobj holds the whole mesh and names no line
 //!   in its errors); MTL files through `tobj`.
 //! - [`write`]: faces written as OBJ or PLY (the fixture generators).
 
 pub mod frame;
+pub mod gltf;
 pub mod obj;
 pub mod ply;
 pub mod write;
@@ -40,6 +43,8 @@ pub enum MeshKind {
     Obj,
     /// PLY (`.ply`), ASCII or binary.
     Ply,
+    /// glTF 2.0 (`.gltf` with its buffers, or `.glb`).
+    Gltf,
 }
 
 /// Where in a mesh file something is.
@@ -165,6 +170,7 @@ pub fn kind_of(path: &Path) -> Option<MeshKind> {
     match ext.as_str() {
         "obj" => Some(MeshKind::Obj),
         "ply" => Some(MeshKind::Ply),
+        "gltf" | "glb" => Some(MeshKind::Gltf),
         _ => None,
     }
 }
@@ -186,6 +192,7 @@ pub fn read_each(
     let vertices = match kind {
         MeshKind::Obj => obj::read_each(path, input, &mut counted)?,
         MeshKind::Ply => ply::read_each(path, input, &mut counted)?,
+        MeshKind::Gltf => gltf::read_each(path, input, &mut counted)?,
     };
     summary.vertices = vertices;
     Ok(summary)

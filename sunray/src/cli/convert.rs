@@ -1,7 +1,7 @@
 //! `sunray convert IN [-o OUT.yari]`: NFF or OFF to YARI (the thesis's `nff2gfx` and
 //! `off2gfx`), or an OBJ or PLY mesh to YARI (polygons with normals, framed as
-//! [`yari::mesh`] frames a mesh on its own); `sunray convert IN.nff -o OUT.obj|OUT.ply`: an NFF
-//! scene's polygons as a mesh (binary PLY); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to POV-Ray
+//! [`yari::mesh`] frames a mesh on its own); `sunray convert IN.nff -o OUT.obj|.ply|.glb`: an
+//! NFF scene's polygons as a mesh (binary PLY, binary glTF); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to POV-Ray
 //! SDL ([`yari::pov`]), for the side-by-side benchmark in bench/pov. Also the output helpers the scene generators (`spd`, `check-board`) share:
 //! YARI or NFF text chosen by the output's extension, written to a temporary file and
 //! renamed, or printed to stdout.
@@ -34,6 +34,7 @@ pub(crate) enum InputFormat {
     Off,
     Obj,
     Ply,
+    Gltf,
 }
 
 /// Formats the generators write.
@@ -49,6 +50,8 @@ pub(crate) enum OutputFormat {
     PlyAscii,
     /// PLY, binary big-endian.
     PlyBigEndian,
+    /// Binary glTF 2.0 (`.glb`): the scene's polygons as 32-bit float triangles.
+    Glb,
 }
 
 /// Converts the scene and writes it (or prints it on stdout).
@@ -65,8 +68,9 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
             Some("off") => InputFormat::Off,
             Some("obj") => InputFormat::Obj,
             Some("ply") => InputFormat::Ply,
+            Some("gltf" | "glb") => InputFormat::Gltf,
             _ => bail!(
-                "cannot tell the format of {} from its name; give --from nff, off, obj or ply",
+                "cannot tell the format of {} from its name; give --from nff, off, obj, ply or gltf",
                 args.input.display()
             ),
         },
@@ -77,10 +81,11 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
         .and_then(|out| match extension(out).as_deref() {
             Some("obj") => Some(OutputFormat::Obj),
             Some("ply") => Some(OutputFormat::Ply),
+            Some("glb") => Some(OutputFormat::Glb),
             _ => None,
         });
     if let Some(out) = &args.output {
-        if matches!(extension(out).as_deref(), Some("nff" | "off"))
+        if matches!(extension(out).as_deref(), Some("nff" | "off" | "gltf"))
             || (mesh_out.is_some() && format != InputFormat::Nff)
         {
             bail!(
@@ -93,6 +98,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
     let mesh = match format {
         InputFormat::Obj => Some(yari::mesh::MeshKind::Obj),
         InputFormat::Ply => Some(yari::mesh::MeshKind::Ply),
+        InputFormat::Gltf => Some(yari::mesh::MeshKind::Gltf),
         _ => None,
     };
     if let Some(kind) = mesh {
@@ -186,6 +192,7 @@ pub(crate) fn output_format(flag: Option<OutputFormat>, output: Option<&Path>) -
         Some("nff") => OutputFormat::Nff,
         Some("obj") => OutputFormat::Obj,
         Some("ply") => OutputFormat::Ply,
+        Some("glb") => OutputFormat::Glb,
         _ => OutputFormat::Yari,
     })
 }
@@ -214,6 +221,7 @@ pub(crate) fn render_scene(
         OutputFormat::Ply => ply(write::PlyEncoding::BinaryLittleEndian)?,
         OutputFormat::PlyAscii => ply(write::PlyEncoding::Ascii)?,
         OutputFormat::PlyBigEndian => ply(write::PlyEncoding::BinaryBigEndian)?,
+        OutputFormat::Glb => write::glb(&yari::mesh::faces_of(scene)?)?,
     })
 }
 

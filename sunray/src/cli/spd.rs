@@ -35,7 +35,8 @@ pub struct SpdArgs {
     /// default his programs' own, 3, and 2 for jacks).
     #[arg(long, value_name = "R", requires = "patches")]
     pub patch_resolution: Option<u32>,
-    /// Where to write (`.nff` for NFF, `.obj` for OBJ, `.ply` for binary PLY, else YARI;
+    /// Where to write (`.nff` for NFF, `.obj` for OBJ, `.ply` for binary PLY, `.glb` for binary
+    /// glTF, else YARI;
     /// default: YARI on stdout). A mesh holds the scene's polygons only.
     #[arg(short, long)]
     pub output: Option<PathBuf>,

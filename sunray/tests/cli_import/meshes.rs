@@ -1,7 +1,8 @@
-//! OBJ and PLY meshes written by `sunray spd` (the fixture generators) from Haines's tetra
-//! (flat triangles) and teapot (patches with vertex normals, and flat faces): every format and
-//! encoding compiles to the NFF's own geometry, renders to one image, and bad files get one
-//! line with the file and the place, exit 2, and no output.
+//! OBJ, PLY and glTF meshes written by `sunray convert` and `sunray spd` (the fixture
+//! generators) from Haines's tetra (flat triangles) and teapot (patches with vertex normals,
+//! and flat faces): every format and encoding compiles to the NFF's own geometry (glTF's
+//! 32-bit floats: where the NFF's coordinates are floats), renders to one image, and bad files
+//! get one line with the file and the place, exit 2, and no output.
 
 use super::*;
 use yari::colour::ColourTable;
@@ -35,7 +36,7 @@ fn every_mesh_format_holds_the_nff_geometry_and_renders_one_image() {
         // `sunray convert` writes OBJ and binary little-endian PLY from the NFF file; the
         // library's writer the other two encodings, from the same file.
         let path = |name: &str| dir.join(format!("{db}-{name}"));
-        for name in ["m.obj", "le.ply"] {
+        for name in ["m.obj", "le.ply", "m.glb"] {
             let out = path(name);
             assert_ok(&sunray(&[
                 "convert",
@@ -55,10 +56,22 @@ fn every_mesh_format_holds_the_nff_geometry_and_renders_one_image() {
             std::fs::write(path(name), bytes).unwrap();
         }
         let mut images = Vec::new();
-        for name in ["m.obj", "le.ply", "ascii.ply", "be.ply"] {
+        for name in ["m.obj", "le.ply", "ascii.ply", "be.ply", "m.glb"] {
             let p = path(name);
             let loaded = load(&p);
-            assert_eq!(shapes(&loaded.world), want, "{db} {name}");
+            // glTF holds 32-bit floats: tetra's coordinates are (multiples of powers of two),
+            // the teapot's are not, so its triangles are rounded.
+            let exact = name != "m.glb" || db == "tetra";
+            let got = shapes(&loaded.world);
+            if exact {
+                assert_eq!(got, want, "{db} {name}");
+            } else {
+                assert_eq!(
+                    got.len() as u64,
+                    triangles,
+                    "{db} {name}: triangles, quads fanned"
+                );
+            }
             let mesh = loaded.mesh.unwrap();
             assert_eq!(
                 (mesh.triangles, mesh.normals),
@@ -130,6 +143,16 @@ fn bad_meshes_get_one_line_exit_2_and_no_output() {
         tetra.to_str().unwrap(),
     ]));
     let whole = std::fs::read(&tetra).unwrap();
+    let glb_path = dir.join("t.glb");
+    assert_ok(&sunray(&[
+        "spd",
+        "tetra",
+        "--size",
+        "1",
+        "-o",
+        glb_path.to_str().unwrap(),
+    ]));
+    let glb = std::fs::read(&glb_path).unwrap();
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         (
             "range.obj",
@@ -156,6 +179,7 @@ fn bad_meshes_get_one_line_exit_2_and_no_output() {
             whole[..whole.len() - 5].to_vec(),
             "cut.ply: byte ",
         ),
+        ("cut.glb", glb[..glb.len() / 2].to_vec(), "cut.glb: "),
     ];
     for (name, bytes, want) in cases {
         let input = dir.join(name);

@@ -34,6 +34,7 @@ fn read(kind: MeshKind, bytes: &[u8]) -> Result<(Vec<Face>, MeshSummary), MeshEr
     let name = match kind {
         MeshKind::Obj => "m.obj",
         MeshKind::Ply => "m.ply",
+        MeshKind::Gltf => "m.glb",
     };
     let mut input = bytes;
     let s = read_each(kind, Path::new(name), &mut input, &mut |f| faces.push(f))?;
@@ -252,4 +253,85 @@ fn an_mtl_material_maps_to_the_hall_attributes_of_an_nff_fill() {
     // Three attributes (one per surface change) and three polygons, then the framing view.
     assert_eq!(scene.body.items.len(), 6);
     assert_eq!(scene.view.len(), 5);
+}
+
+#[test]
+fn a_glb_reads_back_its_triangles_as_floats_with_normals_and_a_node_transform() {
+    // The cube's first three faces (normals) as six triangles.
+    let faces: Vec<Face> = cube()[..3].to_vec();
+    let bytes = write::glb(&faces).unwrap();
+    let (tris, s) = read(MeshKind::Gltf, &bytes).unwrap();
+    assert_eq!((s.faces, s.triangles, s.vertices), (6, 6, 18));
+    assert_eq!(
+        tris[0].vertices,
+        vec![
+            faces[0].vertices[0],
+            faces[0].vertices[1],
+            faces[0].vertices[2]
+        ]
+    );
+    assert_eq!(
+        tris[1].vertices,
+        vec![
+            faces[0].vertices[0],
+            faces[0].vertices[2],
+            faces[0].vertices[3]
+        ]
+    );
+    assert_eq!(tris[0].normals, Some(vec![[0.0, 0.0, -1.0]; 3]));
+}
+
+#[test]
+fn bad_gltf_gets_one_line() {
+    let faces: Vec<Face> = cube();
+    let mut bytes = write::glb(&faces).unwrap();
+    bytes.truncate(bytes.len() - 40);
+    // The binary chunk is cut: the crate refuses the container, or the buffer is short.
+    let e = error(MeshKind::Gltf, &bytes);
+    assert!(e.starts_with("m.glb: "), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    let e = error(MeshKind::Gltf, b"{\"asset\": 1}");
+    assert!(e.starts_with("m.glb: not glTF 2.0"), "{e}");
+}
+
+/// A .gltf of one triangle (0,0,0), (1,0,0), (0,1,0) in a base64 buffer of `data` bytes
+/// declared `declared` long, under a node moved by 10 in x whose child, scaled by 2, holds
+/// the mesh; the accessor counts `count` vertices.
+fn gltf_text(data: usize, declared: usize, count: usize) -> String {
+    use base64::Engine;
+    let mut bin = Vec::new();
+    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        for x in v {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    bin.truncate(data);
+    let b64 = base64::engine::general_purpose::STANDARD.encode(&bin);
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"children":[1],"translation":[10,0,0]}},{{"mesh":0,"scale":[2,2,2]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "buffers":[{{"byteLength":{declared},"uri":"data:application/octet-stream;base64,{b64}"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":{declared}}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":{count},"type":"VEC3",
+          "min":[0,0,0],"max":[1,1,0]}}]}}"#
+    )
+}
+
+#[test]
+fn gltf_nodes_place_their_meshes_and_short_buffers_are_refused() {
+    let (tris, _) = read(MeshKind::Gltf, gltf_text(36, 36, 3).as_bytes()).unwrap();
+    assert_eq!(
+        tris[0].vertices,
+        vec![[10.0, 0.0, 0.0], [12.0, 0.0, 0.0], [10.0, 2.0, 0.0]]
+    );
+    assert_eq!(tris[0].normals, None);
+    let e = error(MeshKind::Gltf, gltf_text(24, 36, 3).as_bytes());
+    assert_eq!(
+        e,
+        "m.glb: buffer 0 holds 24 bytes, fewer than the 36 it declares (truncated?)"
+    );
+    let e = error(MeshKind::Gltf, gltf_text(36, 36, 4).as_bytes());
+    assert!(e.starts_with("m.glb: "), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
 }

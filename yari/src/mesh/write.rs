@@ -169,3 +169,71 @@ pub fn ply<W: Write>(faces: &[Face], encoding: PlyEncoding, out: &mut W) -> io::
     }
     Ok(())
 }
+
+/// `faces` as binary glTF (`.glb`): one mesh of triangles (a face of more corners is fanned
+/// from its first), positions and, when any face has them, normals (zero for a face without:
+/// flat when read back) as glTF's 32-bit floats (so coordinates that are not floats are
+/// rounded), no indices, no material (read back as the neutral grey).
+pub fn glb(faces: &[Face]) -> io::Result<Vec<u8>> {
+    let with_normals = faces.iter().any(|f| f.normals.is_some());
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut normals: Vec<[f32; 3]> = Vec::new();
+    let f32s = |v: &Vec3| v.map(|x| x as f32);
+    for f in faces {
+        for i in 1..f.vertices.len().saturating_sub(1) {
+            for k in [0, i, i + 1] {
+                positions.push(f32s(&f.vertices[k]));
+                if with_normals {
+                    normals.push(f.normals.as_ref().map_or([0.0; 3], |n| f32s(&n[k])));
+                }
+            }
+        }
+    }
+    let count = positions.len();
+    let (mut min, mut max) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in &positions {
+        min = std::array::from_fn(|i| min[i].min(p[i]));
+        max = std::array::from_fn(|i| max[i].max(p[i]));
+    }
+    let mut bin: Vec<u8> = Vec::with_capacity(count * 24);
+    for v in positions.iter().chain(&normals) {
+        for x in v {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let bytes = count * 12;
+    let (normal_view, normal_accessor, normal_attr) = if with_normals {
+        (
+            format!(r#",{{"buffer":0,"byteOffset":{bytes},"byteLength":{bytes}}}"#),
+            format!(r#",{{"bufferView":1,"componentType":5126,"count":{count},"type":"VEC3"}}"#),
+            r#","NORMAL":1"#.to_string(),
+        )
+    } else {
+        Default::default()
+    };
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0","generator":"sunray"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0{normal_attr}}}}}]}}],"buffers":[{{"byteLength":{}}}],"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{bytes}}}{normal_view}],"accessors":[{{"bufferView":0,"componentType":5126,"count":{count},"type":"VEC3","min":{:?},"max":{:?}}}{normal_accessor}]}}"#,
+        bin.len(),
+        min,
+        max
+    );
+    let mut json = json.into_bytes();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let total = u32::try_from(total).map_err(|_| io::Error::other("over 4 GiB for a .glb"))?;
+    let mut out = Vec::with_capacity(total as usize);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&total.to_le_bytes());
+    for (chunk, kind) in [(&json, b"JSON"), (&bin, b"BIN\0")] {
+        out.extend_from_slice(&(chunk.len() as u32).to_le_bytes());
+        out.extend_from_slice(kind);
+        out.extend_from_slice(chunk);
+    }
+    Ok(out)
+}
