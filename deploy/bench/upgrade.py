@@ -7,7 +7,8 @@ Once the job is under way, ws1 .. ws6 are replaced one at a time by containers o
 administrator would (`docker-compose up -d --no-deps wsN` with the new image), the next only
 once `rem hosts` shows the one before alive on its new protocol. The upgraded daemons announce
 UPGRADE_ANNOUNCE (default: one more than the old daemons' protocol, so the old ones meet a
-newer protocol; empty: the new image's own).
+newer protocol; empty: the new image's own, then UPGRADE_EXPECT says which protocol that is,
+so a host counts as back only once it announces it).
 
 At the end the job must have finished byte-identical to `sunray render` on ws1, each old
 daemon must have said once per upgraded peer that it speaks a newer protocol (when the old
@@ -25,12 +26,28 @@ HOSTS = [f"ws{i}" for i in range(1, 7)]
 JOB = "rolling-upgrade"
 
 
-def protocol_of(farm, via, host):
-    """The protocol `via` sees `host` announce (1: none announced; None: not alive)."""
+def protocol_of(farm, via, host, fresh_ms=None):
+    """The protocol `via` sees `host` announce (1: none announced; None: not alive, or with
+    `fresh_ms`, not heard from within that many milliseconds)."""
     for h in farm.hosts(via):
         if h.get("name") == host and h.get("alive"):
+            if fresh_ms is not None and (h.get("last_heard_ms") or 0) > fresh_ms:
+                return None
             return h.get("protocol") or 1
     return None
+
+
+def back(farm, host, via, want, announced):
+    """Whether the upgraded `host` is back. With a protocol announced to the old daemons,
+    once `via` hears it; else (a daemon older than protocol announcements drops the field) once
+    the host itself says it speaks `want` and `via` heard it within the last second (the old
+    daemon, stopped, is heard no more)."""
+    if want is None:
+        return protocol_of(farm, via, host) is not None
+    if announced:
+        return protocol_of(farm, via, host) == want
+    return (protocol_of(farm, host, host) == want
+            and protocol_of(farm, via, host, fresh_ms=1000) is not None)
 
 
 def container_log(farm, host):
@@ -101,16 +118,19 @@ def upgrade(farm, work, res, line_ms, override):
         t = time.time()
         subprocess.run(farm.compose_argv(*files, "up", "-d", "--no-deps", host),
                        env=farm.env, check=True, capture_output=True)
-        want = int(announce) if announce else None
-        back = None
+        # Back: heard announcing the new protocol (UPGRADE_EXPECT when the new image announces
+        # its own: without a protocol to tell them apart, the old daemon, not yet declared
+        # lost, could pass for the new one).
+        expect = announce or os.environ.get("UPGRADE_EXPECT", "")
+        want = int(expect) if expect else None
+        out_s = None
         while time.time() - t < 120:
-            p = protocol_of(farm, via, host)
-            if p is not None and (want is None or p == want):
-                back = time.time() - t
+            if back(farm, host, via, want, bool(announce)):
+                out_s = time.time() - t
                 break
             time.sleep(0.5)
-        hosts.append({"host": host, "out_s": back, "log_before": before})
-        print(f"upgrade: {host} back after {back} s on {to_image}", flush=True)
+        hosts.append({"host": host, "out_s": out_s, "log_before": before})
+        print(f"upgrade: {host} back after {out_s} s on {to_image}", flush=True)
         time.sleep(2)
     upgraded_s = time.time() - t0
     during = job_row(farm) or {}
