@@ -86,11 +86,14 @@ pub struct Loaded {
 }
 
 impl Loaded {
-    /// The warnings rendered as `file:line:col: warning: ...` with carets.
+    /// The warnings rendered as `file:line:col: warning: ...` with carets; for a mesh file
+    /// (whose faces the compiler sees without a place) `file: warning: ...` once per message,
+    /// with how many faces it was said of.
     pub fn render_warnings(&self) -> String {
-        match &self.source {
-            Some(src) => self.warnings.render(src),
-            None => String::new(),
+        match (&self.source, &self.mesh) {
+            (Some(src), Some(_)) => summarized(&src.name, &self.warnings),
+            (Some(src), None) => self.warnings.render(src),
+            (None, _) => String::new(),
         }
     }
 }
@@ -212,6 +215,24 @@ pub fn stream_path(
     }
 }
 
+/// `file: warning: MESSAGE` once per distinct message, in the order first said, with a count
+/// when said more than once.
+fn summarized(name: &str, diags: &Diagnostics) -> String {
+    let mut said: Vec<(&str, usize)> = Vec::new();
+    for d in diags.warnings() {
+        match said.iter_mut().find(|(m, _)| *m == d.message) {
+            Some((_, n)) => *n += 1,
+            None => said.push((&d.message, 1)),
+        }
+    }
+    said.iter()
+        .map(|(m, n)| match n {
+            1 => format!("{name}: warning: {m}\n"),
+            n => format!("{name}: warning: {m} ({n} faces)\n"),
+        })
+        .collect()
+}
+
 fn loaded(world: World, kind: InputKind, warnings: Diagnostics, source: Option<Source>) -> Loaded {
     Loaded {
         world,
@@ -246,11 +267,19 @@ fn compile_mesh(
             mesh: Some(summary),
             ..loaded(world, kind, warnings, Some(source))
         }),
-        Err(diagnostics) => Err(SceneError {
-            source_text: source,
-            diagnostics,
+        // The compiler refused a face: no place in the file to show, so its first words.
+        Err(diagnostics) => {
+            let first = diagnostics.errors().next().map(|d| d.message.clone());
+            Err(MeshError::new(
+                path,
+                crate::mesh::Place::File,
+                format!(
+                    "a face cannot be compiled: {}",
+                    first.unwrap_or_else(|| "no reason given".into())
+                ),
+            )
+            .into())
         }
-        .into()),
     }
 }
 

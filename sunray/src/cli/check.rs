@@ -54,11 +54,12 @@ pub fn mesh_summary(m: &yari::mesh::MeshSummary) -> String {
     } else {
         format!("bounds {} to {}", point(m.bounds.min), point(m.bounds.max))
     };
+    let n = |k: u64, one, many| plural(k as usize, one, many);
     format!(
-        "mesh: {} vertices, {} faces ({} triangles), {}; {bounds}",
-        m.vertices,
-        m.faces,
-        m.triangles,
+        "mesh: {}, {} ({}), {}; {bounds}",
+        n(m.vertices, "vertex", "vertices"),
+        n(m.faces, "face", "faces"),
+        n(m.triangles, "triangle", "triangles"),
         if m.normals {
             "vertex normals"
         } else {

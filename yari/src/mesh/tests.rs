@@ -335,3 +335,15 @@ fn gltf_nodes_place_their_meshes_and_short_buffers_are_refused() {
     assert!(e.starts_with("m.glb: "), "{e}");
     assert_eq!(e.lines().count(), 1, "{e}");
 }
+
+#[test]
+fn a_meshs_compiler_warnings_name_the_file_once_per_message() {
+    let text = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\nf 1 2 4\n";
+    let colours = crate::colour::ColourTable::builtin();
+    let loaded =
+        crate::load::load_str("m.obj", text, crate::load::InputKind::Obj, &colours).unwrap();
+    assert_eq!(
+        loaded.render_warnings(),
+        "m.obj: warning: degenerate polygon dropped: it has no area (2 faces)\n"
+    );
+}
