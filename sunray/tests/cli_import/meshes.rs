@@ -14,6 +14,19 @@ fn shapes(world: &World) -> Vec<Shape> {
     world.objects.iter().map(|o| o.shape.clone()).collect()
 }
 
+/// `sunray spd DB --size SIZE -o OUT` (the format by OUT's extension): OUT's bytes.
+fn spd_to(db: &str, size: &str, out: &Path) -> Vec<u8> {
+    assert_ok(&sunray(&[
+        "spd",
+        db,
+        "--size",
+        size,
+        "-o",
+        out.to_str().unwrap(),
+    ]));
+    std::fs::read(out).unwrap()
+}
+
 fn load(path: &Path) -> yari::load::Loaded {
     yari::load::load_path(path, &ColourTable::builtin())
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
@@ -24,14 +37,7 @@ fn every_mesh_format_holds_the_nff_geometry_and_renders_one_image() {
     let dir = scratch("meshes");
     for (db, size, triangles, normals) in [("tetra", "3", 64, false), ("teapot", "2", 248, true)] {
         let nff = dir.join(format!("{db}.nff"));
-        assert_ok(&sunray(&[
-            "spd",
-            db,
-            "--size",
-            size,
-            "-o",
-            nff.to_str().unwrap(),
-        ]));
+        spd_to(db, size, &nff);
         let want = shapes(&load(&nff).world);
         // `sunray convert` writes OBJ and binary little-endian PLY from the NFF file; the
         // library's writer the other two encodings, from the same file.
@@ -103,14 +109,7 @@ fn every_mesh_format_holds_the_nff_geometry_and_renders_one_image() {
         // same geometry as its YARI.
         let (spd_yari, spd_ply) = (path("spd.yari"), path("spd.ply"));
         for out in [&spd_yari, &spd_ply] {
-            assert_ok(&sunray(&[
-                "spd",
-                db,
-                "--size",
-                size,
-                "-o",
-                out.to_str().unwrap(),
-            ]));
+            spd_to(db, size, out);
         }
         assert_eq!(
             shapes(&load(&spd_ply).world),
@@ -133,26 +132,8 @@ fn every_mesh_format_holds_the_nff_geometry_and_renders_one_image() {
 #[test]
 fn bad_meshes_get_one_line_exit_2_and_no_output() {
     let dir = scratch("bad-meshes");
-    let tetra = dir.join("t.ply");
-    assert_ok(&sunray(&[
-        "spd",
-        "tetra",
-        "--size",
-        "1",
-        "-o",
-        tetra.to_str().unwrap(),
-    ]));
-    let whole = std::fs::read(&tetra).unwrap();
-    let glb_path = dir.join("t.glb");
-    assert_ok(&sunray(&[
-        "spd",
-        "tetra",
-        "--size",
-        "1",
-        "-o",
-        glb_path.to_str().unwrap(),
-    ]));
-    let glb = std::fs::read(&glb_path).unwrap();
+    let whole = spd_to("tetra", "1", &dir.join("t.ply"));
+    let glb = spd_to("tetra", "1", &dir.join("t.glb"));
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         (
             "range.obj",

@@ -145,11 +145,14 @@ impl PropertyAccess for Skipped {
     }
 }
 
-/// A reader that counts the bytes and lines taken from it, for the place of an error.
+/// A reader that counts the bytes and lines taken from it, for the place of an error. Lines
+/// are counted only while `lines_wanted` (the header, and an ASCII payload): a binary payload
+/// is not scanned for newlines it does not have.
 struct Counting<'a> {
     inner: &'a mut dyn BufRead,
     bytes: u64,
     lines: u64,
+    lines_wanted: bool,
 }
 
 impl Read for Counting<'_> {
@@ -170,11 +173,13 @@ impl BufRead for Counting<'_> {
         self.inner.fill_buf()
     }
     fn consume(&mut self, n: usize) {
-        if let Ok(buf) = self.inner.fill_buf() {
-            self.lines += buf[..n.min(buf.len())]
-                .iter()
-                .filter(|b| **b == b'\n')
-                .count() as u64;
+        if self.lines_wanted {
+            if let Ok(buf) = self.inner.fill_buf() {
+                self.lines += buf[..n.min(buf.len())]
+                    .iter()
+                    .filter(|b| **b == b'\n')
+                    .count() as u64;
+            }
         }
         self.bytes += n as u64;
         self.inner.consume(n);
@@ -360,6 +365,7 @@ pub fn read_each(
         inner: input,
         bytes: 0,
         lines: 0,
+        lines_wanted: true,
     };
     let mut reader = Reader::new(counting);
     let vertex_parser = Parser::<PlyVertex>::new();
@@ -373,6 +379,7 @@ pub fn read_each(
             format!("not a PLY header: {}", first_line(&e)),
         )
     })?;
+    reader.get_mut().lines_wanted = header.encoding == Encoding::Ascii;
     let mut r = PlyReader {
         path,
         reader,
