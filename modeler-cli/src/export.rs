@@ -103,11 +103,7 @@ fn block(o: &Object) -> Block {
             .iter()
             .map(|t| sp(BodyItem::Transform(transform(t)))),
     );
-    items.extend(
-        o.primitives
-            .iter()
-            .map(|p| sp(BodyItem::Primitive(primitive(p)))),
-    );
+    items.extend(o.primitives.iter().map(|p| sp(primitive(p))));
     items.extend(o.children.iter().map(|c| sp(BodyItem::Block(block(c)))));
     Block {
         items,
@@ -167,8 +163,9 @@ fn transform(t: &Transform) -> ast::Transform {
     }
 }
 
-fn primitive(p: &Primitive) -> ast::Primitive {
-    match p {
+/// A primitive as the statement that writes it: a mesh is a statement of its own.
+fn primitive(p: &Primitive) -> BodyItem {
+    let prim = match p {
         Primitive::Sphere { center, radius } => ast::Primitive::Sphere {
             center: *center,
             radius: *radius,
@@ -193,5 +190,19 @@ fn primitive(p: &Primitive) -> ast::Primitive {
                 })
                 .collect(),
         },
-    }
+        Primitive::Mesh {
+            file,
+            materials_file,
+        } => {
+            return BodyItem::Mesh(ast::MeshStmt {
+                file: sp(file.clone()),
+                materials: if *materials_file {
+                    ast::MeshMaterials::File
+                } else {
+                    ast::MeshMaterials::Current
+                },
+            })
+        }
+    };
+    BodyItem::Primitive(prim)
 }

@@ -153,17 +153,8 @@ impl Converter<'_> {
             i += 1;
         }
         let rest = &items[i..];
-        if rest
-            .iter()
-            .all(|it| matches!(it.node, BodyItem::Primitive(_)))
-        {
-            let primitives = rest
-                .iter()
-                .filter_map(|it| match &it.node {
-                    BodyItem::Primitive(p) => Some(primitive(p)),
-                    _ => None,
-                })
-                .collect();
+        if rest.iter().all(|it| primitive(&it.node).is_some()) {
+            let primitives = rest.iter().filter_map(|it| primitive(&it.node)).collect();
             return Object {
                 name,
                 surface,
@@ -198,7 +189,8 @@ impl Converter<'_> {
             None => (kind.to_string(), ""),
         };
         for item in items {
-            if !matches!(item.node, BodyItem::Primitive(_)) && !run.is_empty() {
+            let prim = primitive(&item.node);
+            if prim.is_none() && !run.is_empty() {
                 let (b, sep) = base("part");
                 let name = self.names.pick(None, &b, sep);
                 out.push(Object {
@@ -209,8 +201,12 @@ impl Converter<'_> {
                     children: Vec::new(),
                 });
             }
+            if let Some(p) = prim {
+                run.push(p);
+                continue;
+            }
             match &item.node {
-                BodyItem::Primitive(p) => run.push(primitive(p)),
+                BodyItem::Primitive(_) | BodyItem::Mesh(_) => {}
                 BodyItem::Transform(t) => cur.push(transform(t)),
                 BodyItem::Attribute(fields) => attr = Some(surface(fields)),
                 BodyItem::Block(inner) => {
@@ -283,8 +279,19 @@ fn transform(t: &ast::Transform) -> Transform {
     }
 }
 
-fn primitive(p: &ast::Primitive) -> Primitive {
-    match p {
+/// The primitive a statement draws (a mesh statement's file is one), if it draws one.
+fn primitive(item: &BodyItem) -> Option<Primitive> {
+    let p = match item {
+        BodyItem::Primitive(p) => p,
+        BodyItem::Mesh(m) => {
+            return Some(Primitive::Mesh {
+                file: m.file.node.clone(),
+                materials_file: m.materials == ast::MeshMaterials::File,
+            })
+        }
+        _ => return None,
+    };
+    Some(match p {
         ast::Primitive::Sphere { center, radius } => Primitive::Sphere {
             center: *center,
             radius: *radius,
@@ -309,7 +316,7 @@ fn primitive(p: &ast::Primitive) -> Primitive {
                 })
                 .collect(),
         },
-    }
+    })
 }
 
 #[cfg(test)]

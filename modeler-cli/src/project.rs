@@ -243,6 +243,15 @@ pub enum Primitive {
         /// The `clip` and `plane` fields, in order; empty is unclipped.
         clip: Vec<Clip>,
     },
+    /// `mesh(file = "..." [; materials = file])` (extension): a mesh file's faces, read
+    /// when the scene is compiled.
+    Mesh {
+        /// The file as written: relative to the YARI file's folder unless absolute.
+        file: String,
+        /// Whether the faces take the file's own materials (else the object's surface).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        materials_file: bool,
+    },
 }
 
 /// How a quadric is clipped (YARI extension), in the quadric's own space.

@@ -119,6 +119,31 @@ pub enum BodyItem {
     Transform(Transform),
     /// A nested `begin ... end`: its transformations and surface end with it.
     Block(Block),
+    /// Extension: `mesh(file = "statue.ply" [; materials = file])`, a mesh file's faces
+    /// placed under the current transformation (and surface, unless the file's own are asked
+    /// for).
+    Mesh(MeshStmt),
+}
+
+/// Extension: a mesh file placed in the scene (`docs/yari.md`, "Meshes").
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshStmt {
+    /// The file as written: an OBJ, PLY or glTF mesh, relative to the YARI file's folder
+    /// unless absolute.
+    pub file: Spanned<String>,
+    /// Whose surfaces its faces take.
+    pub materials: MeshMaterials,
+}
+
+/// Whose surfaces a mesh's faces take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MeshMaterials {
+    /// The current attribute, like any primitive (`materials = current`, the default).
+    #[default]
+    Current,
+    /// The file's own (`materials = file`): OBJ's MTL, PLY's vertex colours, glTF's
+    /// materials, grey where it has none; they end with the statement.
+    File,
 }
 
 /// One `name = value` inside `attribute(...)`.

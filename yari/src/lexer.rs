@@ -1,6 +1,7 @@
 //! The YARI lexer: a hand-written scanner over the bytes of a source text.
 //!
-//! Tokens are identifiers, numbers, and the punctuation `( ) ; , =`. Blanks and `/* ... */`
+//! Tokens are identifiers, numbers, quoted strings (file names, one line each), and the
+//! punctuation `( ) ; , =`. Blanks and `/* ... */`
 //! comments separate tokens. A token is a small `Copy` value (kind, span, numeric value); the
 //! text of an identifier is read back from the lexer's window ([`Lexer::slice`]), so scanning
 //! allocates nothing.
@@ -42,6 +43,9 @@ pub enum TokenKind {
     Comma,
     /// `=`
     Equals,
+    /// Extension: a quoted string, `"statue.ply"`, on one line; its text without the quotes
+    /// is [`Lexer::string`].
+    String,
     /// End of input.
     Eof,
     /// A lexical error, already reported in [`Lexer::take_errors`].
@@ -59,6 +63,7 @@ impl TokenKind {
             TokenKind::Semi => "`;`",
             TokenKind::Comma => "`,`",
             TokenKind::Equals => "`=`",
+            TokenKind::String => "a quoted string",
             TokenKind::Eof => "end of file",
             TokenKind::Error => "an invalid token",
         }
@@ -151,6 +156,12 @@ impl<'a> Lexer<'a> {
             (Some(s), Some(e)) => self.text.get(s..e).unwrap_or(""),
             _ => "",
         }
+    }
+
+    /// The text of a [`TokenKind::String`] token, without its quotes.
+    pub fn string(&self, span: Span) -> &str {
+        let s = self.slice(span);
+        s.get(1..s.len().saturating_sub(1)).unwrap_or("")
     }
 
     /// True when lexical errors are waiting in [`Lexer::take_errors`].
@@ -283,6 +294,9 @@ impl<'a> Lexer<'a> {
         if c.is_ascii_digit() || c == b'.' || c == b'-' || c == b'+' {
             return self.number(start);
         }
+        if c == b'"' {
+            return self.string_token(start);
+        }
         // One whole (possibly multi-byte) character.
         let ch = self.text[start..].chars().next().unwrap_or('?');
         self.pos += ch.len_utf8();
@@ -300,6 +314,26 @@ impl<'a> Lexer<'a> {
             start,
             format!("unexpected character `{}`", ch.escape_debug()),
         )
+    }
+
+    /// A string from its opening quote at `start` to the closing one on the same line; no
+    /// escapes (a file name with a `"` in it cannot be written).
+    fn string_token(&mut self, start: usize) -> Token {
+        let b = self.text.as_bytes();
+        let rest = &b[start + 1..];
+        match rest.iter().position(|&c| c == b'"' || c == b'\n') {
+            Some(n) if rest[n] == b'"' => {
+                self.pos = start + n + 2;
+                self.token(TokenKind::String, start)
+            }
+            n => {
+                self.pos = start + 1 + n.unwrap_or(rest.len());
+                self.error(
+                    start,
+                    "unterminated string: `\"` has no closing `\"` on its line".into(),
+                )
+            }
+        }
     }
 
     fn number(&mut self, start: usize) -> Token {

@@ -7,7 +7,8 @@
 //! - [`ast`]: the syntax tree as written.
 //! - [`model`]: the compiled world-space model a renderer loads, and the camera's view frame
 //!   ([`model::Camera::frame`]) that the renderer and the POV-Ray export both use.
-//! - [`lexer`]: the byte scanner (numbers, names, punctuation, `/* */` comments).
+//! - [`lexer`]: the byte scanner (numbers, names, punctuation, quoted file names, `/* */`
+//!   comments).
 //! - [`lines`]: a text read once, line by line, checked as UTF-8 (the streaming readers').
 //! - [`parse`]: the parser from source text to [`ast::Scene`], with error recovery.
 //! - [`writer`]: the syntax tree (or a compiled world) printed back as YARI text.
@@ -17,7 +18,8 @@
 //! - [`modelfile`]: the compiled model in binary (`.srw`), for workers.
 //! - [`load`]: any scene file (YARI, NFF, OFF, OBJ, PLY, model) to a compiled world.
 //! - [`nff`], [`off`]: converters from NFF and OFF to the syntax tree (`nff2gfx`, `off2gfx`).
-//! - [`mesh`]: today's mesh files (OBJ with MTL, PLY) as a stream of YARI polygons, framed.
+//! - [`mesh`]: today's mesh files (OBJ with MTL, PLY, glTF) as a stream of YARI polygons,
+//!   framed on their own or placed by a YARI `mesh(file = ...)` statement.
 //! - [`polygon`]: polygons cut into triangles, the same way for the renderer and the writers.
 //! - [`pov`]: a compiled world written as POV-Ray 3.7 SDL, to compare with POV-Ray.
 //! - [`spd`]: Haines's Standard Procedural Databases (`tetra`, `mount`, `balls`) and `check`

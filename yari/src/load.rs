@@ -1,5 +1,8 @@
 //! Loading a scene from a file of any supported kind into a compiled [`World`].
 //!
+//! A YARI scene's `mesh(file = ...)` statements read their files as it is compiled, relative
+//! to the YARI file's folder ([`Loaded::meshes`], [`Loaded::inputs`]).
+//!
 //! The kind is found from the content and the extension: a file that starts with the model
 //! file magic is a compiled model ([`crate::modelfile`]); otherwise `.yari` is YARI,
 //! `.nff` is NFF, `.off` is OFF (all three parsed and compiled), `.obj`, `.ply`, `.gltf` and
@@ -14,7 +17,7 @@
 //! read again to show them ([`Source::excerpt`]).
 
 use crate::colour::ColourTable;
-use crate::compile::{CompileStream, ObjectSink};
+use crate::compile::{CompileStream, MeshRead, ObjectSink};
 use crate::diag::{Diagnostics, SceneError};
 use crate::lines::{TextFailure, TextLines};
 use crate::mesh::{MeshError, MeshKind, MeshSummary, ToYari};
@@ -83,9 +86,26 @@ pub struct Loaded {
     pub source: Option<Source>,
     /// For a mesh file: what it held (counts and bounds).
     pub mesh: Option<MeshSummary>,
+    /// For a YARI scene: the mesh files its `mesh` statements placed, in order.
+    pub meshes: Vec<MeshRead>,
 }
 
 impl Loaded {
+    /// The files other than the scene file that its world was made from: the meshes a YARI
+    /// scene placed, and the material libraries and buffers of every mesh. A copy of the
+    /// world made before is stale when one of them has changed.
+    pub fn inputs(&self) -> Vec<PathBuf> {
+        let mut files = Vec::new();
+        for m in &self.meshes {
+            files.push(m.path.clone());
+            files.extend(m.summary.companions.iter().cloned());
+        }
+        if let Some(m) = &self.mesh {
+            files.extend(m.companions.iter().cloned());
+        }
+        files
+    }
+
     /// The warnings rendered as `file:line:col: warning: ...` with carets; for a mesh file
     /// (whose faces the compiler sees without a place) `file: warning: ...` once per message,
     /// with how many faces it was said of.
@@ -181,7 +201,7 @@ pub fn stream_path(
         return compile_mesh(mesh, kind, path, &name, &mut input, colours, out);
     }
     let mut lines = TextLines::new(input);
-    let compiled = compile_text(&mut lines, kind, colours, out);
+    let compiled = compile_text(&mut lines, kind, colours, folder_of(path), out);
     if let Some(failure) = lines.failure() {
         return Err(match failure {
             TextFailure::Io(source) => io(source),
@@ -203,9 +223,12 @@ pub fn stream_path(
         Source::excerpt(name.as_str(), BufReader::new(file), &offsets).map_err(io)
     };
     match compiled {
-        Ok((world, warnings)) => {
+        Ok((world, warnings, meshes)) => {
             let source = excerpt(&warnings)?;
-            Ok(loaded(world, kind, warnings, Some(source)))
+            Ok(Loaded {
+                meshes,
+                ..loaded(world, kind, warnings, Some(source))
+            })
         }
         Err(diagnostics) => Err(SceneError {
             source_text: excerpt(&diagnostics)?,
@@ -240,7 +263,13 @@ fn loaded(world: World, kind: InputKind, warnings: Diagnostics, source: Option<S
         warnings,
         source,
         mesh: None,
+        meshes: Vec::new(),
     }
+}
+
+/// The folder of the scene file `path`, where its relative mesh files are found.
+fn folder_of(path: &Path) -> &Path {
+    path.parent().unwrap_or(Path::new(""))
 }
 
 /// Reads and compiles the mesh `input` (the file `path`, called `name`), each face as soon
@@ -316,8 +345,11 @@ pub fn stream_str(
         return compile_mesh(mesh, kind, Path::new(name), name, &mut input, colours, out);
     }
     let mut lines = TextLines::new(src.text.as_bytes());
-    match compile_text(&mut lines, kind, colours, out) {
-        Ok((world, warnings)) => Ok(loaded(world, kind, warnings, Some(src))),
+    match compile_text(&mut lines, kind, colours, folder_of(Path::new(name)), out) {
+        Ok((world, warnings, meshes)) => Ok(Loaded {
+            meshes,
+            ..loaded(world, kind, warnings, Some(src))
+        }),
         Err(diagnostics) => Err(SceneError {
             source_text: src,
             diagnostics,
@@ -327,7 +359,8 @@ pub fn stream_str(
 }
 
 /// Reads and compiles the text of `lines`: the world without its objects (they went to
-/// `out`) and the warnings, or every diagnostic. The NFF and OFF readers warn too (a `pp`
+/// `out`), the warnings and the meshes a YARI scene placed (relative files found in
+/// `folder`), or every diagnostic. The NFF and OFF readers warn too (a `pp`
 /// vertex with a zero normal, say): their warnings come first, then the compiler's; when
 /// the reader finds an error only its diagnostics are given, and when the compiler does
 /// only the compiler's.
@@ -335,9 +368,10 @@ fn compile_text<R: BufRead>(
     lines: &mut TextLines<R>,
     kind: InputKind,
     colours: &ColourTable,
+    folder: &Path,
     out: &mut ObjectSink<'_>,
-) -> Result<(World, Diagnostics), Diagnostics> {
-    let mut compiler = CompileStream::new(colours);
+) -> Result<(World, Diagnostics, Vec<MeshRead>), Diagnostics> {
+    let mut compiler = CompileStream::new(colours).meshes_from(folder);
     let (view, mut warnings) = match kind {
         InputKind::Nff => {
             let mut mapping = crate::nff::Mapping::default();
@@ -361,11 +395,14 @@ fn compile_text<R: BufRead>(
             (view?, Diagnostics::default())
         }
     };
+    let meshes = compiler.take_meshes();
     let (world, compiled) = compiler.finish(&view)?;
     warnings.items.extend(compiled.items);
-    Ok((world, warnings))
+    Ok((world, warnings, meshes))
 }
 
+#[cfg(test)]
+mod mesh_tests;
 #[cfg(test)]
 mod stream_tests;
 #[cfg(test)]

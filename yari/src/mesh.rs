@@ -150,6 +150,8 @@ pub struct MeshSummary {
     pub normals: bool,
     /// The bounding box of the vertices faces use.
     pub bounds: Bounds,
+    /// The other files read for it: OBJ's material libraries, glTF's buffer files.
+    pub companions: Vec<PathBuf>,
 }
 
 impl MeshSummary {
@@ -189,12 +191,13 @@ pub fn read_each(
         summary.add(&f);
         each(f);
     };
-    let vertices = match kind {
+    let (vertices, companions) = match kind {
         MeshKind::Obj => obj::read_each(path, input, &mut counted)?,
-        MeshKind::Ply => ply::read_each(path, input, &mut counted)?,
+        MeshKind::Ply => (ply::read_each(path, input, &mut counted)?, Vec::new()),
         MeshKind::Gltf => gltf::read_each(path, input, &mut counted)?,
     };
     summary.vertices = vertices;
+    summary.companions = companions;
     Ok(summary)
 }
 

@@ -136,6 +136,16 @@ fn leaf() -> impl Strategy<Value = BodyItem> {
         vec3().prop_map(|v| BodyItem::Transform(Transform::Rotate(v))),
         vec3().prop_map(|v| BodyItem::Transform(Transform::Motion(v))),
         prop::array::uniform12(num()).prop_map(|m| BodyItem::Transform(Transform::Matrix(m))),
+        ("[a-zA-Z0-9_ ./-]{1,16}", any::<bool>()).prop_map(|(file, own)| {
+            BodyItem::Mesh(MeshStmt {
+                file: sp(file),
+                materials: if own {
+                    MeshMaterials::File
+                } else {
+                    MeshMaterials::Current
+                },
+            })
+        }),
     ]
 }
 

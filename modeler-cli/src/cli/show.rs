@@ -72,22 +72,31 @@ fn summary(o: &Object) -> String {
             o.primitive_count()
         )
     } else {
-        let (mut spheres, mut polygons, mut quadrics) = (0, 0, 0);
+        let (mut spheres, mut polygons, mut quadrics, mut meshes) = (0, 0, 0, 0);
         for p in &o.primitives {
             match p {
                 Primitive::Sphere { .. } => spheres += 1,
                 Primitive::Polygon { .. } => polygons += 1,
                 Primitive::Quadric { .. } => quadrics += 1,
+                Primitive::Mesh { .. } => meshes += 1,
             }
         }
         let kinds: Vec<String> = [
             (spheres, "sphere"),
             (polygons, "polygon"),
             (quadrics, "quadric"),
+            (meshes, "mesh"),
         ]
         .iter()
         .filter(|(n, _)| *n > 0)
-        .map(|(n, k)| format!("{n} {k}{}", if *n == 1 { "" } else { "s" }))
+        .map(|(n, k)| {
+            let plural = match (*n, *k) {
+                (1, _) => "",
+                (_, "mesh") => "es",
+                _ => "s",
+            };
+            format!("{n} {k}{plural}")
+        })
         .collect();
         if kinds.is_empty() {
             "empty".into()

@@ -118,6 +118,21 @@ pub(crate) fn everything() -> Project {
         }],
         ..Object::default()
     });
+    p.objects.push(Object {
+        name: "statue".into(),
+        transforms: vec![Transform::Scale([2.0, 2.0, 2.0])],
+        primitives: vec![
+            Primitive::Mesh {
+                file: "scans/statue 2.ply".into(),
+                materials_file: true,
+            },
+            Primitive::Mesh {
+                file: "/abs/base.obj".into(),
+                materials_file: false,
+            },
+        ],
+        ..Object::default()
+    });
     p
 }
 
@@ -130,6 +145,12 @@ fn project_to_yari_to_project_keeps_every_object_name_and_property() {
     assert_eq!(back.objects, p.objects);
     // And once more from the re-read project: the text is a fixed point.
     assert_eq!(to_yari(&back), text);
+    // A mesh is its statement, kept as written.
+    assert!(
+        text.contains("mesh(file = \"scans/statue 2.ply\"; materials = file);")
+            && text.contains("mesh(file = \"/abs/base.obj\");"),
+        "{text}"
+    );
 }
 
 #[test]

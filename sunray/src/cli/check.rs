@@ -11,7 +11,8 @@ use yari::model::World;
 /// The flags of `sunray check`.
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// The scene: .yari, .nff, .off, an .obj or .ply mesh, or a compiled .srw model.
+    /// The scene: .yari, .nff, .off, an .obj, .ply, .gltf or .glb mesh, or a compiled .srw
+    /// model.
     pub scene: PathBuf,
     /// The colour-name table (`--colors`).
     #[command(flatten)]
@@ -28,6 +29,11 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
             println!("{}", summary(&display_name(&args.scene), &loaded.world));
             if let Some(mesh) = &loaded.mesh {
                 println!("{}", mesh_summary(mesh));
+            }
+            for placed in &loaded.meshes {
+                let line = mesh_summary(&placed.summary);
+                let line = line.strip_prefix("mesh").unwrap_or(&line);
+                println!("mesh {}{line}", placed.path.display());
             }
             Ok(ExitCode::SUCCESS)
         }

@@ -1,8 +1,11 @@
 //! `sunray convert IN [-o OUT.yari]`: NFF or OFF to YARI (the thesis's `nff2gfx` and
 //! `off2gfx`), or an OBJ or PLY mesh to YARI (polygons with normals, framed as
 //! [`yari::mesh`] frames a mesh on its own); `sunray convert IN.nff -o OUT.obj|.ply|.glb`: an
-//! NFF scene's polygons as a mesh (binary PLY, binary glTF); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to POV-Ray
-//! SDL ([`yari::pov`]), for the side-by-side benchmark in bench/pov. Also the output helpers the scene generators (`spd`, `check-board`) share:
+//! NFF scene's polygons as a mesh (binary PLY, binary glTF); `sunray convert IN.yari -o
+//! OUT.yari`: a YARI scene (or model) as its compiled world, flat (the triangles of its `mesh`
+//! statements in full); `sunray convert IN -o OUT.pov`: any scene (YARI, NFF, OFF, model) to
+//! POV-Ray SDL ([`yari::pov`]), for the side-by-side benchmark in bench/pov. Also the output
+//! helpers the scene generators (`spd`, `check-board`) share:
 //! YARI or NFF text chosen by the output's extension, written to a temporary file and
 //! renamed, or printed to stdout.
 
@@ -13,8 +16,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use yari::span::Source;
 
-/// Convert an NFF (`.nff`) or OFF (`.off`) scene, or an OBJ (`.obj`) or PLY (`.ply`) mesh, to
-/// YARI, or any scene to POV-Ray SDL (`-o OUT.pov`).
+/// Convert an NFF (`.nff`) or OFF (`.off`) scene, or an OBJ (`.obj`), PLY (`.ply`) or glTF
+/// mesh, to YARI; a YARI scene (or `.srw` model) to flat YARI, its meshes' triangles in full;
+/// or any scene to POV-Ray SDL (`-o OUT.pov`).
 #[derive(Args, Debug)]
 pub struct ConvertArgs {
     /// The scene to convert (`-` reads stdin; then give --from).
@@ -58,8 +62,12 @@ pub(crate) enum OutputFormat {
 pub fn run(args: ConvertArgs) -> anyhow::Result<ExitCode> {
     if let Some(out) = &args.output {
         if extension(out).as_deref() == Some("pov") {
-            return to_pov(&args.input, out);
+            return compiled_to(&args.input, Some(out), yari::pov::write_pov);
         }
+    }
+    let compiled = matches!(extension(&args.input).as_deref(), Some("yari" | "srw"));
+    if args.from.is_none() && compiled {
+        return flat_yari(&args.input, args.output.as_deref());
     }
     let format = match args.from {
         Some(f) => f,
@@ -163,13 +171,30 @@ fn nff_to_mesh(src: &Source, format: OutputFormat, out: Option<&Path>) -> anyhow
     }
 }
 
-/// Compiles any scene file and writes it as POV-Ray SDL.
-fn to_pov(input: &Path, output: &Path) -> anyhow::Result<ExitCode> {
+/// A YARI scene or model written as its compiled world, flat (its meshes' triangles in full).
+fn flat_yari(input: &Path, output: Option<&Path>) -> anyhow::Result<ExitCode> {
+    if let Some(out) = output.filter(|o| extension(o).as_deref() != Some("yari")) {
+        bail!(
+            "a YARI scene or model converts to a flat YARI file (its meshes' triangles in full) \
+             or to POV-Ray SDL; name the output {} with a .yari or .pov extension",
+            out.display()
+        );
+    }
+    compiled_to(input, output, yari::writer::write_world)
+}
+
+/// Compiles any scene file and writes its world as `write` prints it (POV-Ray SDL, or flat
+/// YARI), to `output` or stdout.
+fn compiled_to(
+    input: &Path,
+    output: Option<&Path>,
+    write: fn(&yari::model::World) -> String,
+) -> anyhow::Result<ExitCode> {
     let colours = yari::colour::ColourTable::builtin();
     match yari::load::load_path(input, &colours) {
         Ok(loaded) => {
             eprint!("{}", loaded.render_warnings());
-            write_output(Some(output), &yari::pov::write_pov(&loaded.world))?;
+            write_output(output, &write(&loaded.world))?;
             Ok(ExitCode::SUCCESS)
         }
         Err(e) => {

@@ -29,14 +29,19 @@ use std::path::{Path, PathBuf};
 /// Most entries kept; the least recently used go first.
 pub const MAX_ENTRIES: usize = 64;
 
+/// Most other files an entry's model may be made from (a scene that places more meshes is
+/// compiled again at each submit).
+pub const MAX_INPUTS: usize = 256;
+
 /// The variable naming the folder of this user's caches.
 pub const CACHE_DIR_ENV: &str = "SUNRAY_CACHE_DIR";
 
 /// What an entry's version must be (a change of its fields changes it).
-const ENTRY_VERSION: u32 = 1;
+const ENTRY_VERSION: u32 = 2;
 
 /// Which scene an entry is of: a hex SHA-256 of the inputs that make its model.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(transparent)]
 pub struct SceneKey(String);
 
 impl SceneKey {
@@ -57,6 +62,11 @@ impl SceneKey {
         Ok(SceneKey(
             digest.iter().map(|b| format!("{b:02x}")).collect(),
         ))
+    }
+
+    /// True for a key as [`SceneKey::of`] makes them: 64 hex digits.
+    fn is_sound(&self) -> bool {
+        self.0.len() == 64 && self.0.bytes().all(|b| b.is_ascii_hexdigit())
     }
 }
 
@@ -84,6 +94,16 @@ fn hash_file(h: &mut Sha256, path: &Path) -> std::io::Result<()> {
     }
 }
 
+/// A file other than the scene file that a model was made from (a mesh a YARI scene
+/// placed, an OBJ's material library, a glTF's buffer), with the key its bytes had.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ShippedInput {
+    /// The file, absolute.
+    pub path: PathBuf,
+    /// Its key when the model was made.
+    pub key: SceneKey,
+}
+
 /// A scene shipped before: what the job needs of it, and its model's chunks.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ShippedScene {
@@ -96,15 +116,24 @@ pub struct ShippedScene {
     /// The model as it was shipped (what that cost is not kept: shipped again, it sends
     /// nothing).
     pub model: ShippedModel,
+    /// The other files the model was made from; the entry stands only while each has the
+    /// key it had.
+    pub inputs: Vec<ShippedInput>,
 }
 
 impl ShippedScene {
-    /// The entry of a scene shipped as `model`.
-    pub fn new(summary: SceneSummary, warnings: Vec<String>, model: &ShippedModel) -> ShippedScene {
+    /// The entry of a scene shipped as `model`, made from the scene file and `inputs`.
+    pub fn new(
+        summary: SceneSummary,
+        warnings: Vec<String>,
+        model: &ShippedModel,
+        inputs: Vec<ShippedInput>,
+    ) -> ShippedScene {
         ShippedScene {
             version: ENTRY_VERSION,
             summary,
             warnings,
+            inputs,
             model: ShippedModel {
                 bytes_sent: 0,
                 ..model.clone()
@@ -118,6 +147,11 @@ impl ShippedScene {
         let (chunks, size) = (&self.model.chunks, self.model.size);
         let chunk = rem::client::blob::CHUNK_BYTES as u64;
         self.version == ENTRY_VERSION
+            && self.inputs.len() <= MAX_INPUTS
+            && self
+                .inputs
+                .iter()
+                .all(|i| i.key.is_sound() && i.path.is_absolute())
             && !chunks.is_empty()
             && chunks.len() <= rem::client::blob::MAX_CHUNKS
             && chunks
@@ -160,12 +194,17 @@ impl ShippedScenes {
         self.dir.join(format!("{}.json", key.0))
     }
 
-    /// The entry of `key`, if one is kept and sound (it then counts as just used).
+    /// The entry of `key`, if one is kept and sound and every other file its model was made
+    /// from is as it was (it then counts as just used).
     pub fn find(&self, key: &SceneKey) -> Option<ShippedScene> {
         let path = self.path(key);
         let bytes = std::fs::read(&path).ok()?;
         let entry: ShippedScene = serde_json::from_slice(&bytes).ok()?;
         if !entry.is_sound() {
+            return None;
+        }
+        let unchanged = |i: &ShippedInput| self.key_of(&i.path, None).is_ok_and(|k| k == i.key);
+        if !entry.inputs.iter().all(unchanged) {
             return None;
         }
         if let Ok(f) = std::fs::File::options().append(true).open(&path) {

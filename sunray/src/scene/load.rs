@@ -152,6 +152,9 @@ pub struct CompiledScene {
     pub warnings: Vec<String>,
     /// Seconds spent reading, compiling and counting.
     pub load_s: f64,
+    /// The files other than the scene file it was made from (meshes a YARI scene placed,
+    /// material libraries, buffers).
+    pub inputs: Vec<PathBuf>,
 }
 
 /// Compiles a scene for a job ([`CompiledScene`]), with the colour names of `colours`: read
@@ -187,14 +190,11 @@ pub fn compile_for_job(
     let model = encoder
         .finish(&loaded.world)
         .map_err(|e| model_error(e, "the compiled scene"))?;
-    Ok(compiled(
-        source,
-        loaded.world,
-        counter,
-        model,
-        warnings,
-        t_load,
-    ))
+    let inputs = loaded.inputs();
+    Ok(CompiledScene {
+        inputs,
+        ..compiled(source, loaded.world, counter, model, warnings, t_load)
+    })
 }
 
 fn compiled(
@@ -219,6 +219,7 @@ fn compiled(
         },
         warnings,
         load_s: t_load.elapsed().as_secs_f64(),
+        inputs: Vec::new(),
     }
 }
 

@@ -189,3 +189,61 @@ fn bad_meshes_get_one_line_exit_2_and_no_output() {
     assert_ne!(out.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.ply"));
 }
+
+/// A YARI scene placing meshes, run as a user runs it from another folder: `check` names each
+/// mesh, and `render` of the scene, of its compiled `.srw` and of its flat YARI (`convert`)
+/// give one image, the same whichever format holds the triangles.
+#[test]
+fn a_yari_scene_places_meshes_relative_to_itself() {
+    let dir = scratch("placed");
+    std::fs::create_dir_all(dir.join("models")).unwrap();
+    let path = |n: &str| dir.join(n);
+    let arg = |p: &Path| p.to_str().unwrap().to_string();
+    let mut images = Vec::new();
+    for ext in ["ply", "obj"] {
+        spd_to("teapot", "2", &path(&format!("models/teapot.{ext}")));
+        let scene = path(&format!("placed-{ext}.yari"));
+        std::fs::write(
+            &scene,
+            format!(
+                "resolution(40,32);\ncamera(position = 0,-8,3; at = 0,0,0.5; up = 0,0,1; angle = 20);\n\
+                 light(position = 4,-5,9; color = white);\nbegin\n  attribute(color = 0.9,0.6,0.2);\n  \
+                 begin rotate(0,0,40); scale(0.7,0.7,0.7); mesh(file = \"models/teapot.{ext}\"); end\n  \
+                 translate(1.2,0,0);\n  mesh(file = \"models/teapot.{ext}\"; materials = file);\nend\n"
+            ),
+        )
+        .unwrap();
+        let check = Command::new(env!("CARGO_BIN_EXE_sunray"))
+            .current_dir(std::env::temp_dir())
+            .args(["check", &arg(&scene)])
+            .output()
+            .unwrap();
+        assert_ok(&check);
+        let said = String::from_utf8_lossy(&check.stdout);
+        let mesh = format!("mesh {}: ", path(&format!("models/teapot.{ext}")).display());
+        assert_eq!(said.matches(&mesh).count(), 2, "{said}");
+        assert!(said.contains("(248 triangles)"), "{said}");
+        let (srw, flat) = (
+            path(&format!("{ext}.srw")),
+            path(&format!("{ext}-flat.yari")),
+        );
+        assert_ok(&sunray(&["compile", &arg(&scene), "-o", &arg(&srw)]));
+        assert_ok(&sunray(&["convert", &arg(&scene), "-o", &arg(&flat)]));
+        assert!(!std::fs::read_to_string(&flat).unwrap().contains("mesh("));
+        for input in [&scene, &srw, &flat] {
+            let png = path(&format!(
+                "{}.png",
+                input.file_name().unwrap().to_str().unwrap()
+            ));
+            let out = Command::new(env!("CARGO_BIN_EXE_sunray"))
+                .current_dir(std::env::temp_dir())
+                .args(["render", "-q", &arg(input), "-o", &arg(&png)])
+                .output()
+                .unwrap();
+            assert_ok(&out);
+            images.push(std::fs::read(&png).unwrap());
+        }
+    }
+    assert!(images.iter().all(|i| *i == images[0]), "the images differ");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -72,3 +72,73 @@ fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
         "a changed scene is compiled again"
     );
 }
+
+/// A YARI scene that places a mesh file ships the mesh's triangles with it: the farm's image
+/// is `sunray render`'s. The scene is remembered with the mesh it was made from, so a second
+/// submit sends nothing, and one after the mesh changed (the YARI file untouched) is
+/// compiled again and shows the new mesh.
+#[test]
+fn a_scene_placing_a_mesh_ships_it_and_is_compiled_again_when_the_mesh_changes() {
+    let cluster = LoopbackCluster::start(2);
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let models = dir.path().join("models");
+    std::fs::create_dir(&models).unwrap();
+    let mesh = models.join("tetra.ply");
+    let write_mesh = |size: &str| {
+        let st = sunray_e2e::bins::sunray()
+            .args(["spd", "tetra", "--size", size, "-o"])
+            .arg(&mesh)
+            .status()
+            .unwrap();
+        assert!(st.success());
+    };
+    write_mesh("2");
+    let scene = dir.path().join("placed.yari");
+    std::fs::write(
+        &scene,
+        "resolution(64,96);\ncamera(position = 0,0,9; at = 0,0,0; up = 0,1,0; angle = 20);\n\
+         light(position = 5,5,9; color = white);\nbegin\n  attribute(color = orange);\n  \
+         rotate(0,30,0);\n  mesh(file = \"models/tetra.ply\");\n  translate(-1.5,0,0);\n  \
+         mesh(file = \"models/tetra.ply\"; materials = file);\nend\n",
+    )
+    .unwrap();
+    let run = |name: &str| {
+        let (out, json) = (
+            dir.path().join(format!("{name}.png")),
+            dir.path().join(format!("{name}.json")),
+        );
+        succeed(
+            cluster
+                .submit()
+                .env("SUNRAY_CACHE_DIR", &cache)
+                .args(["--hosts", "2", "-q"])
+                .arg(&scene)
+                .arg("-o")
+                .arg(&out)
+                .arg("--stats-json")
+                .arg(&json),
+        );
+        (std::fs::read(&out).unwrap(), read_json(&json))
+    };
+    let (want, _) = reference(dir.path(), &scene, &[]);
+    let (first, stats) = run("first");
+    assert!(
+        first == want,
+        "the placed mesh through the farm differs from sunray render"
+    );
+    assert!(stats["scene_bytes_sent"].as_u64().unwrap() > 0);
+    let (second, stats) = run("second");
+    assert!(second == want);
+    assert_eq!(
+        stats["scene_bytes_sent"], 0,
+        "remembered: nothing sent again"
+    );
+
+    write_mesh("3");
+    let (changed, _) = reference(dir.path(), &scene, &[]);
+    assert!(changed != want, "a finer tetra draws another image");
+    let (third, stats) = run("third");
+    assert!(third == changed, "the changed mesh was not compiled again");
+    assert!(stats["scene_bytes_sent"].as_u64().unwrap() > 0);
+}

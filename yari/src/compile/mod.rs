@@ -16,7 +16,9 @@
 //! - `stack`: the graphics state (transformation, attribute, motion) and transformations.
 //! - `surface`: attributes to surfaces, deduplication, colour lookup.
 //! - `shapes`: primitives to world-space shapes.
+//! - `mesh`: the `mesh(file = ...)` statement, a mesh file's faces placed in the scene.
 
+mod mesh;
 mod shapes;
 mod stack;
 pub mod stream;
@@ -26,11 +28,13 @@ mod tests;
 
 use crate::ast::{Block, BodyItem, CameraDef, ColorSpec, Scene, Spanned, ViewStmt};
 use crate::colour::ColourTable;
-use crate::diag::{Diagnostic, Diagnostics};
+use crate::diag::{Diagnostic, Diagnostics, Severity};
 use crate::model::{Camera, Features, Light, Object, Surface, World};
 use crate::span::Span;
 use glam::DVec3;
+pub use mesh::MeshRead;
 use stack::State;
+use std::path::PathBuf;
 pub use stream::{CompileStream, ObjectSink};
 
 /// The resolution used when the scene gives none.
@@ -51,7 +55,9 @@ pub struct Compiled {
     pub warnings: Diagnostics,
 }
 
-/// Compiles a scene. On failure the diagnostics hold the errors (and any warnings).
+/// Compiles a scene. On failure the diagnostics hold the errors (and any warnings). A `mesh`
+/// statement's relative file is found in the current directory; [`crate::load`] finds it
+/// beside the YARI file.
 pub fn compile(scene: &Scene, colours: &ColourTable) -> Result<Compiled, Diagnostics> {
     let mut stream = CompileStream::new(colours);
     let mut objects = Vec::new();
@@ -68,6 +74,12 @@ pub(crate) struct Compiler<'a> {
     pub(crate) diags: Diagnostics,
     warnings: usize,
     surfaces: surface::Dedup,
+    /// The folder relative mesh files are found in (the YARI file's); none: the current one.
+    folder: Option<PathBuf>,
+    /// The mesh files placed so far.
+    meshes: Vec<MeshRead>,
+    /// While a mesh's faces are compiled: what is said of them, gathered.
+    faces: Option<mesh::FaceMessages>,
 }
 
 impl<'a> Compiler<'a> {
@@ -77,14 +89,23 @@ impl<'a> Compiler<'a> {
             diags: Diagnostics::default(),
             warnings: 0,
             surfaces: surface::Dedup::default(),
+            folder: None,
+            meshes: Vec::new(),
+            faces: None,
         }
     }
 
     pub(crate) fn error(&mut self, span: Span, message: impl Into<String>) {
+        if let Some(faces) = &mut self.faces {
+            return faces.add(Severity::Error, message.into());
+        }
         self.diags.push(Diagnostic::error(span, message));
     }
 
     pub(crate) fn warn(&mut self, span: Span, message: impl Into<String>) {
+        if let Some(faces) = &mut self.faces {
+            return faces.add(Severity::Warning, message.into());
+        }
         self.warnings += 1;
         if self.warnings <= MAX_WARNINGS {
             self.diags.push(Diagnostic::warning(span, message));
@@ -302,6 +323,7 @@ impl<'a> Compiler<'a> {
             BodyItem::Block(inner) => self.block(inner, state.clone(), depth + 1, surfaces, out),
             BodyItem::Attribute(fields) => state.set_attribute(self, fields, item.span),
             BodyItem::Transform(t) => state.apply(self, t, item.span),
+            BodyItem::Mesh(m) => self.mesh(m, item.span, state, depth, surfaces, out),
             BodyItem::Primitive(p) => {
                 if let Some(shape) = self.primitive(p, state, item.span) {
                     let surface = state.surface_index(self, surfaces, item.span);

@@ -37,6 +37,18 @@ impl<'a> CompileStream<'a> {
         }
     }
 
+    /// Finds the files of relative `mesh(file = ...)` statements in `folder` (the YARI
+    /// file's) instead of the current directory.
+    pub fn meshes_from(mut self, folder: &std::path::Path) -> CompileStream<'a> {
+        self.body.folder = Some(folder.to_path_buf());
+        self
+    }
+
+    /// The mesh files placed so far, taken out of the stream (for [`Self::finish`]'s caller).
+    pub fn take_meshes(&mut self) -> Vec<super::MeshRead> {
+        std::mem::take(&mut self.body.meshes)
+    }
+
     /// Compiles the next item of the world block, handing each object it makes to `out`.
     pub fn item(&mut self, item: &Spanned<BodyItem>, out: &mut ObjectSink<'_>) {
         let features = &mut self.features;

@@ -155,3 +155,27 @@ fn errors_are_reported_not_panicked() {
     assert!(lex("1e999").1[0].contains("out of range"));
     assert!(lex("/* open").1[0].contains("unterminated comment"));
 }
+
+#[test]
+fn strings_are_quoted_on_one_line() {
+    let text = "mesh(file = \"models/statue 2.ply\"; x = \"\")";
+    let mut l = Lexer::new(text);
+    let mut strings = Vec::new();
+    loop {
+        let t = l.next_token();
+        match t.kind {
+            TokenKind::Eof => break,
+            TokenKind::String => strings.push(l.string(t.span).to_string()),
+            _ => {}
+        }
+    }
+    assert!(!l.has_errors());
+    assert_eq!(strings, ["models/statue 2.ply", ""]);
+    // No closing quote before the line ends: one error, and the next line lexes on.
+    let (toks, errs) = lex("\"statue.ply\n)");
+    assert_eq!(
+        errs,
+        ["unterminated string: `\"` has no closing `\"` on its line"]
+    );
+    assert_eq!(toks.last().map(|t| t.0), Some(TokenKind::RParen));
+}

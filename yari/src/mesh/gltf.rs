@@ -14,7 +14,7 @@ use base64::Engine;
 use glam::{DMat3, DMat4, DVec3};
 use gltf::mesh::Mode;
 use std::io::BufRead;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Node depth followed at most (a cycle is refused by the crate's validation; this bounds a
 /// deep chain).
@@ -25,6 +25,8 @@ struct GltfReader<'a> {
     path: &'a Path,
     buffers: Vec<Vec<u8>>,
     vertices: u64,
+    /// The buffer files read.
+    files: Vec<PathBuf>,
 }
 
 impl GltfReader<'_> {
@@ -55,9 +57,14 @@ impl GltfReader<'_> {
                             .decode(b64)
                             .map_err(|e| self.error(format!("buffer {}: {e}", b.index())))?
                     }
-                    None => std::fs::read(dir.join(uri)).map_err(|e| {
-                        self.error(format!("cannot read buffer {} ({uri}): {e}", b.index()))
-                    })?,
+                    None => {
+                        let file = dir.join(uri);
+                        let data = std::fs::read(&file).map_err(|e| {
+                            self.error(format!("cannot read buffer {} ({uri}): {e}", b.index()))
+                        })?;
+                        self.files.push(file);
+                        data
+                    }
                 },
             };
             if data.len() < b.length() {
@@ -224,12 +231,12 @@ fn fill(m: &gltf::Material<'_>) -> Fill {
 }
 
 /// Reads a glTF file (JSON or binary) from `input`, handing each triangle to `each`: the
-/// number of vertices.
+/// number of vertices and the buffer files read.
 pub fn read_each(
     path: &Path,
     input: &mut dyn BufRead,
     each: &mut dyn FnMut(Face),
-) -> Result<u64, MeshError> {
+) -> Result<(u64, Vec<PathBuf>), MeshError> {
     let mut bytes = Vec::new();
     input
         .read_to_end(&mut bytes)
@@ -241,6 +248,7 @@ pub fn read_each(
         path,
         buffers: Vec::new(),
         vertices: 0,
+        files: Vec::new(),
     };
     r.load_buffers(&doc)?;
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
@@ -260,5 +268,5 @@ pub fn read_each(
     for node in roots {
         r.node(node, DMat4::IDENTITY, 0, each)?;
     }
-    Ok(r.vertices)
+    Ok((r.vertices, r.files))
 }

@@ -15,7 +15,7 @@ use crate::ast::{has_direction, Vec3};
 use crate::nff::Fill;
 use std::collections::HashMap;
 use std::io::BufRead;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Materials kept from the libraries, at most.
 const MAX_MATERIALS: usize = 65_536;
@@ -29,6 +29,8 @@ struct ObjReader<'a> {
     texcoords: u64,
     materials: HashMap<String, Fill>,
     surface: Surface,
+    /// The material libraries read.
+    libraries: Vec<PathBuf>,
 }
 
 impl ObjReader<'_> {
@@ -106,6 +108,7 @@ impl ObjReader<'_> {
             let path = dir.join(f);
             let file = std::fs::File::open(&path)
                 .map_err(|e| self.error(format!("cannot read its material library {f}: {e}")))?;
+            self.libraries.push(path.clone());
             let (materials, _) =
                 tobj::load_mtl_buf(&mut std::io::BufReader::new(file)).map_err(|e| {
                     MeshError::new(&path, Place::File, format!("not a material library: {e}"))
@@ -174,12 +177,13 @@ fn fill(m: &tobj::Material) -> Fill {
     }
 }
 
-/// Reads an OBJ file from `input`, handing each face to `each`: the number of vertices.
+/// Reads an OBJ file from `input`, handing each face to `each`: the number of vertices and
+/// the material libraries read.
 pub fn read_each(
     path: &Path,
     input: &mut dyn BufRead,
     each: &mut dyn FnMut(Face),
-) -> Result<u64, MeshError> {
+) -> Result<(u64, Vec<PathBuf>), MeshError> {
     let mut r = ObjReader {
         path,
         line: 0,
@@ -188,6 +192,7 @@ pub fn read_each(
         texcoords: 0,
         materials: HashMap::new(),
         surface: Surface::Default,
+        libraries: Vec::new(),
     };
     let mut bytes = Vec::new();
     loop {
@@ -203,5 +208,5 @@ pub fn read_each(
             std::str::from_utf8(&bytes).map_err(|_| r.error("not a text file (not UTF-8)"))?;
         r.statement(text, each)?;
     }
-    Ok(r.positions.len() as u64)
+    Ok((r.positions.len() as u64, r.libraries))
 }

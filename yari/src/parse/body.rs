@@ -1,8 +1,10 @@
-//! Body statements: `attribute`, `sphere`, `polygon`, `quadric`, and the transformations
-//! `translate`, `scale`, `rotate`, `motion`, `transform`.
+//! Body statements: `attribute`, `sphere`, `polygon`, `quadric`, `mesh`, and the
+//! transformations `translate`, `scale`, `rotate`, `motion`, `transform`.
 
 use super::{PResult, Parser};
-use crate::ast::{AttrField, BodyItem, Clip, Primitive, Spanned, Transform, Vec3};
+use crate::ast::{
+    AttrField, BodyItem, Clip, MeshMaterials, MeshStmt, Primitive, Spanned, Transform, Vec3,
+};
 use crate::lexer::TokenKind;
 use crate::span::Span;
 
@@ -15,6 +17,7 @@ impl Parser<'_> {
             "sphere" => self.statement(|p, name| p.sphere(name))?,
             "polygon" => self.statement(|p, _| p.polygon())?,
             "quadric" => self.statement(|p, _| p.quadric())?,
+            "mesh" => self.statement(|p, name| p.mesh(name))?,
             "translate" => {
                 self.statement(|p, _| Ok(BodyItem::Transform(Transform::Translate(p.vector()?))))?
             }
@@ -251,5 +254,44 @@ impl Parser<'_> {
             })?;
         }
         Ok(BodyItem::Primitive(Primitive::Quadric { coeffs, clip }))
+    }
+
+    /// `file = "name"` then the optional `; materials = file` (or `current`).
+    fn mesh(&mut self, stmt: Span) -> PResult<BodyItem> {
+        let (mut file, mut materials) = (None, None);
+        self.fields(|p, name, span| match name {
+            "file" => {
+                let t = p.expect(TokenKind::String, "the file's name in quotes")?;
+                let text = p.lex.string(t.span).to_string();
+                if text.is_empty() {
+                    return Err(p.error(t.span, "the mesh's file name is empty"));
+                }
+                p.set(&mut file, Spanned::new(text, t.span), name, span)
+            }
+            "materials" => {
+                let t = p.expect(TokenKind::Ident, "`file` or `current`")?;
+                let m = match p.text(t) {
+                    "file" => MeshMaterials::File,
+                    "current" => MeshMaterials::Current,
+                    other => {
+                        let msg = format!(
+                            "unknown materials `{other}`; expected `file` (the mesh's own) or \
+                             `current` (the current attribute)"
+                        );
+                        return Err(p.error(t.span, msg));
+                    }
+                };
+                p.set(&mut materials, m, name, span)
+            }
+            _ => Err(p.error(
+                span,
+                format!("unknown field `{name}` in `mesh`; expected `file` or `materials`"),
+            )),
+        })?;
+        let file = self.require(file, "file", stmt)?;
+        Ok(BodyItem::Mesh(MeshStmt {
+            file,
+            materials: materials.unwrap_or_default(),
+        }))
     }
 }

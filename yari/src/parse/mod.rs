@@ -84,6 +84,7 @@ const COMMANDS: &[&str] = &[
     "sphere",
     "polygon",
     "quadric",
+    "mesh",
     "translate",
     "scale",
     "rotate",

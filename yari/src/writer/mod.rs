@@ -13,7 +13,8 @@ mod world;
 pub use world::{affine_to_rows, world_to_scene, write_world};
 
 use crate::ast::{
-    AttrField, Block, BodyItem, Clip, ColorSpec, Primitive, Scene, Spanned, Transform, ViewStmt,
+    AttrField, Block, BodyItem, Clip, ColorSpec, MeshMaterials, MeshStmt, Primitive, Scene,
+    Spanned, Transform, ViewStmt,
 };
 use crate::span::Span;
 use std::fmt::{self, Display, Write};
@@ -135,12 +136,23 @@ fn write_block(out: &mut String, block: &Block, depth: usize) {
             BodyItem::Attribute(fields) => write_attribute(out, fields),
             BodyItem::Primitive(p) => write_primitive(out, p),
             BodyItem::Transform(t) => write_transform(out, t),
+            BodyItem::Mesh(m) => write_mesh(out, m),
             BodyItem::Block(_) => {}
         }
         out.push_str(";\n");
     }
     indent(out, depth);
     out.push_str("end\n");
+}
+
+/// `mesh(file = "NAME")`, with `; materials = file` when the file's own are asked for. A
+/// name is written as it was read (the lexer takes no escapes, and none has a `"`).
+fn write_mesh(out: &mut String, m: &MeshStmt) {
+    let _ = write!(out, "mesh(file = \"{}\"", m.file.node);
+    if m.materials == MeshMaterials::File {
+        out.push_str("; materials = file");
+    }
+    out.push(')');
 }
 
 fn write_attribute(out: &mut String, fields: &[Spanned<AttrField>]) {
@@ -246,6 +258,7 @@ fn erase_block(block: &mut Block) {
         item.span = Span::default();
         match &mut item.node {
             BodyItem::Block(inner) => erase_block(inner),
+            BodyItem::Mesh(m) => m.file.span = Span::default(),
             BodyItem::Attribute(fields) => {
                 for f in fields {
                     f.span = Span::default();

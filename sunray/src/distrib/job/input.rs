@@ -4,7 +4,9 @@
 //! so the next submit of the same file compiles and sends nothing.
 
 use crate::distrib::model_chunks::{self, ShippedModel};
-use crate::distrib::shipped_scenes::{SceneKey, ShippedScene, ShippedScenes};
+use crate::distrib::shipped_scenes::{
+    SceneKey, ShippedInput, ShippedScene, ShippedScenes, MAX_INPUTS,
+};
 use crate::scene::load::{CompiledScene, SceneSource};
 use crate::scene::summary::SceneSummary;
 use rem::RemClient;
@@ -24,6 +26,8 @@ pub struct Remember {
     pub scenes: ShippedScenes,
     /// The scene's key there.
     pub key: SceneKey,
+    /// The other files its model was made from, with their keys when it was.
+    pub inputs: Vec<ShippedInput>,
 }
 
 /// A new job's scene.
@@ -41,8 +45,10 @@ pub struct JobInput {
 }
 
 impl JobInput {
-    /// The input of a scene compiled here.
+    /// The input of a scene compiled here (remembered once shipped only when every other
+    /// file it was made from can be keyed).
     pub fn compiled(compiled: CompiledScene, remember: Option<Remember>) -> JobInput {
+        let remember = remember.and_then(|r| r.made_from(&compiled.inputs));
         JobInput {
             summary: compiled.summary,
             source: compiled.source,
@@ -92,7 +98,11 @@ impl Recalled {
         let remember = source.path().and_then(|path| {
             let scenes = ShippedScenes::for_user()?;
             let key = scenes.key_of(path, colours).ok()?;
-            Some(Remember { scenes, key })
+            Some(Remember {
+                scenes,
+                key,
+                inputs: Vec::new(),
+            })
         });
         let entry = remember.as_ref().and_then(|r| r.scenes.find(&r.key));
         Recalled { entry, remember }
@@ -116,10 +126,27 @@ impl Recalled {
 }
 
 impl Remember {
+    /// This, for a model made from the scene file and `files` as they are now; none when
+    /// one cannot be read or there are too many to remember.
+    fn made_from(mut self, files: &[std::path::PathBuf]) -> Option<Remember> {
+        if files.len() > MAX_INPUTS {
+            return None;
+        }
+        self.inputs = files
+            .iter()
+            .map(|f| {
+                let path = std::path::absolute(f).ok()?;
+                let key = self.scenes.key_of(&path, None).ok()?;
+                Some(ShippedInput { path, key })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(self)
+    }
+
     /// Remembers a scene of `summary` and `warnings` as shipped as `model` (a failure only
     /// warns: the job goes on).
     pub fn keep(&self, summary: SceneSummary, warnings: Vec<String>, model: &ShippedModel) {
-        let entry = ShippedScene::new(summary, warnings, model);
+        let entry = ShippedScene::new(summary, warnings, model, self.inputs.clone());
         if let Err(e) = self.scenes.keep(&self.key, &entry) {
             eprintln!("sunray: warning: cannot remember the shipped scene: {e}");
         }

@@ -14,7 +14,7 @@ fn entry(chunks: usize, size: u64) -> ShippedScene {
         resolution: [64, 48],
         samples: 2,
     };
-    ShippedScene::new(summary, vec!["w".into()], &model)
+    ShippedScene::new(summary, vec!["w".into()], &model, Vec::new())
 }
 
 #[test]
@@ -58,6 +58,29 @@ fn an_entry_kept_is_found_and_its_model_sends_nothing() {
 }
 
 #[test]
+fn an_entry_stands_only_while_the_files_its_model_was_made_from_are_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = ShippedScenes::at(dir.path());
+    let (scene, mesh) = (dir.path().join("s.yari"), dir.path().join("m.ply"));
+    std::fs::write(&scene, "begin mesh(file = \"m.ply\"); end\n").unwrap();
+    std::fs::write(&mesh, "ply one").unwrap();
+    let key = SceneKey::of(&scene, None).unwrap();
+    let mut e = entry(1, 10);
+    e.inputs = vec![ShippedInput {
+        key: scenes.key_of(&mesh, None).unwrap(),
+        path: mesh.clone(),
+    }];
+    scenes.keep(&key, &e).unwrap();
+    assert_eq!(scenes.find(&key), Some(e.clone()));
+    std::fs::write(&mesh, "ply two").unwrap();
+    assert_eq!(scenes.find(&key), None, "the mesh changed");
+    std::fs::write(&mesh, "ply one").unwrap();
+    assert_eq!(scenes.find(&key), Some(e), "as it was");
+    std::fs::remove_file(&mesh).unwrap();
+    assert_eq!(scenes.find(&key), None, "the mesh is gone");
+}
+
+#[test]
 fn a_damaged_or_unsound_entry_is_not_trusted() {
     let dir = tempfile::tempdir().unwrap();
     let scenes = ShippedScenes::at(dir.path());
@@ -82,6 +105,15 @@ fn a_damaged_or_unsound_entry_is_not_trusted() {
         {
             let mut e = entry(1, 10);
             e.model.chunks = vec!["../../etc/passwd".into()];
+            e
+        },
+        {
+            let mut e = entry(1, 10);
+            let input = dir.path().join("m.ply");
+            e.inputs = vec![ShippedInput {
+                key: SceneKey("not a key".into()),
+                path: input,
+            }];
             e
         },
     ] {
