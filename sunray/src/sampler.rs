@@ -27,6 +27,13 @@ pub fn mix64(mut z: u64) -> u64 {
 /// permutation of the sample indices. Every sample of a pixel lands in a different cell of
 /// every 2-D dimension (light disc, gloss cone, lens), each point stays uniform on its own
 /// (so the estimate is unbiased), and the error falls faster than with independent numbers.
+///
+/// A stream made by [`SampleStream::sobol`] draws from an Owen-scrambled Sobol sequence
+/// (`sobol_burley`, Burley 2020) instead: sample `index` of the pixel's sequence, each 1-D or
+/// 2-D draw its own scramble (keyed by the pixel and the draw's number, "padded" as pbrt and
+/// Cycles do). Any prefix of a pixel's samples is then stratified in every draw (the first
+/// 2^k in each of 2^k strata of every 1-D draw, and of every elementary box of a 2-D draw), so
+/// a pixel may stop after any count: what rendering to an error needs.
 #[derive(Clone, Debug)]
 pub struct SampleStream {
     key: u64,
@@ -35,7 +42,12 @@ pub struct SampleStream {
     pixel_key: u64,
     index: u32,
     count: u32,
+    /// Draw from the pixel's Sobol sequence (sample `index`) rather than stratified jitter.
+    sobol: bool,
 }
+
+/// The most samples a pixel's Sobol sequence has (`sobol_burley`'s 2^16).
+pub const SOBOL_SAMPLES: u32 = 1 << 16;
 
 impl SampleStream {
     /// An unstratified stream (independent uniform numbers).
@@ -56,19 +68,57 @@ impl SampleStream {
             pixel_key: mix64(pixel ^ 0xA5A5_0000_0000 ^ u64::from(base)),
             index: index.min(count.saturating_sub(1)),
             count: count.max(1),
+            sobol: false,
         }
+    }
+
+    /// The stream of sample `index` (below [`SOBOL_SAMPLES`]) of pixel (x, y)'s Sobol
+    /// sequence, scrambled by `seed` (the render uses 0; the accuracy benchmark's reference
+    /// other seeds, for streams disjoint from the measured ones).
+    pub fn sobol(x: u32, y: u32, seed: u32, index: u32) -> SampleStream {
+        let pixel = mix64(mix64(u64::from(x) ^ 0x50B0_1000) ^ u64::from(y));
+        SampleStream {
+            key: mix64(pixel ^ u64::from(index)),
+            next: 0,
+            pixel_key: mix64(pixel ^ (u64::from(seed) << 32)),
+            index: index.min(SOBOL_SAMPLES - 1),
+            count: SOBOL_SAMPLES,
+            sobol: true,
+        }
+    }
+
+    /// Whether this stream draws from a Sobol sequence (its first 2-D draw is then the
+    /// point in the pixel).
+    pub fn is_sobol(&self) -> bool {
+        self.sobol
+    }
+
+    /// Dimension `d` (0 or 1) of this sample in the Sobol sequence scrambled for the draw
+    /// numbered `self.next`.
+    #[inline]
+    fn sobol_dim(&self, d: u32) -> Real {
+        let seed = mix64(self.pixel_key ^ self.next);
+        let seed = (seed ^ (seed >> 32)) as u32;
+        Real::from(sobol_burley::sample(self.index, d, seed))
     }
 
     /// The next uniform number in [0, 1).
     #[inline]
     pub fn next_real(&mut self) -> Real {
         self.next += 1;
+        if self.sobol {
+            return self.sobol_dim(0);
+        }
         let bits = mix64(self.key ^ mix64(self.next));
         (bits >> 11) as Real * (1.0 / (1u64 << 53) as Real)
     }
 
     /// Two uniform numbers; stratified over the pixel's samples (see the type's docs).
     pub fn next_2d(&mut self) -> (Real, Real) {
+        if self.sobol {
+            self.next += 1;
+            return (self.sobol_dim(0), self.sobol_dim(1));
+        }
         let (u, v) = (self.next_real(), self.next_real());
         if self.count <= 1 {
             return (u, v);
@@ -139,8 +189,11 @@ fn stratum(cell: u32, n: u32, u: Real, v: Real) -> (Real, Real) {
 
 /// Offsets within a pixel for `n` samples, sample `s`: the centre for one sample; otherwise a
 /// jittered point in cell `s` of an a x b grid of the pixel (a b = n, as square as n allows:
-/// m x m for n = m^2, m x 2m for n = 2 m^2).
+/// m x m for n = m^2, m x 2m for n = 2 m^2). A Sobol stream's first 2-D draw, whatever `n`.
 pub fn pixel_offset(n: u32, s: u32, rng: &mut SampleStream) -> (Real, Real) {
+    if rng.sobol {
+        return rng.next_2d();
+    }
     if n <= 1 {
         return (0.5, 0.5);
     }
@@ -236,6 +289,52 @@ mod tests {
             }
         }
         assert!((sum / 2000.0 - 0.5).abs() < 0.01, "{}", sum / 2000.0);
+    }
+
+    /// Every power-of-two prefix of a pixel's Sobol samples is stratified: its n points fall
+    /// one in each of the n strata of a 1-D draw, and one in each elementary box (2^a x 2^b,
+    /// a + b = log2 n) of a 2-D draw; the pixel point and a later draw alike. Another pixel or
+    /// seed is another scramble.
+    #[test]
+    fn sobol_prefixes_are_stratified_in_every_draw() {
+        for (x, y, seed) in [(0, 0, 0), (17, 3, 0), (17, 3, 9)] {
+            for k in 0..=8u32 {
+                let n = 1u32 << k;
+                let draws: Vec<[(Real, Real); 2]> = (0..n)
+                    .map(|i| {
+                        let mut s = SampleStream::sobol(x, y, seed, i);
+                        let p = pixel_offset(1, 0, &mut s);
+                        let _ = s.next_real();
+                        let later = s.next_2d();
+                        [p, later]
+                    })
+                    .collect();
+                for d in 0..2 {
+                    for a in 0..=k {
+                        let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+                        let boxes: std::collections::HashSet<(u32, u32)> = draws
+                            .iter()
+                            .map(|p| {
+                                let (u, v) = p[d];
+                                ((u * cols as Real) as u32, (v * rows as Real) as u32)
+                            })
+                            .collect();
+                        assert_eq!(boxes.len(), n as usize, "n {n}, draw {d}, {cols}x{rows}");
+                    }
+                }
+            }
+            let one_d: std::collections::HashSet<u32> = (0..64)
+                .map(|i| {
+                    let mut s = SampleStream::sobol(x, y, seed, i);
+                    let _ = s.next_2d();
+                    (s.next_real() * 64.0) as u32
+                })
+                .collect();
+            assert_eq!(one_d.len(), 64);
+        }
+        let first = |x, seed| SampleStream::sobol(x, 0, seed, 0).next_2d();
+        assert_ne!(first(1, 0), first(2, 0));
+        assert_ne!(first(1, 0), first(1, 1));
     }
 
     #[test]

@@ -166,3 +166,66 @@ fn a_ply_mesh_goes_through_the_farm_identical_to_sunray_render() {
         "the PLY's image through the farm differs from sunray render"
     );
 }
+
+/// Rendering to an error: `--target-error` through the farm on one, two and three hosts gives
+/// `sunray render`'s bytes (each pixel's samples depend only on its own), with the same
+/// (adaptive) eye-ray count; a bad target is refused before any worker starts.
+#[test]
+fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let flags = [
+        "--resolution",
+        "40x32",
+        "--target-error",
+        "0.03",
+        "--max-samples",
+        "64",
+    ];
+    let (want, want_stats) = reference(dir.path(), &default_scene(), &flags);
+    let eye = want_stats["rays"]["eye"].as_u64().unwrap();
+    assert!(
+        eye > 4 * 40 * 32,
+        "some pixels took more than min-samples: {eye}"
+    );
+    for hosts in ["1", "2", "3"] {
+        let out = dir.path().join(format!("submit-{hosts}.png"));
+        let json = dir.path().join(format!("submit-{hosts}.json"));
+        let st = output(
+            cluster
+                .submit()
+                .args(["--hosts", hosts, "-q"])
+                .args(flags)
+                .arg(default_scene())
+                .arg("-o")
+                .arg(&out)
+                .arg("--stats-json")
+                .arg(&json),
+        );
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        assert!(
+            std::fs::read(&out).unwrap() == want,
+            "{hosts} hosts: differs from sunray render"
+        );
+        assert_eq!(
+            read_json(&json)["totals"]["rays"]["eye"],
+            eye,
+            "{hosts} hosts"
+        );
+    }
+    let st = output(
+        cluster
+            .submit()
+            .args(["--hosts", "2", "-q", "--target-error=-1"])
+            .arg(default_scene())
+            .arg("-o")
+            .arg(dir.path().join("bad.png")),
+    );
+    assert!(!st.status.success());
+    assert!(String::from_utf8_lossy(&st.stderr).contains("--target-error must be a number above 0"));
+    assert!(!dir.path().join("bad.png").exists());
+}

@@ -2,7 +2,7 @@
 
 use super::colours::ColourArgs;
 use crate::accel::{Accel, AccelKind, AccelOptions};
-use crate::render::{render_image, Overrides, Progress};
+use crate::render::{adaptive, render_image, Overrides, Progress};
 use crate::scene::load::{self, CompiledScene, LoadedScene, SceneSource};
 use crate::stats::process_cpu_seconds;
 use clap::{Args, ValueEnum};
@@ -35,8 +35,19 @@ pub struct RenderArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// Samples per pixel (default: the scene's `samples`, else 1 = pixel centres).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "target_error")]
     pub samples: Option<u32>,
+    /// Render each pixel until the estimated standard error of its mean is at most E, in
+    /// linear radiance (1 = white), from an Owen-scrambled Sobol sequence of its own, instead
+    /// of a fixed number of samples.
+    #[arg(long, value_name = "E", conflicts_with = "spd_corners")]
+    pub target_error: Option<f64>,
+    /// With --target-error: the fewest samples a pixel takes (2 or more).
+    #[arg(long, requires = "target_error", default_value_t = adaptive::DEFAULT_MIN_SAMPLES)]
+    pub min_samples: u32,
+    /// With --target-error: the most samples a pixel takes (at most 65536).
+    #[arg(long, requires = "target_error", default_value_t = adaptive::DEFAULT_MAX_SAMPLES)]
+    pub max_samples: u32,
     /// The accelerator.
     #[arg(long, value_enum, default_value = "auto")]
     pub accel: AccelKind,
@@ -110,6 +121,11 @@ impl RenderArgs {
                 max_depth: self.max_depth,
             },
             mailbox: self.mailbox == OnOff::On,
+            adaptive: self.target_error.map(|target_error| adaptive::Adaptive {
+                target_error,
+                min_samples: self.min_samples,
+                max_samples: self.max_samples,
+            }),
         }
     }
 

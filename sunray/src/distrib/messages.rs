@@ -3,6 +3,7 @@
 //! [`crate::stats::Counters`], render settings as [`RenderOptions`] + [`AccelOptions`].
 
 use crate::accel::AccelOptions;
+use crate::render::adaptive::Adaptive;
 use crate::render::settings::{self, SettingsError};
 use crate::render::{RenderOptions, Settings};
 use crate::shading::TraceOptions;
@@ -127,6 +128,9 @@ impl Settings {
             max_per_voxel: self.accel.max_per_voxel.min(u32::MAX as usize) as u32,
             octree_max_depth: self.accel.max_depth,
             mailbox: self.mailbox,
+            target_error: r.adaptive.map_or(0.0, |a| a.target_error),
+            min_samples: r.adaptive.map_or(0, |a| a.min_samples),
+            max_samples: r.adaptive.map_or(0, |a| a.max_samples),
         }
     }
 
@@ -145,6 +149,12 @@ impl Settings {
                     min_weight: p.min_weight,
                     spawn_all: p.spawn_all,
                 },
+                // 0 is "not asked"; anything else (NaN, a negative) is checked below.
+                adaptive: (p.target_error != 0.0).then_some(Adaptive {
+                    target_error: p.target_error,
+                    min_samples: p.min_samples,
+                    max_samples: p.max_samples,
+                }),
             },
             accel: AccelOptions {
                 kind: settings::accel_kind(&p.accel)?,
@@ -228,6 +238,7 @@ mod tests {
                     min_weight: 0.01,
                     spawn_all: true,
                 },
+                adaptive: None,
             },
             accel: AccelOptions {
                 kind: AccelKind::Bvh,
@@ -250,13 +261,14 @@ mod tests {
                 height: 48,
                 samples: 1,
                 trace: TraceOptions::default(),
+                adaptive: Some(Adaptive::new(0.01)),
             },
             accel: AccelOptions::default(),
             mailbox: true,
         }
         .to_proto();
         type Change = fn(&mut proto::RenderSettings);
-        let cases: [(Change, &str); 10] = [
+        let cases: [(Change, &str); 14] = [
             (|p| p.width = u32::MAX, "width"),
             (|p| p.width = 0, "width"),
             (|p| p.height = u32::MAX, "height"),
@@ -267,6 +279,10 @@ mod tests {
             (|p| p.max_per_voxel = u32::MAX, "max_per_voxel"),
             (|p| p.octree_max_depth = 1_000, "octree_max_depth"),
             (|p| p.accel = "kd-tree".into(), "accel"),
+            (|p| p.target_error = f64::NAN, "--target-error"),
+            (|p| p.target_error = -0.5, "--target-error"),
+            (|p| p.min_samples = 0, "--min-samples"),
+            (|p| p.max_samples = u32::MAX, "--max-samples"),
         ];
         for (change, field) in cases {
             let mut p = good.clone();

@@ -2,9 +2,11 @@
 //! options) -> pixels + counters ([`render_line`]); [`render_image`] runs it on all cores,
 //! each taking the film's next row, the same request-render-complete loop a SunRay III
 //! worker runs against its controller. [`settings`] holds what decides the
-//! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything.
+//! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything;
+//! [`adaptive`], rendering each pixel to a target error instead of a sample count.
 //! [`parallel`] runs the lines of one image on all cores.
 
+pub mod adaptive;
 pub mod footprint;
 pub mod parallel;
 pub mod settings;
@@ -33,6 +35,9 @@ pub struct RenderOptions {
     pub samples: u32,
     /// Ray-tree depth and weight limits.
     pub trace: TraceOptions,
+    /// Render each pixel to a target error instead of `samples` ([`adaptive`]).
+    #[serde(default)]
+    pub adaptive: Option<adaptive::Adaptive>,
 }
 
 impl RenderOptions {
@@ -48,6 +53,7 @@ impl RenderOptions {
             height: resolution[1].max(1),
             samples: samples.max(1),
             trace: TraceOptions::default(),
+            adaptive: None,
         }
     }
 }
@@ -67,6 +73,7 @@ impl RenderOptions {
                 spawn_all: true,
                 ..self.trace
             },
+            adaptive: None,
         }
     }
 }
@@ -93,7 +100,7 @@ pub fn render_line(
 ) -> Line {
     let mut pixels = vec![[0.0; 3]; opts.width as usize];
     let frame = Frame::new(scene, accel, opts);
-    let counters = render_line_into(scene, accel, y, opts, scratch, &frame, &mut pixels);
+    let counters = render_line_into(scene, accel, y, opts, scratch, &frame, &mut pixels, None);
     Line {
         y,
         pixels,
@@ -117,9 +124,20 @@ impl Frame {
     }
 }
 
+/// What a pixel rendered to an error took: its samples and its estimated error.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSummary {
+    /// Samples taken.
+    pub samples: u32,
+    /// The estimated standard error of its mean (the worst channel's).
+    pub error: f32,
+}
+
 /// [`render_line`] into `pixels` (the row of a film, `opts.width` long) in `frame` (made
 /// for the same scene and options), returning the line's counts: a whole image is rendered
-/// in place, with no line allocated and copied and the frame made once.
+/// in place, with no line allocated and copied and the frame made once. With a target error,
+/// what each pixel took goes to `summaries` when given (as long as `pixels`).
+#[allow(clippy::too_many_arguments)] // the row's parts, each borrowed as the caller holds it
 pub fn render_line_into(
     scene: &Scene,
     accel: &Accel,
@@ -128,6 +146,7 @@ pub fn render_line_into(
     scratch: &mut Scratch,
     frame: &Frame,
     pixels: &mut [[f32; 3]],
+    mut summaries: Option<&mut [PixelSummary]>,
 ) -> Counters {
     let Frame { camera, footprint } = frame;
     let mut counters = Counters::default();
@@ -150,6 +169,25 @@ pub fn render_line_into(
         let outside = footprint
             .as_ref()
             .filter(|_| spans.peek().is_none_or(|r| r.start > x));
+        if let Some(a) = &opts.adaptive {
+            let est = match outside {
+                Some(f) => {
+                    tracer.counters.eye += u64::from(a.min_samples);
+                    tracer.counters.voxels += f.voxels_on_miss * u64::from(a.min_samples);
+                    adaptive::constant_pixel(scene.world.background, a)
+                }
+                None => adaptive::trace_pixel_to_error(&mut tracer, camera, (x, y), 0, a),
+            };
+            let c = est.mean();
+            *pixel = [c.x as f32, c.y as f32, c.z as f32];
+            if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x as usize)) {
+                *s = PixelSummary {
+                    samples: est.count(),
+                    error: est.standard_error() as f32,
+                };
+            }
+            continue;
+        }
         let c = match outside {
             Some(f) => {
                 tracer.counters.eye += u64::from(n);
@@ -204,15 +242,28 @@ pub fn trace_sample(
     count: u32,
 ) -> glam::DVec3 {
     let mut rng = SampleStream::stratified(x, y, stream, index, count);
-    let (dx, dy) = pixel_offset(count, index, &mut rng);
+    trace_with(tracer, camera, (x, y), count, index, &mut rng)
+}
+
+/// The colour seen by sample `index` of `count` of pixel `(x, y)` drawing its numbers from
+/// `rng` (stratified jitter, or a Sobol stream whose first draw places the point).
+pub(crate) fn trace_with(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    count: u32,
+    index: u32,
+    rng: &mut SampleStream,
+) -> glam::DVec3 {
+    let (dx, dy) = pixel_offset(count, index, rng);
     let time = if tracer.scene.world.features.motion_blur {
         rng.next_real()
     } else {
         0.0
     };
-    let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut rng));
+    let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut *rng));
     let air = crate::shading::Media::AIR;
-    tracer.trace(ray, RayKind::Eye, 1, 1.0, air, &mut rng)
+    tracer.trace(ray, RayKind::Eye, 1, 1.0, air, rng)
 }
 
 #[cfg(test)]
@@ -274,7 +325,12 @@ end
         };
         let pixels = (0..opts.width)
             .map(|x| {
-                let c = trace_pixel(&mut tracer, &camera, (x, y), 0, opts.samples);
+                let c = match &opts.adaptive {
+                    Some(a) => {
+                        adaptive::trace_pixel_to_error(&mut tracer, &camera, (x, y), 0, a).mean()
+                    }
+                    None => trace_pixel(&mut tracer, &camera, (x, y), 0, opts.samples),
+                };
                 [c.x as f32, c.y as f32, c.z as f32]
             })
             .collect();
@@ -287,7 +343,13 @@ end
 
     #[test]
     fn pixels_outside_the_footprint_are_what_tracing_them_gives() {
-        for (samples, motion) in [(1, false), (4, false), (3, true)] {
+        let to_error = Some(adaptive::Adaptive::new(0.02));
+        for (samples, motion, adaptive) in [
+            (1, false, None),
+            (4, false, None),
+            (3, true, None),
+            (1, true, to_error),
+        ] {
             let (scene, accel) = scene(motion);
             assert_eq!(scene.world.features.motion_blur, motion);
             let opts = RenderOptions {
@@ -295,6 +357,7 @@ end
                 height: 30,
                 samples,
                 trace: TraceOptions::default(),
+                adaptive,
             };
             let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
             let footprint = Footprint::new(&camera, &accel).unwrap();

@@ -55,7 +55,7 @@ pub fn render_image(
         loop {
             let next = rows.lock().unwrap_or_else(|e| e.into_inner()).next();
             let Some((row, y)) = next else { break };
-            counters += render_line_into(scene, accel, y, opts, &mut scratch, &frame, row);
+            counters += render_line_into(scene, accel, y, opts, &mut scratch, &frame, row, None);
             if let Some(b) = &bar {
                 b.inc(1);
             }

@@ -135,6 +135,9 @@ pub enum SettingsError {
         /// The name given.
         name: String,
     },
+    /// A target error or its sample bounds out of range.
+    #[error(transparent)]
+    Adaptive(#[from] super::adaptive::AdaptiveError),
 }
 
 /// Checks that `value` of `field` is within `range`.
@@ -195,6 +198,8 @@ pub struct Overrides {
     pub accel: AccelOptions,
     /// The octree's intersection buffer.
     pub mailbox: bool,
+    /// Render each pixel to a target error instead of a sample count.
+    pub adaptive: Option<super::adaptive::Adaptive>,
 }
 
 impl Default for Overrides {
@@ -209,6 +214,7 @@ impl Default for Overrides {
             spd_corners: false,
             accel: AccelOptions::default(),
             mailbox: true,
+            adaptive: None,
         }
     }
 }
@@ -233,6 +239,7 @@ impl Overrides {
         }
         render.trace.max_depth = self.depth;
         render.trace.min_weight = self.min_weight;
+        render.adaptive = self.adaptive;
         let mut settings = Settings {
             render,
             accel: AccelOptions {
@@ -277,6 +284,9 @@ impl Settings {
         let w = r.trace.min_weight;
         if !w.is_finite() || !MIN_WEIGHT.contains(&w) {
             return Err(SettingsError::MinWeight { value: w });
+        }
+        if let Some(a) = &r.adaptive {
+            a.check()?;
         }
         let per_voxel = u64::try_from(self.accel.max_per_voxel).unwrap_or(u64::MAX);
         check_range(Field::MaxPerVoxel, per_voxel, 1..=MAX_PER_VOXEL.into())?;

@@ -52,6 +52,7 @@ fn settings(width: u32, height: u32) -> RenderSettings {
         octree_max_depth: 8,
         mailbox: true,
         spawn_all: false,
+        ..RenderSettings::default()
     }
 }
 

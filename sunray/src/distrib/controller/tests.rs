@@ -30,6 +30,7 @@ fn spec(height: u32) -> proto::JobSpec {
             height,
             samples: 1,
             trace: Default::default(),
+            adaptive: None,
         },
         accel: Default::default(),
         mailbox: true,

@@ -36,6 +36,7 @@ fn base() -> Settings {
             height: 48,
             samples: 4,
             trace: TraceOptions::default(),
+            adaptive: None,
         },
         accel: AccelOptions::default(),
         mailbox: true,
