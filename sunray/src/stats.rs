@@ -169,6 +169,39 @@ pub struct RenderStats {
     pub threads: usize,
     /// Total rays divided by `time.render_s` (0 when the render time is 0).
     pub rays_per_s: f64,
+    /// With a target error (`--target-error`), what the pixels reached and took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<ErrorStats>,
+}
+
+/// What a render to a target error reached: the estimated errors of the pixels' means
+/// (linear radiance, each pixel's worst channel) and the samples they took.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ErrorStats {
+    /// The target asked for.
+    pub target: f64,
+    /// The root mean square of the pixels' estimated errors.
+    pub rms: f64,
+    /// The largest estimated error of a pixel (above the target only where a pixel stopped
+    /// at the most samples allowed).
+    pub max: f64,
+    /// Pixels that stopped at the most samples allowed, their error still above the target.
+    pub at_max_samples: u64,
+    /// Samples per pixel, on average.
+    pub mean_samples: f64,
+    /// How many pixels took how many samples: from `from` to `to` inclusive, powers of two.
+    pub histogram: Vec<SamplesBucket>,
+}
+
+/// Pixels whose sample count lies in `from..=to`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SamplesBucket {
+    /// The fewest samples of the bucket.
+    pub from: u32,
+    /// The most.
+    pub to: u32,
+    /// Pixels in it.
+    pub pixels: u64,
 }
 
 impl RenderStats {
@@ -218,6 +251,12 @@ impl RenderStats {
         row("cpu time", format!("{:.3} s", self.time.cpu_s));
         row("threads", self.threads.to_string());
         row("rays per second", format!("{:.0}", self.rays_per_s));
+        if let Some(e) = &self.error {
+            row("target error", format!("{}", e.target));
+            row("estimated error rms", format!("{:.5}", e.rms));
+            row("  max", format!("{:.5}", e.max));
+            row("samples per pixel", format!("{:.1}", e.mean_samples));
+        }
         s
     }
 }

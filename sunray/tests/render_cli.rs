@@ -148,3 +148,74 @@ fn no_scene_renders_the_built_in_example() {
     let distinct: std::collections::HashSet<_> = img.pixels().map(|p| p.0).collect();
     assert!(distinct.len() > 20, "a real picture, not a blank");
 }
+
+/// `--target-error`: the image is the same for 1 and 2 threads, the statistics say what the
+/// pixels reached and took (the histogram counts every pixel once, the eye rays are the
+/// samples taken), and `--samples-map` writes a map of the image's size.
+#[test]
+fn a_target_error_reports_its_error_and_writes_a_samples_map() {
+    let d = tmp("target-error");
+    let mut images = Vec::new();
+    for threads in ["1", "2"] {
+        let (out, json, map) = (
+            d.join(format!("t{threads}.png")),
+            d.join(format!("t{threads}.json")),
+            d.join(format!("map{threads}.png")),
+        );
+        let st = sunray()
+            .args([
+                "render",
+                "-q",
+                "--resolution",
+                "48x40",
+                "--threads",
+                threads,
+            ])
+            .args(["--target-error", "0.02", "--max-samples", "128"])
+            .arg("-o")
+            .arg(&out)
+            .arg("--stats-json")
+            .arg(&json)
+            .arg("--samples-map")
+            .arg(&map)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        images.push(std::fs::read(&out).unwrap());
+        let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        let e = &s["error"];
+        assert_eq!(e["target"], 0.02);
+        let buckets = e["histogram"].as_array().unwrap();
+        let pixels: u64 = buckets.iter().map(|b| b["pixels"].as_u64().unwrap()).sum();
+        assert_eq!(pixels, 48 * 40);
+        assert!(buckets.len() >= 2, "{e}");
+        assert_eq!(buckets[0]["from"], 16, "the fewest is min-samples: {e}");
+        let mean = e["mean_samples"].as_f64().unwrap();
+        let eye = s["rays"]["eye"].as_u64().unwrap() as f64;
+        assert!((mean * 48.0 * 40.0 - eye).abs() < 0.5, "{mean} {eye}");
+        let (rms, max) = (e["rms"].as_f64().unwrap(), e["max"].as_f64().unwrap());
+        assert!(rms > 0.0 && rms <= 0.02 && max >= rms, "{e}");
+        assert!(
+            max <= 0.02 || e["at_max_samples"].as_u64().unwrap() > 0,
+            "{e}"
+        );
+        let map = image::open(&map).unwrap();
+        assert_eq!((map.width(), map.height()), (48, 40));
+    }
+    assert_eq!(images[0], images[1]);
+    // A bad target is one line naming the flag, and nothing is written.
+    let out = d.join("bad.png");
+    let o = sunray()
+        .args(["render", "-q", "--target-error", "nan", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--target-error must be a number above 0"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

@@ -2,7 +2,7 @@
 
 use super::colours::ColourArgs;
 use crate::accel::{Accel, AccelKind, AccelOptions};
-use crate::render::{adaptive, render_image, Overrides, Progress};
+use crate::render::{adaptive, render_image_summarized, Overrides, Progress};
 use crate::scene::load::{self, CompiledScene, LoadedScene, SceneSource};
 use crate::stats::process_cpu_seconds;
 use clap::{Args, ValueEnum};
@@ -48,6 +48,10 @@ pub struct RenderArgs {
     /// With --target-error: the most samples a pixel takes (at most 65536).
     #[arg(long, requires = "target_error", default_value_t = adaptive::DEFAULT_MAX_SAMPLES)]
     pub max_samples: u32,
+    /// With --target-error (`sunray render`): write a heat map of the samples each pixel
+    /// took (black the fewest, white the most, log scale) to this image file.
+    #[arg(long, requires = "target_error", value_name = "FILE")]
+    pub samples_map: Option<PathBuf>,
     /// The accelerator.
     #[arg(long, value_enum, default_value = "auto")]
     pub accel: AccelKind,
@@ -179,7 +183,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     };
 
     let t_render = Instant::now();
-    let (film, counters) = render_image(
+    let (film, counters, summaries) = render_image_summarized(
         &scene,
         &accel,
         &settings.render,
@@ -191,6 +195,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     let cpu_s = process_cpu_seconds() - cpu0;
 
     film.write(&out)?;
+    let r = &settings.render;
+    let error = r
+        .adaptive
+        .map(|a| (adaptive::error_stats(&summaries, &a), a));
+    if let (Some(path), Some((_, a))) = (&args.samples_map, &error) {
+        adaptive::samples_map(&summaries, a, r.width, r.height).write(path)?;
+    }
 
     let mut stats = settings.stats_header(&source.display_name(), &scene);
     stats.accel_nodes = accel.node_count();
@@ -200,6 +211,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<ExitCode> {
     stats.time.render_s = render_s;
     stats.time.cpu_s = cpu_s;
     stats.set_counters(&counters);
+    stats.error = error.map(|(e, _)| e);
     if !args.quiet {
         eprint!("{}", stats.table());
     }

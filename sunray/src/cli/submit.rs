@@ -130,6 +130,11 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         Some(p) => p.clone(),
         None => std::env::current_exe().context("cannot find this program's path")?,
     };
+    if args.render.samples_map.is_some() {
+        anyhow::bail!(
+            "--samples-map is written by sunray render only; a farm job has no samples map yet"
+        );
+    }
     let request = args.request(program);
     request.check()?;
     let for_farm = args.detach || args.controller_anywhere;

@@ -21,7 +21,7 @@ use crate::shading::{TraceOptions, Tracer};
 use crate::stats::Counters;
 use footprint::Footprint;
 
-pub use parallel::{render_image, Progress};
+pub use parallel::{render_image, render_image_summarized, Progress};
 pub use settings::{Overrides, Settings};
 
 /// Everything besides the scene that decides the pixels.

@@ -2,7 +2,7 @@
 //! render into them with [`super::render_line_into`] and keep their own counters, summed at
 //! the end.
 
-use super::{render_line_into, Frame, RenderOptions};
+use super::{render_line_into, Frame, PixelSummary, RenderOptions};
 use crate::accel::{Accel, Scratch};
 use crate::film::Film;
 use crate::scene::Scene;
@@ -28,6 +28,21 @@ pub fn render_image(
     mailbox: bool,
     progress: Progress,
 ) -> (Film, Counters) {
+    let (film, counters, _) =
+        render_image_summarized(scene, accel, opts, threads, mailbox, progress);
+    (film, counters)
+}
+
+/// [`render_image`], with what each pixel took when it is rendered to an error (row-major as
+/// the film; empty without a target error).
+pub fn render_image_summarized(
+    scene: &Scene,
+    accel: &Accel,
+    opts: &RenderOptions,
+    threads: usize,
+    mailbox: bool,
+    progress: Progress,
+) -> (Film, Counters, Vec<PixelSummary>) {
     let bar = match progress {
         Progress::Bar => {
             let b = indicatif::ProgressBar::new(u64::from(opts.height));
@@ -44,18 +59,30 @@ pub fn render_image(
     // Threads take the film's rows in order and render into them.
     let mut film = Film::new(opts.width, opts.height);
     let frame = Frame::new(scene, accel, opts);
+    let pixels = if opts.adaptive.is_some() {
+        film.pixels.len()
+    } else {
+        0
+    };
+    let mut summaries = vec![PixelSummary::default(); pixels];
+    let width = opts.width.max(1) as usize;
+    let mut summary_rows = summaries.chunks_mut(width);
     let rows = Mutex::new(
         film.pixels
-            .chunks_mut(opts.width.max(1) as usize)
-            .zip(0..opts.height),
+            .chunks_mut(width)
+            .zip(0..opts.height)
+            .map(move |(row, y)| (row, y, summary_rows.next())),
     );
     let worker = || {
         let mut scratch = Scratch::new(scene.prims.len(), mailbox);
         let mut counters = Counters::default();
         loop {
             let next = rows.lock().unwrap_or_else(|e| e.into_inner()).next();
-            let Some((row, y)) = next else { break };
-            counters += render_line_into(scene, accel, y, opts, &mut scratch, &frame, row, None);
+            let Some((row, y, summaries)) = next else {
+                break;
+            };
+            counters +=
+                render_line_into(scene, accel, y, opts, &mut scratch, &frame, row, summaries);
             if let Some(b) = &bar {
                 b.inc(1);
             }
@@ -80,5 +107,5 @@ pub fn render_image(
     for counters in results {
         total += counters;
     }
-    (film, total)
+    (film, total, summaries)
 }
