@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 /// Why an image could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum FilmError {
-    /// The file's extension is not png, ppm or pfm; the text is the (lower-cased) extension.
-    #[error("unknown image format {0:?} (use .png, .ppm or .pfm)")]
+    /// The file's extension is not png, ppm, pfm or exr; the text is the (lower-cased) extension.
+    #[error("unknown image format {0:?} (use .png, .ppm, .pfm or .exr)")]
     UnknownFormat(String),
     /// Writing or renaming the file failed.
     #[error("writing {path}: {source}")]
@@ -22,8 +22,8 @@ pub enum FilmError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// The PNG encoder failed.
-    #[error("encoding PNG {path}: {source}")]
+    /// The PNG (or OpenEXR) encoder failed.
+    #[error("encoding {} {path}: {source}", if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) { "OpenEXR" } else { "PNG" })]
     Png {
         /// The file that was being written.
         path: PathBuf,
@@ -41,6 +41,8 @@ pub enum Format {
     Ppm,
     /// Portable float map: 32-bit linear RGB, little-endian, rows stored bottom to top.
     Pfm,
+    /// OpenEXR: 32-bit float linear RGB, the values PFM holds (the `image` crate's encoder).
+    Exr,
 }
 
 impl Format {
@@ -55,6 +57,7 @@ impl Format {
             "png" => Ok(Format::Png),
             "ppm" => Ok(Format::Ppm),
             "pfm" => Ok(Format::Pfm),
+            "exr" => Ok(Format::Exr),
             _ => Err(FilmError::UnknownFormat(ext)),
         }
     }
@@ -107,6 +110,21 @@ impl Film {
         Ok(out)
     }
 
+    /// The image as OpenEXR: linear 32-bit float RGB, row 0 at the top, as rendered.
+    pub fn to_exr(&self) -> Result<Vec<u8>, image::ImageError> {
+        let floats: Vec<f32> = self.pixels.iter().flatten().copied().collect();
+        let mut out = std::io::Cursor::new(Vec::new());
+        let enc = image::codecs::openexr::OpenExrEncoder::new(&mut out);
+        image::ImageEncoder::write_image(
+            enc,
+            &bytemuck_f32(&floats),
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb32F,
+        )?;
+        Ok(out.into_inner())
+    }
+
     /// The image shrunk by a whole `factor` each way (0 counts as 1): each pixel is the mean
     /// of a `factor` x `factor` box of this one, over the pixels of the box inside the image
     /// (the last column and row of boxes may be cut), so `width.div_ceil(factor)` by
@@ -157,6 +175,10 @@ impl Film {
                 out.extend(self.to_rgb8());
                 out
             }
+            Format::Exr => self.to_exr().map_err(|source| FilmError::Png {
+                path: path.to_path_buf(),
+                source,
+            })?,
             Format::Pfm => {
                 // PFM rows run bottom to top; a negative scale means little-endian.
                 let mut out = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
@@ -171,6 +193,11 @@ impl Film {
             }
         })
     }
+}
+
+/// Native-endian bytes of `floats`, as the `image` encoders take 32-bit float samples.
+fn bytemuck_f32(floats: &[f32]) -> Vec<u8> {
+    floats.iter().flat_map(|f| f.to_ne_bytes()).collect()
 }
 
 fn to_byte(v: f32) -> u8 {
@@ -222,6 +249,27 @@ mod tests {
             [1.0, 1.0, 1.0],
         ];
         f
+    }
+
+    /// OpenEXR holds the linear floats as rendered, highlights and negatives included: read
+    /// back with the `image` crate they are the film's (and the PFM's) bit for bit.
+    #[test]
+    fn exr_reads_back_the_linear_values() {
+        let mut f = Film::new(3, 2);
+        f.pixels = vec![
+            [0.0, 0.5, 1.0],
+            [2.5, -1.0, 0.2],
+            [0.1, 1e-7, 3.25],
+            [1.0, 1.0, 1.0],
+            [f32::MIN_POSITIVE, 0.333_333_34, 7.0],
+            [0.0, 0.0, 0.0],
+        ];
+        let bytes = f.encode(Format::Exr, Path::new("x.exr")).unwrap();
+        let back = image::load_from_memory(&bytes).unwrap().to_rgb32f();
+        assert_eq!((back.width(), back.height()), (3, 2));
+        let read: Vec<[f32; 3]> = back.pixels().map(|p| p.0).collect();
+        assert_eq!(read, f.pixels);
+        assert_eq!(Format::from_path(Path::new("A.EXR")).unwrap(), Format::Exr);
     }
 
     #[test]

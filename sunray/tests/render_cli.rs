@@ -203,6 +203,32 @@ fn a_target_error_reports_its_error_and_writes_a_samples_map() {
         assert_eq!((map.width(), map.height()), (48, 40));
     }
     assert_eq!(images[0], images[1]);
+    // OpenEXR holds the linear values PFM holds (PFM's rows run bottom to top).
+    let (exr, pfm) = (d.join("t.exr"), d.join("t.pfm"));
+    for out in [&exr, &pfm] {
+        let st = sunray()
+            .args([
+                "render",
+                "-q",
+                "--resolution",
+                "24x16",
+                "--target-error",
+                "0.05",
+            ])
+            .arg("-o")
+            .arg(out)
+            .status()
+            .unwrap();
+        assert!(st.success());
+    }
+    let exr = image::open(&exr).unwrap().to_rgb32f();
+    let bytes = std::fs::read(&pfm).unwrap();
+    let floats: Vec<f32> = bytes[bytes.len() - 24 * 16 * 12..]
+        .chunks(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let rows: Vec<&[f32]> = floats.chunks(24 * 3).rev().collect();
+    assert_eq!(exr.as_raw().as_slice(), rows.concat().as_slice());
     // A bad target is one line naming the flag, and nothing is written.
     let out = d.join("bad.png");
     let o = sunray()

@@ -71,7 +71,7 @@ pub struct WatchArgs {
 pub struct FetchArgs {
     /// The finished job.
     pub job: String,
-    /// The image to write: .png, .ppm or .pfm.
+    /// The image to write: .png, .ppm, .pfm or .exr.
     #[arg(short, long)]
     pub output: PathBuf,
     /// How to reach REM.

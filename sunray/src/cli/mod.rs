@@ -66,7 +66,7 @@ pub enum Command {
     Jobs(jobs::JobsArgs),
     /// Follow a job from any host until it ends (exit 0 finished, 3 failed, 4 cancelled).
     Watch(farm::WatchArgs),
-    /// Write a finished job's image (.png, .ppm or .pfm).
+    /// Write a finished job's image (.png, .ppm, .pfm or .exr).
     Fetch(farm::FetchArgs),
     /// Cancel a job: its controller and workers end, and it is not started again.
     Cancel(farm::CancelArgs),

@@ -27,7 +27,7 @@ pub struct RenderArgs {
     /// also named `@example`]
     #[arg(default_value = load::BUILTIN, hide_default_value = true)]
     pub scene: PathBuf,
-    /// Output image (.png, .ppm or .pfm); default: the scene's name with .png, in the
+    /// Output image (.png, .ppm, .pfm or .exr); default: the scene's name with .png, in the
     /// current directory.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -42,12 +42,13 @@ pub struct RenderArgs {
     /// of a fixed number of samples.
     #[arg(long, value_name = "E", conflicts_with = "spd_corners")]
     pub target_error: Option<f64>,
-    /// With --target-error: the fewest samples a pixel takes (2 or more).
-    #[arg(long, requires = "target_error", default_value_t = adaptive::DEFAULT_MIN_SAMPLES)]
-    pub min_samples: u32,
-    /// With --target-error: the most samples a pixel takes (at most 65536).
-    #[arg(long, requires = "target_error", default_value_t = adaptive::DEFAULT_MAX_SAMPLES)]
-    pub max_samples: u32,
+    /// With --target-error: the fewest samples a pixel takes, 2 or more [default: 0.16/E
+    /// rounded up to a power of two, at least 16, at most --max-samples].
+    #[arg(long, requires = "target_error")]
+    pub min_samples: Option<u32>,
+    /// With --target-error: the most samples a pixel takes (at most 65536) [default: 1024].
+    #[arg(long, requires = "target_error")]
+    pub max_samples: Option<u32>,
     /// With --target-error (`sunray render`): write a heat map of the samples each pixel
     /// took (black the fewest, white the most, log scale) to this image file.
     #[arg(long, requires = "target_error", value_name = "FILE")]
@@ -125,11 +126,9 @@ impl RenderArgs {
                 max_depth: self.max_depth,
             },
             mailbox: self.mailbox == OnOff::On,
-            adaptive: self.target_error.map(|target_error| adaptive::Adaptive {
-                target_error,
-                min_samples: self.min_samples,
-                max_samples: self.max_samples,
-            }),
+            adaptive: self
+                .target_error
+                .map(|e| adaptive::Adaptive::new(e, self.min_samples, self.max_samples)),
         }
     }
 

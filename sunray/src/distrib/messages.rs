@@ -261,7 +261,7 @@ mod tests {
                 height: 48,
                 samples: 1,
                 trace: TraceOptions::default(),
-                adaptive: Some(Adaptive::new(0.01)),
+                adaptive: Some(Adaptive::new(0.01, None, None)),
             },
             accel: AccelOptions::default(),
             mailbox: true,

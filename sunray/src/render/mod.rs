@@ -343,7 +343,7 @@ end
 
     #[test]
     fn pixels_outside_the_footprint_are_what_tracing_them_gives() {
-        let to_error = Some(adaptive::Adaptive::new(0.02));
+        let to_error = Some(adaptive::Adaptive::new(0.02, None, None));
         for (samples, motion, adaptive) in [
             (1, false, None),
             (4, false, None),

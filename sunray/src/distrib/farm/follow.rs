@@ -267,7 +267,7 @@ pub fn with_image_written(stats: &[u8], at_s: f64) -> Vec<u8> {
     }
 }
 
-/// Writes job `job`'s finished image to `out` (.png, .ppm or .pfm, as `sunray render`).
+/// Writes job `job`'s finished image to `out` (.png, .ppm, .pfm or .exr, as `sunray render`).
 pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), FarmError> {
     Format::from_path(out)?;
     let restored = checkpoint::load(client, job)

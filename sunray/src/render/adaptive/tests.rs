@@ -64,7 +64,7 @@ fn the_count_stops_at_max_samples() {
 
 #[test]
 fn bad_targets_and_bounds_are_refused_with_their_flag() {
-    assert!(Adaptive::new(0.01).check().is_ok());
+    assert!(Adaptive::new(0.01, None, None).check().is_ok());
     for (a, said) in [
         (adaptive(0.0, 4, 8), "--target-error"),
         (adaptive(-1.0, 4, 8), "--target-error"),
@@ -77,4 +77,19 @@ fn bad_targets_and_bounds_are_refused_with_their_flag() {
         let e = a.check().unwrap_err().to_string();
         assert!(e.starts_with(said), "{a:?}: {e}");
     }
+}
+
+#[test]
+fn the_first_samples_grow_as_the_target_falls() {
+    let firsts: Vec<u32> = [0.1, 0.01, 0.005, 0.002, 1e-5, 1e-300]
+        .iter()
+        .map(|&e| default_min_samples(e))
+        .collect();
+    assert_eq!(firsts, [16, 16, 32, 128, 16_384, 65_536]);
+    let a = Adaptive::new(0.002, None, None);
+    assert_eq!((a.min_samples, a.max_samples), (128, DEFAULT_MAX_SAMPLES));
+    // Never above the most asked for, and what is given is kept.
+    assert_eq!(Adaptive::new(1e-4, None, Some(64)).min_samples, 64);
+    assert_eq!(Adaptive::new(1e-4, Some(4), Some(64)).min_samples, 4);
+    assert!(Adaptive::new(1e-4, None, Some(64)).check().is_ok());
 }
