@@ -23,6 +23,9 @@ pub fn to_scene(project: &Project) -> ast::Scene {
     if let Some(n) = s.samples {
         view.push(sp(ViewStmt::Samples(n)));
     }
+    if let Some(e) = s.target_error {
+        view.push(sp(ViewStmt::TargetError(e)));
+    }
     if let Some(c) = &s.background {
         view.push(sp(ViewStmt::Background(sp(color(c)))));
     }

@@ -44,6 +44,7 @@ pub fn from_scene(scene: &ast::Scene, text: &str) -> Project {
         match &stmt.node {
             ViewStmt::Resolution(w, h) => settings.resolution = Some([*w, *h]),
             ViewStmt::Samples(n) => settings.samples = Some(*n),
+            ViewStmt::TargetError(e) => settings.target_error = Some(*e),
             ViewStmt::Background(c) => settings.background = Some(color(&c.node)),
             ViewStmt::Ambient(c) => settings.ambient = Some(color(&c.node)),
             ViewStmt::Light(l) => {

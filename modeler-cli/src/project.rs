@@ -43,6 +43,10 @@ pub struct SceneSettings {
     /// `samples(n)`, samples per pixel (a YARI extension); `None` writes none (1).
     #[serde(default)]
     pub samples: Option<u32>,
+    /// `target_error(E)` (a YARI extension): each pixel rendered to this error instead of a
+    /// sample count; `None` writes none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_error: Option<f64>,
     /// `background(color = ...)`; `None` writes none (black).
     #[serde(default)]
     pub background: Option<Color>,
@@ -283,6 +287,7 @@ impl Project {
             settings: SceneSettings {
                 resolution: Some([512, 512]),
                 samples: None,
+                target_error: None,
                 background: Some(Color::Rgb([0.0, 0.0, 0.0])),
                 ambient: Some(Color::Rgb([0.2, 0.2, 0.2])),
                 camera: Some(Camera::default()),

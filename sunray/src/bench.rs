@@ -288,6 +288,7 @@ fn big_world(n: usize) -> World {
         },
         lights: vec![],
         samples: 1,
+        target_error: None,
         surfaces: vec![yari::model::Surface::default()],
         objects,
         features: Default::default(),

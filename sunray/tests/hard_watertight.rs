@@ -98,6 +98,7 @@ fn inside_world(objects: Vec<Object>, position: DVec3, at: DVec3, up: DVec3) -> 
             radius: 0.0,
         }],
         samples: 1,
+        target_error: None,
         surfaces: vec![Surface {
             color: DVec3::splat(0.8),
             ka: 0.5,

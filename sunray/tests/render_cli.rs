@@ -229,6 +229,31 @@ fn a_target_error_reports_its_error_and_writes_a_samples_map() {
         .collect();
     let rows: Vec<&[f32]> = floats.chunks(24 * 3).rev().collect();
     assert_eq!(exr.as_raw().as_slice(), rows.concat().as_slice());
+    // A scene's own `target_error(E)` renders as `--target-error E`; `--samples N` overrides it.
+    let body =
+        "resolution(24,16);\ncamera(position = 0,0,6; at = 0,0,0; up = 0,1,0; angle = 20);\n\
+                light(position = 3,4,5; color = white; radius = 0.8);\n\
+                begin attribute(color = orange); sphere(center = 0,0,0; radius = 1); end\n";
+    let (asks, plain) = (d.join("asks.yari"), d.join("plain.yari"));
+    std::fs::write(&asks, format!("target_error(0.04);\n{body}")).unwrap();
+    std::fs::write(&plain, body).unwrap();
+    let png = |scene: &PathBuf, flags: &[&str], name: &str| {
+        let out = d.join(name);
+        let st = sunray()
+            .args(["render", "-q"])
+            .arg(scene)
+            .args(flags)
+            .arg("-o")
+            .arg(&out)
+            .status()
+            .unwrap();
+        assert!(st.success());
+        std::fs::read(&out).unwrap()
+    };
+    let by_scene = png(&asks, &[], "asks.png");
+    assert!(by_scene == png(&plain, &["--target-error", "0.04"], "flag.png"));
+    assert!(by_scene != png(&plain, &[], "one.png"));
+    assert!(png(&asks, &["--samples", "2"], "n.png") == png(&plain, &["--samples", "2"], "m.png"));
     // A bad target is one line naming the flag, and nothing is written.
     let out = d.join("bad.png");
     let o = sunray()

@@ -138,6 +138,7 @@ fn side_lit(shapes: Vec<Shape>, size: u32) -> World {
             radius: 0.0,
         }],
         samples: 1,
+        target_error: None,
         surfaces: vec![Surface {
             ka: 0.0,
             ..Surface::default()

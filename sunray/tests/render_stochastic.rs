@@ -40,6 +40,7 @@ fn world() -> World {
             radius: 0.0,
         }],
         samples: 16,
+        target_error: None,
         surfaces: vec![floor, ball],
         objects: vec![
             Object {

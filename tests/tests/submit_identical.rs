@@ -217,6 +217,31 @@ fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
             "{hosts} hosts"
         );
     }
+    // A scene's own `target_error(E)` goes through the farm as the flag does.
+    let scene = dir.path().join("asks.yari");
+    let text = std::fs::read_to_string(default_scene()).unwrap();
+    std::fs::write(&scene, format!("target_error(0.05);\n{text}")).unwrap();
+    let small = ["--resolution", "24x20"];
+    let (want, _) = reference(dir.path(), &scene, &small);
+    let out = dir.path().join("asks.png");
+    let st = output(
+        cluster
+            .submit()
+            .args(["--hosts", "2", "-q"])
+            .args(small)
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out),
+    );
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    assert!(
+        std::fs::read(&out).unwrap() == want,
+        "the scene's target error through the farm"
+    );
     let st = output(
         cluster
             .submit()

@@ -68,6 +68,9 @@ pub enum ViewStmt {
     Camera(CameraDef),
     /// Extension: samples per pixel (jittered, box filter). Default 1.
     Samples(u32),
+    /// Extension: `target_error(E)`, render each pixel until the estimated standard error of
+    /// its mean is at most E (linear radiance) instead of a fixed number of samples.
+    TargetError(f64),
 }
 
 /// `light(position = x,y,z ; color = C [; radius = r])`.

@@ -28,6 +28,11 @@ pub struct World {
     pub samples: u32,
     /// Distinct surfaces; objects refer to them by index.
     pub surfaces: Vec<Surface>,
+    /// The target error requested by the scene (`target_error(E)`): each pixel rendered
+    /// until the estimated standard error of its mean is at most E, instead of `samples`.
+    /// (After `surfaces`: a version 3 model file's payload is this struct in postcard.)
+    #[serde(default)]
+    pub target_error: Option<f64>,
     /// The primitives in world space, in the order written.
     pub objects: Vec<Object>,
     /// What the scene uses; computed by [`crate::compile::features`].

@@ -14,6 +14,7 @@ fn compile(text: &str) -> yari::model::World {
 pub(crate) fn everything() -> Project {
     let mut p = Project::new_default();
     p.settings.samples = Some(4);
+    p.settings.target_error = Some(0.0125);
     p.settings.background = Some(Color::Named("UNC_Blue".into()));
     p.settings.camera = Some(Camera {
         position: [1.5, -2.0, 30.0],

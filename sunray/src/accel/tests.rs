@@ -80,6 +80,7 @@ fn random_world(n: usize, seed: u64) -> World {
         },
         lights: vec![],
         samples: 1,
+        target_error: None,
         surfaces: vec![Surface::default()],
         objects,
         features: Default::default(),

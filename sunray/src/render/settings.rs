@@ -239,7 +239,11 @@ impl Overrides {
         }
         render.trace.max_depth = self.depth;
         render.trace.min_weight = self.min_weight;
-        render.adaptive = self.adaptive;
+        // The flags' target error, else the scene's unless the flags ask for a sample count.
+        render.adaptive = self.adaptive.or_else(|| {
+            let scene_asks = scene.target_error.filter(|_| self.samples.is_none());
+            scene_asks.map(|e| super::adaptive::Adaptive::new(e, None, None))
+        });
         let mut settings = Settings {
             render,
             accel: AccelOptions {

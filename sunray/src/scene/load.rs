@@ -216,6 +216,7 @@ fn compiled(
             unbounded: counts.unbounded,
             resolution: world.resolution,
             samples: world.samples,
+            target_error: world.target_error,
         },
         warnings,
         load_s: t_load.elapsed().as_secs_f64(),

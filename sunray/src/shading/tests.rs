@@ -24,6 +24,7 @@ pub(super) fn world(objects: Vec<(Shape, Surface)>, lights: Vec<Light>) -> World
         },
         lights,
         samples: 1,
+        target_error: None,
         surfaces: vec![],
         objects: vec![],
         features: Default::default(),

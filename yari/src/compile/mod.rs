@@ -1,7 +1,8 @@
 //! The YARI compiler (the thesis's `yc`): a syntax tree to a world-space [`World`].
 //!
 //! Semantics (see `docs/yari.md`):
-//! - Preamble: the last `resolution`, `background`, `ambient`, `camera` and `samples` win;
+//! - Preamble: the last `resolution`, `background`, `ambient`, `camera`, `samples` and
+//!   `target_error` win;
 //!   lights accumulate. A missing camera or resolution gets [`DEFAULT_CAMERA`] /
 //!   [`DEFAULT_RESOLUTION`] with a warning; background and ambient default to black.
 //! - The graphics stack: transformations apply in the order written — a point is moved
@@ -148,6 +149,7 @@ impl<'a> Compiler<'a> {
 
     fn preamble(&mut self, view: &[Spanned<ViewStmt>]) -> World {
         let (mut resolution, mut camera, mut samples) = (None, None, None);
+        let mut target_error = None;
         let (mut background, mut ambient) = (DVec3::ZERO, DVec3::ZERO);
         let mut lights = Vec::new();
         for stmt in view {
@@ -167,6 +169,15 @@ impl<'a> Compiler<'a> {
                         self.error(span, "samples must be at least 1");
                     }
                     samples = Some(*n);
+                }
+                ViewStmt::TargetError(e) => {
+                    if !(e.is_finite() && *e > 0.0) {
+                        self.error(
+                            span,
+                            format!("target_error must be a number above 0 (linear radiance, 1 = white), not {e}"),
+                        );
+                    }
+                    target_error = Some(*e);
                 }
                 ViewStmt::Background(c) => background = self.colour(c),
                 ViewStmt::Ambient(c) => ambient = self.colour(c),
@@ -226,6 +237,7 @@ impl<'a> Compiler<'a> {
             camera,
             lights,
             samples: samples.unwrap_or(1),
+            target_error,
             surfaces: Vec::new(),
             objects: Vec::new(),
             features: Features::default(),

@@ -10,7 +10,7 @@
 //! hashes the payload once. The bytes are those [`super::to_bytes`] gives for
 //! the same world: it is this encoder fed the world's objects.
 
-use super::{fnv1a, ModelFileError, HEADER_LEN, MAGIC, OLDEST_VERSION, VERSION};
+use super::{fnv1a, ModelFileError, HEADER_LEN, MAGIC, OLDEST_VERSION, SMOOTH_VERSION, VERSION};
 use crate::model::{Camera, Features, Light, Object, Shape, Surface, World};
 use glam::DVec3;
 use serde::Serialize;
@@ -65,7 +65,7 @@ impl ModelEncoder {
             return Err(ModelFileError::Corrupt(e));
         }
         let corrupt = |e: postcard::Error| ModelFileError::Corrupt(e.to_string());
-        let version = if self.smooth { VERSION } else { OLDEST_VERSION };
+        let version = version_of(self.smooth, head.target_error.is_some());
         let mut front = Vec::with_capacity(HEADER_LEN + 256);
         front.extend_from_slice(MAGIC);
         front.extend_from_slice(&version.to_le_bytes());
@@ -80,6 +80,9 @@ impl ModelEncoder {
             surfaces: &head.surfaces,
         };
         let mut front = postcard::to_extend(&head_ref, front).map_err(corrupt)?;
+        if version >= VERSION {
+            front = postcard::to_extend(&head.target_error, front).map_err(corrupt)?;
+        }
         push_varint(&mut front, self.count);
         let back = postcard::to_extend::<Features, Vec<u8>>(&head.features, Vec::new())
             .map_err(corrupt)?;
@@ -95,6 +98,16 @@ impl ModelEncoder {
         out[12..20].copy_from_slice(&len.to_le_bytes());
         out[20..28].copy_from_slice(&hash.to_le_bytes());
         Ok(out)
+    }
+}
+
+/// The lowest format version that holds a world with smooth polygons or not, and a target
+/// error or not.
+pub(super) fn version_of(smooth: bool, target_error: bool) -> u32 {
+    match (smooth, target_error) {
+        (_, true) => VERSION,
+        (true, false) => SMOOTH_VERSION,
+        (false, false) => OLDEST_VERSION,
     }
 }
 

@@ -6,7 +6,8 @@
 //! ```text
 //! offset  size  what
 //!      0     8  magic b"SUNRAYW1"
-//!      8     4  format version (u32): 1, or 2 when a polygon has vertex normals
+//!      8     4  format version (u32): 1, 2 when a polygon has vertex normals, 3 when the
+//!               scene asks for a target error
 //!     12     8  payload length in bytes (u64)
 //!     20     8  FNV-1a 64-bit hash of the payload (u64)
 //!     28     n  payload: the World serialized with serde by postcard 1.x
@@ -18,7 +19,10 @@
 //! lowest version that holds the world ([`version_for`]): a world without smooth polygons
 //! gives the very bytes it gave before they existed, and a program that predates them refuses
 //! a file with them by its version number instead of failing to decode it. Both versions
-//! are read; a smooth polygon in a version 1 file is refused.
+//! are read; a smooth polygon in a version 1 file is refused. Version 3 adds the scene's
+//! `target_error` (a postcard `Option<f64>`) right after the head's surfaces, before the
+//! object count; it may hold smooth polygons too. Only a world with a target error is written
+//! as version 3.
 //!
 //! A wrong magic, another version, a short file, a hash mismatch, a payload that does not
 //! decode to exactly one World, or a World that breaks the compiler's guarantees
@@ -42,8 +46,10 @@ pub use stream::{read_stream, ModelStream};
 
 /// The first 8 bytes of every model file.
 pub const MAGIC: &[u8; 8] = b"SUNRAYW1";
-/// The newest format version this code writes and reads (version 2: smooth polygons).
-pub const VERSION: u32 = 2;
+/// The newest format version this code writes and reads (version 3: a target error).
+pub const VERSION: u32 = 3;
+/// The first format version with smooth polygons.
+pub const SMOOTH_VERSION: u32 = 2;
 /// The oldest format version this code reads, and the one it writes for every world
 /// without smooth polygons (so those files are what they were before version 2).
 pub const OLDEST_VERSION: u32 = 1;
@@ -113,11 +119,7 @@ pub fn version_for(world: &World) -> u32 {
         .objects
         .iter()
         .any(|o| matches!(o.shape, crate::model::Shape::SmoothPolygon { .. }));
-    if smooth {
-        VERSION
-    } else {
-        OLDEST_VERSION
-    }
+    encode::version_of(smooth, world.target_error.is_some())
 }
 
 /// The whole file as bytes: the world's objects encoded one by one behind its head
@@ -161,6 +163,12 @@ fn validate_head(world: &World) -> Result<(), String> {
     let finite = |v: glam::DVec3| v.is_finite();
     if world.resolution.contains(&0) || world.samples == 0 {
         return Err("zero resolution or sample count".into());
+    }
+    if world
+        .target_error
+        .is_some_and(|e| !(e.is_finite() && e > 0.0))
+    {
+        return Err("the target error is not a number above 0".into());
     }
     let c = &world.camera;
     let camera_ok =
@@ -241,7 +249,7 @@ fn validate_object(i: usize, o: &Object, surfaces: usize) -> Result<(), String> 
 /// Whether object `i` can be in a file of format `version` (a smooth polygon needs 2).
 fn fits_version(i: usize, o: &Object, version: u32) -> Result<(), String> {
     match o.shape {
-        crate::model::Shape::SmoothPolygon { .. } if version < VERSION => Err(format!(
+        crate::model::Shape::SmoothPolygon { .. } if version < SMOOTH_VERSION => Err(format!(
             "object {i} has vertex normals, which a version {version} file cannot hold"
         )),
         _ => Ok(()),
@@ -334,10 +342,10 @@ mod tests {
             Err(ModelFileError::Truncated { .. })
         ));
         let mut v = bytes.clone();
-        v[8] = 3;
+        v[8] = 4;
         assert!(matches!(
             from_bytes(&v),
-            Err(ModelFileError::UnsupportedVersion { found: 3 })
+            Err(ModelFileError::UnsupportedVersion { found: 4 })
         ));
         let mut v = bytes.clone();
         let last = v.len() - 1;

@@ -114,3 +114,60 @@ fn damaged_and_hostile_normals_are_errors_not_panics() {
     }
     assert!(stream.finish().is_err());
 }
+
+/// A scene's `target_error(E)` is kept in a version 3 file (with or without smooth
+/// polygons), read back whole and as a stream; a world without one writes the version it
+/// wrote before; a target that is not above 0 is refused by the compiler and by the reader.
+#[test]
+fn a_target_error_needs_version_3_and_round_trips() {
+    for (text, before) in [
+        (SMOOTH, 2),
+        ("begin sphere(center = 0,0,0; radius = 1); end", 1),
+    ] {
+        let plain = world(text);
+        assert_eq!(version_for(&plain), before);
+        let w = world(&format!("target_error(0.0125);\n{text}"));
+        assert_eq!(w.target_error, Some(0.0125));
+        let bytes = to_bytes(&w).unwrap();
+        assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 3);
+        assert_eq!(from_bytes(&bytes).unwrap(), w);
+        let mut streamed = Vec::new();
+        let head = read_stream(&mut &bytes[..], &mut |_, _, o| streamed.push(o)).unwrap();
+        assert_eq!(
+            (head.target_error, streamed),
+            (w.target_error, w.objects.clone())
+        );
+        // Written out as YARI, it reads back the same.
+        assert_eq!(
+            world(&crate::writer::write_world(&w)).target_error,
+            Some(0.0125)
+        );
+        // A hostile file: the target's 8 bytes (after its Some tag) set to NaN.
+        let nan = reseal(&bytes, |p| {
+            let at = find_target(p, 0.0125);
+            p[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        });
+        assert!(matches!(from_bytes(&nan), Err(ModelFileError::Invalid(_))));
+    }
+    for bad in ["0", "-1"] {
+        let src = crate::span::Source::new("s.yari", format!("target_error({bad}); begin end"));
+        let scene = crate::parse::parse(&src).unwrap();
+        let e =
+            crate::compile::compile(&scene, &crate::colour::ColourTable::builtin()).unwrap_err();
+        assert!(
+            e.render(&src)
+                .contains("target_error must be a number above 0"),
+            "{bad}"
+        );
+    }
+}
+
+/// Where the little-endian bytes of `value` occur in `payload` (once).
+fn find_target(payload: &[u8], value: f64) -> usize {
+    let enc = value.to_le_bytes();
+    let at: Vec<usize> = (0..=payload.len() - 8)
+        .filter(|&i| payload[i..i + 8] == enc)
+        .collect();
+    assert_eq!(at.len(), 1);
+    at[0]
+}

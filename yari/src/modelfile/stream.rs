@@ -31,6 +31,43 @@ struct Head {
     surfaces: Vec<Surface>,
 }
 
+/// A version 3 head: [`Head`] and the scene's target error after it.
+#[derive(Deserialize)]
+struct HeadWithTarget {
+    resolution: [u32; 2],
+    background: DVec3,
+    ambient: DVec3,
+    camera: Camera,
+    lights: Vec<Light>,
+    samples: u32,
+    surfaces: Vec<Surface>,
+    target_error: Option<f64>,
+}
+
+impl Head {
+    /// The head of a file of `version`, with its target error, from the front of `bytes`.
+    fn take(
+        bytes: &[u8],
+        version: u32,
+    ) -> Result<Option<(Head, Option<f64>, usize)>, ModelFileError> {
+        if version < VERSION {
+            return Ok(take::<Head>(bytes)?.map(|(h, used)| (h, None, used)));
+        }
+        Ok(take::<HeadWithTarget>(bytes)?.map(|(h, used)| {
+            let head = Head {
+                resolution: h.resolution,
+                background: h.background,
+                ambient: h.ambient,
+                camera: h.camera,
+                lights: h.lights,
+                samples: h.samples,
+                surfaces: h.surfaces,
+            };
+            (head, h.target_error, used)
+        }))
+    }
+}
+
 /// Where the decoder is in the payload.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Stage {
@@ -163,9 +200,9 @@ impl ModelStream {
             let rest = &self.pending[at..];
             let used = match self.stage {
                 Stage::Header | Stage::Done => return Ok(at),
-                Stage::Head => match take::<Head>(rest)? {
+                Stage::Head => match Head::take(rest, self.version)? {
                     None => return Ok(at),
-                    Some((head, used)) => {
+                    Some((head, target_error, used)) => {
                         let world = World {
                             resolution: head.resolution,
                             background: head.background,
@@ -173,6 +210,7 @@ impl ModelStream {
                             camera: head.camera,
                             lights: head.lights,
                             samples: head.samples,
+                            target_error,
                             surfaces: head.surfaces,
                             objects: Vec::new(),
                             features: Features::default(),
@@ -341,6 +379,9 @@ mod tests {
         let mut empty = w[0].clone();
         empty.objects.clear();
         w.push(empty);
+        let mut target = w[1].clone();
+        target.target_error = Some(0.004);
+        w.push(target);
         w
     }
 
@@ -362,8 +403,12 @@ mod tests {
     fn a_stream_in_pieces_of_any_size_decodes_what_postcard_does() {
         for world in worlds() {
             let bytes = super::super::to_bytes(&world).unwrap();
-            let whole: World = postcard::from_bytes(&bytes[HEADER_LEN..]).unwrap();
-            assert_eq!(whole, world);
+            // A version 3 payload is the World in postcard; an older one is the World
+            // without its target error (which it has none of).
+            if super::super::version_for(&world) == VERSION {
+                let whole: World = postcard::from_bytes(&bytes[HEADER_LEN..]).unwrap();
+                assert_eq!(whole, world);
+            }
             for piece in [1, 2, 7, 28, 29, 1000, bytes.len()] {
                 assert_eq!(streamed(&bytes, piece).unwrap(), world, "pieces of {piece}");
             }

@@ -80,6 +80,7 @@ const COMMANDS: &[&str] = &[
     "light",
     "camera",
     "samples",
+    "target_error",
     "attribute",
     "sphere",
     "polygon",
@@ -98,6 +99,7 @@ const VIEW_COMMANDS: &[&str] = &[
     "light",
     "camera",
     "samples",
+    "target_error",
 ];
 
 /// Marks a parse failure whose error is already reported.

@@ -1,4 +1,5 @@
-//! Preamble statements: `resolution`, `background`, `ambient`, `light`, `camera`, `samples`.
+//! Preamble statements: `resolution`, `background`, `ambient`, `light`, `camera`, `samples`,
+//! `target_error`.
 
 use super::{PResult, Parser};
 use crate::ast::{CameraDef, LightDef, Spanned, ViewStmt};
@@ -26,6 +27,9 @@ impl Parser<'_> {
                     p.count("the number of samples", MAX_SAMPLES)?.0,
                 ))
             })?,
+            "target_error" => {
+                self.statement(|p, _| Ok(ViewStmt::TargetError(p.number("the target error")?.0)))?
+            }
             "background" => {
                 self.statement(|p, name| Ok(ViewStmt::Background(p.colour_only(name)?)))?
             }

@@ -83,6 +83,7 @@ fn write_view(out: &mut String, stmt: &ViewStmt) {
     let _ = match stmt {
         ViewStmt::Resolution(x, y) => writeln!(out, "resolution({x}, {y});"),
         ViewStmt::Samples(n) => writeln!(out, "samples({n});"),
+        ViewStmt::TargetError(e) => writeln!(out, "target_error({});", Num(*e)),
         ViewStmt::Background(c) => writeln!(out, "background(color = {});", C(&c.node)),
         ViewStmt::Ambient(c) => writeln!(out, "ambient(color = {});", C(&c.node)),
         ViewStmt::Light(l) => {

@@ -61,6 +61,9 @@ pub fn world_to_scene(world: &World) -> Scene {
             focus: Some(c.focus_distance),
         })),
     ];
+    if let Some(e) = world.target_error {
+        view.push(sp(ViewStmt::TargetError(e)));
+    }
     for l in &world.lights {
         view.push(sp(ViewStmt::Light(LightDef {
             position: v3(l.position),

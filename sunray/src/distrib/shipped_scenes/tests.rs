@@ -13,6 +13,7 @@ fn entry(chunks: usize, size: u64) -> ShippedScene {
         unbounded: 1,
         resolution: [64, 48],
         samples: 2,
+        target_error: Some(0.01),
     };
     ShippedScene::new(summary, vec!["w".into()], &model, Vec::new())
 }
