@@ -43,6 +43,7 @@ fn view() -> impl Strategy<Value = ViewStmt> {
     prop_oneof![
         (1u32..=65536, 1u32..=65536).prop_map(|(x, y)| ViewStmt::Resolution(x, y)),
         (1u32..=65536).prop_map(ViewStmt::Samples),
+        num().prop_map(ViewStmt::TargetError),
         colour().prop_map(ViewStmt::Background),
         colour().prop_map(ViewStmt::Ambient),
         (vec3(), colour(), prop::option::of(0.0..10.0f64)).prop_map(|(position, color, radius)| {
