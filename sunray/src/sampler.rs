@@ -78,7 +78,8 @@ impl SampleStream {
     pub fn sobol(x: u32, y: u32, seed: u32, index: u32) -> SampleStream {
         let pixel = mix64(mix64(u64::from(x) ^ 0x50B0_1000) ^ u64::from(y));
         SampleStream {
-            key: mix64(pixel ^ u64::from(index)),
+            // Unused: every draw comes from the Sobol sequence.
+            key: 0,
             next: 0,
             pixel_key: mix64(pixel ^ (u64::from(seed) << 32)),
             index: index.min(SOBOL_SAMPLES - 1),

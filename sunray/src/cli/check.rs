@@ -31,9 +31,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
                 println!("{}", mesh_summary(mesh));
             }
             for placed in &loaded.meshes {
-                let line = mesh_summary(&placed.summary);
-                let line = line.strip_prefix("mesh").unwrap_or(&line);
-                println!("mesh {}{line}", placed.path.display());
+                let label = format!("mesh {}", placed.path.display());
+                println!("{}", labelled_mesh_summary(&label, &placed.summary));
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -54,6 +53,11 @@ pub fn display_name(path: &std::path::Path) -> String {
 
 /// `mesh: 2048 vertices, 4096 faces (4096 triangles), no normals; bounds -1,-1,-1 to 1,1,1`.
 pub fn mesh_summary(m: &yari::mesh::MeshSummary) -> String {
+    labelled_mesh_summary("mesh", m)
+}
+
+/// [`mesh_summary`] under another label (`mesh models/statue.ply: ...`).
+fn labelled_mesh_summary(label: &str, m: &yari::mesh::MeshSummary) -> String {
     let point = |p: [f64; 3]| format!("{},{},{}", p[0], p[1], p[2]);
     let bounds = if m.bounds.is_empty() {
         "no bounds (no faces)".to_string()
@@ -62,7 +66,7 @@ pub fn mesh_summary(m: &yari::mesh::MeshSummary) -> String {
     };
     let n = |k: u64, one, many| plural(k as usize, one, many);
     format!(
-        "mesh: {}, {} ({}), {}; {bounds}",
+        "{label}: {}, {} ({}), {}; {bounds}",
         n(m.vertices, "vertex", "vertices"),
         n(m.faces, "face", "faces"),
         n(m.triangles, "triangle", "triangles"),

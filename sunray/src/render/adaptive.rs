@@ -203,18 +203,19 @@ pub fn trace_pixel_to_error(
 }
 
 /// A constant pixel (the background outside the scene's footprint) rendered to the error
-/// `a` asks: `min_samples` of `c`, no error.
+/// `a` asks: `min_samples` of `c`, no error (what adding them one by one gives, exactly).
 pub fn constant_pixel(c: DVec3, a: &Adaptive) -> PixelEstimate {
-    let mut est = PixelEstimate::default();
-    for _ in 0..a.min_samples {
-        est.add(c);
+    PixelEstimate {
+        n: a.min_samples,
+        mean: c,
+        m2: DVec3::ZERO,
     }
-    est
 }
 
 /// What the pixels of a render to the error `a` reached and took (their `summaries`).
 pub fn error_stats(summaries: &[super::PixelSummary], a: &Adaptive) -> ErrorStats {
-    let mut histogram: Vec<SamplesBucket> = Vec::new();
+    // Bucket k holds the pixels of 2^k to 2^(k+1) - 1 samples.
+    let mut buckets = [0u64; 32];
     let (mut sq, mut max, mut samples, mut at_max) = (0.0, 0.0_f64, 0u64, 0u64);
     for p in summaries {
         let e = f64::from(p.error);
@@ -222,17 +223,17 @@ pub fn error_stats(summaries: &[super::PixelSummary], a: &Adaptive) -> ErrorStat
         max = max.max(e);
         samples += u64::from(p.samples);
         at_max += u64::from(p.samples >= a.max_samples && e > a.target_error);
-        let from = 1u32 << (31 - p.samples.max(1).leading_zeros());
-        match histogram.iter_mut().find(|b| b.from == from) {
-            Some(b) => b.pixels += 1,
-            None => histogram.push(SamplesBucket {
-                from,
-                to: from.saturating_mul(2) - 1,
-                pixels: 1,
-            }),
-        }
+        buckets[31 - p.samples.max(1).leading_zeros() as usize] += 1;
     }
-    histogram.sort_by_key(|b| b.from);
+    let histogram = (0..32u32)
+        .zip(buckets)
+        .filter(|&(_, pixels)| pixels > 0)
+        .map(|(k, pixels)| SamplesBucket {
+            from: 1 << k,
+            to: ((1u64 << (k + 1)) - 1).min(u64::from(u32::MAX)) as u32,
+            pixels,
+        })
+        .collect();
     let n = summaries.len().max(1) as f64;
     ErrorStats {
         target: a.target_error,

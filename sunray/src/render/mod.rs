@@ -161,7 +161,9 @@ pub fn render_line_into(
         counters: &mut counters,
     };
     // Pixels outside the scene's footprint are background, counted as the eye rays the
-    // tracer would have sent (each visits the root and misses).
+    // tracer would have sent (each visits the root and misses): `n`, or with a target error
+    // the first samples (a constant pixel stops there).
+    let outside_samples = opts.adaptive.map_or(n, |a| a.min_samples);
     let may_hit = footprint.as_ref().map(|f| f.row(y, opts.width));
     let mut spans = may_hit.as_deref().unwrap_or_default().iter().peekable();
     for (x, pixel) in (0..opts.width).zip(pixels.iter_mut()) {
@@ -169,32 +171,26 @@ pub fn render_line_into(
         let outside = footprint
             .as_ref()
             .filter(|_| spans.peek().is_none_or(|r| r.start > x));
-        if let Some(a) = &opts.adaptive {
-            let est = match outside {
-                Some(f) => {
-                    tracer.counters.eye += u64::from(a.min_samples);
-                    tracer.counters.voxels += f.voxels_on_miss * u64::from(a.min_samples);
-                    adaptive::constant_pixel(scene.world.background, a)
-                }
-                None => adaptive::trace_pixel_to_error(&mut tracer, camera, (x, y), 0, a),
-            };
-            let c = est.mean();
-            *pixel = [c.x as f32, c.y as f32, c.z as f32];
-            if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x as usize)) {
-                *s = PixelSummary {
-                    samples: est.count(),
-                    error: est.standard_error() as f32,
-                };
-            }
-            continue;
+        if let Some(f) = outside {
+            tracer.counters.eye += u64::from(outside_samples);
+            tracer.counters.voxels += f.voxels_on_miss * u64::from(outside_samples);
         }
-        let c = match outside {
-            Some(f) => {
-                tracer.counters.eye += u64::from(n);
-                tracer.counters.voxels += f.voxels_on_miss * u64::from(n);
-                mean_of(n, |_| scene.world.background)
+        let c = match (&opts.adaptive, outside) {
+            (Some(a), _) => {
+                let est = match outside {
+                    Some(_) => adaptive::constant_pixel(scene.world.background, a),
+                    None => adaptive::trace_pixel_to_error(&mut tracer, camera, (x, y), 0, a),
+                };
+                if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x as usize)) {
+                    *s = PixelSummary {
+                        samples: est.count(),
+                        error: est.standard_error() as f32,
+                    };
+                }
+                est.mean()
             }
-            None => trace_pixel(&mut tracer, camera, (x, y), 0, n),
+            (None, Some(_)) => mean_of(n, |_| scene.world.background),
+            (None, None) => trace_pixel(&mut tracer, camera, (x, y), 0, n),
         };
         *pixel = [c.x as f32, c.y as f32, c.z as f32];
     }

@@ -3,6 +3,36 @@
 
 use super::*;
 
+/// `sunray submit --hosts 2 -q FLAGS SCENE` with this user's cache at `cache`, its image and
+/// statistics written as `NAME.png` and `NAME.json` in `dir`: the image's bytes and the
+/// statistics.
+fn submit_remembering(
+    cluster: &LoopbackCluster,
+    cache: &Path,
+    dir: &Path,
+    flags: &[&str],
+    scene: &Path,
+    name: &str,
+) -> (Vec<u8>, serde_json::Value) {
+    let (out, json) = (
+        dir.join(format!("{name}.png")),
+        dir.join(format!("{name}.json")),
+    );
+    succeed(
+        cluster
+            .submit()
+            .env("SUNRAY_CACHE_DIR", cache)
+            .args(["--hosts", "2", "-q"])
+            .args(flags)
+            .arg(scene)
+            .arg("-o")
+            .arg(&out)
+            .arg("--stats-json")
+            .arg(&json),
+    );
+    (std::fs::read(&out).unwrap(), read_json(&json))
+}
+
 /// A second submit of an unchanged scene compiles nothing and sends nothing: the submitting
 /// host remembers what the job needs of the scene and its model's chunks, still with its
 /// remd. A count planted in the remembered entry shows that the second job took it from
@@ -16,27 +46,9 @@ fn a_scene_submitted_again_unchanged_is_not_compiled_again() {
     std::fs::copy(spd("mount6"), &scene).unwrap();
     let (want, _) = reference(dir.path(), &scene, &FLAGS);
     let run = |name: &str| {
-        let (out, json) = (
-            dir.path().join(format!("{name}.png")),
-            dir.path().join(format!("{name}.json")),
-        );
-        succeed(
-            cluster
-                .submit()
-                .env("SUNRAY_CACHE_DIR", &cache)
-                .args(["--hosts", "2", "-q"])
-                .args(FLAGS)
-                .arg(&scene)
-                .arg("-o")
-                .arg(&out)
-                .arg("--stats-json")
-                .arg(&json),
-        );
-        assert!(
-            std::fs::read(&out).unwrap() == want,
-            "{name}: differs from sunray render"
-        );
-        read_json(&json)
+        let (image, stats) = submit_remembering(&cluster, &cache, dir.path(), &FLAGS, &scene, name);
+        assert!(image == want, "{name}: differs from sunray render");
+        stats
     };
     let first = run("first");
     let objects = first["totals"]["objects"].as_u64().unwrap();
@@ -103,24 +115,7 @@ fn a_scene_placing_a_mesh_ships_it_and_is_compiled_again_when_the_mesh_changes()
          mesh(file = \"models/tetra.ply\"; materials = file);\nend\n",
     )
     .unwrap();
-    let run = |name: &str| {
-        let (out, json) = (
-            dir.path().join(format!("{name}.png")),
-            dir.path().join(format!("{name}.json")),
-        );
-        succeed(
-            cluster
-                .submit()
-                .env("SUNRAY_CACHE_DIR", &cache)
-                .args(["--hosts", "2", "-q"])
-                .arg(&scene)
-                .arg("-o")
-                .arg(&out)
-                .arg("--stats-json")
-                .arg(&json),
-        );
-        (std::fs::read(&out).unwrap(), read_json(&json))
-    };
+    let run = |name: &str| submit_remembering(&cluster, &cache, dir.path(), &[], &scene, name);
     let (want, _) = reference(dir.path(), &scene, &[]);
     let (first, stats) = run("first");
     assert!(

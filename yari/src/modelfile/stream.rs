@@ -31,40 +31,21 @@ struct Head {
     surfaces: Vec<Surface>,
 }
 
-/// A version 3 head: [`Head`] and the scene's target error after it.
-#[derive(Deserialize)]
-struct HeadWithTarget {
-    resolution: [u32; 2],
-    background: DVec3,
-    ambient: DVec3,
-    camera: Camera,
-    lights: Vec<Light>,
-    samples: u32,
-    surfaces: Vec<Surface>,
-    target_error: Option<f64>,
-}
-
 impl Head {
-    /// The head of a file of `version`, with its target error, from the front of `bytes`.
+    /// The head of a file of `version` and its target error (a version 3 file's, right after
+    /// the head: postcard writes a struct as its fields one after another), from the front of
+    /// `bytes`, with how many bytes they took.
     fn take(
         bytes: &[u8],
         version: u32,
     ) -> Result<Option<(Head, Option<f64>, usize)>, ModelFileError> {
+        let Some((head, used)) = take::<Head>(bytes)? else {
+            return Ok(None);
+        };
         if version < VERSION {
-            return Ok(take::<Head>(bytes)?.map(|(h, used)| (h, None, used)));
+            return Ok(Some((head, None, used)));
         }
-        Ok(take::<HeadWithTarget>(bytes)?.map(|(h, used)| {
-            let head = Head {
-                resolution: h.resolution,
-                background: h.background,
-                ambient: h.ambient,
-                camera: h.camera,
-                lights: h.lights,
-                samples: h.samples,
-                surfaces: h.surfaces,
-            };
-            (head, h.target_error, used)
-        }))
+        Ok(take::<Option<f64>>(&bytes[used..])?.map(|(target, more)| (head, target, used + more)))
     }
 }
 
