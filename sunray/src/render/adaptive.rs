@@ -157,6 +157,48 @@ impl PixelEstimate {
         (self.variance() / f64::from(self.n)).sqrt()
     }
 
+    /// Bytes of [`PixelEstimate::to_le_bytes`].
+    pub const BYTES: usize = 52;
+
+    /// True when the pixel needs no more samples ([`PixelEstimate::next_count`] is `None`).
+    pub fn is_done(&self, a: &Adaptive) -> bool {
+        self.next_count(a).is_none()
+    }
+
+    /// The estimate exactly, to go on from elsewhere (the farm's passes, its checkpoints):
+    /// the count as a little-endian `u32`, then the mean and the sum of squared deviations,
+    /// three little-endian `f64` each.
+    pub fn to_le_bytes(&self) -> [u8; Self::BYTES] {
+        let mut out = [0u8; Self::BYTES];
+        out[..4].copy_from_slice(&self.n.to_le_bytes());
+        let values = self.mean.to_array().into_iter().chain(self.m2.to_array());
+        for (i, v) in values.enumerate() {
+            out[4 + 8 * i..12 + 8 * i].copy_from_slice(&v.to_le_bytes());
+        }
+        out
+    }
+
+    /// The inverse of [`PixelEstimate::to_le_bytes`] (bit for bit).
+    pub fn from_le_bytes(b: &[u8; Self::BYTES]) -> PixelEstimate {
+        let f = |i: usize| {
+            let at = 4 + 8 * i;
+            f64::from_le_bytes(b[at..at + 8].try_into().unwrap_or_default())
+        };
+        PixelEstimate {
+            n: u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            mean: DVec3::new(f(0), f(1), f(2)),
+            m2: DVec3::new(f(3), f(4), f(5)),
+        }
+    }
+
+    /// What the pixel took: its samples and estimated error.
+    pub fn summary(&self) -> super::PixelSummary {
+        super::PixelSummary {
+            samples: self.n,
+            error: self.standard_error() as f32,
+        }
+    }
+
     /// The count the pixel should reach next, or `None` when it is done: at the target, or
     /// at `max_samples`.
     pub fn next_count(&self, a: &Adaptive) -> Option<u32> {
@@ -193,13 +235,50 @@ pub fn trace_pixel_to_error(
     a: &Adaptive,
 ) -> PixelEstimate {
     let mut est = PixelEstimate::default();
+    advance_pixel(tracer, camera, (x, y), seed, a, &mut est, u32::MAX);
+    est
+}
+
+/// Pixel (x, y) taken on from `est` as [`trace_pixel_to_error`] takes it, step by step of
+/// [`PixelEstimate::next_count`], stopping before a step that would pass `cap` samples;
+/// returns whether the pixel is done. The steps are the same whether a pixel is taken in one
+/// go or over several calls (the farm's passes), so its samples and estimate are too.
+pub fn advance_pixel(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    seed: u32,
+    a: &Adaptive,
+    est: &mut PixelEstimate,
+    cap: u32,
+) -> bool {
     while let Some(want) = est.next_count(a) {
+        if want > cap {
+            return false;
+        }
         while est.count() < want {
             let mut rng = SampleStream::sobol(x, y, seed, est.count());
             est.add(trace_with(tracer, camera, (x, y), 1, 0, &mut rng));
         }
     }
-    est
+    true
+}
+
+/// The most samples a pixel has after pass `pass` of a render to the error `a` in passes:
+/// `min_samples` after pass 0, twice as many after each later one. A pixel's next count is
+/// at most twice its samples, so every pixel not done takes at least one step in each pass.
+pub fn pass_cap(a: &Adaptive, pass: u32) -> u32 {
+    let cap = u64::from(a.min_samples) << pass.min(32);
+    cap.min(u64::from(u32::MAX)) as u32
+}
+
+/// How many passes a render to the error `a` takes at most: every pixel is done after the
+/// first pass whose cap reaches `max_samples` (at most 16).
+pub fn max_passes(a: &Adaptive) -> u32 {
+    (0..=32)
+        .find(|&p| pass_cap(a, p) >= a.max_samples)
+        .unwrap_or(32)
+        + 1
 }
 
 /// A constant pixel (the background outside the scene's footprint) rendered to the error

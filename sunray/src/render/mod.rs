@@ -3,12 +3,14 @@
 //! each taking the film's next row, the same request-render-complete loop a SunRay III
 //! worker runs against its controller. [`settings`] holds what decides the
 //! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything;
-//! [`adaptive`], rendering each pixel to a target error instead of a sample count.
+//! [`adaptive`], rendering each pixel to a target error instead of a sample count, and
+//! [`pass`], doing so a pass at a time (the farm's unit of work then).
 //! [`parallel`] runs the lines of one image on all cores.
 
 pub mod adaptive;
 pub mod footprint;
 pub mod parallel;
+pub mod pass;
 pub mod settings;
 
 use crate::accel::{Accel, Scratch};
@@ -122,6 +124,20 @@ impl Frame {
         let footprint = Footprint::new(&camera, accel);
         Frame { camera, footprint }
     }
+
+    /// For each pixel of line `y` of a `width`-pixel image: the footprint when the pixel lies
+    /// outside it (no eye ray through it can meet anything: it is background), else `None`.
+    fn outside_row(&self, y: u32, width: u32) -> Vec<Option<&Footprint>> {
+        let Some(f) = &self.footprint else {
+            return vec![None; width as usize];
+        };
+        let mut row = vec![Some(f); width as usize];
+        for span in f.row(y, width) {
+            let span = span.start.min(width) as usize..span.end.min(width) as usize;
+            row[span].fill(None);
+        }
+        row
+    }
 }
 
 /// What a pixel rendered to an error took: its samples and its estimated error.
@@ -148,7 +164,7 @@ pub fn render_line_into(
     pixels: &mut [[f32; 3]],
     mut summaries: Option<&mut [PixelSummary]>,
 ) -> Counters {
-    let Frame { camera, footprint } = frame;
+    let camera = &frame.camera;
     let mut counters = Counters::default();
     let n = opts.samples.max(1);
     // A line's counts must not depend on the lines its thread rendered before.
@@ -164,13 +180,8 @@ pub fn render_line_into(
     // tracer would have sent (each visits the root and misses): `n`, or with a target error
     // the first samples (a constant pixel stops there).
     let outside_samples = opts.adaptive.map_or(n, |a| a.min_samples);
-    let may_hit = footprint.as_ref().map(|f| f.row(y, opts.width));
-    let mut spans = may_hit.as_deref().unwrap_or_default().iter().peekable();
-    for (x, pixel) in (0..opts.width).zip(pixels.iter_mut()) {
-        while spans.next_if(|r| r.end <= x).is_some() {}
-        let outside = footprint
-            .as_ref()
-            .filter(|_| spans.peek().is_none_or(|r| r.start > x));
+    let outside_row = frame.outside_row(y, opts.width);
+    for ((x, pixel), &outside) in (0..opts.width).zip(pixels.iter_mut()).zip(&outside_row) {
         if let Some(f) = outside {
             tracer.counters.eye += u64::from(outside_samples);
             tracer.counters.voxels += f.voxels_on_miss * u64::from(outside_samples);
@@ -182,10 +193,7 @@ pub fn render_line_into(
                     None => adaptive::trace_pixel_to_error(&mut tracer, camera, (x, y), 0, a),
                 };
                 if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x as usize)) {
-                    *s = PixelSummary {
-                        samples: est.count(),
-                        error: est.standard_error() as f32,
-                    };
+                    *s = est.summary();
                 }
                 est.mean()
             }

@@ -1,0 +1,153 @@
+//! Rendering to an error a pass at a time: the farm's unit of work with `--target-error` is
+//! a (line, pass). Pass 0 takes every pixel of the line to its first samples; pass `k` takes
+//! each pixel not done on by whole steps of its schedule while it stays within
+//! [`pass_cap`]`(k)` samples. A pixel's steps are those [`render_line`](super::render_line)
+//! takes in one go, so after its last pass a line is bit for bit what `sunray render`
+//! gives, wherever and in however many goes each pass ran: a pass starts from the line's
+//! [`PixelEstimate`]s as the previous one left them (exactly: they travel as bytes).
+
+use super::adaptive::{self, pass_cap, Adaptive, PixelEstimate};
+use super::{Frame, RenderOptions};
+use crate::accel::{Accel, Scratch};
+use crate::scene::Scene;
+use crate::shading::Tracer;
+use crate::stats::Counters;
+
+/// Pass `pass` of line `y` with the target `a`, taking `estimates` (the line's pixels as
+/// the previous pass left them; all empty for pass 0) on; returns the pass's counts.
+#[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
+pub fn render_pass_into(
+    scene: &Scene,
+    accel: &Accel,
+    (y, pass): (u32, u32),
+    opts: &RenderOptions,
+    a: &Adaptive,
+    scratch: &mut Scratch,
+    frame: &Frame,
+    estimates: &mut [PixelEstimate],
+) -> Counters {
+    let mut counters = Counters::default();
+    scratch.occluders.clear();
+    let mut tracer = Tracer {
+        scene,
+        accel,
+        opts: opts.trace,
+        scratch,
+        counters: &mut counters,
+    };
+    let cap = pass_cap(a, pass);
+    let outside_row = frame.outside_row(y, opts.width);
+    for ((x, est), &outside) in (0..opts.width).zip(estimates.iter_mut()).zip(&outside_row) {
+        match outside {
+            // Background: its first samples all the same, counted as the eye rays they are.
+            Some(f) if est.count() == 0 => {
+                tracer.counters.eye += u64::from(a.min_samples);
+                tracer.counters.voxels += f.voxels_on_miss * u64::from(a.min_samples);
+                *est = adaptive::constant_pixel(scene.world.background, a);
+            }
+            _ => {
+                adaptive::advance_pixel(&mut tracer, &frame.camera, (x, y), 0, a, est, cap);
+            }
+        }
+    }
+    counters
+}
+
+/// True when every pixel of a line is done (it needs no further pass).
+pub fn line_done(estimates: &[PixelEstimate], a: &Adaptive) -> bool {
+    estimates.iter().all(|e| e.is_done(a))
+}
+
+/// A line's pixels: the means of its estimates.
+pub fn line_pixels(estimates: &[PixelEstimate]) -> Vec<[f32; 3]> {
+    estimates
+        .iter()
+        .map(|e| {
+            let c = e.mean();
+            [c.x as f32, c.y as f32, c.z as f32]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{AccelKind, AccelOptions};
+    use crate::render::{adaptive::max_passes, render_line};
+
+    /// A sphere, its shadow under an area light and the background around: pixels that stop
+    /// at their first samples, and pixels that need every pass.
+    const SCENE: &str = "background(color = 0.1,0.1,0.3);
+camera(position = 0,0,-8; at = 0,0,0; up = 0,1,0; angle = 30);
+light(position = -6,6,-6; color = 1,1,1; radius = 1.5);
+begin
+  attribute(color = 1,0.6,0.4; kdr = 0.7; ka = 0.1; phong = 20);
+  sphere(center = 0,0.6,0; radius = 0.8);
+  polygon(vertices = 4; -3,-0.3,-3 -3,-0.3,3 3,-0.3,3 3,-0.3,-3);
+end
+";
+
+    #[test]
+    fn a_line_in_passes_is_the_line_in_one_go() {
+        let table = yari::colour::ColourTable::default();
+        let loaded =
+            yari::load::load_str("t.yari", SCENE, yari::load::InputKind::Yari, &table).unwrap();
+        let mut scene = Scene::new(loaded.world);
+        let accel_opts = AccelOptions {
+            kind: AccelKind::Bvh,
+            ..AccelOptions::default()
+        };
+        let accel = Accel::build(&mut scene.prims, &accel_opts);
+        let a = Adaptive::new(0.01, Some(4), Some(256));
+        let opts = RenderOptions {
+            adaptive: Some(a),
+            ..RenderOptions::asked([24, 16], 1)
+        };
+        let frame = Frame::new(&scene, &accel, &opts);
+        let mut scratch = Scratch::new(scene.prims.len(), false);
+        let (mut most_passes, mut eye) = (0, [0u64; 2]);
+        for y in 0..opts.height {
+            let whole = render_line(&scene, &accel, y, &opts, &mut scratch);
+            let mut est = vec![PixelEstimate::default(); opts.width as usize];
+            let mut pass = 0;
+            while pass == 0 || !line_done(&est, &a) {
+                assert!(pass < max_passes(&a), "line {y} still not done");
+                let c = render_pass_into(
+                    &scene,
+                    &accel,
+                    (y, pass),
+                    &opts,
+                    &a,
+                    &mut scratch,
+                    &frame,
+                    &mut est,
+                );
+                eye[1] += c.eye;
+                for e in &est {
+                    assert!(e.is_done(&a) || e.count() <= pass_cap(&a, pass));
+                }
+                pass += 1;
+            }
+            most_passes = most_passes.max(pass);
+            eye[0] += whole.counters.eye;
+            assert_eq!(line_pixels(&est), whole.pixels, "line {y}");
+            for e in &est {
+                assert_eq!(PixelEstimate::from_le_bytes(&e.to_le_bytes()), *e);
+            }
+        }
+        assert_eq!(eye[0], eye[1], "the same samples, counted once");
+        assert!(
+            most_passes >= 4,
+            "{most_passes} passes: the scene must need several"
+        );
+    }
+
+    #[test]
+    fn passes_are_bounded() {
+        for (min, max, passes) in [(16, 1024, 7), (2, 65_536, 16), (4, 4, 1), (3, 10, 3)] {
+            let a = Adaptive::new(0.01, Some(min), Some(max));
+            assert_eq!(max_passes(&a), passes, "{min}..{max}");
+            assert!(pass_cap(&a, passes - 1) >= max);
+        }
+    }
+}
