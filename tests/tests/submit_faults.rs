@@ -427,3 +427,76 @@ fn losing_the_controllers_remd_is_one_line_and_the_job_resumes_on_the_hosts_left
     let s = read_json(&job.json);
     assert!(s["lines"]["resumed"].as_u64().unwrap() >= 12, "{s}");
 }
+
+/// Rendering to an error through the farm, a (line, pass) at a time: a worker killed -9 once
+/// it has rendered a later pass, then the controller killed once a checkpoint holds lines
+/// between their passes; `--resume` goes on from each line's last pass and the image is
+/// still byte-identical to `sunray render`, with the same error statistics.
+#[test]
+fn a_render_to_an_error_survives_a_worker_and_its_controller_killed_mid_pass() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    let to_error = ["--target-error", "0.02", "--max-samples", "64"];
+    let flags = [&FLAGS[..], &to_error[..]].concat();
+    let (want, want_stats) = reference(dir.path(), &spd("mount6"), &flags);
+    assert!(want_stats["error"]["rms"].as_f64().unwrap() > 0.0);
+    let job = Job {
+        out: dir.path().join("submit.png"),
+        json: dir.path().join("submit.json"),
+        _dir: dir,
+        want,
+    };
+    let id = "resume-to-error-1";
+    let mut run = SubmitRun::start(slow_submit(
+        &cluster,
+        &job,
+        40,
+        &[
+            &to_error[..],
+            &["--in-process", "--job", id, "--checkpoint-ms", "100"],
+        ]
+        .concat(),
+    ));
+    let later_pass = |node: u64| {
+        move |seen: &[serde_json::Value]| {
+            seen.iter()
+                .position(|v| v["event"] == "line" && v["node"] == node && v["pass"] != 0)
+        }
+    };
+    run.wait_until(Duration::from_secs(60), later_pass(2));
+    signal(run.worker_pid(2), libc::SIGKILL);
+    let after = run.wait_until(Duration::from_secs(60), later_pass(1));
+    let stored = run.wait_until(Duration::from_secs(60), |seen| {
+        seen[after..]
+            .iter()
+            .filter(|v| v["event"] == "checkpoint")
+            .find_map(|v| v["lines"].as_u64())
+    });
+    run.child.kill().unwrap();
+    run.child.wait().unwrap();
+    assert!(stored < LINES, "the job was not stopped mid-way");
+    assert!(!job.out.exists(), "no image from the killed run");
+    assert!(run
+        .seen
+        .iter()
+        .any(|v| v["event"] == "fault" && v["node"] == 2));
+
+    let out = output(
+        cluster
+            .submit()
+            .args(["--resume", id, "-q", "--stats-json"])
+            .arg(&job.json),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read(&job.out).unwrap() == job.want,
+        "resumed mid-pass: the image differs from sunray render"
+    );
+    let s = read_json(&job.json);
+    assert!(s["lines"]["resumed"].as_u64().unwrap() >= stored);
+    assert_eq!(s["totals"]["error"], want_stats["error"], "{s}");
+}

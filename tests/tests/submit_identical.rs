@@ -179,9 +179,10 @@ fn a_ply_mesh_goes_through_the_farm_identical_to_sunray_render() {
     );
 }
 
-/// Rendering to an error: `--target-error` through the farm on one, two and three hosts gives
-/// `sunray render`'s bytes (each pixel's samples depend only on its own), with the same
-/// (adaptive) eye-ray count; a bad target is refused before any worker starts.
+/// Rendering to an error: `--target-error` through the farm (a line and pass at a time) on
+/// one, two and three hosts gives `sunray render`'s bytes (each pixel's samples depend only
+/// on its own), with the same (adaptive) eye-ray count, error statistics and samples map; a
+/// bad target is refused before any worker starts.
 #[test]
 fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
     let cluster = LoopbackCluster::start(3);
@@ -194,24 +195,42 @@ fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
         "--max-samples",
         "64",
     ];
-    let (want, want_stats) = reference(dir.path(), &default_scene(), &flags);
+    let want_map = dir.path().join("reference-map.png");
+    let map_flag = ["--samples-map", want_map.to_str().unwrap()];
+    let (want, want_stats) = reference(
+        dir.path(),
+        &default_scene(),
+        &[&flags[..], &map_flag].concat(),
+    );
     let eye = want_stats["rays"]["eye"].as_u64().unwrap();
     assert!(
         eye > 16 * 40 * 32,
         "some pixels took more than min-samples: {eye}"
     );
+    assert!(want_stats["error"]["mean_samples"].as_f64().unwrap() > 16.0);
     for hosts in ["1", "2", "3"] {
         let out = dir.path().join(format!("submit-{hosts}.png"));
         let json = dir.path().join(format!("submit-{hosts}.json"));
-        let args = [&flags[..], &["--stats-json", json.to_str().unwrap()]].concat();
+        let map = dir.path().join(format!("submit-{hosts}-map.png"));
+        let args = [
+            &flags[..],
+            &["--stats-json", json.to_str().unwrap()],
+            &["--samples-map", map.to_str().unwrap()],
+        ]
+        .concat();
         assert!(
             submitted(&cluster, hosts, &args, &default_scene(), &out) == want,
             "{hosts} hosts: differs from sunray render"
         );
+        let stats = read_json(&json);
+        assert_eq!(stats["totals"]["rays"]["eye"], eye, "{hosts} hosts");
         assert_eq!(
-            read_json(&json)["totals"]["rays"]["eye"],
-            eye,
+            stats["totals"]["error"], want_stats["error"],
             "{hosts} hosts"
+        );
+        assert!(
+            std::fs::read(&map).unwrap() == std::fs::read(&want_map).unwrap(),
+            "{hosts} hosts: the samples map differs from sunray render's"
         );
     }
     // A scene's own `target_error(E)` goes through the farm as the flag does.

@@ -74,6 +74,9 @@ pub struct FetchArgs {
     /// The image to write: .png, .ppm, .pfm or .exr.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// A job rendered to an error: also write the heat map of the samples each pixel took.
+    #[arg(long, value_name = "FILE")]
+    pub samples_map: Option<PathBuf>,
     /// How to reach REM.
     #[command(flatten)]
     pub rem: RemFlags,
@@ -166,7 +169,13 @@ pub fn watch(args: WatchArgs) -> anyhow::Result<ExitCode> {
 pub fn fetch(args: FetchArgs) -> anyhow::Result<ExitCode> {
     runtime()?.block_on(async {
         let cluster = args.rem.open().await?;
-        let result = follow::fetch(&cluster.client, &args.job, &args.output).await;
+        let result = follow::fetch(
+            &cluster.client,
+            &args.job,
+            &args.output,
+            args.samples_map.as_deref(),
+        )
+        .await;
         cluster.close().await;
         result?;
         Ok(ExitCode::SUCCESS)

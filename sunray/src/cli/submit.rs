@@ -110,6 +110,7 @@ impl SubmitArgs {
             avoid_hosts: self.avoid_hosts.clone(),
             threads: self.render.threads,
             output: self.render.output.clone(),
+            samples_map: self.render.samples_map.clone(),
             colours: self.render.colours.colors.clone(),
             overrides: self.render.overrides(),
             worker_program,
@@ -130,11 +131,6 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         Some(p) => p.clone(),
         None => std::env::current_exe().context("cannot find this program's path")?,
     };
-    if args.render.samples_map.is_some() {
-        anyhow::bail!(
-            "--samples-map is written by sunray render only; a farm job has no samples map yet"
-        );
-    }
     let request = args.request(program);
     request.check()?;
     let for_farm = args.detach || args.controller_anywhere;
@@ -341,7 +337,12 @@ async fn follow_here(
         }
     };
     let (fetched, stats) = tokio::join!(
-        follow::fetch(&cluster.client, job, &submitted.output),
+        follow::fetch(
+            &cluster.client,
+            job,
+            &submitted.output,
+            args.render.samples_map.as_deref()
+        ),
         stats
     );
     fetched.map_err(lost)?;

@@ -8,14 +8,20 @@
 //! Segments are written before the header that names them, so a crash between the two
 //! leaves a consistent, slightly older checkpoint.
 //!
+//! With a target error a line is recorded after each of its passes, with its pixels'
+//! estimates (a resumed job goes on from the line's last pass exactly); the latest record of
+//! a line is what it has, and its counters are summed over its records.
+//!
 //! A checkpoint read back is not trusted: [`load`] refuses one whose render settings are
 //! missing or out of bounds (`render::settings`), or whose segments and lines disagree with
-//! them (a line beyond the image's height, pixels that are not the image's width).
+//! them (a line beyond the image's height, pixels that are not the image's width, estimates
+//! that are not the width's or hold more samples than the settings allow).
 
 use super::messages::proto::{CheckpointHeader, CheckpointSegment, FinishedLine, JobSpec};
 use super::messages::MessageError;
 use crate::film::Film;
-use crate::render::Settings;
+use crate::render::adaptive::{self, max_passes, Adaptive, PixelEstimate};
+use crate::render::{pass, PixelSummary, Settings};
 use futures_util::StreamExt;
 use prost::Message;
 use std::collections::BTreeMap;
@@ -140,8 +146,11 @@ pub(crate) fn segment_key(job: &str, segment: u32) -> String {
 pub struct Restored {
     /// The job spec, model hash, segment count and state as last saved.
     pub header: CheckpointHeader,
-    /// Finished lines by line number.
+    /// Lines in by line number (with a target error, each line's latest pass, its counters
+    /// summed over its passes).
     pub lines: BTreeMap<u32, FinishedLine>,
+    /// The job's target error, when it has one.
+    pub adaptive: Option<Adaptive>,
 }
 
 impl Restored {
@@ -155,16 +164,60 @@ impl Restored {
             .unwrap_or_default()
     }
 
-    /// A `width` x `height` image with the lines in painted, the rest black ([`load`] has
-    /// checked every line's pixels against the settings).
+    /// A `width` x `height` image with the lines in painted (with a target error, as far
+    /// as their passes went), the rest black ([`load`] has checked every line's pixels
+    /// against the settings).
     pub fn film(&self, width: u32, height: u32) -> Film {
         let mut film = Film::new(width, height);
         for l in self.lines.values().filter(|l| l.line < height) {
-            if let Ok(px) = super::messages::pixels_from_bytes(&l.pixels, width) {
+            let px = match self.estimates(l) {
+                Some(e) => Some(pass::line_pixels(&e)),
+                None => super::messages::pixels_from_bytes(&l.pixels, width).ok(),
+            };
+            if let Some(px) = px {
                 film.set_line(l.line, &px);
             }
         }
         film
+    }
+
+    /// The estimates of a line recorded after a pass (`None` without a target error).
+    pub fn estimates(&self, l: &FinishedLine) -> Option<Vec<PixelEstimate>> {
+        let a = self.adaptive.as_ref()?;
+        super::messages::estimates_from_bytes(&l.estimates, self.size().0, a).ok()
+    }
+
+    /// Whether a line recorded is finished: with a target error, whether its last pass left
+    /// every pixel done.
+    pub fn is_finished(&self, l: &FinishedLine) -> bool {
+        match (&self.adaptive, self.estimates(l)) {
+            (Some(a), Some(e)) => pass::line_done(&e, a),
+            (Some(_), None) => false,
+            (None, _) => true,
+        }
+    }
+
+    /// With a target error, the heat map of the samples each pixel took (as far as its line's
+    /// passes went), as `sunray render --samples-map` draws it.
+    pub fn samples_map(&self) -> Option<Film> {
+        let a = self.adaptive.as_ref()?;
+        let (width, height) = self.size();
+        let mut summaries = vec![PixelSummary::default(); width as usize * height as usize];
+        for l in self.lines.values() {
+            let row = l.line as usize * width as usize;
+            if let (Some(e), Some(s)) = (
+                self.estimates(l),
+                summaries.get_mut(row..row + width as usize),
+            ) {
+                s.iter_mut().zip(&e).for_each(|(s, e)| *s = e.summary());
+            }
+        }
+        Some(adaptive::samples_map(&summaries, a, width, height))
+    }
+
+    /// How many lines are finished.
+    pub fn finished_lines(&self) -> u32 {
+        self.lines.values().filter(|l| self.is_finished(l)).count() as u32
     }
 }
 
@@ -187,15 +240,16 @@ impl Checkpointer {
             spec,
             model_hash,
             segments: resumed.map_or(0, |r| r.header.segments),
-            lines_done: resumed.map_or(0, |r| r.lines.len() as u32),
+            lines_done: resumed.map_or(0, Restored::finished_lines),
             pending: Vec::new(),
         }
     }
 
-    /// Notes a finished line (stored by the next [`Checkpointer::save`]).
-    pub fn record(&mut self, line: FinishedLine) {
+    /// Notes a line in (stored by the next [`Checkpointer::save`]): `finished`, or with a
+    /// target error a pass after which the line needs another.
+    pub fn record(&mut self, line: FinishedLine, finished: bool) {
         self.pending.push(line);
-        self.lines_done += 1;
+        self.lines_done += u32::from(finished);
     }
 
     /// True when lines were recorded since the last save.
@@ -274,15 +328,18 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
         key: key.to_string(),
         reason,
     };
-    // Every segment holds at least one line, and each line is finished once.
-    for (what, n) in [
-        ("segments", header.segments),
-        ("lines_done", header.lines_done),
+    // Every segment holds at least one line, each line is finished once, and with a target
+    // error recorded once per pass.
+    let adaptive = settings.render.adaptive;
+    let records = height.saturating_mul(adaptive.as_ref().map_or(1, max_passes));
+    for (what, n, most) in [
+        ("segments", header.segments, records),
+        ("lines_done", header.lines_done, height),
     ] {
-        if n > height {
+        if n > most {
             return Err(inconsistent(
                 job,
-                format!("{what} = {n}, more than the image's {height} lines"),
+                format!("{what} = {n}, more than the image's {height} lines allow ({most})"),
             ));
         }
     }
@@ -311,7 +368,16 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
                     format!("line {} of an image of {height} lines", l.line),
                 ));
             }
-            if l.pixels.len() != line_bytes {
+            if let Some(a) = &adaptive {
+                super::messages::estimates_from_bytes(&l.estimates, width, a)
+                    .map_err(|e| inconsistent(&key, format!("line {}: {e}", l.line)))?;
+                if !l.pixels.is_empty() {
+                    return Err(inconsistent(
+                        &key,
+                        format!("line {} has pixels and estimates", l.line),
+                    ));
+                }
+            } else if l.pixels.len() != line_bytes {
                 return Err(inconsistent(
                     &key,
                     format!(
@@ -321,10 +387,39 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
                     ),
                 ));
             }
-            lines.insert(l.line, l);
+            keep_latest(&mut lines, l);
         }
     }
-    Ok(Some(Restored { header, lines }))
+    Ok(Some(Restored {
+        header,
+        lines,
+        adaptive,
+    }))
+}
+
+/// Keeps the latest record of a line (its highest pass; the last one written of equal
+/// passes), its counters summed over the line's records.
+fn keep_latest(lines: &mut BTreeMap<u32, FinishedLine>, mut l: FinishedLine) {
+    use super::messages::proto::Counters as Wire;
+    use crate::stats::Counters;
+    let Some(old) = lines.get_mut(&l.line) else {
+        lines.insert(l.line, l);
+        return;
+    };
+    let counted = |c: &Option<Wire>| c.as_ref().map(Counters::from).unwrap_or_default();
+    let timed = |c: &Option<Wire>| c.as_ref().map_or(0.0, |c| c.line_s);
+    let mut total = counted(&old.counters);
+    total += counted(&l.counters);
+    let counters = Wire {
+        line_s: timed(&old.counters) + timed(&l.counters),
+        ..Wire::from(&total)
+    };
+    if l.pass >= old.pass {
+        l.counters = Some(counters);
+        *old = l;
+    } else {
+        old.counters = Some(counters);
+    }
 }
 
 /// The render settings of a checkpoint's header, checked against their bounds.

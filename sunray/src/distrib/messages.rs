@@ -3,7 +3,7 @@
 //! [`crate::stats::Counters`], render settings as [`RenderOptions`] + [`AccelOptions`].
 
 use crate::accel::AccelOptions;
-use crate::render::adaptive::Adaptive;
+use crate::render::adaptive::{Adaptive, PixelEstimate};
 use crate::render::settings::{self, SettingsError};
 use crate::render::{RenderOptions, Settings};
 use crate::shading::TraceOptions;
@@ -35,6 +35,15 @@ pub enum MessageError {
         got: usize,
         /// Pixels in a line.
         width: u32,
+    },
+    /// A line's estimates are not 52 bytes per pixel of the width, or one holds more samples
+    /// than the render's most.
+    #[error("bad pixel estimates for a line of {width} pixels: {why}")]
+    Estimates {
+        /// Pixels in a line.
+        width: u32,
+        /// What is wrong, with the values.
+        why: String,
     },
     /// The render settings are out of bounds (or name an accelerator this program does not
     /// know).
@@ -80,6 +89,42 @@ pub fn pixels_from_bytes(bytes: &[u8], width: u32) -> Result<Vec<[f32; 3]>, Mess
             [f(0), f(4), f(8)]
         })
         .collect())
+}
+
+/// A line's pixel estimates as bytes ([`PixelEstimate::to_le_bytes`], one after another).
+pub fn estimates_to_bytes(estimates: &[PixelEstimate]) -> Vec<u8> {
+    estimates.iter().flat_map(|e| e.to_le_bytes()).collect()
+}
+
+/// The inverse of [`estimates_to_bytes`], checking there are exactly `width` estimates and
+/// that none holds more samples than `a` allows.
+pub fn estimates_from_bytes(
+    bytes: &[u8],
+    width: u32,
+    a: &Adaptive,
+) -> Result<Vec<PixelEstimate>, MessageError> {
+    let bad = |why: String| MessageError::Estimates { width, why };
+    if bytes.len() != width as usize * PixelEstimate::BYTES {
+        return Err(bad(format!(
+            "{} bytes, not {} per pixel",
+            bytes.len(),
+            PixelEstimate::BYTES
+        )));
+    }
+    let mut out = Vec::with_capacity(width as usize);
+    for b in bytes.chunks_exact(PixelEstimate::BYTES) {
+        let e = PixelEstimate::from_le_bytes(b.try_into().unwrap_or(&[0; PixelEstimate::BYTES]));
+        if e.count() > a.max_samples {
+            return Err(bad(format!(
+                "pixel {} has {} samples, more than --max-samples {}",
+                out.len(),
+                e.count(),
+                a.max_samples
+            )));
+        }
+        out.push(e);
+    }
+    Ok(out)
 }
 
 /// The counters travel as `proto::Counters`, field by field (the list is
@@ -198,11 +243,14 @@ mod tests {
                     line: 7,
                     grant: 42,
                     duplicate: false,
+                    ..Default::default()
                 },
                 proto::LineGrant {
                     line: 3,
                     grant: 43,
                     duplicate: true,
+                    pass: 2,
+                    estimates: vec![1; 52],
                 },
             ],
             echo_s: 1.25,

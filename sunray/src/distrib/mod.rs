@@ -16,6 +16,8 @@
 //! - [`strategy`]: SunRay I, II and III line distribution, and the queue of lines to hand out.
 //! - [`grants`]: the grant table (assign, complete, first completion wins, faults, timeouts,
 //!   duplication of stragglers).
+//! - [`line_passes`]: a job rendered to an error, a (line, pass) at a time: the lines'
+//!   estimates between their passes.
 //! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
 //! - [`job_record`]: a SunRay job as REM's job record (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
@@ -44,6 +46,7 @@ pub mod farm;
 pub mod grants;
 pub mod job;
 pub mod job_record;
+pub mod line_passes;
 pub mod messages;
 pub mod model_chunks;
 pub mod nodes;

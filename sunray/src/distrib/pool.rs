@@ -3,7 +3,9 @@
 //! runtime that talks to REM. Results go back over a tokio channel.
 
 use crate::accel::{Accel, Scratch};
-use crate::render::{render_line, RenderOptions};
+use crate::render::adaptive::{Adaptive, PixelEstimate};
+use crate::render::pass::render_pass_into;
+use crate::render::{render_line, Frame, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::Counters;
 use std::collections::VecDeque;
@@ -12,10 +14,15 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 /// A line to render under a grant.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct LineJob {
     /// The scanline, 0 at the top.
     pub line: u32,
+    /// With a target error: the pass to render, and the line's estimates as the previous
+    /// pass left them (empty for pass 0).
+    pub pass: u32,
+    /// See `pass`.
+    pub estimates: Vec<PixelEstimate>,
     /// The grant number it was handed out under, quoted back in the Done message.
     pub grant: u64,
     /// A copy of a line outstanding elsewhere, handed out at the tail of the job.
@@ -30,8 +37,11 @@ pub struct LineJob {
 pub struct Rendered {
     /// The line and grant it answers.
     pub job: LineJob,
-    /// Linear RGB, one entry per pixel of the line, left to right.
+    /// Linear RGB, one entry per pixel of the line, left to right (empty with a target
+    /// error: the pixels are the estimates' means).
     pub pixels: Vec<[f32; 3]>,
+    /// With a target error: the line's estimates after the job's pass.
+    pub estimates: Vec<PixelEstimate>,
     /// The events counted while rendering it.
     pub counters: Counters,
     /// Wall time the thread spent on the line.
@@ -67,6 +77,7 @@ pub struct PoolScene {
 pub struct RenderPool {
     queue: Arc<Queue>,
     threads: usize,
+    opts: RenderOptions,
 }
 
 /// The lines not yet started, shared by the worker's I/O thread and the render threads.
@@ -136,6 +147,7 @@ impl RenderPool {
         let pool = RenderPool {
             queue: queue.clone(),
             threads,
+            opts: what.opts,
         };
         for i in 0..threads {
             let (queue, what, results) = (queue.clone(), what.clone(), results.clone());
@@ -184,6 +196,11 @@ impl RenderPool {
     pub fn threads(&self) -> usize {
         self.threads
     }
+
+    /// What the threads render with: the image size, samples or target error.
+    pub fn options(&self) -> &RenderOptions {
+        &self.opts
+    }
 }
 
 impl Drop for RenderPool {
@@ -200,19 +217,33 @@ fn render_loop(
     let mut scratch = Scratch::new(what.scene.prims.len(), what.mailbox);
     let mut first = true;
     let mut previous: Option<Instant> = None;
-    while let Some((job, wait_s)) = queue.next() {
+    let mut frame: Option<Frame> = None;
+    while let Some((mut job, wait_s)) = queue.next() {
         let t = Instant::now();
-        let line = render_line(&what.scene, &what.accel, job.line, &what.opts, &mut scratch);
+        let line = match &what.opts.adaptive {
+            Some(a) => {
+                let frame =
+                    frame.get_or_insert_with(|| Frame::new(&what.scene, &what.accel, &what.opts));
+                render_pass(what, a, &mut job, &mut scratch, frame)
+            }
+            None => {
+                let line =
+                    render_line(&what.scene, &what.accel, job.line, &what.opts, &mut scratch);
+                (line.pixels, Vec::new(), line.counters)
+            }
+        };
         if !what.delay.is_zero() {
             std::thread::sleep(what.delay);
         }
         let finished = Instant::now();
         let line_s = (finished - t).as_secs_f64();
         let cycle_s = previous.map_or(line_s, |p| (finished - p).as_secs_f64() - wait_s);
+        let (pixels, estimates, counters) = line;
         let rendered = Rendered {
             job,
-            pixels: line.pixels,
-            counters: line.counters,
+            pixels,
+            estimates,
+            counters,
             line_s,
             cycle_s: cycle_s.max(line_s),
             wait_s,
@@ -229,6 +260,30 @@ fn render_loop(
             std::thread::yield_now();
         }
     }
+}
+
+/// The job's pass of its line: its pixels (none), estimates after the pass and counts.
+fn render_pass(
+    what: &PoolScene,
+    a: &Adaptive,
+    job: &mut LineJob,
+    scratch: &mut Scratch,
+    frame: &Frame,
+) -> (Vec<[f32; 3]>, Vec<PixelEstimate>, Counters) {
+    let width = what.opts.width as usize;
+    let mut estimates = std::mem::take(&mut job.estimates);
+    estimates.resize(width, PixelEstimate::default());
+    let counters = render_pass_into(
+        &what.scene,
+        &what.accel,
+        (job.line, job.pass),
+        &what.opts,
+        a,
+        scratch,
+        frame,
+        &mut estimates,
+    );
+    (Vec::new(), estimates, counters)
 }
 
 #[cfg(test)]
@@ -259,11 +314,13 @@ mod tests {
         queue.target.store(8, Ordering::Relaxed);
         let job = LineJob {
             line: 0,
+            pass: 0,
+            estimates: Vec::new(),
             grant: 1,
             duplicate: false,
             generation: 0,
         };
-        queue.state.lock().unwrap().jobs.extend([job; 4]);
+        queue.state.lock().unwrap().jobs.extend(vec![job; 4]);
         assert!(!queue.running_low());
         queue.state.lock().unwrap().jobs.pop_front();
         assert!(queue.running_low());
@@ -275,10 +332,13 @@ mod tests {
         let pool = RenderPool {
             queue: Arc::new(Queue::default()),
             threads: 1,
+            opts: RenderOptions::asked([4, 4], 1),
         };
         for line in 0..5 {
             assert!(pool.submit(LineJob {
                 line,
+                pass: 0,
+                estimates: Vec::new(),
                 grant: u64::from(line) + 1,
                 duplicate: false,
                 generation: 0,
@@ -296,11 +356,13 @@ mod tests {
         let queue = Queue::default();
         let job = LineJob {
             line: 3,
+            pass: 0,
+            estimates: Vec::new(),
             grant: 7,
             duplicate: false,
             generation: 0,
         };
-        queue.state.lock().unwrap().jobs.push_back(job);
+        queue.state.lock().unwrap().jobs.push_back(job.clone());
         assert_eq!(queue.next(), Some((job, 0.0)), "queued: no wait");
         queue.close();
         assert_eq!(queue.next(), None, "closed");
@@ -325,6 +387,8 @@ mod tests {
         for y in 0..opts.height {
             assert!(pool.submit(LineJob {
                 line: y,
+                pass: 0,
+                estimates: Vec::new(),
                 grant: 100 + u64::from(y),
                 duplicate: false,
                 generation: 0,

@@ -119,6 +119,11 @@ impl LineQueue {
         self.shared.push_front(line);
     }
 
+    /// Queues a line behind every line waiting (its next pass), in the shared queue.
+    pub fn push_back(&mut self, line: u32) {
+        self.shared.push_back(line);
+    }
+
     /// `node` hands back a line it did not start: to the front of its own set under a static
     /// strategy (the node still owns it), else of the shared queue.
     pub fn return_line(&mut self, node: usize, line: u32) {

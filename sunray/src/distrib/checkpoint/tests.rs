@@ -36,6 +36,7 @@ fn line(y: u32) -> FinishedLine {
         line: y,
         pixels: vec![y as u8; 120],
         counters: None,
+        ..Default::default()
     }
 }
 
@@ -83,13 +84,13 @@ fn saves_incrementally_and_restores_every_line() {
         assert!(load(&store, "j1").await.unwrap().is_none());
         let mut c = Checkpointer::new("j1", spec(), 77, None);
         for y in [3, 1, 4] {
-            c.record(line(y));
+            c.record(line(y), true);
         }
         c.save(&store, "running").await.unwrap();
         // 3 lines of ~130 bytes fit one 400-byte segment.
         assert_eq!(*store.puts.lock().unwrap(), 2);
         for y in [0, 2, 5, 6, 7] {
-            c.record(line(y));
+            c.record(line(y), true);
         }
         c.save(&store, "running").await.unwrap();
         let r = load(&store, "j1").await.unwrap().unwrap();
@@ -105,7 +106,7 @@ fn saves_incrementally_and_restores_every_line() {
 
         // A resumed job continues the segment numbering.
         let mut c2 = Checkpointer::new("j1", spec(), 77, Some(&r));
-        c2.record(line(8));
+        c2.record(line(8), true);
         c2.save(&store, "finished").await.unwrap();
         let r2 = load(&store, "j1").await.unwrap().unwrap();
         assert_eq!(r2.lines.len(), 9);
@@ -121,7 +122,7 @@ fn a_missing_or_corrupt_segment_is_an_error() {
             ..Default::default()
         };
         let mut c = Checkpointer::new("j2", spec(), 1, None);
-        c.record(line(0));
+        c.record(line(0), true);
         c.save(&store, "running").await.unwrap();
         store
             .map
@@ -148,7 +149,7 @@ fn a_line_larger_than_the_limit_is_refused() {
             ..Default::default()
         };
         let mut c = Checkpointer::new("j3", spec(), 1, None);
-        c.record(line(0));
+        c.record(line(0), true);
         assert!(matches!(
             c.save(&store, "running").await,
             Err(CheckpointError::TooLarge { .. })
@@ -165,7 +166,7 @@ fn saved(spec: JobSpec, lines: &[FinishedLine]) -> MemStore {
     rt().block_on(async {
         let mut c = Checkpointer::new("j4", spec, 1, None);
         for l in lines {
-            c.record(l.clone());
+            c.record(l.clone(), true);
         }
         c.save(&store, "running").await.unwrap();
     });
@@ -233,6 +234,7 @@ fn lines_that_disagree_with_the_header_are_refused() {
         line: 2,
         pixels: vec![0; 132],
         counters: None,
+        ..Default::default()
     };
     let e = load_error(&saved(spec(), &[line(0), wide]));
     assert!(

@@ -57,6 +57,7 @@ impl<L: WorkerLink> Controller<L> {
             finished,
             cost: self.cost(),
             timeline: self.timeline.clone(),
+            passes: self.passes.clone(),
         }
     }
 
@@ -175,6 +176,12 @@ impl<L: WorkerLink> Controller<L> {
                     line: a.line,
                     grant: a.grant,
                     duplicate: a.duplicate,
+                    pass: a.pass,
+                    estimates: self
+                        .passes
+                        .as_ref()
+                        .map(|p| p.grant_bytes(a.line, a.pass))
+                        .unwrap_or_default(),
                 })
                 .collect();
             if lines.is_empty() {

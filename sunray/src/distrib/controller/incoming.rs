@@ -7,9 +7,16 @@ use crate::distrib::grants::Completion;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{Outcome, Stage};
 use crate::distrib::timeline;
+use crate::render::adaptive::PixelEstimate;
 use crate::stats::Counters;
 use rem::{EventKind, Incoming};
 use serde_json::json;
+
+/// What a Done brings: a line's pixels, or with a target error its estimates after a pass.
+enum Payload {
+    Pixels(Vec<[f32; 3]>),
+    Estimates(Vec<PixelEstimate>),
+}
 
 impl<L: WorkerLink> Controller<L> {
     pub(super) fn on_incoming(&mut self, incoming: Incoming) {
@@ -112,10 +119,18 @@ impl<L: WorkerLink> Controller<L> {
         // Lines it will not render, whatever became of this one.
         self.table.release(i, &d.released);
         let width = self.cfg.width;
-        let Ok(pixels) = messages::pixels_from_bytes(&d.pixels, width) else {
-            self.view
-                .event(json!({"event": "bad-line", "node": i + 1, "line": d.line}));
-            return;
+        // The line's pixels, or with a target error its estimates after the pass.
+        let payload = match &self.passes {
+            None => messages::pixels_from_bytes(&d.pixels, width).map(Payload::Pixels),
+            Some(p) => p.decode(&d.estimates).map(Payload::Estimates),
+        };
+        let payload = match payload {
+            Ok(p) => p,
+            Err(e) => {
+                self.view.event(json!({"event": "bad-line", "node": i + 1,
+                    "line": d.line, "error": e.to_string()}));
+                return;
+            }
         };
         let n = &mut self.nodes[i];
         if let Some(c) = &d.clock {
@@ -128,15 +143,25 @@ impl<L: WorkerLink> Controller<L> {
         }
         // Grant 0: a line granted by the job's previous controller to a worker taken over.
         let completion = if d.grant == 0 {
-            self.table.complete_inherited(i, d.line)
+            self.table.complete_inherited(i, d.line, d.pass)
         } else {
-            self.table.complete(i, d.grant, d.line)
+            self.table.complete(i, d.grant, d.line, d.pass)
         };
         match completion {
             Completion::Accepted => {
                 let proto_counters = d.counters.unwrap_or_default();
                 let c = Counters::from(&proto_counters);
                 self.max_line_s = self.max_line_s.max(proto_counters.line_s);
+                let (pixels, more) = match payload {
+                    Payload::Pixels(px) => (px, false),
+                    Payload::Estimates(e) => self
+                        .passes
+                        .as_mut()
+                        .map_or((Vec::new(), false), |p| p.pass_in(d.line, e)),
+                };
+                if more {
+                    self.table.another_pass(d.line);
+                }
                 self.film.set_line(d.line, &pixels);
                 n.add_line(&c);
                 n.finished_at_s = self.started.elapsed().as_secs_f64();
@@ -146,17 +171,22 @@ impl<L: WorkerLink> Controller<L> {
                 self.timeline.last_line = Some(now);
                 self.counters += c;
                 self.lines.rendered += 1;
-                self.writer.record(proto::FinishedLine {
-                    line: d.line,
-                    pixels: d.pixels,
-                    counters: Some(proto_counters),
-                });
+                self.writer.record(
+                    proto::FinishedLine {
+                        line: d.line,
+                        pixels: d.pixels,
+                        counters: Some(proto_counters),
+                        pass: d.pass,
+                        estimates: d.estimates,
+                    },
+                    !more,
+                );
                 self.unsaved = true;
                 let done = self.table.done();
                 self.view.set_done(done);
                 self.view
                     .event(json!({"event": "line", "node": i + 1, "line": d.line,
-                    "done": done, "total": self.cfg.height}));
+                    "pass": d.pass, "done": done, "total": self.cfg.height}));
             }
             Completion::Duplicate => n.dropped += 1,
             Completion::Unknown => {}

@@ -22,12 +22,14 @@ mod tests;
 
 use crate::distrib::checkpoint::{Checkpointer, Restored};
 use crate::distrib::grants::GrantTable;
+use crate::distrib::line_passes::LinePasses;
 use crate::distrib::nodes::{ControllerCost, LineCounts, NodeStats};
 use crate::distrib::progress::ProgressView;
 use crate::distrib::strategy::Strategy;
 use crate::distrib::timeline::{JobClock, NodeTimeline, Timeline};
 use crate::distrib::web_view::{self, WebView};
 use crate::film::Film;
+use crate::render::adaptive::Adaptive;
 use crate::stats::Counters;
 use link::{RemLink, WorkerLink};
 use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
@@ -82,6 +84,8 @@ pub struct ControllerConfig {
     pub clock: JobClock,
     /// The job's steps before the actor starts (the controller's own start).
     pub timeline: Timeline,
+    /// The job's target error (its lines go out a pass at a time), or `None` (each line once).
+    pub adaptive: Option<Adaptive>,
 }
 
 /// A spawned worker.
@@ -144,6 +148,8 @@ pub struct JobResult {
     pub cost: ControllerCost,
     /// The job's steps, in seconds since it was submitted.
     pub timeline: Timeline,
+    /// With a target error: what each pixel took.
+    pub passes: Option<LinePasses>,
 }
 
 /// Why the controller could not run the job to its end (a job that ends unfinished is not an
@@ -290,6 +296,8 @@ struct Controller<L> {
     by_proc: HashMap<String, usize>,
     table: GrantTable,
     film: Film,
+    /// With a target error: the lines between their passes.
+    passes: Option<LinePasses>,
     nodes: Vec<NodeStats>,
     exited: Vec<bool>,
     finishing: bool,
@@ -336,13 +344,33 @@ impl<L: WorkerLink> Controller<L> {
         };
         let mut finished = vec![false; cfg.height as usize];
         let mut counters = Counters::default();
-        for l in restored.iter().flat_map(|r| r.lines.values()) {
-            if let Some(f) = finished.get_mut(l.line as usize) {
-                *f = true;
-                counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
+        let mut passes = cfg
+            .adaptive
+            .map(|a| LinePasses::new(a, cfg.width, cfg.height));
+        // Lines whose last pass left pixels above the target: their next pass.
+        let mut resume_at = Vec::new();
+        for (r, l) in restored
+            .iter()
+            .flat_map(|r| r.lines.values().map(move |l| (r, l)))
+        {
+            let Some(f) = finished.get_mut(l.line as usize) else {
+                continue;
+            };
+            counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
+            match (&mut passes, r.estimates(l)) {
+                (Some(p), Some(e)) => match p.pass_in(l.line, e) {
+                    (_, true) => resume_at.push((l.line, l.pass + 1)),
+                    (_, false) => *f = true,
+                },
+                (Some(_), None) => {}
+                (None, _) => *f = true,
             }
         }
         let resumed = finished.iter().filter(|f| **f).count() as u32;
+        let mut table = GrantTable::new(cfg.strategy, cfg.height, workers.len(), &finished);
+        for (line, pass) in resume_at {
+            table.resume_at(line, pass);
+        }
         let spawned = Some(cfg.clock.now());
         let timeline = cfg.timeline.clone();
         let link = Arc::new(link);
@@ -374,7 +402,8 @@ impl<L: WorkerLink> Controller<L> {
         )
         .with_web(cfg.web.clone().map(|h| WebView::new(&cfg.job, h)));
         Controller {
-            table: GrantTable::new(cfg.strategy, cfg.height, workers.len(), &finished),
+            table,
+            passes,
             by_proc: workers
                 .iter()
                 .enumerate()

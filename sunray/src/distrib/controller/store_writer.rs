@@ -50,7 +50,7 @@ struct SaveRequest {
 #[derive(Default)]
 struct Mailbox {
     /// Lines finished since the save task last took them.
-    lines: Vec<FinishedLine>,
+    lines: Vec<(FinishedLine, bool)>,
     save: Option<SaveRequest>,
     publication: Option<Publication>,
     /// No more requests: each task ends once its mailbox is empty.
@@ -111,9 +111,9 @@ impl StoreWriter {
         }
     }
 
-    /// A line finished, for the next save.
-    pub(super) fn record(&self, line: FinishedLine) {
-        self.shared.mailbox().lines.push(line);
+    /// A line in, for the next save: `finished`, or a pass after which it needs another.
+    pub(super) fn record(&self, line: FinishedLine, finished: bool) {
+        self.shared.mailbox().lines.push((line, finished));
     }
 
     /// Asks for a save in `state` (replacing one not yet begun); its id, for the
@@ -173,7 +173,9 @@ async fn save_task<L: WorkerLink>(
             let mut m = shared.mailbox();
             (std::mem::take(&mut m.lines), m.save.take(), m.closed)
         };
-        lines.into_iter().for_each(|l| checkpointer.record(l));
+        lines
+            .into_iter()
+            .for_each(|(l, finished)| checkpointer.record(l, finished));
         if let Some(SaveRequest { id, state }) = save {
             let report = match checkpointer.save(&*link, &state).await {
                 Ok(()) => {

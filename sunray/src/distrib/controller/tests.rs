@@ -173,6 +173,7 @@ impl Job {
             web: None,
             clock: JobClock::at(0),
             timeline: Timeline::default(),
+            adaptive: None,
         };
         edit(&mut cfg);
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
@@ -313,7 +314,7 @@ async fn a_silent_worker_is_passed_over_and_its_late_line_is_dropped() {
     let held = job.link.take_grants(&job.procs[0]);
     assert_eq!(held.len(), 1);
     // Node 1 says nothing for longer than the 1 s timeout while node 2 works.
-    let late = held[0];
+    let late = held[0].clone();
     for _ in 0..3 {
         for g in job.link.take_grants(&job.procs[1]) {
             job.done(1, g.line, g.grant).await;
@@ -395,11 +396,15 @@ async fn a_resumed_job_hands_out_only_the_missing_lines() {
     let link = FakeLink::default();
     let mut earlier = Checkpointer::new(JOB, spec(8), 7, None);
     for y in [0u32, 1, 2, 5] {
-        earlier.record(proto::FinishedLine {
-            line: y,
-            pixels: messages::pixels_to_bytes(&pixels(y)),
-            counters: Some(proto::Counters::default()),
-        });
+        earlier.record(
+            proto::FinishedLine {
+                line: y,
+                pixels: messages::pixels_to_bytes(&pixels(y)),
+                counters: Some(proto::Counters::default()),
+                ..Default::default()
+            },
+            true,
+        );
     }
     earlier.save(&link, "failed").await.unwrap();
     let restored = checkpoint::load(&link, JOB).await.unwrap();

@@ -80,7 +80,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let host = relay.host().to_string();
     let (mut record, stored, live, history) = read_job(&client, (&job, epoch), &host).await?;
     let (width, height) = (stored.settings.render.width, stored.settings.render.height);
-    let lines_in = stored.restored.lines.len() as u32;
+    let lines_in = stored.restored.finished_lines();
     claim(&client, &mut record, &relay, (width, height), lines_in).await?;
     let spec = stored.restored.header.spec.clone().unwrap_or_default();
     let count = worker_count(&spec, live.len());

@@ -267,9 +267,19 @@ pub fn with_image_written(stats: &[u8], at_s: f64) -> Vec<u8> {
     }
 }
 
-/// Writes job `job`'s finished image to `out` (.png, .ppm, .pfm or .exr, as `sunray render`).
-pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), FarmError> {
+/// Writes job `job`'s finished image to `out` (.png, .ppm, .pfm or .exr, as `sunray render`),
+/// and with `samples_map` the heat map of the samples its pixels took (a job rendered to an
+/// error).
+pub async fn fetch(
+    client: &RemClient,
+    job: &str,
+    out: &Path,
+    samples_map: Option<&Path>,
+) -> Result<(), FarmError> {
     Format::from_path(out)?;
+    if let Some(path) = samples_map {
+        Format::from_path(path)?;
+    }
     let restored = checkpoint::load(client, job)
         .await?
         .ok_or_else(|| FarmError::Stored {
@@ -277,17 +287,32 @@ pub async fn fetch(client: &RemClient, job: &str, out: &Path) -> Result<(), Farm
             reason: "no host holds its image or checkpoint".into(),
         })?;
     let (width, height) = restored.size();
-    if (restored.lines.len() as u32) < height {
+    let finished = restored.finished_lines();
+    if finished < height {
         return Err(FarmError::Stored {
             job: job.to_string(),
             reason: format!(
-                "it is not finished: {} of {height} lines are in (`sunray watch {job}` waits for it)",
-                restored.lines.len()
+                "it is not finished: {finished} of {height} lines are in (`sunray watch {job}` waits for it)"
             ),
         });
     }
+    let map = match samples_map {
+        Some(path) => match restored.samples_map() {
+            Some(map) => Some((path, map)),
+            None => {
+                return Err(FarmError::Stored {
+                    job: job.to_string(),
+                    reason: "it was not rendered to an error, so it has no samples map".into(),
+                })
+            }
+        },
+        None => None,
+    };
     let film = restored.film(width, height);
     film.write(out)?;
+    if let Some((path, map)) = map {
+        map.write(path)?;
+    }
     Ok(())
 }
 

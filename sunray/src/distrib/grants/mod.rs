@@ -17,6 +17,11 @@
 //!   too, and it gets no more work until it is heard from again.
 //! - When nothing is left to hand out, a node with room may duplicate the oldest outstanding
 //!   line of another node (at most two copies of a line).
+//! - With a target error a line is rendered in passes: each grant is for the line's current
+//!   pass, and a completion counts only for that pass (a late one of an earlier pass is a
+//!   duplicate). A line whose pass is in and that needs another ([`GrantTable::another_pass`])
+//!   goes to the back of the shared queue, behind the lines still on earlier passes, so the
+//!   whole image is refined pass by pass.
 
 use super::strategy::{LineQueue, Strategy};
 use std::collections::BTreeSet;
@@ -33,6 +38,8 @@ pub struct Assignment {
     pub node: usize,
     /// The scanline, 0 at the top.
     pub line: u32,
+    /// The line's pass (0 without a target error).
+    pub pass: u32,
     /// The fresh grant number the completion must quote.
     pub grant: GrantId,
     /// A second copy of a line still outstanding elsewhere.
@@ -64,6 +71,7 @@ pub enum NodeState {
 #[derive(Clone, Debug)]
 struct Grant {
     line: u32,
+    pass: u32,
     node: usize,
     issued: Instant,
     live: bool,
@@ -111,6 +119,8 @@ pub struct GrantCounts {
 #[derive(Clone, Debug)]
 pub struct GrantTable {
     lines: Vec<LineState>,
+    /// Each line's current pass.
+    passes: Vec<u32>,
     /// Grant `g` is `grants[g - 1]`.
     grants: Vec<Grant>,
     nodes: Vec<Node>,
@@ -134,6 +144,7 @@ impl GrantTable {
             .collect();
         let done = lines.iter().filter(|s| **s == LineState::Done).count() as u32;
         GrantTable {
+            passes: vec![0; lines.len()],
             lines,
             grants: Vec::new(),
             nodes: vec![
@@ -169,6 +180,33 @@ impl GrantTable {
     /// True when `line` is in (false for a line outside the image).
     pub fn is_line_done(&self, line: u32) -> bool {
         self.lines.get(line as usize) == Some(&LineState::Done)
+    }
+
+    /// The pass `line` is on (0 for a line outside the image).
+    pub fn pass(&self, line: u32) -> u32 {
+        self.passes.get(line as usize).copied().unwrap_or(0)
+    }
+
+    /// A resumed line not done: it goes on from pass `pass`.
+    pub fn resume_at(&mut self, line: u32, pass: u32) {
+        if let Some(p) = self.passes.get_mut(line as usize) {
+            *p = pass;
+        }
+    }
+
+    /// `line`'s pass is in (its completion was [`Completion::Accepted`]) and the line needs
+    /// another: it is queued again, on its next pass, behind every line waiting now.
+    pub fn another_pass(&mut self, line: u32) {
+        let Some(state) = self.lines.get_mut(line as usize) else {
+            return;
+        };
+        if *state != LineState::Done {
+            return;
+        }
+        *state = LineState::Queued;
+        self.passes[line as usize] += 1;
+        self.done -= 1;
+        self.queue.push_back(line);
     }
 
     /// The table's fault handling counts so far.
@@ -240,8 +278,10 @@ impl GrantTable {
     }
 
     fn issue(&mut self, node: usize, line: u32, now: Instant, duplicate: bool) -> Assignment {
+        let pass = self.passes[line as usize];
         self.grants.push(Grant {
             line,
+            pass,
             node,
             issued: now,
             live: true,
@@ -259,20 +299,21 @@ impl GrantTable {
         Assignment {
             node,
             line,
+            pass,
             grant,
             duplicate,
         }
     }
 
-    /// `node` reports `line` finished under `grant`.
-    pub fn complete(&mut self, node: usize, grant: GrantId, line: u32) -> Completion {
+    /// `node` reports pass `pass` of `line` finished under `grant`.
+    pub fn complete(&mut self, node: usize, grant: GrantId, line: u32, pass: u32) -> Completion {
         let Some(g) = grant
             .checked_sub(1)
             .and_then(|i| self.grants.get(i as usize))
         else {
             return Completion::Unknown;
         };
-        if g.line != line || g.node != node {
+        if g.line != line || g.node != node || g.pass != pass {
             return Completion::Unknown;
         }
         let n = &mut self.nodes[node];
@@ -283,24 +324,30 @@ impl GrantTable {
         if g.live {
             self.retire(grant);
         }
-        self.finish(line)
+        self.finish(line, pass)
     }
 
-    /// `node` reports `line` finished under a grant of the job's previous controller (grant
-    /// 0: a worker this controller took over). Kept like any first completion.
-    pub fn complete_inherited(&mut self, node: usize, line: u32) -> Completion {
+    /// `node` reports pass `pass` of `line` finished under a grant of the job's previous
+    /// controller (grant 0: a worker this controller took over). Kept like any first
+    /// completion of the line's current pass.
+    pub fn complete_inherited(&mut self, node: usize, line: u32, pass: u32) -> Completion {
         if line as usize >= self.lines.len() || node >= self.nodes.len() {
             return Completion::Unknown;
         }
         if self.nodes[node].state == NodeState::Silent {
             self.nodes[node].state = NodeState::Active;
         }
-        self.finish(line)
+        self.finish(line, pass)
     }
 
-    /// The line is in: the first completion is kept, its other copies retired.
-    fn finish(&mut self, line: u32) -> Completion {
+    /// The line's pass is in: the first completion is kept, its other copies retired.
+    fn finish(&mut self, line: u32, pass: u32) -> Completion {
+        let current = self.passes[line as usize] == pass;
         match &mut self.lines[line as usize] {
+            _ if !current => {
+                self.counts.dropped += 1;
+                Completion::Duplicate
+            }
             LineState::Done => {
                 self.counts.dropped += 1;
                 Completion::Duplicate

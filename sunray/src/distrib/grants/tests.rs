@@ -36,15 +36,15 @@ fn the_window_is_absolute() {
     assert_eq!(lines(&a), vec![0, 1, 2]);
     g.set_window(0, 3);
     assert!(g.assign(t(0)).is_empty(), "asking again adds nothing");
-    g.complete(0, a[0].grant, 0);
+    g.complete(0, a[0].grant, 0, 0);
     assert_eq!(lines(&g.assign(t(0))), vec![3], "a completion makes room");
     g.set_window(0, 1);
-    g.complete(0, a[1].grant, 1);
+    g.complete(0, a[1].grant, 1, 0);
     assert!(
         g.assign(t(0)).is_empty(),
         "a smaller window: nothing until the node holds fewer lines"
     );
-    g.complete(0, a[2].grant, 2);
+    g.complete(0, a[2].grant, 2, 0);
     assert!(g.assign(t(0)).is_empty(), "still holds line 3");
     g.set_window(0, 4);
     assert_eq!(lines(&g.assign(t(0))), vec![4, 5, 6], "grown: 4 held");
@@ -57,17 +57,17 @@ fn a_node_holds_a_line_another_finished_until_it_reports_it() {
     g.set_window(1, 3);
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![0, 1, 2, 3]);
-    g.complete(1, a[1].grant, 1);
+    g.complete(1, a[1].grant, 1, 0);
     let d = g.duplicate_stragglers(t(1000), Duration::from_millis(500));
     assert_eq!(lines(&d), vec![0]);
-    assert_eq!(g.complete(1, d[0].grant, 0), Completion::Accepted);
+    assert_eq!(g.complete(1, d[0].grant, 0, 0), Completion::Accepted);
     assert_eq!(g.outstanding(0), 0, "no live grant left on node 0");
     g.node_gone(1);
     assert!(
         g.assign(t(1000)).is_empty(),
         "lines 2 and 3 are back, but node 0 is still rendering line 0"
     );
-    assert_eq!(g.complete(0, a[0].grant, 0), Completion::Duplicate);
+    assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Duplicate);
     assert_eq!(g.assign(t(1000)).len(), 1, "reported: room for one");
 }
 
@@ -92,7 +92,7 @@ fn released_lines_go_back_first_in_order() {
     g.set_window(1, 4);
     assert_eq!(lines(&g.assign(t(1))), vec![2, 3, 4, 5]);
     assert_eq!(
-        g.complete(0, a[2].grant, 2),
+        g.complete(0, a[2].grant, 2, 0),
         Completion::Accepted,
         "a late completion of a released line is still good pixels"
     );
@@ -106,7 +106,10 @@ fn completes_every_line_once() {
     while !g.is_finished() {
         let a = g.assign(t(0));
         assert_eq!(a.len(), 1);
-        assert_eq!(g.complete(0, a[0].grant, a[0].line), Completion::Accepted);
+        assert_eq!(
+            g.complete(0, a[0].grant, a[0].line, 0),
+            Completion::Accepted
+        );
         seen.push(a[0].line);
     }
     assert_eq!(seen, vec![0, 1, 2]);
@@ -122,9 +125,9 @@ fn first_completion_wins() {
     let d = g.duplicate_stragglers(t(1000), Duration::from_millis(500));
     assert_eq!(d.len(), 1);
     assert!(d[0].duplicate && d[0].line == a.line && d[0].node == 1);
-    assert_eq!(g.complete(1, d[0].grant, 0), Completion::Accepted);
-    assert_eq!(g.complete(0, a.grant, 0), Completion::Duplicate);
-    assert_eq!(g.complete(0, a.grant, 0), Completion::Duplicate);
+    assert_eq!(g.complete(1, d[0].grant, 0, 0), Completion::Accepted);
+    assert_eq!(g.complete(0, a.grant, 0, 0), Completion::Duplicate);
+    assert_eq!(g.complete(0, a.grant, 0, 0), Completion::Duplicate);
     assert_eq!(g.done(), 1);
     assert_eq!(g.counts().dropped, 2);
     assert_eq!(
@@ -139,10 +142,18 @@ fn unknown_grants_are_ignored() {
     let mut g = GrantTable::new(Strategy::Dynamic, 2, 2, &[]);
     g.set_window(0, 1);
     let a = g.assign(t(0))[0];
-    assert_eq!(g.complete(0, 0, 0), Completion::Unknown);
-    assert_eq!(g.complete(0, 99, 0), Completion::Unknown);
-    assert_eq!(g.complete(0, a.grant, 1), Completion::Unknown, "wrong line");
-    assert_eq!(g.complete(1, a.grant, 0), Completion::Unknown, "wrong node");
+    assert_eq!(g.complete(0, 0, 0, 0), Completion::Unknown);
+    assert_eq!(g.complete(0, 99, 0, 0), Completion::Unknown);
+    assert_eq!(
+        g.complete(0, a.grant, 1, 0),
+        Completion::Unknown,
+        "wrong line"
+    );
+    assert_eq!(
+        g.complete(1, a.grant, 0, 0),
+        Completion::Unknown,
+        "wrong node"
+    );
     assert_eq!(g.done(), 0);
 }
 
@@ -162,13 +173,13 @@ fn a_gone_node_gives_its_lines_back_first() {
         g.assign(t(0)).is_empty(),
         "a gone node gets nothing and node 0 has no credit"
     );
-    g.complete(0, a[0].grant, 0);
+    g.complete(0, a[0].grant, 0, 0);
     g.set_window(0, 4);
     let b = g.assign(t(1));
     assert_eq!(lines(&b), vec![3, 1, 4], "lost lines come first");
     // A late completion from the gone node is still good pixels.
-    assert_eq!(g.complete(1, a[1].grant, 1), Completion::Accepted);
-    assert_eq!(g.complete(0, b[1].grant, 1), Completion::Duplicate);
+    assert_eq!(g.complete(1, a[1].grant, 1, 0), Completion::Accepted);
+    assert_eq!(g.complete(0, b[1].grant, 1, 0), Completion::Duplicate);
 }
 
 #[test]
@@ -177,7 +188,7 @@ fn silent_nodes_time_out_and_come_back() {
     g.set_window(0, 1);
     g.set_window(1, 1);
     let a = g.assign(t(0));
-    g.complete(0, a[0].grant, 0);
+    g.complete(0, a[0].grant, 0, 0);
     g.set_window(0, 1);
     let b = g.assign(t(900));
     assert_eq!(lines(&b), vec![2]);
@@ -192,8 +203,8 @@ fn silent_nodes_time_out_and_come_back() {
     let c = g.assign(t(1002));
     assert_eq!(lines(&c), vec![1], "the timed-out line is handed out again");
     // The silent node's own late completion of line 1 is still accepted first.
-    assert_eq!(g.complete(1, a[1].grant, 1), Completion::Accepted);
-    assert_eq!(g.complete(1, c[0].grant, 1), Completion::Duplicate);
+    assert_eq!(g.complete(1, a[1].grant, 1, 0), Completion::Accepted);
+    assert_eq!(g.complete(1, c[0].grant, 1, 0), Completion::Duplicate);
 }
 
 #[test]
@@ -202,7 +213,7 @@ fn a_line_finished_by_a_revoked_grant_is_not_handed_out_again() {
     g.set_window(0, 1);
     let a = g.assign(t(0))[0];
     assert_eq!(g.expire(t(10), Duration::from_millis(5)), vec![(0, 1)]);
-    assert_eq!(g.complete(0, a.grant, 0), Completion::Accepted);
+    assert_eq!(g.complete(0, a.grant, 0, 0), Completion::Accepted);
     g.set_window(0, 2);
     assert_eq!(lines(&g.assign(t(11))), vec![1]);
 }
@@ -268,8 +279,8 @@ fn static_nodes_do_not_take_queued_lines_of_a_slow_node() {
     g.set_window(1, 1);
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![0, 2, 1]);
-    g.complete(0, a[0].grant, 0);
-    g.complete(0, a[2].grant, 1);
+    g.complete(0, a[0].grant, 0, 0);
+    g.complete(0, a[2].grant, 1, 0);
     g.set_window(0, 2);
     // Node 1 still owns line 3 (queued): node 0 only duplicates what is outstanding.
     assert!(g.assign(t(1)).is_empty());
@@ -286,7 +297,7 @@ fn resume_skips_finished_lines() {
     let a = g.assign(t(0));
     assert_eq!(lines(&a), vec![1, 3]);
     for x in &a {
-        assert_eq!(g.complete(0, x.grant, x.line), Completion::Accepted);
+        assert_eq!(g.complete(0, x.grant, x.line, 0), Completion::Accepted);
     }
     assert!(g.is_finished());
     let all = GrantTable::new(Strategy::Interleaved, 2, 2, &[true, true]);
@@ -297,7 +308,7 @@ fn resume_skips_finished_lines() {
 fn lines_granted_by_a_previous_controller_are_kept_once() {
     let mut g = GrantTable::new(Strategy::Dynamic, 4, 2, &[]);
     // Node 1, taken over, reports line 2 (never granted here) before asking for work.
-    assert_eq!(g.complete_inherited(1, 2), Completion::Accepted);
+    assert_eq!(g.complete_inherited(1, 2, 0), Completion::Accepted);
     assert_eq!(g.done(), 1);
     g.set_window(0, 4);
     assert_eq!(
@@ -306,16 +317,16 @@ fn lines_granted_by_a_previous_controller_are_kept_once() {
         "line 2 is not handed out"
     );
     // Line 0 is out on node 0; the inherited copy wins and node 0's is dropped.
-    assert_eq!(g.complete_inherited(1, 0), Completion::Accepted);
-    assert_eq!(g.complete(0, 1, 0), Completion::Duplicate);
-    assert_eq!(g.complete_inherited(1, 0), Completion::Duplicate);
+    assert_eq!(g.complete_inherited(1, 0, 0), Completion::Accepted);
+    assert_eq!(g.complete(0, 1, 0, 0), Completion::Duplicate);
+    assert_eq!(g.complete_inherited(1, 0, 0), Completion::Duplicate);
     assert_eq!(
-        g.complete_inherited(1, 9),
+        g.complete_inherited(1, 9, 0),
         Completion::Unknown,
         "beyond the image"
     );
     assert_eq!(
-        g.complete_inherited(5, 1),
+        g.complete_inherited(5, 1, 0),
         Completion::Unknown,
         "no such node"
     );

@@ -8,6 +8,7 @@
 
 use crate::distrib::checkpoint::{Checkpointer, Restored};
 use crate::distrib::controller::{self, ControllerConfig, ControllerError, Start, WorkerProc};
+use crate::distrib::line_passes::LinePasses;
 use crate::distrib::nodes::{self, JobStats};
 use crate::distrib::strategy::Strategy;
 use crate::distrib::timeline::{JobClock, Timeline};
@@ -88,6 +89,8 @@ pub(crate) struct Ended {
     pub(crate) film: Film,
     /// The per-node table and the totals.
     pub(crate) stats: JobStats,
+    /// With a target error: what each pixel took.
+    pub(crate) passes: Option<LinePasses>,
 }
 
 /// How long a job's end waits for its workers to exit (see
@@ -104,6 +107,7 @@ pub(crate) fn controller_config(
     worker_timeout: Option<Duration>,
     checkpoint_every: Duration,
 ) -> ControllerConfig {
+    let adaptive = adaptive_of(&scene);
     ControllerConfig {
         job: job.to_string(),
         strategy,
@@ -123,6 +127,21 @@ pub(crate) fn controller_config(
         web: None,
         clock: JobClock::at(0),
         timeline: Timeline::default(),
+        adaptive,
+    }
+}
+
+/// The target error of the Scene message `scene` (which this process encoded): the job's
+/// lines then go out a pass at a time.
+fn adaptive_of(scene: &[u8]) -> Option<crate::render::adaptive::Adaptive> {
+    use crate::distrib::messages::{self, Body};
+    match messages::decode(scene) {
+        Ok(Body::Scene(s)) => s
+            .settings
+            .as_ref()
+            .and_then(|p| crate::render::Settings::from_proto(p).ok())
+            .and_then(|s| s.render.adaptive),
+        _ => None,
     }
 }
 
@@ -207,12 +226,14 @@ fn job_stats(
         finished,
         cost,
         timeline,
+        passes,
     } = result;
     let mut sums = totals.header;
     sums.threads = nodes.iter().map(|n| n.threads as usize).sum();
     sums.time.render_s = elapsed_s;
     sums.time.cpu_s = nodes.iter().map(|n| n.cpu_s).sum();
     sums.set_counters(&counters);
+    sums.error = passes.as_ref().map(LinePasses::error_stats);
     let (wait_share, tail_wait_share) = nodes::wait_shares(&nodes);
     let stats = JobStats {
         job: job.to_string(),
@@ -232,5 +253,6 @@ fn job_stats(
         finished,
         film,
         stats,
+        passes,
     }
 }

@@ -121,7 +121,7 @@ async fn run_plan(
     let all_in = plan
         .restored
         .as_ref()
-        .is_some_and(|r| r.lines.len() as u32 >= plan.settings.render.height);
+        .is_some_and(|r| r.finished_lines() >= plan.settings.render.height);
     let start = Drive {
         cfg,
         client: cluster.client.clone(),
@@ -155,6 +155,9 @@ async fn run_plan(
     record_update(cluster, &entry, plan.settings.render.width, epoch).await;
     if ended.finished {
         ended.film.write(&plan.output)?;
+        if let (Some(path), Some(p)) = (&req.samples_map, &ended.passes) {
+            p.samples_map().write(path)?;
+        }
     }
     Ok(JobOutcome {
         job: plan.job,

@@ -60,6 +60,8 @@ pub struct JobRequest {
     pub threads: Option<usize>,
     /// The image to write [default: the scene's name with .png; on resume, as before].
     pub output: Option<PathBuf>,
+    /// With a target error: where to write the heat map of the samples each pixel took.
+    pub samples_map: Option<PathBuf>,
     /// A colour-name file extending the built-in table.
     pub colours: Option<PathBuf>,
     /// What the user asks for on top of the scene's own settings (new jobs only: a resumed

@@ -139,8 +139,24 @@ impl RenderLoop {
         self.pool.set_queue_target(self.window.queued(now) as usize);
         self.first_lines_at.get_or_insert_with(Instant::now);
         for l in a.lines {
+            let estimates = match (&self.pool.options().adaptive, l.pass) {
+                (Some(a), 1..) => {
+                    let width = self.pool.options().width;
+                    match messages::estimates_from_bytes(&l.estimates, width, a) {
+                        Ok(e) => e,
+                        Err(e) => {
+                            // Its grant times out at the controller, which hands it again.
+                            tracing::warn!(line = l.line, "assigned line dropped: {e}");
+                            continue;
+                        }
+                    }
+                }
+                _ => Vec::new(),
+            };
             let job = LineJob {
                 line: l.line,
+                pass: l.pass,
+                estimates,
                 grant: l.grant,
                 duplicate: l.duplicate,
                 generation: self.owner.generation,
@@ -197,6 +213,8 @@ impl RenderLoop {
             line: r.job.line,
             grant: r.job.grant,
             pixels: messages::pixels_to_bytes(&r.pixels),
+            pass: r.job.pass,
+            estimates: messages::estimates_to_bytes(&r.estimates),
             counters: Some(counters),
             window: self.window.lines(now),
             clock: Some(proto::NodeClock {
@@ -285,11 +303,14 @@ mod tests {
         Rendered {
             job: LineJob {
                 line: 0,
+                pass: 0,
+                estimates: Vec::new(),
                 grant: 1,
                 duplicate,
                 generation: 0,
             },
             pixels: Vec::new(),
+            estimates: Vec::new(),
             counters: Counters::default(),
             line_s: 0.001,
             cycle_s: 0.001,

@@ -15,6 +15,7 @@ fn line(n: u32) -> proto::FinishedLine {
         line: n,
         pixels: messages::pixels_to_bytes(&vec![[n as f32; 3]; super::WIDTH as usize]),
         counters: None,
+        ..Default::default()
     }
 }
 
@@ -56,10 +57,10 @@ async fn a_publication_not_yet_begun_is_replaced_by_the_newest() {
 #[tokio::test(start_paused = true)]
 async fn lines_add_up_while_saves_wait_and_a_replaced_save_is_not_answered() {
     let (link, mut writer) = slow_writer(8, Duration::from_secs(10));
-    (0..3).for_each(|n| writer.record(line(n)));
+    (0..3).for_each(|n| writer.record(line(n), true));
     let first = writer.save("running");
     tokio::time::sleep(Duration::from_millis(1)).await;
-    (3..5).for_each(|n| writer.record(line(n)));
+    (3..5).for_each(|n| writer.record(line(n), true));
     let replaced = writer.save("running");
     let last = writer.save("finished");
     let reports = writer.close().await;
