@@ -188,7 +188,7 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
     if !outcome.finished {
         eprintln!(
             "sunray: error: no worker is left; {} of {} lines are in the checkpoint; continue with `sunray submit --resume {}`",
-            stats.lines.resumed + stats.lines.rendered,
+            stats.lines.finished,
             stats.lines.total,
             outcome.job
         );

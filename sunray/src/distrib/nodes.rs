@@ -152,8 +152,11 @@ pub struct LineCounts {
     pub total: u32,
     /// Taken from the checkpoint of an earlier run.
     pub resumed: u32,
-    /// Rendered and accepted in this run.
+    /// Rendered and accepted in this run (with a target error, passes of lines: a line is
+    /// rendered once per pass).
     pub rendered: u32,
+    /// Finished (those of the checkpoint included): every line, when the image is done.
+    pub finished: u32,
     /// Given back to the queue by failed or silent nodes (and rendered again).
     pub requeued: u64,
     /// Extra copies of straggling lines handed to idle nodes.

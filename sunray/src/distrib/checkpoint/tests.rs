@@ -259,3 +259,68 @@ fn lines_that_disagree_with_the_header_are_refused() {
     let r = rt().block_on(load(&ok, "j4")).unwrap().unwrap();
     assert_eq!(r.lines.len(), 2);
 }
+
+/// With a target error a line is recorded after each pass: a load keeps each line's latest
+/// pass, its counters summed over its passes, and counts as finished only the lines whose
+/// last pass left every pixel done; estimates that are not the line's are refused.
+#[test]
+fn a_render_to_an_error_keeps_each_lines_latest_pass() {
+    use crate::render::adaptive::{constant_pixel, PixelEstimate};
+    use glam::DVec3;
+    let a = Adaptive::new(0.01, Some(4), Some(64));
+    let to_error = JobSpec {
+        settings: Some(RenderSettings {
+            target_error: a.target_error,
+            min_samples: a.min_samples,
+            max_samples: a.max_samples,
+            ..settings(2, 16)
+        }),
+        ..spec()
+    };
+    let mut noisy = PixelEstimate::default();
+    (0..4).for_each(|k| noisy.add(DVec3::splat(f64::from(k % 2))));
+    let done = constant_pixel(DVec3::splat(0.25), &a);
+    let record = |y: u32, pass: u32, px: [PixelEstimate; 2], eye: u64| FinishedLine {
+        line: y,
+        pass,
+        estimates: crate::distrib::messages::estimates_to_bytes(&px),
+        counters: Some(crate::distrib::messages::proto::Counters {
+            eye,
+            line_s: 0.5,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let store = saved(
+        to_error.clone(),
+        &[
+            record(3, 0, [noisy, done], 8),
+            record(5, 0, [noisy, noisy], 8),
+            record(3, 1, [done, done], 16),
+        ],
+    );
+    let r = rt().block_on(load(&store, "j4")).unwrap().unwrap();
+    assert_eq!(r.lines.len(), 2);
+    assert_eq!(r.lines[&3].pass, 1);
+    let c = r.lines[&3].counters.unwrap();
+    assert_eq!((c.eye, c.line_s), (24, 1.0), "summed over its passes");
+    assert!(r.is_finished(&r.lines[&3]) && !r.is_finished(&r.lines[&5]));
+    assert_eq!(r.finished_lines(), 1);
+    assert_eq!(r.estimates(&r.lines[&5]).unwrap(), vec![noisy, noisy]);
+    let film = r.film(2, 16);
+    assert_eq!((film.pixels[6], film.pixels[10]), ([0.25; 3], [0.5; 3]));
+    assert!(r.samples_map().is_some());
+
+    let short = FinishedLine {
+        estimates: vec![0; 52],
+        ..record(1, 0, [done, done], 1)
+    };
+    let e = load_error(&saved(to_error.clone(), &[short])).to_string();
+    assert!(e.contains("line 1") && e.contains("52 bytes"), "{e}");
+    let with_pixels = FinishedLine {
+        pixels: vec![0; 24],
+        ..record(1, 0, [done, done], 1)
+    };
+    let e = load_error(&saved(to_error, &[with_pixels])).to_string();
+    assert!(e.contains("pixels and estimates"), "{e}");
+}

@@ -48,6 +48,7 @@ impl<L: WorkerLink> Controller<L> {
         self.lines.released = counts.released;
         self.lines.duplicated = counts.duplicated;
         self.lines.dropped = counts.dropped;
+        self.lines.finished = self.table.done();
         JobResult {
             film,
             nodes: self.nodes.clone(),

@@ -161,6 +161,9 @@ impl<L: WorkerLink> Controller<L> {
                 };
                 if more {
                     self.table.another_pass(d.line);
+                    if let Some(web) = self.view.web_mut() {
+                        web.refined();
+                    }
                 }
                 self.film.set_line(d.line, &pixels);
                 n.add_line(&c);

@@ -332,3 +332,53 @@ fn lines_granted_by_a_previous_controller_are_kept_once() {
     );
     assert_eq!(g.done(), 2);
 }
+
+#[test]
+fn a_line_in_passes_goes_to_the_back_and_only_its_current_pass_counts() {
+    let mut g = GrantTable::new(Strategy::Blocks, 3, 2, &[]);
+    g.set_window(0, 1);
+    g.set_window(1, 1);
+    let a = g.assign(t(0));
+    assert_eq!((lines(&a), a[0].pass), (vec![0, 2], 0));
+    assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Accepted);
+    g.another_pass(0);
+    assert_eq!((g.done(), g.pass(0)), (0, 1));
+    let b = g.assign(t(1));
+    assert_eq!((lines(&b), b[0].pass), (vec![1], 0), "its own lines first");
+    assert_eq!(g.complete(0, b[0].grant, 1, 0), Completion::Accepted);
+    let c = g.assign(t(2));
+    assert_eq!((lines(&c), c[0].pass), (vec![0], 1), "then the next pass");
+    // The node that had pass 0 of line 0 times out, yet its copy comes in late: the line
+    // is on pass 1 now.
+    assert_eq!(
+        g.complete_inherited(1, 0, 0),
+        Completion::Duplicate,
+        "an earlier pass"
+    );
+    assert_eq!(
+        g.complete(0, c[0].grant, 0, 0),
+        Completion::Unknown,
+        "not the grant's pass"
+    );
+    g.set_window(1, 2);
+    let dup = g.duplicate_stragglers(t(10), Duration::ZERO);
+    assert!(dup.iter().any(|d| d.line == 0 && d.pass == 1), "{dup:?}");
+    assert_eq!(g.complete(0, c[0].grant, 0, 1), Completion::Accepted);
+    assert_eq!(g.complete(1, a[1].grant, 2, 0), Completion::Accepted);
+    assert!(g.is_finished());
+    let (dropped, resumed) = (g.counts().dropped, {
+        let mut r = GrantTable::new(Strategy::Dynamic, 2, 1, &[true, false]);
+        r.resume_at(1, 3);
+        r.set_window(0, 2);
+        r.assign(t(0))
+            .iter()
+            .map(|a| (a.line, a.pass))
+            .collect::<Vec<_>>()
+    });
+    assert_eq!(dropped, 1);
+    assert_eq!(
+        resumed,
+        vec![(1, 3)],
+        "a resumed line goes on from its pass"
+    );
+}

@@ -150,7 +150,7 @@ async fn run_plan(
     };
 
     let stats = ended.stats;
-    entry.lines_done = stats.lines.resumed + stats.lines.rendered;
+    entry.lines_done = stats.lines.finished;
     entry.state = if ended.finished { "finished" } else { "failed" }.into();
     record_update(cluster, &entry, plan.settings.render.width, epoch).await;
     if ended.finished {

@@ -260,6 +260,12 @@ impl WebView {
         self.push(Event::now(kind, &text));
     }
 
+    /// The image changed without a line more being done (a pass of a line rendered to an
+    /// error): the next publication is due all the same.
+    pub fn refined(&mut self) {
+        self.events_changed = true;
+    }
+
     /// Whether a publication is due now, with `lines` in the image: the first, then at most
     /// once per [`EVERY`] (after a failure, [`RETRY`]) if anything changed.
     pub fn due(&self, now: Instant, lines: u32) -> bool {
