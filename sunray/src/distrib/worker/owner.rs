@@ -12,6 +12,7 @@ use tokio::time::Instant;
 
 /// What one delivery means to the worker.
 #[derive(Debug)]
+#[allow(clippy::large_enum_variant)] // one per delivery, matched at once: never stored
 pub enum Heard {
     /// A message from its controller.
     Body(Body),
