@@ -8,6 +8,7 @@
 //! - [`features`]: unused feature paths cost nothing; `--accel auto` against the fastest.
 //! - [`plot`]: the log-log plot of the accuracy benchmark, drawn with `image`.
 //! - [`memory`]: peak memory of `sunray render` per triangle, old builds against new.
+//! - [`to_error`]: time to reach an error with stratified, Sobol and adaptive sampling.
 
 pub mod accuracy;
 pub mod features;
@@ -15,6 +16,7 @@ pub mod hot_path;
 pub mod memory;
 pub mod plot;
 pub mod precision;
+pub mod to_error;
 
 use crate::accel::{Accel, AccelKind, AccelOptions};
 use crate::render::{render_image, Progress, RenderOptions};

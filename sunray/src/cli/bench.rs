@@ -21,6 +21,9 @@ pub enum Which {
     /// Error against time of antialiasing, penumbra, gloss and depth of field at 1, 2, 4, ...
     /// samples per pixel; writes --out-dir/accuracy.png (log-log plot).
     Accuracy,
+    /// Time to reach RMSE 0.01, 0.005 and 0.002 with stratified, Sobol and adaptive
+    /// sampling, and the RMSE of each at equal time; writes --out-dir/to_error.md.
+    ToError,
     /// The hot path in f32 and f64: speed, and error on hard cases.
     Precision,
     /// Unused feature paths switched on vs off; `--accel auto` against the fastest.
@@ -122,6 +125,18 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             )?;
             crate::cli::convert::write_output(Some(&args.out_dir.join("accuracy.md")), &text)?;
             format!("{text}\nplot: {}\n", plot.display())
+        }
+        Which::ToError => {
+            std::fs::create_dir_all(&args.out_dir)?;
+            let text = crate::bench::to_error::run(
+                args.accuracy_resolution,
+                args.max_samples,
+                args.reference_samples,
+                &[0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125],
+                threads,
+            )?;
+            crate::cli::convert::write_output(Some(&args.out_dir.join("to_error.md")), &text)?;
+            text
         }
         Which::Precision => crate::bench::precision::run(),
         Which::Features => crate::bench::features::run(args.resolution)?,
