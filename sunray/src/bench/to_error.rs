@@ -46,6 +46,14 @@ impl Method {
         }
     }
 
+    /// Its setting: samples per pixel, or the target error.
+    pub fn setting(&self) -> f64 {
+        match *self {
+            Method::Stratified(n) | Method::Sobol(n) => f64::from(n),
+            Method::Adaptive(e) => e,
+        }
+    }
+
     /// Pixel (x, y) as the method renders it.
     fn pixel(&self, tracer: &mut Tracer, camera: &Camera, xy: (u32, u32)) -> Vec3 {
         match *self {
@@ -66,13 +74,11 @@ impl Method {
     }
 }
 
+/// How a pixel is rendered: its colour from a tracer, the camera and its coordinates.
+pub type PixelFn<'a> = dyn Fn(&mut Tracer, &Camera, (u32, u32)) -> Vec3 + Sync + 'a;
+
 /// `scene` rendered on `threads` threads with `pixel` for each pixel; row-major.
-pub fn render_with(
-    scene: &Scene,
-    accel: &Accel,
-    threads: usize,
-    pixel: &(dyn Fn(&mut Tracer, &Camera, (u32, u32)) -> Vec3 + Sync),
-) -> Vec<Vec3> {
+pub fn render_with(scene: &Scene, accel: &Accel, threads: usize, pixel: &PixelFn) -> Vec<Vec3> {
     let opts = crate::render::RenderOptions::for_scene(scene);
     let (w, h) = (opts.width, opts.height);
     let camera = Camera::new(&scene.world.camera, w, h);
@@ -193,21 +199,18 @@ pub fn run(
             .filter(|&n| n <= max_samples)
             .collect();
         let mut curves: Vec<(Method, Vec<(f64, f64)>)> = Vec::new();
-        let methods: [(fn(f64) -> Method, Vec<f64>); 3] = [
-            (
-                |n| Method::Stratified(n as u32),
-                counts.iter().map(|&n| f64::from(n)).collect(),
-            ),
-            (
-                |n| Method::Sobol(n as u32),
-                counts.iter().map(|&n| f64::from(n)).collect(),
-            ),
-            (Method::Adaptive, targets.to_vec()),
+        let sweeps: [Vec<Method>; 3] = [
+            counts.iter().map(|&n| Method::Stratified(n)).collect(),
+            counts.iter().map(|&n| Method::Sobol(n)).collect(),
+            targets.iter().map(|&e| Method::Adaptive(e)).collect(),
         ];
-        for (make, settings) in methods {
+        for sweep in sweeps {
+            let Some(&first) = sweep.first() else {
+                continue;
+            };
             let mut curve = Vec::new();
-            for s in settings {
-                let method = make(s);
+            for method in sweep {
+                let s = method.setting();
                 let (seconds, img) = measure(&scene, &accel, threads, method);
                 let rmse = errors(&img, &reference).0;
                 let ratio = match method {
@@ -220,7 +223,7 @@ pub fn run(
                 );
                 curve.push((seconds.max(1e-6), rmse));
             }
-            curves.push((make(0.0), curve));
+            curves.push((first, curve));
         }
         let cell = |t: Option<f64>| t.map_or("-".to_string(), |t| format!("{t:.3} s"));
         for (method, curve) in &curves {
