@@ -121,8 +121,17 @@ pub fn render_streams(
     first_stream: u32,
     threads: usize,
 ) -> Vec<Vec3> {
-    let mut opts = RenderOptions::for_scene(scene);
-    opts.samples = samples.max(1);
+    render_with(scene, accel, threads, &|tracer, camera, xy| {
+        trace_pixel(tracer, camera, xy, first_stream, samples.max(1))
+    })
+}
+
+/// How a pixel is rendered: its colour from a tracer, the camera and its coordinates.
+pub type PixelFn<'a> = dyn Fn(&mut Tracer, &Camera, (u32, u32)) -> Vec3 + Sync + 'a;
+
+/// `scene` rendered on `threads` threads with `pixel` for each pixel; row-major.
+pub fn render_with(scene: &Scene, accel: &Accel, threads: usize, pixel: &PixelFn) -> Vec<Vec3> {
+    let opts = RenderOptions::for_scene(scene);
     let (w, h) = (opts.width, opts.height);
     let camera = Camera::new(&scene.world.camera, w, h);
     let next = AtomicU32::new(0);
@@ -145,18 +154,8 @@ pub fn render_streams(
                             scratch: &mut scratch,
                             counters: &mut counters,
                         };
-                        let row: Vec<Vec3> = (0..w)
-                            .map(|x| {
-                                trace_pixel(
-                                    &mut tracer,
-                                    &camera,
-                                    (x, y),
-                                    first_stream,
-                                    opts.samples,
-                                )
-                            })
-                            .collect();
-                        done.push((y, row));
+                        let row = (0..w).map(|x| pixel(&mut tracer, &camera, (x, y)));
+                        done.push((y, row.collect()));
                     }
                     done
                 })

@@ -6,8 +6,8 @@
 //! first samples, at most 4,096). For each: the time to reach RMSE 0.01, 0.005 and 0.002
 //! (log-log interpolation between the measured points) and the RMSE at equal time.
 
-use super::accuracy::{cases, errors, scene, AccuracyError};
-use crate::accel::{Accel, AccelOptions, Scratch};
+use super::accuracy::{cases, errors, render_with, scene, AccuracyError};
+use crate::accel::{Accel, AccelOptions};
 use crate::camera::Camera;
 use crate::geometry::Vec3;
 use crate::render::adaptive::{trace_pixel_to_error, Adaptive};
@@ -15,8 +15,6 @@ use crate::render::{trace_pixel, trace_with};
 use crate::sampler::SampleStream;
 use crate::scene::Scene;
 use crate::shading::Tracer;
-use crate::stats::Counters;
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 /// Reference streams start here (disjoint from every measured stream).
@@ -72,50 +70,6 @@ impl Method {
             }
         }
     }
-}
-
-/// How a pixel is rendered: its colour from a tracer, the camera and its coordinates.
-pub type PixelFn<'a> = dyn Fn(&mut Tracer, &Camera, (u32, u32)) -> Vec3 + Sync + 'a;
-
-/// `scene` rendered on `threads` threads with `pixel` for each pixel; row-major.
-pub fn render_with(scene: &Scene, accel: &Accel, threads: usize, pixel: &PixelFn) -> Vec<Vec3> {
-    let opts = crate::render::RenderOptions::for_scene(scene);
-    let (w, h) = (opts.width, opts.height);
-    let camera = Camera::new(&scene.world.camera, w, h);
-    let next = AtomicU32::new(0);
-    let mut rows: Vec<(u32, Vec<Vec3>)> = std::thread::scope(|s| {
-        let workers: Vec<_> = (0..threads.max(1))
-            .map(|_| {
-                s.spawn(|| {
-                    let mut scratch = Scratch::new(scene.prims.len(), true);
-                    let mut counters = Counters::default();
-                    let mut done = Vec::new();
-                    loop {
-                        let y = next.fetch_add(1, Ordering::Relaxed);
-                        if y >= h {
-                            break;
-                        }
-                        let mut tracer = Tracer {
-                            scene,
-                            accel,
-                            opts: opts.trace,
-                            scratch: &mut scratch,
-                            counters: &mut counters,
-                        };
-                        let row = (0..w).map(|x| pixel(&mut tracer, &camera, (x, y)));
-                        done.push((y, row.collect()));
-                    }
-                    done
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_default())
-            .collect()
-    });
-    rows.sort_by_key(|r| r.0);
-    rows.into_iter().flat_map(|r| r.1).collect()
 }
 
 /// The time at which a curve of (seconds, RMSE) points, in the order measured, first reaches
