@@ -8,6 +8,7 @@
 //!
 //! # Layout
 //! - [`incoming`]: what the relay delivers (worker messages, job events).
+//! - [`resume`]: what a job resumed from its checkpoint starts from.
 //! - [`actions`]: what the controller does of itself (Assign, the tick, winding down).
 //! - [`link`]: how it reaches the workers and REM's store (REM, or a fake in tests).
 //! - [`store_writer`]: the checkpoint and web view writes, on tasks of their own so that a
@@ -16,6 +17,7 @@
 mod actions;
 mod incoming;
 pub mod link;
+mod resume;
 mod store_writer;
 #[cfg(test)]
 mod tests;
@@ -342,35 +344,12 @@ impl<L: WorkerLink> Controller<L> {
             Some(r) => r.film(cfg.width, cfg.height),
             None => Film::new(cfg.width, cfg.height),
         };
-        let mut finished = vec![false; cfg.height as usize];
-        let mut counters = Counters::default();
-        let mut passes = cfg
-            .adaptive
-            .map(|a| LinePasses::new(a, cfg.width, cfg.height));
-        // Lines whose last pass left pixels above the target: their next pass.
-        let mut resume_at = Vec::new();
-        for (r, l) in restored
-            .iter()
-            .flat_map(|r| r.lines.values().map(move |l| (r, l)))
-        {
-            let Some(f) = finished.get_mut(l.line as usize) else {
-                continue;
-            };
-            counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
-            match (&mut passes, r.estimates(l)) {
-                (Some(p), Some(e)) => match p.pass_in(l.line, e) {
-                    (_, true) => resume_at.push((l.line, l.pass + 1)),
-                    (_, false) => *f = true,
-                },
-                (Some(_), None) => {}
-                (None, _) => *f = true,
-            }
-        }
-        let resumed = finished.iter().filter(|f| **f).count() as u32;
-        let mut table = GrantTable::new(cfg.strategy, cfg.height, workers.len(), &finished);
-        for (line, pass) in resume_at {
-            table.resume_at(line, pass);
-        }
+        let resume::Resumed {
+            table,
+            passes,
+            counters,
+            resumed,
+        } = resume::resumed(&cfg, workers.len(), restored.as_ref());
         let spawned = Some(cfg.clock.now());
         let timeline = cfg.timeline.clone();
         let link = Arc::new(link);

@@ -182,33 +182,6 @@ impl GrantTable {
         self.lines.get(line as usize) == Some(&LineState::Done)
     }
 
-    /// The pass `line` is on (0 for a line outside the image).
-    pub fn pass(&self, line: u32) -> u32 {
-        self.passes.get(line as usize).copied().unwrap_or(0)
-    }
-
-    /// A resumed line not done: it goes on from pass `pass`.
-    pub fn resume_at(&mut self, line: u32, pass: u32) {
-        if let Some(p) = self.passes.get_mut(line as usize) {
-            *p = pass;
-        }
-    }
-
-    /// `line`'s pass is in (its completion was [`Completion::Accepted`]) and the line needs
-    /// another: it is queued again, on its next pass, behind every line waiting now.
-    pub fn another_pass(&mut self, line: u32) {
-        let Some(state) = self.lines.get_mut(line as usize) else {
-            return;
-        };
-        if *state != LineState::Done {
-            return;
-        }
-        *state = LineState::Queued;
-        self.passes[line as usize] += 1;
-        self.done -= 1;
-        self.queue.push_back(line);
-    }
-
     /// The table's fault handling counts so far.
     pub fn counts(&self) -> GrantCounts {
         self.counts
@@ -507,5 +480,6 @@ impl GrantTable {
     }
 }
 
+mod passes;
 #[cfg(test)]
 mod tests;
