@@ -237,10 +237,15 @@ impl JobStats {
         let strategy = self.strategy.map_or("?", Strategy::name);
         let l = &self.lines;
         let c = &self.controller;
+        // Rendered to an error, a line is rendered once per pass.
+        let rendered = match &self.totals.error {
+            Some(_) => format!("{} line passes rendered", l.rendered),
+            None => format!("{} rendered", l.rendered),
+        };
         format!(
             "SunRay III job {} ({strategy} strategy, {} worker(s)): {:.2} s\n{}{}\n\
              scene: {:.1} MB sent by the submitting host\n\
-             lines: {} ({} from the checkpoint, {} rendered; {} given back, {} handed back unstarted, {} duplicated, {} dropped)\n\
+             lines: {} ({} from the checkpoint, {rendered}; {} given back, {} handed back unstarted, {} duplicated, {} dropped)\n\
              controller: {:.3} ms CPU and {:.1} messages per line; workers waited {:.2}% of their render time for work ({:.2}% at the tail for copies of stragglers)\n",
             self.job,
             self.hosts,
@@ -248,7 +253,7 @@ impl JobStats {
             table(&self.nodes),
             self.timeline.line(),
             self.scene_bytes_sent as f64 / 1e6,
-            l.total, l.resumed, l.rendered, l.requeued, l.released, l.duplicated, l.dropped,
+            l.total, l.resumed, l.requeued, l.released, l.duplicated, l.dropped,
             c.cpu_ms_per_line,
             c.messages_per_line,
             self.wait_share * 100.0,
