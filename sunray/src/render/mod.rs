@@ -151,8 +151,9 @@ pub struct PixelSummary {
 
 /// [`render_line`] into `pixels` (the row of a film, `opts.width` long) in `frame` (made
 /// for the same scene and options), returning the line's counts: a whole image is rendered
-/// in place, with no line allocated and copied and the frame made once. With a target error,
-/// what each pixel took goes to `summaries` when given (as long as `pixels`).
+/// in place, with no line allocated and copied and the frame made once. With a target error
+/// the line is taken to it as the farm's passes take it ([`pass::advance_line`], uncapped),
+/// and what each pixel took goes to `summaries` when given (as long as `pixels`).
 #[allow(clippy::too_many_arguments)] // the row's parts, each borrowed as the caller holds it
 pub fn render_line_into(
     scene: &Scene,
@@ -164,6 +165,28 @@ pub fn render_line_into(
     pixels: &mut [[f32; 3]],
     mut summaries: Option<&mut [PixelSummary]>,
 ) -> Counters {
+    if let Some(a) = &opts.adaptive {
+        // To an error: the line's pixels taken as far as they go, in one pass without cap.
+        let mut estimates = vec![adaptive::PixelEstimate::default(); opts.width as usize];
+        let counters = pass::advance_line(
+            scene,
+            (accel, frame),
+            y,
+            opts,
+            a,
+            scratch,
+            &mut estimates,
+            u32::MAX,
+        );
+        for (x, (pixel, est)) in pixels.iter_mut().zip(&estimates).enumerate() {
+            let c = est.mean();
+            *pixel = [c.x as f32, c.y as f32, c.z as f32];
+            if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x)) {
+                *s = est.summary();
+            }
+        }
+        return counters;
+    }
     let camera = &frame.camera;
     let mut counters = Counters::default();
     let n = opts.samples.max(1);
@@ -177,28 +200,16 @@ pub fn render_line_into(
         counters: &mut counters,
     };
     // Pixels outside the scene's footprint are background, counted as the eye rays the
-    // tracer would have sent (each visits the root and misses): `n`, or with a target error
-    // the first samples (a constant pixel stops there).
-    let outside_samples = opts.adaptive.map_or(n, |a| a.min_samples);
+    // tracer would have sent (each visits the root and misses).
     let outside_row = frame.outside_row(y, opts.width);
     for ((x, pixel), &outside) in (0..opts.width).zip(pixels.iter_mut()).zip(&outside_row) {
-        if let Some(f) = outside {
-            tracer.counters.eye += u64::from(outside_samples);
-            tracer.counters.voxels += f.voxels_on_miss * u64::from(outside_samples);
-        }
-        let c = match (&opts.adaptive, outside) {
-            (Some(a), _) => {
-                let est = match outside {
-                    Some(_) => adaptive::constant_pixel(scene.world.background, a),
-                    None => adaptive::trace_pixel_to_error(&mut tracer, camera, (x, y), 0, a),
-                };
-                if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x as usize)) {
-                    *s = est.summary();
-                }
-                est.mean()
+        let c = match outside {
+            Some(f) => {
+                tracer.counters.eye += u64::from(n);
+                tracer.counters.voxels += f.voxels_on_miss * u64::from(n);
+                mean_of(n, |_| scene.world.background)
             }
-            (None, Some(_)) => mean_of(n, |_| scene.world.background),
-            (None, None) => trace_pixel(&mut tracer, camera, (x, y), 0, n),
+            None => trace_pixel(&mut tracer, camera, (x, y), 0, n),
         };
         *pixel = [c.x as f32, c.y as f32, c.z as f32];
     }

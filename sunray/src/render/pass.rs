@@ -1,4 +1,5 @@
-//! Rendering to an error a pass at a time: the farm's unit of work with `--target-error` is
+//! Rendering to an error a pass at a time (and, with no cap, `sunray render`'s whole line:
+//! [`advance_line`] is both): the farm's unit of work with `--target-error` is
 //! a (line, pass). Pass 0 takes every pixel of the line to its first samples; pass `k` takes
 //! each pixel not done on by whole steps of its schedule while it stays within
 //! [`pass_cap`]`(k)` samples. A pixel's steps are those [`render_line`](super::render_line)
@@ -26,7 +27,27 @@ pub fn render_pass_into(
     frame: &Frame,
     estimates: &mut [PixelEstimate],
 ) -> Counters {
+    let cap = pass_cap(a, pass);
+    advance_line(scene, (accel, frame), y, opts, a, scratch, estimates, cap)
+}
+
+/// Line `y` taken on from `estimates` by whole schedule steps while each pixel stays within
+/// `cap` samples ([`adaptive::advance_pixel`]): a farm pass, or with no cap the whole line
+/// as `sunray render` takes it. A pixel with no samples outside the scene's footprint is
+/// the background at its first samples, counted as the eye rays they would be.
+#[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
+pub(super) fn advance_line(
+    scene: &Scene,
+    (accel, frame): (&Accel, &Frame),
+    y: u32,
+    opts: &RenderOptions,
+    a: &Adaptive,
+    scratch: &mut Scratch,
+    estimates: &mut [PixelEstimate],
+    cap: u32,
+) -> Counters {
     let mut counters = Counters::default();
+    // A line's counts must not depend on the lines its thread rendered before.
     scratch.occluders.clear();
     let mut tracer = Tracer {
         scene,
@@ -35,11 +56,9 @@ pub fn render_pass_into(
         scratch,
         counters: &mut counters,
     };
-    let cap = pass_cap(a, pass);
     let outside_row = frame.outside_row(y, opts.width);
     for ((x, est), &outside) in (0..opts.width).zip(estimates.iter_mut()).zip(&outside_row) {
         match outside {
-            // Background: its first samples all the same, counted as the eye rays they are.
             Some(f) if est.count() == 0 => {
                 tracer.counters.eye += u64::from(a.min_samples);
                 tracer.counters.voxels += f.voxels_on_miss * u64::from(a.min_samples);

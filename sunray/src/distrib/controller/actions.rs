@@ -8,6 +8,7 @@ use super::ControllerError;
 use super::{Controller, Input, JobResult};
 use crate::distrib::checkpoint::CheckpointError;
 use crate::distrib::grants::NodeState;
+use crate::distrib::line_passes::LinePasses;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
 use crate::film::Film;
@@ -33,16 +34,19 @@ impl<L: WorkerLink> Controller<L> {
     /// The job's result as it stands (the image and figures are copies).
     pub(super) fn result(&mut self, finished: bool) -> JobResult {
         let film = self.film.clone();
-        self.result_with(finished, film)
+        let passes = self.passes.clone();
+        self.result_with(finished, film, passes)
     }
 
-    /// The job's result at its end: the image is moved out, not copied.
+    /// The job's result at its end: the image and the pixels' estimates are moved out, not
+    /// copied.
     pub(super) fn into_result(mut self, finished: bool) -> JobResult {
         let film = std::mem::replace(&mut self.film, Film::new(0, 0));
-        self.result_with(finished, film)
+        let passes = self.passes.take();
+        self.result_with(finished, film, passes)
     }
 
-    fn result_with(&mut self, finished: bool, film: Film) -> JobResult {
+    fn result_with(&mut self, finished: bool, film: Film, passes: Option<LinePasses>) -> JobResult {
         let counts = self.table.counts();
         self.lines.requeued = counts.requeued;
         self.lines.released = counts.released;
@@ -58,7 +62,7 @@ impl<L: WorkerLink> Controller<L> {
             finished,
             cost: self.cost(),
             timeline: self.timeline.clone(),
-            passes: self.passes.clone(),
+            passes,
         }
     }
 
