@@ -465,7 +465,15 @@ fn a_render_to_an_error_survives_a_worker_and_its_controller_killed_mid_pass() {
     };
     run.wait_until(Duration::from_secs(60), later_pass(2));
     signal(run.worker_pid(2), libc::SIGKILL);
-    let after = run.wait_until(Duration::from_secs(60), later_pass(1));
+    // The controller hears of the kill (a fault event) before it is killed itself, and
+    // another worker renders a later pass after it.
+    let fault = run.wait_until(Duration::from_secs(60), |seen| {
+        seen.iter()
+            .position(|v| v["event"] == "fault" && v["node"] == 2)
+    });
+    let after = run.wait_until(Duration::from_secs(60), |seen| {
+        later_pass(1)(&seen[fault..]).map(|i| fault + i)
+    });
     let stored = run.wait_until(Duration::from_secs(60), |seen| {
         seen[after..]
             .iter()
