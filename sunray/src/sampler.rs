@@ -46,6 +46,36 @@ pub struct SampleStream {
     sobol: bool,
 }
 
+/// Which numbers a fixed number of samples per pixel draws from (`--sampler`). Rendering to
+/// an error always draws from Sobol sequences (a pixel may stop after any count).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Sampler {
+    /// Stratified jitter ([`SampleStream::stratified`]): the default, and what every image
+    /// rendered before the Sobol sampler was added was rendered with.
+    #[default]
+    Stratified,
+    /// Owen-scrambled Sobol ([`SampleStream::sobol`]).
+    Sobol,
+}
+
+impl Sampler {
+    /// Every sampler, in the order `--sampler` lists them.
+    pub const ALL: [Sampler; 2] = [Sampler::Stratified, Sampler::Sobol];
+
+    /// The name on the command line, in settings messages and in checkpoints.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Sampler::Stratified => "stratified",
+            Sampler::Sobol => "sobol",
+        }
+    }
+
+    /// The sampler of a name given by [`Sampler::name`].
+    pub fn from_name(name: &str) -> Option<Sampler> {
+        Sampler::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
 /// The most samples a pixel's Sobol sequence has (`sobol_burley`'s 2^16).
 pub const SOBOL_SAMPLES: u32 = 1 << 16;
 

@@ -145,6 +145,8 @@ pub struct RenderStats {
     pub height: u32,
     /// Samples per pixel.
     pub samples: u32,
+    /// What the samples drew from: `stratified` or `sobol` (`sobol` with a target error).
+    pub sampler: String,
     /// The accelerator built, `auto` resolved: `exhaustive`, `octree` or `bvh`.
     pub accel: String,
     /// Whether the mailbox (skip repeated tests of one ray against one primitive) was on.

@@ -182,7 +182,7 @@ fn a_ply_mesh_goes_through_the_farm_identical_to_sunray_render() {
 /// Rendering to an error: `--target-error` through the farm (a line and pass at a time) on
 /// one, two and three hosts gives `sunray render`'s bytes (each pixel's samples depend only
 /// on its own), with the same (adaptive) eye-ray count, error statistics and samples map; a
-/// bad target is refused before any worker starts.
+/// bad target is refused before any worker starts. `--sampler sobol` goes through it too.
 #[test]
 fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
     let cluster = LoopbackCluster::start(3);
@@ -244,6 +244,24 @@ fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
         submitted(&cluster, "2", &small, &scene, &out) == want,
         "the scene's target error through the farm"
     );
+    // A fixed count from Sobol sequences (`--sampler sobol`) goes through the farm too, and
+    // is not the stratified image.
+    let sobol = [
+        "--resolution",
+        "24x20",
+        "--samples",
+        "8",
+        "--sampler",
+        "sobol",
+    ];
+    let (want, _) = reference(dir.path(), &default_scene(), &sobol);
+    let out = dir.path().join("sobol.png");
+    assert!(
+        submitted(&cluster, "2", &sobol, &default_scene(), &out) == want,
+        "--sampler sobol through the farm"
+    );
+    let (stratified, _) = reference(dir.path(), &default_scene(), &sobol[..4]);
+    assert!(stratified != want, "--sampler sobol renders other samples");
     let st = output(
         cluster
             .submit()

@@ -11,8 +11,7 @@ use crate::accel::{Accel, AccelOptions};
 use crate::camera::Camera;
 use crate::geometry::Vec3;
 use crate::render::adaptive::{trace_pixel_to_error, Adaptive};
-use crate::render::{trace_pixel, trace_with};
-use crate::sampler::SampleStream;
+use crate::render::{trace_pixel, trace_pixel_sobol};
 use crate::scene::Scene;
 use crate::shading::Tracer;
 use std::time::Instant;
@@ -56,14 +55,7 @@ impl Method {
     fn pixel(&self, tracer: &mut Tracer, camera: &Camera, xy: (u32, u32)) -> Vec3 {
         match *self {
             Method::Stratified(n) => trace_pixel(tracer, camera, xy, 0, n),
-            Method::Sobol(n) => {
-                let mut sum = Vec3::ZERO;
-                for k in 0..n {
-                    let mut rng = SampleStream::sobol(xy.0, xy.1, 0, k);
-                    sum += trace_with(tracer, camera, xy, 1, 0, &mut rng);
-                }
-                sum / f64::from(n.max(1))
-            }
+            Method::Sobol(n) => trace_pixel_sobol(tracer, camera, xy, 0, n),
             Method::Adaptive(e) => {
                 let a = Adaptive::new(e, None, Some(4096));
                 trace_pixel_to_error(tracer, camera, xy, 0, &a).mean()

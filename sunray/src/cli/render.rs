@@ -3,6 +3,7 @@
 use super::colours::ColourArgs;
 use crate::accel::{Accel, AccelKind, AccelOptions};
 use crate::render::{adaptive, render_image_summarized, Overrides, Progress};
+use crate::sampler::Sampler;
 use crate::scene::load::{self, CompiledScene, LoadedScene, SceneSource};
 use crate::stats::process_cpu_seconds;
 use clap::{Args, ValueEnum};
@@ -42,6 +43,16 @@ pub struct RenderArgs {
     /// of a fixed number of samples.
     #[arg(long, value_name = "E", conflicts_with = "spd_corners")]
     pub target_error: Option<f64>,
+    /// What a fixed number of samples per pixel draws from: stratified jitter (the default;
+    /// every earlier image) or an Owen-scrambled Sobol sequence. With --target-error pixels
+    /// always draw from Sobol sequences.
+    #[arg(
+        long,
+        value_enum,
+        default_value = "stratified",
+        conflicts_with = "target_error"
+    )]
+    pub sampler: Sampler,
     /// With --target-error: the fewest samples a pixel takes, 2 or more [default: 0.16/E
     /// rounded up to a power of two, at least 16, at most --max-samples].
     #[arg(long, requires = "target_error")]
@@ -129,6 +140,7 @@ impl RenderArgs {
             adaptive: self
                 .target_error
                 .map(|e| adaptive::Adaptive::new(e, self.min_samples, self.max_samples)),
+            sampler: self.sampler,
         }
     }
 

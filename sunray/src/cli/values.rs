@@ -1,8 +1,9 @@
 //! How the library's choices are spelled on the command line: clap's [`ValueEnum`] for the
-//! accelerator and the line-distribution strategy (the library types know nothing of clap).
+//! accelerator, the sampler and the line-distribution strategy (the library types know nothing of clap).
 
 use crate::accel::AccelKind;
 use crate::distrib::strategy::Strategy;
+use crate::sampler::Sampler;
 use clap::builder::PossibleValue;
 use clap::ValueEnum;
 
@@ -23,6 +24,20 @@ impl ValueEnum for AccelKind {
             AccelKind::Octree => v.help("Glassner's adaptive octree (thesis section 2.3)"),
             AccelKind::Bvh => v.help("a bounding volume hierarchy built with the SAH"),
             AccelKind::Exhaustive => v.help("every primitive for every ray"),
+        })
+    }
+}
+
+impl ValueEnum for Sampler {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Sampler::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        let v = PossibleValue::new(self.name());
+        Some(match self {
+            Sampler::Stratified => v.help("jitter in a grid of the pixel and of every 2-D draw"),
+            Sampler::Sobol => v.help("an Owen-scrambled Sobol sequence per pixel (sobol_burley)"),
         })
     }
 }

@@ -176,6 +176,7 @@ impl Settings {
             target_error: r.adaptive.map_or(0.0, |a| a.target_error),
             min_samples: r.adaptive.map_or(0, |a| a.min_samples),
             max_samples: r.adaptive.map_or(0, |a| a.max_samples),
+            sampler: r.sampler.name().to_string(),
         }
     }
 
@@ -200,6 +201,7 @@ impl Settings {
                     min_samples: p.min_samples,
                     max_samples: p.max_samples,
                 }),
+                sampler: settings::sampler(&p.sampler)?,
             },
             accel: AccelOptions {
                 kind: settings::accel_kind(&p.accel)?,
@@ -287,6 +289,7 @@ mod tests {
                     spawn_all: true,
                 },
                 adaptive: None,
+                sampler: crate::sampler::Sampler::Sobol,
             },
             accel: AccelOptions {
                 kind: AccelKind::Bvh,
@@ -299,6 +302,17 @@ mod tests {
         let mut bad = s.to_proto();
         bad.accel = "kd-tree".into();
         assert!(Settings::from_proto(&bad).is_err());
+        let mut bad = s.to_proto();
+        bad.sampler = "halton".into();
+        let e = Settings::from_proto(&bad).unwrap_err().to_string();
+        assert!(e.contains("sampler = \"halton\""), "{e}");
+        // Sent before there was a choice: stratified.
+        let mut old = s.to_proto();
+        old.sampler.clear();
+        assert_eq!(
+            Settings::from_proto(&old).unwrap().render.sampler,
+            crate::sampler::Sampler::Stratified
+        );
     }
 
     #[test]
@@ -310,6 +324,7 @@ mod tests {
                 samples: 1,
                 trace: TraceOptions::default(),
                 adaptive: Some(Adaptive::new(0.01, None, None)),
+                sampler: crate::sampler::Sampler::Stratified,
             },
             accel: AccelOptions::default(),
             mailbox: true,

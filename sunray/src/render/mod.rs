@@ -16,7 +16,7 @@ pub mod settings;
 use crate::accel::{Accel, Scratch};
 use crate::camera::Camera;
 use crate::geometry::Real;
-use crate::sampler::{pixel_offset, SampleStream};
+use crate::sampler::{pixel_offset, SampleStream, Sampler};
 use crate::scene::Scene;
 use crate::shading::hall::RayKind;
 use crate::shading::{TraceOptions, Tracer};
@@ -40,6 +40,9 @@ pub struct RenderOptions {
     /// Render each pixel to a target error instead of `samples` ([`adaptive`]).
     #[serde(default)]
     pub adaptive: Option<adaptive::Adaptive>,
+    /// Which numbers a fixed `samples` per pixel draws from (not used with `adaptive`).
+    #[serde(default)]
+    pub sampler: Sampler,
 }
 
 impl RenderOptions {
@@ -56,6 +59,7 @@ impl RenderOptions {
             samples: samples.max(1),
             trace: TraceOptions::default(),
             adaptive: None,
+            sampler: Sampler::Stratified,
         }
     }
 }
@@ -76,6 +80,8 @@ impl RenderOptions {
                 ..self.trace
             },
             adaptive: None,
+            // Through the corners themselves.
+            sampler: Sampler::Stratified,
         }
     }
 }
@@ -209,7 +215,10 @@ pub fn render_line_into(
                 tracer.counters.voxels += f.voxels_on_miss * u64::from(n);
                 mean_of(n, |_| scene.world.background)
             }
-            None => trace_pixel(&mut tracer, camera, (x, y), 0, n),
+            None => match opts.sampler {
+                Sampler::Stratified => trace_pixel(&mut tracer, camera, (x, y), 0, n),
+                Sampler::Sobol => trace_pixel_sobol(&mut tracer, camera, (x, y), 0, n),
+            },
         };
         *pixel = [c.x as f32, c.y as f32, c.z as f32];
     }
@@ -227,6 +236,21 @@ pub fn trace_pixel(
 ) -> glam::DVec3 {
     mean_of(count, |k| {
         trace_sample(tracer, camera, (x, y), first_stream + k, k, count)
+    })
+}
+
+/// The mean of samples `0..count` of pixel `(x, y)`'s Owen-scrambled Sobol sequence scrambled
+/// by `seed` (`--sampler sobol`; the render uses seed 0).
+pub fn trace_pixel_sobol(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    seed: u32,
+    count: u32,
+) -> glam::DVec3 {
+    mean_of(count, |k| {
+        let mut rng = SampleStream::sobol(x, y, seed, k);
+        trace_with(tracer, camera, (x, y), 1, 0, &mut rng)
     })
 }
 
@@ -344,6 +368,9 @@ end
                     Some(a) => {
                         adaptive::trace_pixel_to_error(&mut tracer, &camera, (x, y), 0, a).mean()
                     }
+                    None if opts.sampler == Sampler::Sobol => {
+                        trace_pixel_sobol(&mut tracer, &camera, (x, y), 0, opts.samples)
+                    }
                     None => trace_pixel(&mut tracer, &camera, (x, y), 0, opts.samples),
                 };
                 [c.x as f32, c.y as f32, c.z as f32]
@@ -359,11 +386,15 @@ end
     #[test]
     fn pixels_outside_the_footprint_are_what_tracing_them_gives() {
         let to_error = Some(adaptive::Adaptive::new(0.02, None, None));
-        for (samples, motion, adaptive) in [
-            (1, false, None),
-            (4, false, None),
-            (3, true, None),
-            (1, true, to_error),
+        let (stratified, sobol) = (Sampler::Stratified, Sampler::Sobol);
+        let mut sobol_differs = false;
+        for (samples, motion, adaptive, sampler) in [
+            (1, false, None, stratified),
+            (4, false, None, stratified),
+            (3, true, None, stratified),
+            (1, true, to_error, stratified),
+            (4, false, None, sobol),
+            (3, true, None, sobol),
         ] {
             let (scene, accel) = scene(motion);
             assert_eq!(scene.world.features.motion_blur, motion);
@@ -373,6 +404,7 @@ end
                 samples,
                 trace: TraceOptions::default(),
                 adaptive,
+                sampler,
             };
             let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
             let footprint = Footprint::new(&camera, &accel).unwrap();
@@ -387,12 +419,20 @@ end
                 left_out += opts.width - covered;
                 let got = render_line(&scene, &accel, y, &opts, &mut scratch);
                 let want = trace_every_pixel(&scene, &accel, y, &opts);
-                assert_eq!(got, want, "line {y}, {samples} samples");
+                assert_eq!(got, want, "line {y}, {samples} samples, {sampler:?}");
+                if sampler == sobol {
+                    let other = RenderOptions {
+                        sampler: stratified,
+                        ..opts
+                    };
+                    sobol_differs |= render_line(&scene, &accel, y, &other, &mut scratch) != got;
+                }
             }
             assert!(
                 left_out > opts.width * opts.height / 3,
                 "{left_out} pixels left out"
             );
         }
+        assert!(sobol_differs, "--sampler sobol draws other samples");
     }
 }

@@ -14,6 +14,7 @@
 
 use super::RenderOptions;
 use crate::accel::{AccelKind, AccelOptions};
+use crate::sampler::Sampler;
 use crate::scene::summary::SceneSummary;
 use crate::scene::Scene;
 use crate::shading::TraceOptions;
@@ -135,6 +136,12 @@ pub enum SettingsError {
         /// The name given.
         name: String,
     },
+    /// A sampler name that is not one of [`Sampler::ALL`]'s.
+    #[error("render setting sampler = {name:?} is not one of stratified, sobol")]
+    Sampler {
+        /// The name given.
+        name: String,
+    },
     /// A target error or its sample bounds out of range.
     #[error(transparent)]
     Adaptive(#[from] super::adaptive::AdaptiveError),
@@ -165,6 +172,17 @@ pub fn accel_kind(name: &str) -> Result<AccelKind, SettingsError> {
     .into_iter()
     .find(|k| k.name() == name)
     .ok_or_else(|| SettingsError::Accel {
+        name: name.to_string(),
+    })
+}
+
+/// The sampler named `name` (a `Scene` message's or a checkpoint's; empty is stratified, as
+/// sent before there was a choice).
+pub fn sampler(name: &str) -> Result<Sampler, SettingsError> {
+    if name.is_empty() {
+        return Ok(Sampler::Stratified);
+    }
+    Sampler::from_name(name).ok_or_else(|| SettingsError::Sampler {
         name: name.to_string(),
     })
 }
@@ -200,6 +218,8 @@ pub struct Overrides {
     pub mailbox: bool,
     /// Render each pixel to a target error instead of a sample count.
     pub adaptive: Option<super::adaptive::Adaptive>,
+    /// Which numbers a fixed number of samples draws from.
+    pub sampler: Sampler,
 }
 
 impl Default for Overrides {
@@ -215,6 +235,7 @@ impl Default for Overrides {
             accel: AccelOptions::default(),
             mailbox: true,
             adaptive: None,
+            sampler: Sampler::Stratified,
         }
     }
 }
@@ -239,6 +260,7 @@ impl Overrides {
         }
         render.trace.max_depth = self.depth;
         render.trace.min_weight = self.min_weight;
+        render.sampler = self.sampler;
         // The flags' target error, else the scene's unless the flags ask for a sample count.
         render.adaptive = self.adaptive.or_else(|| {
             let scene_asks = scene.target_error.filter(|_| self.samples.is_none());
@@ -329,6 +351,10 @@ impl Settings {
             width: self.render.width,
             height: self.render.height,
             samples: self.render.samples,
+            sampler: match self.render.adaptive {
+                Some(_) => Sampler::Sobol.name().to_string(),
+                None => self.render.sampler.name().to_string(),
+            },
             accel: kind.name().to_string(),
             mailbox: self.mailbox && kind == AccelKind::Octree,
             objects,

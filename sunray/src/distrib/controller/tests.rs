@@ -31,6 +31,7 @@ fn spec(height: u32) -> proto::JobSpec {
             samples: 1,
             trace: Default::default(),
             adaptive: None,
+            sampler: Default::default(),
         },
         accel: Default::default(),
         mailbox: true,

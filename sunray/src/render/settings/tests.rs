@@ -37,6 +37,7 @@ fn base() -> Settings {
             samples: 4,
             trace: TraceOptions::default(),
             adaptive: None,
+            sampler: crate::sampler::Sampler::Stratified,
         },
         accel: AccelOptions::default(),
         mailbox: true,
