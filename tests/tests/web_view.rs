@@ -12,16 +12,32 @@ use sunray_e2e::web::{chromedriver, chromium, Auth, Page, WebClient};
 
 /// A detached job of alice's on mount6, each line taking at least `delay_ms`.
 fn submit(cluster: &LoopbackCluster, job: &str, size: &str, delay_ms: u32) {
+    submit_with(cluster, job, &["--resolution", size], delay_ms);
+}
+
+/// [`submit`] with `flags` (the resolution among them).
+fn submit_with(cluster: &LoopbackCluster, job: &str, flags: &[&str], delay_ms: u32) {
     succeed(
         cluster
             .submit()
             .env("REM_USER", "alice")
             .env("SUNRAY_WORKER_LINE_DELAY_MS", delay_ms.to_string())
             .args(["--detach", "--hosts", "2", "--checkpoint-ms", "200"])
-            .args(["--job", job, "--resolution", size])
+            .args(["--job", job])
+            .args(flags)
             .arg(spd("mount6")),
     );
 }
+
+/// A small job rendered to an error: it publishes its samples map beside its image.
+const TO_ERROR: [&str; 6] = [
+    "--resolution",
+    "32x24",
+    "--target-error",
+    "0.05",
+    "--max-samples",
+    "64",
+];
 
 fn secret() -> rem::Secret {
     rem::Secret::new(SECRET).unwrap()
@@ -209,6 +225,52 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
         "the web view's image differs from sunray render's"
     );
 
+    // A job rendered to an error also publishes its samples map, named in its view; at the
+    // end it is `sunray render --samples-map`'s.
+    submit_with(&cluster, "web3", &TO_ERROR, 0);
+    let done = web.wait_json(
+        "/api/jobs/web3",
+        &alice,
+        "web3 finished",
+        Duration::from_secs(60),
+        |v| v["job"]["state"] == "finished" && v["published"]["view"]["image"]["full"] == true,
+    );
+    let views = &done["published"]["view"]["image"]["views"];
+    assert_eq!(views[0]["name"], "samples", "{views}");
+    assert!(
+        views[0]["caption"]
+            .as_str()
+            .unwrap()
+            .contains("black 16, white 64"),
+        "{views}"
+    );
+    let map = web.get("/api/jobs/web3/view/samples", &alice);
+    assert_eq!(
+        (map.status, map.content_type.as_deref()),
+        (200, Some("image/png"))
+    );
+    let want_map = dir.path().join("map.png");
+    let map_flag = ["--samples-map", want_map.to_str().unwrap()];
+    reference(
+        dir.path(),
+        &spd("mount6"),
+        &[&TO_ERROR[..], &map_flag].concat(),
+    );
+    let got = image::load_from_memory(&map.body).unwrap().to_rgb8();
+    let want = image::open(&want_map).unwrap().to_rgb8();
+    assert!(
+        got == want,
+        "the web view's samples map differs from render's"
+    );
+    for (path, who) in [
+        ("/api/jobs/web3/view/samples", &bob),
+        ("/api/jobs/web3/view/Samples", &alice),
+        ("/api/jobs/web3/view/nodes", &alice),
+        ("/api/jobs/web1/view/samples", &alice),
+    ] {
+        assert_eq!(web.get(path, who).status, 404, "GET {path}");
+    }
+
     // Cancelling: a cookie without the CSRF token is refused; with it, the job is cancelled
     // and its processes end; twice is a conflict.
     submit(&cluster, "web2", "64x96", 400);
@@ -356,6 +418,27 @@ fn the_page_shows_hosts_a_job_filling_in_and_a_lost_worker_host() {
         Duration::from_secs(15),
     );
     page.screenshot("web-job-finished.png");
+
+    // A job rendered to an error offers its samples map beside its image.
+    submit_with(&cluster, "refine", &TO_ERROR, 0);
+    page.wait_for(
+        "document.querySelector('#jobs tr[data-job=\"refine\"]')?.dataset.state === 'finished'",
+        "the job rendered to an error listed, finished",
+        Duration::from_secs(60),
+    );
+    page.click("#jobs tr[data-job=\"refine\"]");
+    page.wait_for(
+        "document.querySelector('#job-views button[data-view=\"samples\"]') !== null",
+        "a button for the samples map",
+        Duration::from_secs(15),
+    );
+    page.click("#job-views button[data-view=\"samples\"]");
+    page.wait_for(
+        "document.getElementById('job-image').dataset.view === 'samples' && document.getElementById('job-image').complete && document.getElementById('job-image').naturalWidth === 32 && document.getElementById('job-image-caption').textContent.startsWith('samples per pixel')",
+        "the samples map shown",
+        Duration::from_secs(15),
+    );
+    page.screenshot("web-samples-map.png");
 
     // The image the page shows is the finished one.
     let web = WebClient::new(&cluster.web_url());

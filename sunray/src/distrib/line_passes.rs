@@ -77,8 +77,22 @@ impl LinePasses {
 
     /// The heat map of the samples each pixel took so far (`--samples-map`).
     pub fn samples_map(&self) -> Film {
-        let height = (self.summaries.len() / self.width.max(1) as usize) as u32;
-        adaptive::samples_map(&self.summaries, &self.a, self.width, height)
+        self.samples_map_every(1)
+    }
+
+    /// [`LinePasses::samples_map`] of every `step`-th pixel of every `step`-th line (the web
+    /// view's live picture of a large image, made without a film of its full size).
+    pub fn samples_map_every(&self, step: u32) -> Film {
+        let step = step.max(1) as usize;
+        let width = self.width.max(1) as usize;
+        let height = self.summaries.len() / width;
+        let picked: Vec<PixelSummary> = (0..height)
+            .step_by(step)
+            .flat_map(|y| (0..width).step_by(step).map(move |x| y * width + x))
+            .map(|i| self.summaries[i])
+            .collect();
+        let (w, h) = (width.div_ceil(step) as u32, height.div_ceil(step) as u32);
+        adaptive::samples_map(&picked, &self.a, w, h)
     }
 
     /// The error statistics of the pixels so far.
@@ -91,6 +105,29 @@ impl LinePasses {
 mod tests {
     use super::*;
     use glam::DVec3;
+
+    /// The web view's live samples map of a large image picks every step-th pixel of the
+    /// whole map, without making it.
+    #[test]
+    fn the_samples_map_every_step_picks_the_whole_maps_pixels() {
+        let a = Adaptive::new(0.01, Some(4), Some(64));
+        let mut passes = LinePasses::new(a, 5, 3);
+        for (i, s) in passes.summaries.iter_mut().enumerate() {
+            s.samples = 4 << (i % 5);
+        }
+        let whole = passes.samples_map();
+        let every = passes.samples_map_every(2);
+        assert_eq!((every.width, every.height), (3, 2));
+        for y in 0..2 {
+            for x in 0..3 {
+                assert_eq!(
+                    every.pixels[(y * 3 + x) as usize],
+                    whole.pixels[(2 * y * 5 + 2 * x) as usize]
+                );
+            }
+        }
+        assert_ne!(whole.pixels[0], whole.pixels[4], "the map shows the counts");
+    }
 
     #[test]
     fn a_line_is_held_between_its_passes_and_let_go_when_done() {

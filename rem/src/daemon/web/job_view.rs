@@ -9,7 +9,10 @@
 //!   (`[{"unix_ms", "kind", "text"}, ...]`, oldest first), `image`
 //!   (`{"width", "height", "lines", "full"}`) and `timeline` (`[["step", seconds since
 //!   submit], ...]`, the steps so far in their order, shown as one line);
-//! - `ID.web.png`: a PNG of the work so far, written before the JSON that describes it.
+//! - `ID.web.png`: a PNG of the work so far, written before the JSON that describes it;
+//! - `ID.web.VIEW.png` for each name VIEW in `image.views` (at most [`MAX_VIEWS`] names of
+//!   lowercase letters, [`is_view_name`]): other pictures of the same work, which the page
+//!   offers beside the image (SunRay's `samples`: the samples each pixel took).
 
 use serde::Serialize;
 
@@ -34,6 +37,20 @@ pub fn view_key(id: &str) -> String {
 /// The key of job `id`'s published image.
 pub fn image_key(id: &str) -> String {
     format!("{id}.web.png")
+}
+
+/// The most other pictures (`image.views`) the page offers.
+pub const MAX_VIEWS: usize = 4;
+
+/// Whether `name` may name another picture of a job: 1 to 16 lowercase ASCII letters (so
+/// its key, [`view_image_key`], is never another key of the job's).
+pub fn is_view_name(name: &str) -> bool {
+    (1..=16).contains(&name.len()) && name.bytes().all(|b| b.is_ascii_lowercase())
+}
+
+/// The key of job `id`'s other picture `view` (a name [`is_view_name`] takes).
+pub fn view_image_key(id: &str, view: &str) -> String {
+    format!("{id}.web.{view}.png")
 }
 
 /// A job's published view as the page gets it.
@@ -105,9 +122,26 @@ pub async fn published(daemon: &Daemon, user: &str, id: &str) -> Result<Publishe
 
 /// The PNG the application of `user`'s job `id` published; `None` when there is none.
 pub async fn image(daemon: &Daemon, user: &str, id: &str) -> Result<Option<Vec<u8>>> {
-    let cp = daemon
-        .get_checkpoint(&Identity::user(user), image_key(id))
-        .await?;
+    png_at(daemon, user, image_key(id)).await
+}
+
+/// The other picture `view` of `user`'s job `id`; `None` when there is none or `view` is
+/// not a name [`is_view_name`] takes.
+pub async fn view_image(
+    daemon: &Daemon,
+    user: &str,
+    id: &str,
+    view: &str,
+) -> Result<Option<Vec<u8>>> {
+    if !is_view_name(view) {
+        return Ok(None);
+    }
+    png_at(daemon, user, view_image_key(id, view)).await
+}
+
+/// The PNG under `user`'s key `key`, if it is one.
+async fn png_at(daemon: &Daemon, user: &str, key: String) -> Result<Option<Vec<u8>>> {
+    let cp = daemon.get_checkpoint(&Identity::user(user), key).await?;
     Ok(cp
         .map(|cp| cp.data)
         .filter(|d| d.starts_with(PNG_SIGNATURE)))

@@ -48,6 +48,7 @@ pub(super) fn router(state: WebState) -> Router {
         .route("/api/jobs", get(jobs))
         .route("/api/jobs/{id}", get(job))
         .route("/api/jobs/{id}/image.png", get(image))
+        .route("/api/jobs/{id}/view/{view}", get(view_image))
         .route("/api/jobs/{id}/cancel", post(cancel))
         .route("/api/stream", get(stream))
         .layer(DefaultBodyLimit::max(MAX_BODY))
@@ -281,15 +282,39 @@ async fn image(
                 format!("job {id} has published no image yet"),
             )
         })?;
-    let disposition = format!("inline; filename=\"{}.png\"", row.id);
-    Ok((
+    Ok(png_response(png, &row.id))
+}
+
+/// Another picture of the job (`image.views` in its published view).
+async fn view_image(
+    State(state): State<WebState>,
+    headers: HeaderMap,
+    Path((id, view)): Path<(String, String)>,
+) -> ApiResult<Response> {
+    let proof = proof(&state, &headers)?;
+    let row = row(&state, proof.who(), &id).await?;
+    let png = job_view::view_image(&state.daemon, &row.user, &row.id, &view)
+        .await?
+        .ok_or_else(|| {
+            ApiError(
+                StatusCode::NOT_FOUND,
+                format!("job {id} has published no picture {view:?}"),
+            )
+        })?;
+    Ok(png_response(png, &format!("{}-{view}", row.id)))
+}
+
+/// A PNG, shown in the page and saved as `NAME.png`.
+fn png_response(png: Vec<u8>, name: &str) -> Response {
+    let disposition = format!("inline; filename=\"{name}.png\"");
+    (
         [
             (header::CONTENT_TYPE, "image/png".to_string()),
             (header::CONTENT_DISPOSITION, disposition),
         ],
         png,
     )
-        .into_response())
+        .into_response()
 }
 
 async fn cancel(

@@ -11,6 +11,7 @@ use crate::distrib::grants::NodeState;
 use crate::distrib::line_passes::LinePasses;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{ControllerCost, Outcome, Stage};
+use crate::distrib::web_view::live_factor;
 use crate::film::Film;
 use serde_json::json;
 use std::time::Duration;
@@ -112,7 +113,22 @@ impl<L: WorkerLink> Controller<L> {
         };
         web.set_timeline(&self.timeline);
         let max_bytes = self.link.max_bytes();
-        if let Some(p) = web.take_due(&self.nodes, &self.film, (done, last), max_bytes) {
+        if let Some(mut p) = web.take_due(&self.nodes, &self.film, (done, last), max_bytes) {
+            if let Some(passes) = &self.passes {
+                let a = passes.adaptive();
+                let caption = format!(
+                    "samples per pixel so far: black {}, white {} (log scale)",
+                    a.min_samples, a.max_samples
+                );
+                // While the job runs, at the size the image is published (no full-size film).
+                let step = if last {
+                    1
+                } else {
+                    live_factor(self.film.width, self.film.height)
+                };
+                let map = passes.samples_map_every(step);
+                p.add_view(("samples", &caption), &map, last, max_bytes);
+            }
             self.writer.publish(p);
         }
     }

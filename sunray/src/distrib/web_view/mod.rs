@@ -13,6 +13,9 @@
 //! - `JOB.web.png` ([`png_key`]): the image so far (lines not yet in are black), shrunk by a
 //!   whole factor to at most [`LIVE_SIDE`] pixels a side while the job runs; at the end at
 //!   full size if the store takes a blob that large.
+//! - `JOB.web.samples.png` ([`view_key`]), for a job rendered to an error: the samples each
+//!   pixel took so far, as `--samples-map` draws them, shrunk and sized as the image; named
+//!   with a caption in `image.views` ([`Publication::add_view`]).
 //!
 //! A publication is due at the start, then at most once per [`EVERY`] when the lines in or
 //! the events changed, and once at the end. One that fails is tried again after [`RETRY`].
@@ -58,6 +61,11 @@ pub fn json_key(job: &str) -> String {
 /// The key of the page's image.
 pub fn png_key(job: &str) -> String {
     format!("{job}.web.png")
+}
+
+/// The key of the job's other picture `name` (REM's page offers it beside the image).
+pub fn view_key(job: &str, name: &str) -> String {
+    format!("{job}.web.{name}.png")
 }
 
 /// One line of the job's history.
@@ -130,6 +138,7 @@ pub async fn submitted(
         timeline: Vec::new(),
         rows: Vec::new(),
         image: Snapshot::black(width, height),
+        views: Vec::new(),
         lines: 0,
     };
     publication.write(store).await
@@ -296,6 +305,7 @@ impl WebView {
             timeline: self.timeline.steps(),
             rows: nodes.iter().map(row).collect(),
             image: Snapshot::of(film, last, max_bytes),
+            views: Vec::new(),
             lines,
         })
     }
@@ -373,7 +383,7 @@ fn lines(n: u64) -> String {
 }
 
 /// The whole factor that brings the longer side to at most [`LIVE_SIDE`].
-fn live_factor(width: u32, height: u32) -> u32 {
+pub fn live_factor(width: u32, height: u32) -> u32 {
     width.max(height).div_ceil(LIVE_SIDE).max(1)
 }
 

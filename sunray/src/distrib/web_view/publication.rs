@@ -6,7 +6,7 @@
 //! the job's end, so the whole image is never copied.
 
 use super::{
-    json_key, live_factor, png_key, Event, WebError, COLUMNS, MAX_JSON_BYTES, PUT_TIMEOUT,
+    json_key, live_factor, png_key, view_key, Event, WebError, COLUMNS, MAX_JSON_BYTES, PUT_TIMEOUT,
 };
 use crate::distrib::checkpoint::Store;
 use crate::film::Film;
@@ -21,6 +21,8 @@ pub struct Publication {
     /// The per-node table's rows.
     pub(super) rows: Vec<Value>,
     pub(super) image: Snapshot,
+    /// Other pictures of the job ([`Publication::add_view`]): name, caption, picture.
+    pub(super) views: Vec<(&'static str, String, Snapshot)>,
     /// Lines in the image.
     pub(super) lines: u32,
 }
@@ -60,6 +62,15 @@ impl Snapshot {
         }
     }
 
+    /// The picture, encoded (taken out: an empty film is left in its place, so the rest of
+    /// the publication is still at hand).
+    fn take_picture(&mut self) -> Result<Picture, WebError> {
+        match std::mem::replace(&mut self.image, Image::Live(Film::new(0, 0))) {
+            Image::Live(film) => Picture::new(&film, false),
+            Image::Last(picture) => picture,
+        }
+    }
+
     /// A black `width` x `height` image as it is published while the job runs (without
     /// making a film that large).
     pub(super) fn black(width: u32, height: u32) -> Snapshot {
@@ -73,18 +84,36 @@ impl Snapshot {
 }
 
 impl Publication {
-    /// Writes the image, then the page's data (so the data never describes an image not yet
-    /// stored), each within its time.
+    /// Adds another picture of the job, `name` (lowercase letters, as REM's page takes them:
+    /// `JOB.web.NAME.png`), described by `caption`: `film` as this publication shows its
+    /// image (shrunk while the job runs; at the end, `last`, whole if it fits `max_bytes`).
+    pub fn add_view(
+        &mut self,
+        (name, caption): (&'static str, &str),
+        film: &Film,
+        last: bool,
+        max_bytes: usize,
+    ) {
+        let snapshot = Snapshot::of(film, last, max_bytes);
+        self.views.push((name, caption.to_string(), snapshot));
+    }
+
+    /// Writes the other pictures and the image, then the page's data (so the data never
+    /// describes a picture not yet stored), each within its time.
     pub async fn write(mut self, store: &impl Store) -> Result<(), WebError> {
         let (width, height) = (self.image.width, self.image.height);
-        // Taken out (an empty film left in its place), so the page's data is still at hand.
-        let image = std::mem::replace(&mut self.image.image, Image::Live(Film::new(0, 0)));
-        let picture = match image {
-            Image::Live(film) => Picture::new(&film, false)?,
-            Image::Last(picture) => picture?,
-        };
-        let about = json!({"width": width, "height": height, "lines": self.lines,
+        let picture = self.image.take_picture()?;
+        let mut views = Vec::new();
+        for (name, caption, snapshot) in &mut self.views {
+            let view = snapshot.take_picture()?;
+            put(store, view_key(&self.job, name), view.png).await?;
+            views.push(json!({"name": name, "caption": caption}));
+        }
+        let mut about = json!({"width": width, "height": height, "lines": self.lines,
             "full": picture.full, "png_width": picture.width, "png_height": picture.height});
+        if !views.is_empty() {
+            about["views"] = Value::Array(views);
+        }
         let page = self.page(about)?;
         put(store, png_key(&self.job), picture.png).await?;
         put(store, json_key(&self.job), page).await

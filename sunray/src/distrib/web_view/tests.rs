@@ -199,3 +199,32 @@ async fn a_large_image_is_shrunk_while_running_and_whole_at_the_end_if_it_fits()
     assert_eq!(png(&small).dimensions(), (1000, 5));
     assert_eq!(page(&small)["image"]["full"], false);
 }
+
+/// Another picture (a job rendered to an error publishes its samples map) is stored under its
+/// own key before the page's data, which names it with its caption; sized as the image is.
+#[tokio::test(start_paused = true)]
+async fn another_picture_is_stored_and_named_in_the_page() {
+    let s = store(1 << 20);
+    let mut v = WebView::new("j", Vec::new());
+    let film = noise(2000);
+    let mut map = Film::new(2000, 10);
+    map.pixels[0] = [1.0; 3];
+    let mut p = v.take_due(&[], &film, (10, true), s.max_bytes()).unwrap();
+    p.add_view(("samples", "samples per pixel"), &map, true, s.max_bytes());
+    p.write(&s).await.unwrap();
+    let views = &page(&s)["image"]["views"];
+    assert_eq!(
+        *views,
+        json!([{"name": "samples", "caption": "samples per pixel"}])
+    );
+    let bytes = s.map.lock().unwrap()[&view_key("j", "samples")].clone();
+    let got = image::load_from_memory(&bytes).unwrap().to_rgb8();
+    assert_eq!(got.dimensions(), (2000, 10));
+    assert_eq!(got.get_pixel(0, 0).0, [255; 3]);
+    assert_eq!(got.get_pixel(1, 0).0, [0; 3]);
+    // Without one, the page names none.
+    let mut v = WebView::new("k", Vec::new());
+    v.publish(&s, &[], &film, 10, false).await.unwrap();
+    let page_k: Value = serde_json::from_slice(&s.map.lock().unwrap()[&json_key("k")]).unwrap();
+    assert!(page_k["image"].get("views").is_none());
+}

@@ -7,6 +7,11 @@ let session = null;
 let source = null;
 let openJob = null;
 let shownVersion = -1;
+// Which picture of the open job is shown: 'image', or a name from its `image.views`.
+let shownView = 'image';
+let shownKey = '';
+// The open job's last `job` event, shown again when another picture is chosen.
+let lastJob = null;
 const ENDED = ['finished', 'failed', 'cancelled'];
 const $ = (id) => document.getElementById(id);
 
@@ -137,6 +142,7 @@ function timelineText(timeline) {
 }
 
 function renderJob(d) {
+  lastJob = d;
   const section = $('job');
   if (!d.job) {
     section.hidden = false;
@@ -154,16 +160,24 @@ function renderJob(d) {
   $('job-state').textContent = j.state;
   $('job-message').textContent = [j.title, j.message, p.problem, d.error].filter(Boolean).join(' · ');
   $('job-cancel').disabled = ENDED.includes(j.state);
-  const url = '/api/jobs/' + encodeURIComponent(j.id) + '/image.png';
+  const base = '/api/jobs/' + encodeURIComponent(j.id);
+  const url = base + '/image.png';
   $('job-download').href = url;
   $('job-download').setAttribute('download', j.id + '.png');
-  if (p.version && p.version !== shownVersion && view.image) {
-    shownVersion = p.version;
-    $('job-image').src = url + '?v=' + p.version;
+  const views = pictureViews(view.image);
+  renderViewButtons(views);
+  if (p.version && view.image) shownVersion = p.version;
+  const key = shownVersion + ':' + shownView;
+  if (p.version && view.image && key !== shownKey) {
+    shownKey = key;
+    const other = views.find((v) => v.name === shownView);
+    $('job-image').src = (other ? base + '/view/' + other.name : url) + '?v=' + p.version;
+    $('job-image').dataset.view = other ? other.name : 'image';
     const im = view.image;
     const scaled = im.png_width && im.png_width !== im.width;
-    $('job-image-caption').textContent = im.width + '×' + im.height + ', ' + im.lines + ' of ' +
-      im.height + ' lines' + (scaled ? ' (shown at ' + im.png_width + '×' + im.png_height + ')' : '');
+    $('job-image-caption').textContent = other ? other.caption : im.width + '×' + im.height + ', ' +
+      im.lines + ' of ' + im.height + ' lines' +
+      (scaled ? ' (shown at ' + im.png_width + '×' + im.png_height + ')' : '');
   }
   if (view.nodes) renderTable($('nodes'), view.nodes);
   $('timeline').textContent = timelineText(view.timeline);
@@ -174,9 +188,39 @@ function renderJob(d) {
   }));
 }
 
+// The other pictures a job's view offers (`image.views`: [{name, caption}], at most four,
+// names of lowercase letters, as REM serves them).
+function pictureViews(image) {
+  const list = image && Array.isArray(image.views) ? image.views : [];
+  return list
+    .filter((v) => v && typeof v.name === 'string' && /^[a-z]{1,16}$/.test(v.name))
+    .slice(0, 4)
+    .map((v) => ({ name: v.name, caption: String(v.caption || v.name).slice(0, 200) }));
+}
+
+// One button a picture ('image' and each view), the shown one pressed.
+function renderViewButtons(views) {
+  const box = $('job-views');
+  if (!views.some((v) => v.name === shownView)) shownView = 'image';
+  const names = views.length ? ['image', ...views.map((v) => v.name)] : [];
+  box.replaceChildren(...names.map((name) => {
+    const b = el('button', name);
+    b.dataset.view = name;
+    b.setAttribute('aria-pressed', String(name === shownView));
+    b.onclick = () => {
+      shownView = name;
+      shownKey = '';
+      if (lastJob) renderJob(lastJob);
+    };
+    return b;
+  }));
+}
+
 function open(id) {
   openJob = id;
   shownVersion = -1;
+  shownView = 'image';
+  shownKey = '';
   history.replaceState(null, '', id ? '#job=' + encodeURIComponent(id) : '#');
   $('job').hidden = !id;
   $('job-action').textContent = '';
