@@ -8,13 +8,15 @@
 //! - [`features`]: unused feature paths cost nothing; `--accel auto` against the fastest.
 //! - [`plot`]: the log-log plot of the accuracy benchmark, drawn with `image`.
 //! - [`memory`]: peak memory of `sunray render` per triangle, old builds against new.
-//! - [`to_error`]: time to reach an error with stratified, Sobol and adaptive sampling.
+//! - [`to_error`]: time to reach an error with stratified, Sobol and adaptive sampling and
+//!   POV-Ray's adaptive antialiasing ([`pov_aa`]).
 
 pub mod accuracy;
 pub mod features;
 pub mod hot_path;
 pub mod memory;
 pub mod plot;
+pub mod pov_aa;
 pub mod precision;
 pub mod to_error;
 

@@ -20,6 +20,7 @@ use crate::stats::Counters;
 use std::path::Path;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
+use yari::model::World;
 
 /// Sample streams of the reference start here, far above any measured sample index.
 const REFERENCE_STREAMS: u32 = 1 << 24;
@@ -101,6 +102,11 @@ pub struct Row {
 
 /// The compiled scene `text` at `size x size`.
 pub fn scene(name: &'static str, text: &str, size: u32) -> Result<Scene, AccuracyError> {
+    Ok(Scene::new(world(name, text, size)?))
+}
+
+/// The world of [`scene`], before it becomes primitives (what `sunray convert` writes).
+pub fn world(name: &'static str, text: &str, size: u32) -> Result<World, AccuracyError> {
     let full = format!("resolution({size}, {size});\n{text}");
     let loaded = yari::load::load_str(
         name,
@@ -109,7 +115,7 @@ pub fn scene(name: &'static str, text: &str, size: u32) -> Result<Scene, Accurac
         &yari::colour::ColourTable::builtin(),
     )
     .map_err(|e| AccuracyError::Scene(name, e.to_string()))?;
-    Ok(Scene::new(loaded.world))
+    Ok(loaded.world)
 }
 
 /// Renders `samples` per pixel using sample streams `first_stream..` on `threads` threads;

@@ -1,12 +1,23 @@
 //! `sunray bench to-error`: how fast each way of sampling reaches an error. On the accuracy
-//! benchmark's scenes ([`super::accuracy::cases`]) against a reference from disjoint
-//! stratified streams: (a) stratified jitter at N samples per pixel (what `--samples N`
-//! renders), (b) Owen-scrambled Sobol at N (the same sequence the adaptive sampler draws
-//! from, taken uniformly) and (c) rendering to an error (`--target-error E`, its default
-//! first samples, at most 4,096). For each: the time to reach RMSE 0.01, 0.005 and 0.002
-//! (log-log interpolation between the measured points) and the RMSE at equal time.
+//! benchmark's scenes ([`super::accuracy::cases`]) and Haines's glass gears (SPD `gears 1`),
+//! against a reference from disjoint stratified streams: (a) stratified jitter at N samples
+//! per pixel (what `--samples N` renders), (b) Owen-scrambled Sobol at N (`--sampler sobol`,
+//! the sequence the adaptive sampler draws from), (c) rendering to an error
+//! (`--target-error E`, its default first samples, at most 4,096) and, where `povray` runs
+//! and antialiasing is the whole of the error (edges, gears), (d) POV-Ray 3.7's adaptive
+//! antialiasing ([`super::pov_aa`]). For each: the time to reach RMSE 0.01, 0.005 and 0.002
+//! (log-log interpolation between the measured points), the RMSE at equal time, and a plot
+//! of RMSE against time per scene (`to_error-SCENE.png`).
+//!
+//! Whether the estimate is honest: the reference is two halves from disjoint streams, so a
+//! pixel whose halves differ is one that carries error (a flat pixel's samples all agree, and
+//! its estimate is exact whatever the count). (c)'s RMSE over those pixels, less the
+//! reference's own error there (a quarter of the halves' squared difference), is what E
+//! promises of each pixel, and is reported beside the whole image's RMSE.
 
-use super::accuracy::{cases, errors, render_with, scene, AccuracyError};
+use super::accuracy::{cases as accuracy_cases, errors, render_with, world, AccuracyError};
+use super::plot::{loglog, Labels, Series};
+use super::pov_aa;
 use crate::accel::{Accel, AccelOptions};
 use crate::camera::Camera;
 use crate::geometry::Vec3;
@@ -14,13 +25,22 @@ use crate::render::adaptive::{trace_pixel_to_error, Adaptive};
 use crate::render::{trace_pixel, trace_pixel_sobol};
 use crate::scene::Scene;
 use crate::shading::Tracer;
+use std::path::Path;
 use std::time::Instant;
+
+mod report;
 
 /// Reference streams start here (disjoint from every measured stream).
 const REFERENCE_STREAMS: u32 = 1 << 24;
 
 /// The errors the report asks the time to.
 pub const RMSE_TARGETS: [f64; 3] = [0.01, 0.005, 0.002];
+
+/// The SPD scene with glass: Haines's gears at size 1 (transparent, refracting gears).
+const GEARS_SIZE: u32 = 1;
+/// The most reference samples the gears take (its error is antialiasing alone, which
+/// converges faster than the stochastic features', and each of its samples costs more).
+const GEARS_REFERENCE: u32 = 4096;
 
 /// A way of sampling, at one setting.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,6 +51,8 @@ pub enum Method {
     Sobol(u32),
     /// To a target error, the default first samples, at most 4,096.
     Adaptive(f64),
+    /// POV-Ray's adaptive antialiasing at a threshold and depth (`+A<t> +R<depth>`).
+    Pov(f64, u32),
 }
 
 impl Method {
@@ -40,18 +62,27 @@ impl Method {
             Method::Stratified(_) => "(a) stratified",
             Method::Sobol(_) => "(b) Sobol",
             Method::Adaptive(_) => "(c) adaptive",
+            Method::Pov(..) => "(d) POV-Ray +A",
         }
     }
 
-    /// Its setting: samples per pixel, or the target error.
+    /// Its setting: samples per pixel, the target error or POV-Ray's threshold.
     pub fn setting(&self) -> f64 {
         match *self {
             Method::Stratified(n) | Method::Sobol(n) => f64::from(n),
-            Method::Adaptive(e) => e,
+            Method::Adaptive(e) | Method::Pov(e, _) => e,
         }
     }
 
-    /// Pixel (x, y) as the method renders it.
+    /// Its setting as the report prints it (POV-Ray's with its depth: `0.01 +R4`).
+    pub fn setting_text(&self) -> String {
+        match *self {
+            Method::Pov(t, depth) => format!("{t} +R{depth}"),
+            _ => self.setting().to_string(),
+        }
+    }
+
+    /// Pixel (x, y) as the method renders it (not POV-Ray's).
     fn pixel(&self, tracer: &mut Tracer, camera: &Camera, xy: (u32, u32)) -> Vec3 {
         match *self {
             Method::Stratified(n) => trace_pixel(tracer, camera, xy, 0, n),
@@ -60,8 +91,292 @@ impl Method {
                 let a = Adaptive::new(e, None, Some(4096));
                 trace_pixel_to_error(tracer, camera, xy, 0, &a).mean()
             }
+            Method::Pov(..) => Vec3::ZERO,
         }
     }
+}
+
+/// One scene of the benchmark.
+struct Case {
+    name: &'static str,
+    scene: Scene,
+    /// The scene in POV-Ray SDL, where (d) is measured (antialiasing is the whole of its
+    /// error).
+    pov: Option<String>,
+}
+
+impl Case {
+    /// Scene `name` from YARI `body` at `size` x `size`, with its POV-Ray SDL if `pov`.
+    fn new(name: &'static str, body: &str, size: u32, pov: bool) -> Result<Case, AccuracyError> {
+        let world = world(name, body, size)?;
+        Ok(Case {
+            name,
+            pov: pov.then(|| yari::pov::write_pov(&world)),
+            scene: Scene::new(world),
+        })
+    }
+}
+
+/// The accuracy benchmark's scenes and the SPD gears, at `size` x `size`.
+fn cases(size: u32) -> Result<Vec<Case>, AccuracyError> {
+    let mut out = Vec::new();
+    for (name, _, body) in accuracy_cases() {
+        out.push(Case::new(name, body, size, name == "edges")?);
+    }
+    let nff = yari::spd::generate(yari::spd::Database::Gears, GEARS_SIZE)
+        .map_err(|e| AccuracyError::Scene("gears", e.to_string()))?;
+    let text = yari::writer::write_scene(&yari::nff::to_yari(&nff));
+    // The benchmark's size replaces Haines's 512 x 512.
+    let body: String = text
+        .lines()
+        .filter(|l| !l.starts_with("resolution("))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    out.push(Case::new("gears", &body, size, true)?);
+    Ok(out)
+}
+
+/// The converged image a method's error is measured against.
+pub struct Reference {
+    /// The mean of the two halves.
+    pub image: Vec<Vec3>,
+    /// Pixels whose halves differ: those that carry error.
+    pub varying: Vec<bool>,
+    /// The reference's own RMSE over the varying pixels (half the halves' RMSE there).
+    pub own_rmse: f64,
+}
+
+impl Reference {
+    /// Two halves of `samples` from disjoint stratified streams above every measured one.
+    fn render(scene: &Scene, accel: &Accel, threads: usize, samples: u32) -> Reference {
+        let half = (samples / 2).max(1);
+        let first = REFERENCE_STREAMS;
+        let a = render_with(scene, accel, threads, &|tr, cam, xy| {
+            trace_pixel(tr, cam, xy, first, half)
+        });
+        let b = render_with(scene, accel, threads, &|tr, cam, xy| {
+            trace_pixel(tr, cam, xy, first + half, half)
+        });
+        Reference::of_halves(&a, &b)
+    }
+
+    /// The reference made of halves `a` and `b`.
+    pub fn of_halves(a: &[Vec3], b: &[Vec3]) -> Reference {
+        let image: Vec<Vec3> = a.iter().zip(b).map(|(a, b)| (*a + *b) / 2.0).collect();
+        let varying: Vec<bool> = a.iter().zip(b).map(|(a, b)| a != b).collect();
+        let own_rmse = masked_rmse(a, b, &varying) / 2.0;
+        Reference {
+            image,
+            varying,
+            own_rmse,
+        }
+    }
+
+    /// `image`'s RMSE over the varying pixels, less the reference's own error there.
+    pub fn varying_rmse(&self, image: &[Vec3]) -> f64 {
+        let m = masked_rmse(image, &self.image, &self.varying);
+        (m * m - self.own_rmse * self.own_rmse).max(0.0).sqrt()
+    }
+}
+
+/// RMSE of `a` against `b` over every channel of the pixels `mask` picks (0 if none).
+fn masked_rmse(a: &[Vec3], b: &[Vec3], mask: &[bool]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for ((a, b), &m) in a.iter().zip(b).zip(mask) {
+        if m {
+            sum += (*a - *b).length_squared();
+            n += 3;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+/// One measured point of a method.
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    /// The method and its setting.
+    pub method: Method,
+    /// Its time, best of up to 3 runs (POV-Ray's trace time).
+    pub seconds: f64,
+    /// RMSE over the whole image.
+    pub rmse: f64,
+    /// (c) only: RMSE over the pixels that carry error, less the reference's own.
+    pub varying_rmse: Option<f64>,
+}
+
+/// Best-of-`runs` time (stopping after half a second spent) and the image of `method`.
+fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> (f64, Vec<Vec3>) {
+    let (mut best, mut img, mut spent) = (f64::MAX, Vec::new(), 0.0);
+    for _ in 0..3 {
+        let t = Instant::now();
+        img = render_with(scene, accel, threads, &|tr, cam, xy| {
+            method.pixel(tr, cam, xy)
+        });
+        let s = t.elapsed().as_secs_f64();
+        best = best.min(s);
+        spent += s;
+        if spent > 0.5 {
+            break;
+        }
+    }
+    (best, img)
+}
+
+/// The curves of (a), (b) and (c) on `case`: fixed counts `counts`, targets `targets`.
+fn sunray_curves(
+    case: &Case,
+    accel: &Accel,
+    reference: &Reference,
+    (counts, targets): (&[u32], &[f64]),
+    threads: usize,
+) -> Vec<Vec<Point>> {
+    let sweeps: [Vec<Method>; 3] = [
+        counts.iter().map(|&n| Method::Stratified(n)).collect(),
+        counts.iter().map(|&n| Method::Sobol(n)).collect(),
+        targets.iter().map(|&e| Method::Adaptive(e)).collect(),
+    ];
+    sweeps
+        .into_iter()
+        .map(|sweep| {
+            sweep
+                .into_iter()
+                .map(|method| {
+                    let (seconds, img) = measure(&case.scene, accel, threads, method);
+                    let adaptive = matches!(method, Method::Adaptive(_));
+                    Point {
+                        method,
+                        seconds: seconds.max(1e-6),
+                        rmse: errors(&img, &reference.image).0,
+                        varying_rmse: adaptive.then(|| reference.varying_rmse(&img)),
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The curve of (d) on a scene (its SDL `pov`): POV-Ray at each of [`pov_aa::THRESHOLDS`] and
+/// [`pov_aa::DEPTHS`] against its own converged image, the fastest way to each error kept
+/// (POV-Ray on its best terms: the points no faster setting beats); a note instead when it
+/// cannot be measured.
+fn pov_curve(pov: &str, size: u32, threads: usize) -> Result<Vec<Point>, String> {
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    let run = |t: f64, depth: u32| {
+        pov_aa::render(pov, size, (t, depth), threads, dir.path()).map_err(|e| e.to_string())
+    };
+    let reference = run(0.0, pov_aa::REFERENCE_DEPTH)?;
+    let mut all = Vec::new();
+    for &depth in &pov_aa::DEPTHS {
+        for &t in &pov_aa::THRESHOLDS {
+            // Best of up to three trace times (under a second each); the image is the same
+            // each time.
+            let mut best = run(t, depth)?;
+            for _ in 0..2 {
+                if best.seconds >= 1.0 {
+                    break;
+                }
+                best.seconds = best.seconds.min(run(t, depth)?.seconds);
+            }
+            all.push(Point {
+                method: Method::Pov(t, depth),
+                seconds: best.seconds.max(1e-6),
+                rmse: errors(&best.image, &reference.image).0,
+                varying_rmse: None,
+            });
+        }
+    }
+    Ok(lower_envelope(all))
+}
+
+/// The points of `all` that no faster point matches in error, fastest first.
+pub fn lower_envelope(mut all: Vec<Point>) -> Vec<Point> {
+    all.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+    let mut best = f64::INFINITY;
+    all.retain(|p| {
+        let keep = p.rmse < best;
+        best = best.min(p.rmse);
+        keep
+    });
+    all
+}
+
+/// Runs the comparison at `size x size` against `reference_samples`; fixed counts 4 ..
+/// `max_samples`, targets `targets`; plots into `plots` when given. Returns the Markdown
+/// report.
+pub fn run(
+    size: u32,
+    max_samples: u32,
+    reference_samples: u32,
+    targets: &[f64],
+    threads: usize,
+    plots: Option<&Path>,
+) -> Result<String, AccuracyError> {
+    let counts: Vec<u32> = (2..=16)
+        .map(|k| 1u32 << k)
+        .filter(|&n| n <= max_samples)
+        .collect();
+    let pov = pov_aa::available();
+    let mut scenes = Vec::new();
+    for mut case in cases(size)? {
+        let accel = Accel::build(&mut case.scene.prims, &AccelOptions::default());
+        let samples = match case.name {
+            "gears" => reference_samples.min(GEARS_REFERENCE),
+            _ => reference_samples,
+        };
+        let reference = Reference::render(&case.scene, &accel, threads, samples);
+        let mut curves = sunray_curves(&case, &accel, &reference, (&counts, targets), threads);
+        let mut note = None;
+        if let (Some(sdl), true) = (&case.pov, pov) {
+            match pov_curve(sdl, size, threads) {
+                Ok(c) => curves.push(c),
+                Err(e) => note = Some(format!("(d) not measured: {e}")),
+            }
+        }
+        if let Some(dir) = plots {
+            plot(case.name, &curves, dir)?;
+        }
+        scenes.push(report::SceneResult {
+            name: case.name,
+            reference_samples: samples,
+            reference_rmse: reference.own_rmse,
+            curves,
+            note,
+        });
+    }
+    let pov_note = (!pov).then_some("`povray` does not run here: no (d).");
+    Ok(report::markdown(
+        (size, threads, reference_samples),
+        &scenes,
+        pov_note,
+    ))
+}
+
+/// RMSE against time of every method on scene `name`, into `dir/to_error-NAME.png`.
+fn plot(name: &str, curves: &[Vec<Point>], dir: &Path) -> Result<(), AccuracyError> {
+    const COLOURS: [[u8; 3]; 4] = [[200, 30, 30], [30, 90, 200], [30, 150, 60], [150, 60, 180]];
+    let series: Vec<Series> = curves
+        .iter()
+        .zip(COLOURS)
+        .filter_map(|(c, colour)| {
+            Some(Series {
+                name: c.first()?.method.name().to_string(),
+                colour,
+                points: c.iter().map(|p| (p.seconds, p.rmse)).collect(),
+            })
+        })
+        .collect();
+    let title = format!("{name}: RMSE against time (dashed: slope -1/2)");
+    let labels = Labels {
+        title: &title,
+        x: "seconds",
+        y: "RMSE (linear radiance)",
+    };
+    loglog(&series, &labels, &dir.join(format!("to_error-{name}.png")))?;
+    Ok(())
 }
 
 /// The time at which a curve of (seconds, RMSE) points, in the order measured, first reaches
@@ -92,160 +407,5 @@ pub fn rmse_at(points: &[(f64, f64)], seconds: f64) -> Option<f64> {
     Some((e0.ln() + f * (e1.ln() - e0.ln())).exp())
 }
 
-/// Best-of-`runs` time (stopping after half a second spent) and the image of `method`.
-fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> (f64, Vec<Vec3>) {
-    let (mut best, mut img, mut spent) = (f64::MAX, Vec::new(), 0.0);
-    for _ in 0..3 {
-        let t = Instant::now();
-        img = render_with(scene, accel, threads, &|tr, cam, xy| {
-            method.pixel(tr, cam, xy)
-        });
-        let s = t.elapsed().as_secs_f64();
-        best = best.min(s);
-        spent += s;
-        if spent > 0.5 {
-            break;
-        }
-    }
-    (best, img)
-}
-
-/// Runs the comparison at `size x size` against `reference_samples`; fixed counts 4 ..
-/// `max_samples`, targets `errors`. Returns the Markdown report.
-pub fn run(
-    size: u32,
-    max_samples: u32,
-    reference_samples: u32,
-    targets: &[f64],
-    threads: usize,
-) -> Result<String, AccuracyError> {
-    let mut points_text = String::from(
-        "\n| scene | method | setting | seconds | RMSE | RMSE / E |\n|---|---|---:|---:|---:|---:|\n",
-    );
-    let mut summary = format!(
-        "{size}x{size} pixels, {threads} thread(s), seconds = best of up to 3 runs; reference \
-         {reference_samples} stratified samples per pixel from streams disjoint from every \
-         measured one; RMSE over every channel of every pixel, linear radiance (1.0 = white).\n\n\
-         Time to reach an RMSE (interpolated on log-log axes; - = not reached):\n\n\
-         | scene | method | RMSE 0.01 | 0.005 | 0.002 | (c) vs (a) at 0.01 / 0.005 / 0.002 |\n\
-         |---|---|---:|---:|---:|---|\n"
-    );
-    let mut equal_time = String::from(
-        "\nRMSE at equal time (the time (c) took for each E; - = outside the measured range):\n\n\
-         | scene | E | seconds | (a) stratified | (b) Sobol | (c) adaptive |\n|---|---:|---:|---:|---:|---:|\n",
-    );
-    for (name, _, body) in cases() {
-        let mut scene = scene(name, body, size)?;
-        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-        let reference = render_with(&scene, &accel, threads, &|tr, cam, xy| {
-            trace_pixel(tr, cam, xy, REFERENCE_STREAMS, reference_samples)
-        });
-        let counts: Vec<u32> = (2..=16)
-            .map(|k| 1u32 << k)
-            .filter(|&n| n <= max_samples)
-            .collect();
-        let mut curves: Vec<(Method, Vec<(f64, f64)>)> = Vec::new();
-        let sweeps: [Vec<Method>; 3] = [
-            counts.iter().map(|&n| Method::Stratified(n)).collect(),
-            counts.iter().map(|&n| Method::Sobol(n)).collect(),
-            targets.iter().map(|&e| Method::Adaptive(e)).collect(),
-        ];
-        for sweep in sweeps {
-            let Some(&first) = sweep.first() else {
-                continue;
-            };
-            let mut curve = Vec::new();
-            for method in sweep {
-                let s = method.setting();
-                let (seconds, img) = measure(&scene, &accel, threads, method);
-                let rmse = errors(&img, &reference).0;
-                let ratio = match method {
-                    Method::Adaptive(e) => format!("{:.2}", rmse / e),
-                    _ => String::new(),
-                };
-                points_text += &format!(
-                    "| {name} | {} | {s} | {seconds:.3} | {rmse:.5} | {ratio} |\n",
-                    method.name()
-                );
-                curve.push((seconds.max(1e-6), rmse));
-            }
-            curves.push((first, curve));
-        }
-        let cell = |t: Option<f64>| t.map_or("-".to_string(), |t| format!("{t:.3} s"));
-        for (method, curve) in &curves {
-            let times: Vec<Option<f64>> = RMSE_TARGETS.iter().map(|&r| time_to(curve, r)).collect();
-            let speedup = match method {
-                Method::Adaptive(_) => RMSE_TARGETS
-                    .iter()
-                    .zip(&times)
-                    .map(|(&r, t)| match (time_to(&curves[0].1, r), t) {
-                        (Some(a), Some(c)) => format!("{:.1}x", a / c),
-                        _ => "-".into(),
-                    })
-                    .collect::<Vec<_>>()
-                    .join(" / "),
-                _ => String::new(),
-            };
-            summary += &format!(
-                "| {name} | {} | {} | {} | {} | {speedup} |\n",
-                method.name(),
-                cell(times[0]),
-                cell(times[1]),
-                cell(times[2])
-            );
-        }
-        let rmse =
-            |c: &[(f64, f64)], t: f64| rmse_at(c, t).map_or("-".into(), |e| format!("{e:.5}"));
-        for (&e, &(t, own)) in targets.iter().zip(&curves[2].1) {
-            equal_time += &format!(
-                "| {name} | {e} | {t:.3} | {} | {} | {own:.5} |\n",
-                rmse(&curves[0].1, t),
-                rmse(&curves[1].1, t)
-            );
-        }
-    }
-    Ok(format!(
-        "{summary}{equal_time}\nEvery point measured:\n{points_text}"
-    ))
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn times_and_errors_are_interpolated_on_log_log_axes() {
-        let curve = [(1.0, 0.1), (4.0, 0.05), (16.0, 0.025)];
-        assert_eq!(time_to(&curve, 0.2), Some(1.0));
-        assert!((time_to(&curve, 0.05).unwrap() - 4.0).abs() < 1e-12);
-        assert!((time_to(&curve, 0.0353553).unwrap() - 8.0).abs() < 1e-3);
-        assert_eq!(time_to(&curve, 0.01), None);
-        assert!((rmse_at(&curve, 8.0).unwrap() - 0.0353553).abs() < 1e-6);
-        assert_eq!(rmse_at(&curve, 32.0), None);
-    }
-
-    /// At a tiny size every method's error falls as it is given more, and the adaptive one
-    /// lands under twice its target.
-    #[test]
-    fn every_method_converges_on_a_tiny_penumbra() {
-        let (_, _, body) = cases()[1];
-        let mut s = scene("penumbra", body, 10).unwrap();
-        let accel = Accel::build(&mut s.prims, &AccelOptions::default());
-        let reference = render_with(&s, &accel, 2, &|tr, cam, xy| {
-            trace_pixel(tr, cam, xy, REFERENCE_STREAMS, 1024)
-        });
-        let rmse = |m: Method| {
-            let img = render_with(&s, &accel, 2, &|tr, cam, xy| m.pixel(tr, cam, xy));
-            errors(&img, &reference).0
-        };
-        for (low, high) in [
-            (Method::Stratified(4), Method::Stratified(64)),
-            (Method::Sobol(4), Method::Sobol(64)),
-            (Method::Adaptive(0.05), Method::Adaptive(0.01)),
-        ] {
-            let (l, h) = (rmse(low), rmse(high));
-            assert!(h < 0.7 * l, "{low:?} {l} vs {high:?} {h}");
-        }
-        assert!(rmse(Method::Adaptive(0.02)) < 2.0 * 0.02);
-    }
-}
+mod tests;

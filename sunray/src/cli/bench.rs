@@ -22,7 +22,8 @@ pub enum Which {
     /// samples per pixel; writes --out-dir/accuracy.png (log-log plot).
     Accuracy,
     /// Time to reach RMSE 0.01, 0.005 and 0.002 with stratified, Sobol and adaptive
-    /// sampling, and the RMSE of each at equal time; writes --out-dir/to_error.md.
+    /// sampling (and POV-Ray's +A where `povray` runs), and the RMSE of each at equal time;
+    /// writes --out-dir/to_error.md and a plot per scene, --out-dir/to_error-SCENE.png.
     ToError,
     /// The hot path in f32 and f64: speed, and error on hard cases.
     Precision,
@@ -134,6 +135,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
                 args.reference_samples,
                 &[0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125],
                 threads,
+                Some(&args.out_dir),
             )?;
             crate::cli::convert::write_output(Some(&args.out_dir.join("to_error.md")), &text)?;
             text
