@@ -144,6 +144,9 @@ pub struct Reference {
     pub varying: Vec<bool>,
     /// The reference's own RMSE over the varying pixels (half the halves' RMSE there).
     pub own_rmse: f64,
+    /// Half the difference of the halves: the reference's own error, pixel by pixel, as
+    /// likely as not.
+    half_diff: Vec<Vec3>,
 }
 
 impl Reference {
@@ -165,17 +168,26 @@ impl Reference {
         let image: Vec<Vec3> = a.iter().zip(b).map(|(a, b)| (*a + *b) / 2.0).collect();
         let varying: Vec<bool> = a.iter().zip(b).map(|(a, b)| a != b).collect();
         let own_rmse = masked_rmse(a, b, &varying) / 2.0;
+        let half_diff = a.iter().zip(b).map(|(a, b)| (*a - *b) / 2.0).collect();
         Reference {
             image,
             varying,
             own_rmse,
+            half_diff,
         }
     }
 
     /// `image`'s RMSE over the varying pixels, less the reference's own error there.
     pub fn varying_rmse(&self, image: &[Vec3]) -> f64 {
-        let m = masked_rmse(image, &self.image, &self.varying);
-        (m * m - self.own_rmse * self.own_rmse).max(0.0).sqrt()
+        self.rmse_over(image, &self.varying)
+    }
+
+    /// `image`'s RMSE over the pixels `mask` picks, less the reference's own error there.
+    pub fn rmse_over(&self, image: &[Vec3], mask: &[bool]) -> f64 {
+        let m = masked_rmse(image, &self.image, mask);
+        let zero = vec![Vec3::ZERO; self.half_diff.len()];
+        let own = masked_rmse(&self.half_diff, &zero, mask);
+        (m * m - own * own).max(0.0).sqrt()
     }
 }
 
@@ -206,6 +218,9 @@ pub struct Point {
     pub rmse: f64,
     /// (c) only: RMSE over the pixels that carry error, less the reference's own.
     pub varying_rmse: Option<f64>,
+    /// (c) only: RMSE over the pixels the target stopped (more than their first samples,
+    /// fewer than the most), less the reference's own, and how many pixels those are.
+    pub stopped: Option<(f64, usize)>,
 }
 
 /// Best-of-`runs` time (stopping after half a second spent) and the image of `method`.
@@ -252,11 +267,31 @@ fn sunray_curves(
                         seconds: seconds.max(1e-6),
                         rmse: errors(&img, &reference.image).0,
                         varying_rmse: adaptive.then(|| reference.varying_rmse(&img)),
+                        stopped: match method {
+                            Method::Adaptive(e) => {
+                                let mask = stopped_by_target(&case.scene, accel, threads, e);
+                                let n = mask.iter().filter(|&&m| m).count();
+                                Some((reference.rmse_over(&img, &mask), n))
+                            }
+                            _ => None,
+                        },
                     }
                 })
                 .collect()
         })
         .collect()
+}
+
+/// The pixels (c) at target `e` stops by its estimate: more samples than its first, fewer
+/// than its most. Their RMSE against E says whether the estimate is honest, apart from the
+/// pixels that need no more than their first samples and those the cap stops.
+fn stopped_by_target(scene: &Scene, accel: &Accel, threads: usize, e: f64) -> Vec<bool> {
+    let a = Adaptive::new(e, None, Some(4096));
+    let counts = render_with(scene, accel, threads, &|tr, cam, xy| {
+        Vec3::splat(f64::from(trace_pixel_to_error(tr, cam, xy, 0, &a).count()))
+    });
+    let (lo, hi) = (f64::from(a.min_samples), f64::from(a.max_samples));
+    counts.iter().map(|c| c.x > lo && c.x < hi).collect()
 }
 
 /// The curve of (d) on a scene (its SDL `pov`): POV-Ray at each of [`pov_aa::THRESHOLDS`] and
@@ -286,6 +321,7 @@ fn pov_curve(pov: &str, size: u32, threads: usize) -> Result<Vec<Point>, String>
                 seconds: best.seconds.max(1e-6),
                 rmse: errors(&best.image, &reference.image).0,
                 varying_rmse: None,
+                stopped: None,
             });
         }
     }

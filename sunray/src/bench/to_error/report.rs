@@ -130,11 +130,13 @@ fn equal_time_table(scenes: &[SceneResult]) -> String {
 /// carry error.
 fn points_table(scenes: &[SceneResult]) -> String {
     let mut out = String::from(
-        "\nEvery point measured. For (c): RMSE / E over the whole image, and over the pixels \
-         that carry error (those whose two reference halves differ), less the reference's \
-         own error there (the reference's samples and that error beside the scene's name):\n\n\
-         | scene | method | setting | seconds | RMSE | RMSE / E | varying pixels: RMSE / E |\n\
-         |---|---|---:|---:|---:|---:|---:|\n",
+        "\nEvery point measured. For (c): RMSE / E over the whole image; over the pixels \
+         that carry error (those whose two reference halves differ); and over the pixels its \
+         estimate stopped (more samples than their first, fewer than the most), both less \
+         the reference's own error there (the reference's samples and its error over the \
+         varying pixels beside the scene's name):\n\n\
+         | scene | method | setting | seconds | RMSE | RMSE / E | varying pixels: RMSE / E | pixels stopped by E: RMSE / E (how many) |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|\n",
     );
     for s in scenes {
         let name = format!(
@@ -142,14 +144,16 @@ fn points_table(scenes: &[SceneResult]) -> String {
             s.name, s.reference_samples, s.reference_rmse
         );
         for p in s.curves.iter().flatten() {
-            let (whole, varying) = match (p.method, p.varying_rmse) {
-                (Method::Adaptive(e), Some(v)) => {
-                    (format!("{:.2}", p.rmse / e), format!("{:.2}", v / e))
-                }
-                _ => (String::new(), String::new()),
+            let (whole, varying, stopped) = match (p.method, p.varying_rmse, p.stopped) {
+                (Method::Adaptive(e), Some(v), Some((s, n))) => (
+                    format!("{:.2}", p.rmse / e),
+                    format!("{:.2}", v / e),
+                    format!("{:.2} ({n})", s / e),
+                ),
+                _ => (String::new(), String::new(), String::new()),
             };
             out += &format!(
-                "| {name} | {} | {} | {:.3} | {:.5} | {whole} | {varying} |\n",
+                "| {name} | {} | {} | {:.3} | {:.5} | {whole} | {varying} | {stopped} |\n",
                 p.method.name(),
                 p.method.setting_text(),
                 p.seconds,

@@ -22,6 +22,7 @@ fn the_lower_envelope_keeps_the_fastest_way_to_each_error() {
         seconds,
         rmse,
         varying_rmse: None,
+        stopped: None,
     };
     let kept = lower_envelope(vec![
         p(2.0, 0.01),
@@ -49,6 +50,9 @@ fn the_varying_pixels_are_those_whose_halves_differ() {
     assert!((r.varying_rmse(&image) - 0.08f64.sqrt()).abs() < 1e-12);
     // Off on the flat pixel only: not counted.
     assert_eq!(r.varying_rmse(&[Vec3::ZERO, Vec3::splat(0.5)]), 0.0);
+    // Over the flat pixel alone: its whole error, the reference exact there.
+    let flat_only = r.rmse_over(&[Vec3::splat(0.7), Vec3::splat(0.5)], &[true, false]);
+    assert!((flat_only - 0.2).abs() < 1e-12);
 }
 
 /// At a tiny size every method's error falls as it is given more; the adaptive one's error
