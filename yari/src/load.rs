@@ -18,7 +18,7 @@
 
 use crate::colour::ColourTable;
 use crate::compile::{CompileStream, MeshRead, ObjectSink};
-use crate::diag::{Diagnostics, SceneError};
+use crate::diag::{Diagnostic, Diagnostics, SceneError};
 use crate::lines::{TextFailure, TextLines};
 use crate::mesh::{MeshError, MeshKind, MeshSummary, ToYari};
 use crate::model::World;
@@ -292,10 +292,20 @@ fn compile_mesh(
     let view = crate::mesh::frame::view(&summary.bounds);
     let source = Source::new(name, "");
     match compiler.finish(&view) {
-        Ok((world, warnings)) => Ok(Loaded {
-            mesh: Some(summary),
-            ..loaded(world, kind, warnings, Some(source))
-        }),
+        Ok((world, mut warnings)) => {
+            if summary.skipped_primitives > 0 {
+                let n = summary.skipped_primitives;
+                let what = if n == 1 { "primitive" } else { "primitives" };
+                warnings.push(Diagnostic::warning(
+                    crate::span::Span::default(),
+                    format!("{n} {what} of points or lines left out: only faces are rendered"),
+                ));
+            }
+            Ok(Loaded {
+                mesh: Some(summary),
+                ..loaded(world, kind, warnings, Some(source))
+            })
+        }
         // The compiler refused a face: no place in the file to show, so its first words.
         Err(diagnostics) => {
             let first = diagnostics.errors().next().map(|d| d.message.clone());

@@ -152,6 +152,9 @@ pub struct MeshSummary {
     pub bounds: Bounds,
     /// The other files read for it: OBJ's material libraries, glTF's buffer files.
     pub companions: Vec<PathBuf>,
+    /// glTF primitives of points or lines: they have no faces, so they are left out (and
+    /// the loader says so in a warning).
+    pub skipped_primitives: u64,
 }
 
 impl MeshSummary {
@@ -191,13 +194,17 @@ pub fn read_each(
         summary.add(&f);
         each(f);
     };
-    let (vertices, companions) = match kind {
-        MeshKind::Obj => obj::read_each(path, input, &mut counted)?,
-        MeshKind::Ply => (ply::read_each(path, input, &mut counted)?, Vec::new()),
+    let (vertices, companions, skipped) = match kind {
+        MeshKind::Obj => {
+            let (vertices, companions) = obj::read_each(path, input, &mut counted)?;
+            (vertices, companions, 0)
+        }
+        MeshKind::Ply => (ply::read_each(path, input, &mut counted)?, Vec::new(), 0),
         MeshKind::Gltf => gltf::read_each(path, input, &mut counted)?,
     };
     summary.vertices = vertices;
     summary.companions = companions;
+    summary.skipped_primitives = skipped;
     Ok(summary)
 }
 

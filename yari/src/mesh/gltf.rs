@@ -27,6 +27,8 @@ struct GltfReader<'a> {
     vertices: u64,
     /// The buffer files read.
     files: Vec<PathBuf>,
+    /// Primitives of points or lines, which have no faces: left out.
+    skipped: u64,
 }
 
 impl GltfReader<'_> {
@@ -115,6 +117,7 @@ impl GltfReader<'_> {
             p.mode(),
             Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
         ) {
+            self.skipped += 1;
             return Ok(());
         }
         let buffers = &self.buffers;
@@ -231,12 +234,12 @@ fn fill(m: &gltf::Material<'_>) -> Fill {
 }
 
 /// Reads a glTF file (JSON or binary) from `input`, handing each triangle to `each`: the
-/// number of vertices and the buffer files read.
+/// number of vertices, the buffer files read and the primitives left out (points, lines).
 pub fn read_each(
     path: &Path,
     input: &mut dyn BufRead,
     each: &mut dyn FnMut(Face),
-) -> Result<(u64, Vec<PathBuf>), MeshError> {
+) -> Result<(u64, Vec<PathBuf>, u64), MeshError> {
     let mut bytes = Vec::new();
     input
         .read_to_end(&mut bytes)
@@ -249,6 +252,7 @@ pub fn read_each(
         buffers: Vec::new(),
         vertices: 0,
         files: Vec::new(),
+        skipped: 0,
     };
     r.load_buffers(&doc)?;
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
@@ -268,5 +272,5 @@ pub fn read_each(
     for node in roots {
         r.node(node, DMat4::IDENTITY, 0, each)?;
     }
-    Ok((r.vertices, r.files))
+    Ok((r.vertices, r.files, r.skipped))
 }

@@ -336,6 +336,29 @@ fn gltf_nodes_place_their_meshes_and_short_buffers_are_refused() {
     assert_eq!(e.lines().count(), 1, "{e}");
 }
 
+/// Points and lines have no faces: they are left out, counted and said in a warning.
+#[test]
+fn gltf_points_and_lines_are_left_out_with_a_warning() {
+    let one = r#"{"attributes":{"POSITION":0}}"#;
+    let text = gltf_text(36, 36, 3).replace(
+        one,
+        &format!(
+            r#"{one},{{"attributes":{{"POSITION":0}},"mode":0}},{{"attributes":{{"POSITION":0}},"mode":1}}"#
+        ),
+    );
+    let (faces, summary) = read(MeshKind::Gltf, text.as_bytes()).unwrap();
+    assert_eq!((faces.len(), summary.skipped_primitives), (1, 2));
+    let colours = crate::colour::ColourTable::builtin();
+    let loaded =
+        crate::load::load_str("m.gltf", &text, crate::load::InputKind::Gltf, &colours).unwrap();
+    assert_eq!(
+        loaded.render_warnings(),
+        "m.gltf: warning: 2 primitives of points or lines left out: only faces are rendered\n"
+    );
+    let (_, plain) = read(MeshKind::Gltf, gltf_text(36, 36, 3).as_bytes()).unwrap();
+    assert_eq!(plain.skipped_primitives, 0);
+}
+
 #[test]
 fn a_meshs_compiler_warnings_name_the_file_once_per_message() {
     let text = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\nf 1 2 4\n";
