@@ -26,6 +26,7 @@ use crate::render::{trace_pixel, trace_pixel_sobol};
 use crate::scene::Scene;
 use crate::shading::Tracer;
 use std::path::Path;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 mod report;
@@ -82,18 +83,23 @@ impl Method {
         }
     }
 
-    /// Pixel (x, y) as the method renders it (not POV-Ray's).
-    fn pixel(&self, tracer: &mut Tracer, camera: &Camera, xy: (u32, u32)) -> Vec3 {
+    /// Pixel (x, y) as the method renders it (not POV-Ray's), and the samples it took.
+    fn pixel(&self, tracer: &mut Tracer, camera: &Camera, xy: (u32, u32)) -> (Vec3, u32) {
         match *self {
-            Method::Stratified(n) => trace_pixel(tracer, camera, xy, 0, n),
-            Method::Sobol(n) => trace_pixel_sobol(tracer, camera, xy, 0, n),
+            Method::Stratified(n) => (trace_pixel(tracer, camera, xy, 0, n), n),
+            Method::Sobol(n) => (trace_pixel_sobol(tracer, camera, xy, 0, n), n),
             Method::Adaptive(e) => {
-                let a = Adaptive::new(e, None, Some(4096));
-                trace_pixel_to_error(tracer, camera, xy, 0, &a).mean()
+                let est = trace_pixel_to_error(tracer, camera, xy, 0, &adaptive_of(e));
+                (est.mean(), est.count())
             }
-            Method::Pov(..) => Vec3::ZERO,
+            Method::Pov(..) => (Vec3::ZERO, 0),
         }
     }
+}
+
+/// What (c) at target `e` asks: the default first samples, at most 4,096.
+fn adaptive_of(e: f64) -> Adaptive {
+    Adaptive::new(e, None, Some(4096))
 }
 
 /// One scene of the benchmark.
@@ -185,20 +191,22 @@ impl Reference {
     /// `image`'s RMSE over the pixels `mask` picks, less the reference's own error there.
     pub fn rmse_over(&self, image: &[Vec3], mask: &[bool]) -> f64 {
         let m = masked_rmse(image, &self.image, mask);
-        let zero = vec![Vec3::ZERO; self.half_diff.len()];
-        let own = masked_rmse(&self.half_diff, &zero, mask);
+        let own = masked_rms(self.half_diff.iter().copied(), mask);
         (m * m - own * own).max(0.0).sqrt()
     }
 }
 
 /// RMSE of `a` against `b` over every channel of the pixels `mask` picks (0 if none).
 fn masked_rmse(a: &[Vec3], b: &[Vec3], mask: &[bool]) -> f64 {
+    masked_rms(a.iter().zip(b).map(|(a, b)| *a - *b), mask)
+}
+
+/// The root mean square of every channel of the `values` `mask` picks (0 if none).
+fn masked_rms(values: impl Iterator<Item = Vec3>, mask: &[bool]) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
-    for ((a, b), &m) in a.iter().zip(b).zip(mask) {
-        if m {
-            sum += (*a - *b).length_squared();
-            n += 3;
-        }
+    for (v, _) in values.zip(mask).filter(|(_, &m)| m) {
+        sum += v.length_squared();
+        n += 3;
     }
     if n == 0 {
         0.0
@@ -223,13 +231,28 @@ pub struct Point {
     pub stopped: Option<(f64, usize)>,
 }
 
-/// Best-of-`runs` time (stopping after half a second spent) and the image of `method`.
-fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> (f64, Vec<Vec3>) {
-    let (mut best, mut img, mut spent) = (f64::MAX, Vec::new(), 0.0);
+/// What one method measured: its best time, its image and the samples each pixel took.
+struct Measured {
+    seconds: f64,
+    image: Vec<Vec3>,
+    samples: Vec<u32>,
+}
+
+/// Best-of-3 time (stopping after half a second spent), the image of `method` and the
+/// samples each pixel took (kept as it renders, so nothing is rendered again to know them).
+fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> Measured {
+    let width = scene.world.resolution[0].max(1);
+    let pixels = (width * scene.world.resolution[1].max(1)) as usize;
+    let samples: Vec<AtomicU32> = (0..pixels).map(|_| AtomicU32::new(0)).collect();
+    let (mut best, mut image, mut spent) = (f64::MAX, Vec::new(), 0.0);
     for _ in 0..3 {
         let t = Instant::now();
-        img = render_with(scene, accel, threads, &|tr, cam, xy| {
-            method.pixel(tr, cam, xy)
+        image = render_with(scene, accel, threads, &|tr, cam, (x, y)| {
+            let (c, n) = method.pixel(tr, cam, (x, y));
+            if let Some(s) = samples.get((y * width + x) as usize) {
+                s.store(n, Ordering::Relaxed);
+            }
+            c
         });
         let s = t.elapsed().as_secs_f64();
         best = best.min(s);
@@ -238,7 +261,11 @@ fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> (f64
             break;
         }
     }
-    (best, img)
+    Measured {
+        seconds: best,
+        image,
+        samples: samples.into_iter().map(AtomicU32::into_inner).collect(),
+    }
 }
 
 /// The curves of (a), (b) and (c) on `case`: fixed counts `counts`, targets `targets`.
@@ -260,18 +287,18 @@ fn sunray_curves(
             sweep
                 .into_iter()
                 .map(|method| {
-                    let (seconds, img) = measure(&case.scene, accel, threads, method);
+                    let m = measure(&case.scene, accel, threads, method);
                     let adaptive = matches!(method, Method::Adaptive(_));
                     Point {
                         method,
-                        seconds: seconds.max(1e-6),
-                        rmse: errors(&img, &reference.image).0,
-                        varying_rmse: adaptive.then(|| reference.varying_rmse(&img)),
+                        seconds: m.seconds.max(1e-6),
+                        rmse: errors(&m.image, &reference.image).0,
+                        varying_rmse: adaptive.then(|| reference.varying_rmse(&m.image)),
                         stopped: match method {
                             Method::Adaptive(e) => {
-                                let mask = stopped_by_target(&case.scene, accel, threads, e);
+                                let mask = stopped_by_target(&m.samples, &adaptive_of(e));
                                 let n = mask.iter().filter(|&&m| m).count();
-                                Some((reference.rmse_over(&img, &mask), n))
+                                Some((reference.rmse_over(&m.image, &mask), n))
                             }
                             _ => None,
                         },
@@ -282,16 +309,15 @@ fn sunray_curves(
         .collect()
 }
 
-/// The pixels (c) at target `e` stops by its estimate: more samples than its first, fewer
-/// than its most. Their RMSE against E says whether the estimate is honest, apart from the
-/// pixels that need no more than their first samples and those the cap stops.
-fn stopped_by_target(scene: &Scene, accel: &Accel, threads: usize, e: f64) -> Vec<bool> {
-    let a = Adaptive::new(e, None, Some(4096));
-    let counts = render_with(scene, accel, threads, &|tr, cam, xy| {
-        Vec3::splat(f64::from(trace_pixel_to_error(tr, cam, xy, 0, &a).count()))
-    });
-    let (lo, hi) = (f64::from(a.min_samples), f64::from(a.max_samples));
-    counts.iter().map(|c| c.x > lo && c.x < hi).collect()
+/// The pixels whose count `a`'s estimate decided, of those that took `samples`: more than
+/// their first samples, fewer than the most. Their RMSE against E says whether the estimate
+/// is honest, apart from the pixels that need no more than their first samples and those the
+/// cap stops.
+fn stopped_by_target(samples: &[u32], a: &Adaptive) -> Vec<bool> {
+    samples
+        .iter()
+        .map(|&n| n > a.min_samples && n < a.max_samples)
+        .collect()
 }
 
 /// The curve of (d) on a scene (its SDL `pov`): POV-Ray at each of [`pov_aa::THRESHOLDS`] and

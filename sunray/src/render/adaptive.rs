@@ -1,5 +1,5 @@
 //! Rendering to an error instead of a sample count (`--target-error E`): each pixel takes
-//! samples from its own Owen-scrambled Sobol sequence ([`SampleStream::sobol`]) until the
+//! samples from its own Owen-scrambled Sobol sequence ([`crate::sampler::SampleStream::sobol`]) until the
 //! estimated standard error of its mean, in linear radiance (1.0 = white), is at most E in
 //! every channel, with at least `min_samples` (by default [`default_min_samples`]) and at most
 //! `max_samples`.
@@ -14,10 +14,10 @@
 //! the count the estimate asks for (s^2 / E^2), at least `min_samples` more and at most twice
 //! as many as taken (the variance is estimated again on the way), never above `max_samples`.
 
-use super::trace_with;
+use super::trace_sobol_sample;
 use crate::camera::Camera;
 use crate::film::Film;
-use crate::sampler::{SampleStream, SOBOL_SAMPLES};
+use crate::sampler::SOBOL_SAMPLES;
 use crate::shading::Tracer;
 use crate::stats::{ErrorStats, SamplesBucket};
 use glam::DVec3;
@@ -257,8 +257,13 @@ pub fn advance_pixel(
             return false;
         }
         while est.count() < want {
-            let mut rng = SampleStream::sobol(x, y, seed, est.count());
-            est.add(trace_with(tracer, camera, (x, y), 1, 0, &mut rng));
+            est.add(trace_sobol_sample(
+                tracer,
+                camera,
+                (x, y),
+                seed,
+                est.count(),
+            ));
         }
     }
     true

@@ -249,9 +249,22 @@ pub fn trace_pixel_sobol(
     count: u32,
 ) -> glam::DVec3 {
     mean_of(count, |k| {
-        let mut rng = SampleStream::sobol(x, y, seed, k);
-        trace_with(tracer, camera, (x, y), 1, 0, &mut rng)
+        trace_sobol_sample(tracer, camera, (x, y), seed, k)
     })
+}
+
+/// The colour seen by sample `index` of pixel `(x, y)`'s Owen-scrambled Sobol sequence
+/// scrambled by `seed`: the one sample both `--sampler sobol` and rendering to an error
+/// ([`adaptive::advance_pixel`]) take, its first 2-D draw placing the point in the pixel.
+pub(crate) fn trace_sobol_sample(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    seed: u32,
+    index: u32,
+) -> glam::DVec3 {
+    let mut rng = SampleStream::sobol(x, y, seed, index);
+    trace_with(tracer, camera, (x, y), 1, 0, &mut rng)
 }
 
 /// The mean of `sample(k)` for `k` in `0..count`, summed in that order. One sample needs no

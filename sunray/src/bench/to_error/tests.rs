@@ -34,6 +34,15 @@ fn the_lower_envelope_keeps_the_fastest_way_to_each_error() {
     assert_eq!(got, [(1.0, 0.02), (2.0, 0.01), (4.0, 0.005)]);
 }
 
+/// The pixels whose count the estimate decided: more than the first samples, fewer than the
+/// most.
+#[test]
+fn the_pixels_stopped_by_the_target_are_between_first_and_most() {
+    let a = Adaptive::new(0.01, Some(16), Some(4096));
+    let got = stopped_by_target(&[16, 17, 4096, 64, 4095], &a);
+    assert_eq!(got, [false, true, false, true, true]);
+}
+
 /// A pixel whose halves agree carries no error and is left out of the varying RMSE; the
 /// reference's own error (half the halves' RMSE) is taken out of it.
 #[test]
@@ -63,7 +72,7 @@ fn every_method_converges_on_a_tiny_penumbra() {
     let mut s = scene("penumbra", body, 10).unwrap();
     let accel = Accel::build(&mut s.prims, &AccelOptions::default());
     let reference = Reference::render(&s, &accel, 2, 2048);
-    let image = |m: Method| render_with(&s, &accel, 2, &|tr, cam, xy| m.pixel(tr, cam, xy));
+    let image = |m: Method| render_with(&s, &accel, 2, &|tr, cam, xy| m.pixel(tr, cam, xy).0);
     let rmse = |m: Method| errors(&image(m), &reference.image).0;
     for (low, high) in [
         (Method::Stratified(4), Method::Stratified(64)),

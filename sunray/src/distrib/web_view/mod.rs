@@ -28,6 +28,7 @@ use super::timeline::Timeline;
 use crate::film::Film;
 pub use publication::Publication;
 use publication::Snapshot;
+use rem::daemon::web::job_view;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::VecDeque;
@@ -53,19 +54,20 @@ const PUT_TIMEOUT: Duration = Duration::from_secs(2);
 /// The longest event text, in characters (a worker's error message can be long).
 const MAX_TEXT: usize = 300;
 
-/// The key of the page's data.
+/// The key of the page's data (REM's page reads it: [`job_view::view_key`]).
 pub fn json_key(job: &str) -> String {
-    format!("{job}.web.json")
+    job_view::view_key(job)
 }
 
-/// The key of the page's image.
+/// The key of the page's image ([`job_view::image_key`]).
 pub fn png_key(job: &str) -> String {
-    format!("{job}.web.png")
+    job_view::image_key(job)
 }
 
-/// The key of the job's other picture `name` (REM's page offers it beside the image).
+/// The key of the job's other picture `name` (REM's page offers it beside the image:
+/// [`job_view::view_image_key`]).
 pub fn view_key(job: &str, name: &str) -> String {
-    format!("{job}.web.{name}.png")
+    job_view::view_image_key(job, name)
 }
 
 /// One line of the job's history.

@@ -94,6 +94,8 @@ impl Publication {
         last: bool,
         max_bytes: usize,
     ) {
+        // A name REM's page would not serve is a mistake of this program's.
+        debug_assert!(rem::daemon::web::job_view::is_view_name(name), "{name}");
         let snapshot = Snapshot::of(film, last, max_bytes);
         self.views.push((name, caption.to_string(), snapshot));
     }
