@@ -24,6 +24,9 @@ bigscene-long  the same at 1M triangles, 1024x1024 and 256 samples: long enough 
 chaos      eight detached jobs of three users while containers are killed, frozen, cut off
            and restarted (deploy/bench/chaos.py): every job finished and byte-identical,
            nothing left running, and the table of faults, moves and time lost.
+shares     three users' staggered jobs on the six workstations (deploy/bench/shares.py): each
+           job's wait, run time and slots over time, and each user's slot-seconds against the
+           fair share (`sunray bench shares` writes results/shares.md and shares.png).
 upgrade    a rolling upgrade (deploy/bench/upgrade.py): while a long job runs, ws1..ws6 are
            replaced one at a time by containers of a newly built image announcing a newer
            protocol; the job finishes byte-identical, each old daemon says once per upgraded
@@ -380,6 +383,23 @@ def rolling_upgrade():
     return table
 
 
+def shares():
+    import shares as scenario
+    farm = Farm("sunraybench6", os.path.join(DEPLOY, "docker-compose.yml"),
+                {"SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]})
+    res = os.environ.get("SHARES_RES", "96x128")
+    table = scenario.run(farm, WORK, res, os.environ.get("SHARES_LINE_MS", "150"),
+                         float(os.environ.get("SHARES_POLL", "0.5")))
+    # The timeline is kept with the report: its figures are computed from it.
+    timeline = os.path.join(RESULTS, "shares.json")
+    with open(timeline, "w") as f:
+        json.dump(table, f)
+    sunray = os.path.join(os.environ.get("CARGO_TARGET_DIR", "target"), "release", "sunray")
+    subprocess.run([sunray, "bench", "shares", "--input", timeline, "--out-dir", RESULTS],
+                   check=True)
+    return {"passed": table["passed"], "differ": table["differ"], "resolution": res}
+
+
 def hetero():
     scale = {"WS_CPUS_FAST": "0.5", "WS_CPUS_MEDIUM": "0.25", "WS_CPUS_SLOW": "0.125",
              "SUNRAY_SCENES": os.environ["SUNRAY_SCENES"]}
@@ -419,7 +439,7 @@ def main():
             with open(seed) as f:
                 data = json.load(f)
             break
-    if any(not name.startswith("bigscene") and name not in ("chaos", "upgrade")
+    if any(not name.startswith("bigscene") and name not in ("chaos", "upgrade", "shares")
            for name in which):
         # The mount6 runs' settings (bigscene keeps its own).
         data["settings"] = {"resolution": RES, "samples": SAMPLES or "default"}
@@ -429,10 +449,10 @@ def main():
         data[name] = {"scaling": scaling, "hetero": hetero, "fault": fault,
                       "failover": failover, "bigscene": bigscene,
                       "bigscene-long": bigscene_long, "chaos": chaos_soak,
-                      "upgrade": rolling_upgrade}[name]()
+                      "upgrade": rolling_upgrade, "shares": shares}[name]()
         with open(path, "w") as f:
             json.dump(data, f, indent=1, default=str)
-        if name in ("chaos", "upgrade") and not data[name]["passed"]:
+        if name in ("chaos", "upgrade", "shares") and not data[name]["passed"]:
             raise SystemExit(f"{name}: something was lost or left (see the table above)")
     print(f"raw results in {path}")
 

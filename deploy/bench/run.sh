@@ -7,6 +7,7 @@
 #   deploy/bench/run.sh bigscene         # 1M and 4M triangles, first and cached submit
 #   deploy/bench/run.sh chaos            # eight jobs of three users through 30 faults
 #   deploy/bench/run.sh upgrade          # every remd replaced, one at a time, mid-job
+#   deploy/bench/run.sh shares           # three users' jobs sharing the farm's slots
 #
 # BENCH_RES (default 512x512) and BENCH_SAMPLES set the render; SKIP_IMAGE=1 uses the
 # image as it is; SUNRAY_SCENES is the folder holding mount6.nff (default: one generated

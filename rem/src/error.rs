@@ -131,6 +131,12 @@ impl Error {
         self.code() == Code::Aborted
     }
 
+    /// True when a limit refused the request for now (`RESOURCE_EXHAUSTED`): every render
+    /// slot held, say; the same request may succeed later.
+    pub fn is_exhausted(&self) -> bool {
+        self.code() == Code::ResourceExhausted
+    }
+
     /// True when the daemon is gone: no answer ([`is_transport`](Self::is_transport)) or the
     /// relay stream closed.
     pub fn is_connection_lost(&self) -> bool {

@@ -10,6 +10,8 @@
 //! - [`memory`]: peak memory of `sunray render` per triangle, old builds against new.
 //! - [`to_error`]: time to reach an error with stratified, Sobol and adaptive sampling and
 //!   POV-Ray's adaptive antialiasing ([`pov_aa`]).
+//! - [`shares`]: a farm three users share (the compose cluster's timeline): waits, run
+//!   times, slots over time and each user's share against the fair one.
 
 pub mod accuracy;
 pub mod features;
@@ -18,6 +20,7 @@ pub mod memory;
 pub mod plot;
 pub mod pov_aa;
 pub mod precision;
+pub mod shares;
 pub mod to_error;
 
 use crate::accel::{Accel, AccelKind, AccelOptions};

@@ -47,20 +47,30 @@ impl LoopbackCluster {
     /// [`LoopbackCluster::start`], calling `prepare(name, state_dir)` before each daemon
     /// starts (to mount a file system at a part of its state directory, say).
     pub fn start_with(n: usize, prepare: impl Fn(&str, &Path)) -> LoopbackCluster {
-        LoopbackCluster::start_inner(n, false, SUSPECT_MS, prepare)
+        LoopbackCluster::start_inner(n, false, SUSPECT_MS, prepare, &[])
+    }
+
+    /// [`LoopbackCluster::start`], every daemon with these remd flags too (`--slots 1`).
+    pub fn start_with_flags(n: usize, extra: &[&str]) -> LoopbackCluster {
+        LoopbackCluster::start_inner(n, false, SUSPECT_MS, |_, _| {}, extra)
     }
 
     /// [`LoopbackCluster::start`] with daemons that suspect a member that fails a probe for
     /// `suspect_ms` before they declare it lost (a farm tuned against false alarms: a
     /// stopped host counts as live that long).
     pub fn start_suspecting_for(n: usize, suspect_ms: u64) -> LoopbackCluster {
-        LoopbackCluster::start_inner(n, false, suspect_ms, |_, _| {})
+        LoopbackCluster::start_inner(n, false, suspect_ms, |_, _| {}, &[])
     }
 
     /// [`LoopbackCluster::start`], daemon `a` serving its web view too (`--web`, on a port the
     /// OS picks; [`LoopbackCluster::web_url`]).
     pub fn start_web(n: usize) -> LoopbackCluster {
-        LoopbackCluster::start_inner(n, true, SUSPECT_MS, |_, _| {})
+        LoopbackCluster::start_web_with(n, &[])
+    }
+
+    /// [`LoopbackCluster::start_web`], every daemon with these remd flags too.
+    pub fn start_web_with(n: usize, extra: &[&str]) -> LoopbackCluster {
+        LoopbackCluster::start_inner(n, true, SUSPECT_MS, |_, _| {}, extra)
     }
 
     /// The web view's URL of daemon `a` (started by [`LoopbackCluster::start_web`]).
@@ -73,13 +83,14 @@ impl LoopbackCluster {
         web: bool,
         suspect_ms: u64,
         prepare: impl Fn(&str, &Path),
+        extra: &[&str],
     ) -> LoopbackCluster {
         let mut c = LoopbackCluster(RemdProcesses::new(remd_bin(), SECRET));
         for i in 0..n {
             let name = rem::testing::daemon_name(i);
             let join = c.daemons.first().map(|d| d.addr.clone());
             prepare(&name, &c.state_dir(&name));
-            let d = c.start_daemon(&name, join.as_deref(), web && i == 0, suspect_ms, &[]);
+            let d = c.start_daemon(&name, join.as_deref(), web && i == 0, suspect_ms, extra);
             c.daemons.push(d);
         }
         c.converge(n);
@@ -194,6 +205,29 @@ impl LoopbackCluster {
                 String::from_utf8_lossy(&logs.stderr)
             )
         })
+    }
+
+    /// The farm's queue, through daemon `a`.
+    pub fn queue(&self) -> rem::wire::proto::QueueReply {
+        self.with_client(|client| async move { client.queue().await.unwrap() })
+    }
+
+    /// A client-key file of `user` (made from the cluster's secret on first use): commands
+    /// given it act as that user alone.
+    pub fn key_file(&self, user: &str) -> std::path::PathBuf {
+        let path = self.dir.path().join(format!("{user}.key"));
+        if !path.exists() {
+            let secret = rem::Secret::new(SECRET).unwrap();
+            std::fs::write(&path, secret.client_key_line(user).unwrap()).unwrap();
+        }
+        path
+    }
+
+    /// A `sunray` command acting as `user` (its client key), talking to daemon `via`.
+    pub fn sunray_as(&self, user: &str, via: &str) -> Command {
+        let mut c = self.sunray_via(via);
+        c.env("REM_SECRET_FILE", self.key_file(user));
+        c
     }
 
     /// The REM processes of the cluster (to check that nothing was started).

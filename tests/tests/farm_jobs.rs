@@ -9,7 +9,8 @@
 //! A scene submitted again unchanged is not compiled again ([`remembered_scenes`]). The host
 //! keeping the copy of the job's checkpoint stopped holds up no line ([`frozen_replica`]); a
 //! full state directory on the controller's host loses nothing ([`full_disk`]). Every daemon
-//! restarted in turn on a newer protocol, the job finishes ([`rolling_upgrade`]).
+//! restarted in turn on a newer protocol, the job finishes ([`rolling_upgrade`]). Users share
+//! the farm's slots by priority and fair shares, and a full farm queues ([`shared_farm`]).
 //!
 //! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
 //! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
@@ -34,6 +35,8 @@ mod full_disk;
 mod remembered_scenes;
 #[path = "farm_jobs/rolling_upgrade.rs"]
 mod rolling_upgrade;
+#[path = "farm_jobs/shared_farm.rs"]
+mod shared_farm;
 
 const FLAGS: [&str; 2] = ["--resolution", "64x96"];
 const LINES: u64 = 96;

@@ -136,6 +136,10 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
     let a = &hosts["hosts"][0];
     assert_eq!(a["name"], "a");
     assert!(a["cores"].as_u64().unwrap() >= 1 && a["mem_total_bytes"].as_u64().unwrap() > 0);
+    assert_eq!(
+        a["slots"], a["cores"],
+        "a host lends its cores by default: {a}"
+    );
 
     // alice's job, followed through the API to its end.
     submit(&cluster, "web1", "64x96", 20);
@@ -154,6 +158,12 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
         (Some("alice"), Some(96))
     );
     assert!(row["title"].as_str().unwrap().contains("mount6"), "{row}");
+    // Its place in the farm's queue: it runs (no place), at the default priority.
+    assert_eq!(
+        (row["priority"].as_u64(), &row["queue_position"]),
+        (Some(50), &serde_json::Value::Null),
+        "{row}"
+    );
 
     // bob sees nothing of it, not even that it exists; the admin sees it.
     assert!(listed(&web.get("/api/jobs", &bob).json(), "web1").is_none());
@@ -352,7 +362,8 @@ fn the_page_shows_hosts_a_job_filling_in_and_a_lost_worker_host() {
         eprintln!("skipped: no chromium here (apt-get install chromium chromium-driver)");
         return;
     };
-    let mut cluster = LoopbackCluster::start_web(3);
+    // One render slot a host: a third job waits in the farm's queue (below).
+    let mut cluster = LoopbackCluster::start_web_with(3, &["--slots", "1"]);
     submit(&cluster, "film", "128x96", 250);
     let page = Page::open(browser, &cluster.web_url());
     page.wait_for(
@@ -447,4 +458,15 @@ fn the_page_shows_hosts_a_job_filling_in_and_a_lost_worker_host() {
     let dir = tempfile::tempdir().unwrap();
     let (want, _) = reference(dir.path(), &spd("mount6"), &["--resolution", "128x96"]);
     assert!(got == image::load_from_memory(&want).unwrap().to_rgb8());
+
+    // Two hosts are left, one slot each: two jobs hold them, the third waits, first in line.
+    for job in ["busy1", "busy2", "waits"] {
+        submit(&cluster, job, "64x96", 400);
+    }
+    page.wait_for(
+        "document.querySelector('#jobs tr[data-job=\"waits\"]')?.dataset.queue === '1' && document.querySelector('#jobs tr[data-job=\"waits\"] td:nth-child(4)').textContent === 'queued #1'",
+        "the third job queued, first in line",
+        Duration::from_secs(30),
+    );
+    page.screenshot("web-queued.png");
 }

@@ -48,6 +48,12 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The farm's queue: every user's active jobs, the slots each holds and may hold, and
+    /// the place of those waiting.
+    Queue {
+        #[arg(long)]
+        json: bool,
+    },
     /// The processes REM runs on the live hosts.
     Ps {
         #[arg(long)]
@@ -171,6 +177,7 @@ async fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Hosts { json } => hosts(&client, out, json).await?,
         Command::Ps { json } => ps(&client, out, json).await?,
+        Command::Queue { json } => queue(&client, out, json).await?,
         Command::Spawn(args) => return spawn(&client, out, args).await,
         Command::Kill { proc_id } => {
             let id: ProcId = proc_id.parse()?;
@@ -237,6 +244,45 @@ async fn hosts(client: &RemClient, out: &mut impl Write, json: bool) -> anyhow::
     Ok(())
 }
 
+/// `rem queue`.
+async fn queue(client: &RemClient, out: &mut impl Write, json: bool) -> anyhow::Result<()> {
+    let q = client.queue().await?;
+    if json {
+        let jobs: Vec<_> = q
+            .jobs
+            .iter()
+            .map(|j| {
+                json!({"id": j.id, "user": j.user, "state": j.state, "priority": j.priority,
+                "slots": j.slots, "slots_wanted": j.slots_wanted, "share": j.share,
+                "queue_position": (j.queue_position > 0).then_some(j.queue_position),
+                "created_unix_ms": j.created_unix_ms, "title": j.title})
+            })
+            .collect();
+        let v = json!({"slots": q.slots, "user_slots": (q.user_slots > 0).then_some(q.user_slots),
+            "jobs": jobs});
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "{:<24} {:<12} {:<11} {:>4} {:>6} {:>6} {:>6} {:>5}  title",
+        "JOB", "USER", "STATE", "PRIO", "SLOTS", "SHARE", "WANTS", "QUEUE"
+    )?;
+    for j in &q.jobs {
+        let place = match j.queue_position {
+            0 => "-".to_string(),
+            n => n.to_string(),
+        };
+        writeln!(
+            out,
+            "{:<24} {:<12} {:<11} {:>4} {:>6} {:>6} {:>6} {:>5}  {}",
+            j.id, j.user, j.state, j.priority, j.slots, j.share, j.slots_wanted, place, j.title
+        )?;
+    }
+    writeln!(out, "{} slots lent by the live hosts", q.slots)?;
+    Ok(())
+}
+
 /// `rem ps`.
 async fn ps(client: &RemClient, out: &mut impl Write, json: bool) -> anyhow::Result<()> {
     let procs = client.ps().await?;
@@ -298,8 +344,7 @@ async fn spawn(client: &RemClient, out: &mut impl Write, a: SpawnArgs) -> anyhow
         allow_same_host: a.allow_same_host,
         job: a.job,
         owner: relay.as_ref().map(|r| r.id().clone()),
-        host: None,
-        avoid_hosts: Vec::new(),
+        ..SpawnRequest::default()
     };
     let spawned = client.spawn(req).await?;
     if a.json {
@@ -388,7 +433,8 @@ fn host_json(h: &rem::HostInfo) -> serde_json::Value {
     json!({
         "name": h.name, "addr": h.addr, "cores": l.cores, "capacity": l.capacity, "load_avg_1m": l.load_avg_1m,
         "load_per_core": l.load_per_core, "cpu_busy": l.cpu_busy, "mem_free_bytes": l.mem_free_bytes,
-        "mem_total_bytes": l.mem_total_bytes, "rem_processes": l.rem_processes, "alive": h.alive,
+        "mem_total_bytes": l.mem_total_bytes, "rem_processes": l.rem_processes,
+        "slots": l.slots, "slots_used": l.slots_used, "alive": h.alive,
         "accepting": h.accepting,
         // The protocol the host announces (1: a remd from before it was announced).
         "protocol": h.load.map(|l| rem::wire::protocol::announced(l.protocol)),
@@ -408,8 +454,17 @@ fn proc_json(p: &rem::ProcessInfo) -> serde_json::Value {
 fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result<()> {
     writeln!(
         out,
-        "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:<9} {:>10} PROTOCOL",
-        "NAME", "ADDRESS", "CPUS", "LOAD", "BUSY%", "MEM FREE", "PROCS", "STATE", "LAST HEARD"
+        "{:<14} {:<22} {:>5} {:>6} {:>6} {:>10} {:>5} {:>7} {:<9} {:>10} PROTOCOL",
+        "NAME",
+        "ADDRESS",
+        "CPUS",
+        "LOAD",
+        "BUSY%",
+        "MEM FREE",
+        "PROCS",
+        "SLOTS",
+        "STATE",
+        "LAST HEARD"
     )?;
     for h in hosts {
         let l = h.load.unwrap_or_default();
@@ -430,7 +485,7 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
         };
         writeln!(
             out,
-            "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:<9} {:>10} {:>8}",
+            "{:<14} {:<22} {:>5} {:>6.2} {:>6.1} {:>10} {:>5} {:>7} {:<9} {:>10} {:>8}",
             h.name,
             h.addr,
             cpus(&l),
@@ -438,6 +493,7 @@ fn print_hosts(out: &mut impl Write, hosts: &[rem::HostInfo]) -> std::io::Result
             l.cpu_busy * 100.0,
             mib(l.mem_free_bytes),
             l.rem_processes,
+            format!("{}/{}", l.slots_used, l.slots),
             state,
             heard,
             protocol

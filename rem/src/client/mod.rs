@@ -6,6 +6,7 @@
 //! - [`rem_client`]: [`RemClient`](rem_client::RemClient), one connection to a remd
 //!   (spawning, killing, listing, checkpoints, job records, chunks).
 //! - [`relay`]: [`Relay`](relay::Relay), the message stream of a job owner or a process.
+//! - [`spawn`]: what a spawn asks for ([`SpawnRequest`](spawn::SpawnRequest)) and starts.
 //! - `rpc`: the generated client with the credential attached, under both.
 //! - [`blob`]: large byte strings put and fetched as lists of chunks.
 
@@ -13,3 +14,4 @@ pub mod blob;
 pub mod relay;
 pub mod rem_client;
 pub(crate) mod rpc;
+pub mod spawn;

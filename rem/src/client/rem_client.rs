@@ -1,8 +1,6 @@
 //! `RemClient`: a connection to a (usually the local) remd, for the `rem` command, job
 //! owners and spawned processes.
 
-use std::collections::BTreeMap;
-
 use crate::auth::secret::{Secret, SendSecret};
 use crate::client::relay::Relay;
 use crate::error::{Error, Result};
@@ -12,6 +10,7 @@ use crate::wire::transport::{self, ClientTls};
 use crate::wire::{env, DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, FRAME_OVERHEAD};
 
 pub use crate::client::rpc::RemRpc;
+pub use crate::client::spawn::{Job, SpawnRequest, Spawned};
 
 /// Where and how to connect.
 #[derive(Clone, Debug)]
@@ -88,90 +87,6 @@ impl ConnectOptions {
         }
         Ok(opts)
     }
-}
-
-/// What to spawn. `count` defaults to 1.
-#[derive(Clone, Debug)]
-pub struct SpawnRequest {
-    /// Absolute path; must be on the allow-list of every chosen host.
-    pub program: String,
-    /// Its arguments.
-    pub args: Vec<String>,
-    /// Environment variables added to what REM gives every process (`REM_*`).
-    pub env: BTreeMap<String, String>,
-    /// Nice value applied with setpriority (-20..19); `None` = inherit remd's.
-    pub nice: Option<i32>,
-    /// How many processes, on the least-loaded hosts.
-    pub count: u32,
-    /// Allow more than one process per host.
-    pub allow_same_host: bool,
-    /// Job id; `None` = the daemon makes one.
-    pub job: Option<String>,
-    /// Who receives Started / Exited / Lost events (a relay id from `RemClient::attach`).
-    pub owner: Option<ProcId>,
-    /// Place every process on this host only; `None` = the least-loaded hosts.
-    pub host: Option<String>,
-    /// Hosts left out of the placement (where the caller's other processes run).
-    pub avoid_hosts: Vec<String>,
-}
-
-impl SpawnRequest {
-    /// The request as sent.
-    pub fn to_proto(&self) -> proto::SpawnRequest {
-        proto::SpawnRequest {
-            program: self.program.clone(),
-            args: self.args.clone(),
-            env: self.env.clone().into_iter().collect(),
-            nice: self.nice,
-            count: self.count,
-            allow_same_host: self.allow_same_host,
-            job: self.job.clone().unwrap_or_default(),
-            owner: self
-                .owner
-                .as_ref()
-                .map(|o| o.to_string())
-                .unwrap_or_default(),
-            host: self.host.clone().unwrap_or_default(),
-            avoid_hosts: self.avoid_hosts.clone(),
-        }
-    }
-}
-
-impl Default for SpawnRequest {
-    fn default() -> Self {
-        SpawnRequest {
-            program: String::new(),
-            args: Vec::new(),
-            env: BTreeMap::new(),
-            nice: None,
-            count: 1,
-            allow_same_host: false,
-            job: None,
-            owner: None,
-            host: None,
-            avoid_hosts: Vec::new(),
-        }
-    }
-}
-
-/// One started process.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Spawned {
-    /// Its REM id (`HOST/NUMBER`).
-    pub proc_id: ProcId,
-    /// The host it runs on.
-    pub host: String,
-    /// OS process id on its host.
-    pub pid: u32,
-}
-
-/// The result of a spawn.
-#[derive(Clone, Debug)]
-pub struct Job {
-    /// The job id (given, or made up by the daemon).
-    pub id: String,
-    /// Its processes, one per placement.
-    pub processes: Vec<Spawned>,
 }
 
 /// A kept checkpoint.
@@ -282,6 +197,7 @@ impl RemClient {
                     proc_id,
                     host: p.host,
                     pid: p.pid,
+                    slots: p.slots,
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -430,6 +346,12 @@ impl RemClient {
             .list_jobs(proto::ListJobsRequest {})
             .await?;
         Ok(r.into_inner().records)
+    }
+
+    /// The farm's queue: every user's active jobs with their shares of the slots.
+    pub async fn queue(&self) -> Result<proto::QueueReply> {
+        let r = self.rpc.clone().queue(proto::QueueRequest {}).await?;
+        Ok(r.into_inner())
     }
 
     /// Stores a new job (epoch 1) and starts its controller, `record.controller_spawn`, on

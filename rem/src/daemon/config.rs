@@ -22,6 +22,8 @@
 //! | `--suspect-ms` | `REMD_SUSPECT_MS` | `suspect_ms` | 400 |
 //! | `--max-message` | `REMD_MAX_MESSAGE` | `max_message` | 16 MiB |
 //! | `--kill-grace-ms` | `REMD_KILL_GRACE_MS` | `kill_grace_ms` | 2000 |
+//! | `--slots` | `REMD_SLOTS` | `slots` | its cores (a cgroup's CPU limit, rounded up) |
+//! | `--owner-first` | `REMD_OWNER_FIRST` | `owner_first` | false: lend every slot, whatever else runs |
 //! | `--tls-cert`, `--tls-key`, `--tls-ca`, `--tls-domain` | `REMD_TLS_*` | `tls_*` | no TLS |
 
 use std::net::SocketAddr;
@@ -38,6 +40,9 @@ use crate::error::{Error, Result};
 use crate::membership::swim::SwimConfig;
 use crate::wire::protocol::PROTOCOL;
 use crate::wire::transport::ServerTlsFiles;
+
+/// The most render slots one host may lend.
+pub const MAX_SLOTS: u32 = 4096;
 
 pub use crate::wire::{DEFAULT_ADDR, DEFAULT_MAX_MESSAGE, DEFAULT_PORT};
 
@@ -99,6 +104,11 @@ pub struct DaemonOptions {
     pub max_message: Option<usize>,
     /// Milliseconds between SIGTERM and SIGKILL when a process is killed [default: 2000].
     pub kill_grace_ms: Option<u64>,
+    /// Render slots (threads) this host lends the farm [default: its cores, or its cgroup's
+    /// CPU limit rounded up].
+    pub slots: Option<u32>,
+    /// Lend fewer slots while the host's own (non-farm) work keeps its CPUs busy.
+    pub owner_first: Option<bool>,
     /// PEM certificate to serve TLS with (with --tls-key; plain HTTP/2 without).
     pub tls_cert: Option<PathBuf>,
     /// PEM private key of --tls-cert.
@@ -150,6 +160,10 @@ pub struct DaemonSettings {
     pub queue: usize,
     /// Time between SIGTERM and SIGKILL when a process is killed.
     pub kill_grace: Duration,
+    /// Render slots lent (`None`: the host's cores, or its cgroup's limit rounded up).
+    pub slots: Option<u32>,
+    /// Lend fewer slots while the host's own work keeps its CPUs busy.
+    pub owner_first: bool,
     /// TLS certificate and key to serve with (`None`: plain HTTP/2).
     pub tls: Option<ServerTlsFiles>,
     /// The REM protocol announced to peers [default: this build's].
@@ -188,6 +202,8 @@ impl DaemonSettings {
             max_message: DEFAULT_MAX_MESSAGE,
             queue: 4096,
             kill_grace: Duration::from_secs(2),
+            slots: None,
+            owner_first: false,
             protocol: PROTOCOL,
             tls: None,
         }
@@ -270,6 +286,8 @@ impl DaemonSettings {
         if let Some(ms) = args.kill_grace_ms.or(file.kill_grace_ms) {
             s.kill_grace = Duration::from_millis(ms);
         }
+        s.slots = checked_slots(args.slots.or(file.slots))?;
+        s.owner_first = args.owner_first.or(file.owner_first).unwrap_or(false);
         s.protocol = announced_protocol(args.announce_protocol)?;
         let cert = args.tls_cert.or(file.tls_cert);
         let key = args.tls_key.or(file.tls_key);
@@ -288,6 +306,16 @@ impl DaemonSettings {
             }
         };
         Ok(s)
+    }
+}
+
+/// The slots to lend, if set: at most [`MAX_SLOTS`].
+fn checked_slots(slots: Option<u32>) -> Result<Option<u32>> {
+    match slots {
+        Some(n) if n > MAX_SLOTS => Err(Error::Config(format!(
+            "slots {n} is outside 0..={MAX_SLOTS}"
+        ))),
+        s => Ok(s),
     }
 }
 

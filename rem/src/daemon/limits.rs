@@ -50,6 +50,9 @@ pub struct Limits {
     /// Bytes the host's process cache (`REM_CACHE_DIR`: what processes can rebuild, such as
     /// SunRay's accelerators) may hold; the least recently used files go first.
     pub process_cache_bytes: u64,
+    /// Render slots one user's jobs may hold in the whole farm (the queue's cap; `None`: no
+    /// cap). Set it alike on every daemon: whichever answers `Queue` applies its own.
+    pub user_slots: Option<u32>,
 }
 
 impl Default for Limits {
@@ -73,6 +76,7 @@ impl Default for Limits {
             chunk_bytes: 4 << 20,
             chunk_cache_bytes: 4 << 30,
             process_cache_bytes: 2 << 30,
+            user_slots: None,
         }
     }
 }
@@ -83,7 +87,7 @@ pub const ITEM_OVERHEAD: usize = 256;
 
 impl Limits {
     /// The names of the limits, as `--limit NAME=VALUE` and the `[limits]` table take them.
-    pub const NAMES: [&'static str; 18] = [
+    pub const NAMES: [&'static str; 19] = [
         "spawn_count",
         "host_processes",
         "mailbox_bytes",
@@ -102,6 +106,7 @@ impl Limits {
         "chunk_bytes",
         "chunk_cache_bytes",
         "process_cache_bytes",
+        "user_slots",
     ];
 
     /// Sets the limit `name` from `value`: a whole number, for bytes optionally followed by
@@ -133,6 +138,10 @@ impl Limits {
             "chunk_bytes" => self.chunk_bytes = small(n)?,
             "chunk_cache_bytes" => self.chunk_cache_bytes = n,
             "process_cache_bytes" => self.process_cache_bytes = n,
+            "user_slots" => {
+                self.user_slots =
+                    Some(u32::try_from(n).map_err(|_| format!("limit {name}: too large"))?)
+            }
             _ => {
                 return Err(format!(
                     "unknown limit {name:?} (known: {})",

@@ -5,7 +5,8 @@
 //!
 //! - [`config`]: remd's settings (TOML, environment, and what the `remd` binary's flags give).
 //! - [`limits`]: the daemon's hard limits; [`policy`]: which programs (and first arguments)
-//!   and environment names may be spawned; `placement`: ranking hosts by load per core.
+//!   and environment names may be spawned; `placement`: ranking hosts by load per core and
+//!   free slots; [`shares`]: the queue's rule (priorities, fair shares between users).
 //! - `ops`: the daemon's shared state and operations (processes, records, chunk sharing,
 //!   jobs the farm keeps running).
 //! - `relay`: mailboxes, daemon-to-daemon links, byte budgets, job owners and `Lost` reports.
@@ -25,4 +26,5 @@ pub mod policy;
 pub(crate) mod process;
 pub(crate) mod relay;
 pub mod server;
+pub mod shares;
 pub mod web;

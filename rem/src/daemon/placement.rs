@@ -4,6 +4,10 @@
 //! N lowest distinct hosts are taken; with it, each pick adds `1 / capacity` to the chosen
 //! host's figure (the process it will run, on the CPUs it may use) before the next pick. Fewer eligible hosts than N is an
 //! error.
+//!
+//! A spawn that holds render slots ([`SlotAsk`]) goes only to hosts with at least its least
+//! free, each pick taking what it will hold from the host's free slots; `up_to` places as
+//! many as fit (at least one) rather than all or none.
 
 use crate::error::Error;
 
@@ -15,6 +19,88 @@ pub struct Candidate {
     pub cores: u32,
     /// CPUs the host may use (a cgroup's limit, fractional); 0 when unknown (then `cores`).
     pub capacity: f64,
+    /// Render slots it lends and has free now.
+    pub free_slots: u32,
+    /// Render slots it lends.
+    pub lent_slots: u32,
+}
+
+/// The render slots each process of a spawn holds: at least `min` (0: none, the spawn is not
+/// counted), at most `max` (0: all that are free).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlotAsk {
+    pub min: u32,
+    pub max: u32,
+    /// Place as many as fit, at least one, rather than all or none.
+    pub up_to: bool,
+}
+
+/// As [`place`], for processes holding slots (`ask.min > 0`): only hosts with `ask.min` free
+/// are taken, and each pick holds what it will take there (`ask.max`, or all that is free).
+pub fn place_with_slots(
+    candidates: &[Candidate],
+    count: u32,
+    allow_same_host: bool,
+    ask: SlotAsk,
+    max: u32,
+) -> Result<Vec<String>, Error> {
+    if ask.min == 0 {
+        return place(candidates, count, allow_same_host, max);
+    }
+    if count == 0 || count > max {
+        return Err(Error::Invalid(format!(
+            "count {count} is outside 1..={max}"
+        )));
+    }
+    let mut free: Vec<Candidate> = candidates
+        .iter()
+        .filter(|c| c.free_slots >= ask.min)
+        .cloned()
+        .collect();
+    let mut chosen = Vec::new();
+    while (chosen.len() as u32) < count {
+        let picks = place(&free, 1, true, max).ok();
+        let Some(host) = picks.and_then(|p| p.into_iter().next()) else {
+            break;
+        };
+        chosen.push(host.clone());
+        let Some(c) = free.iter_mut().find(|c| c.name == host) else {
+            break;
+        };
+        let take = if ask.max == 0 {
+            c.free_slots
+        } else {
+            ask.max.min(c.free_slots)
+        };
+        c.free_slots -= take;
+        c.load_per_core += f64::from(take) / c.cpus();
+        if !allow_same_host || c.free_slots < ask.min {
+            free.retain(|c| c.name != host);
+        }
+    }
+    let short = (chosen.len() as u32) < count;
+    if chosen.is_empty() || (short && !ask.up_to) {
+        let with = candidates
+            .iter()
+            .filter(|c| c.free_slots >= ask.min)
+            .count();
+        let slots = |n: u32| {
+            if n == 1 {
+                "1 slot".to_string()
+            } else {
+                format!("{n} slots")
+            }
+        };
+        return Err(Error::Limit(format!(
+            "{count} processes of at least {}: {} fit on the {} live hosts ({with} with {} \
+             free); the rest of the farm's slots are held",
+            slots(ask.min),
+            chosen.len(),
+            candidates.len(),
+            slots(ask.min)
+        )));
+    }
+    Ok(chosen)
 }
 
 impl Candidate {
@@ -92,7 +178,52 @@ mod tests {
             load_per_core: lpc,
             cores,
             capacity: 0.0,
+            free_slots: cores,
+            lent_slots: cores,
         }
+    }
+
+    #[test]
+    fn processes_with_slots_go_where_slots_are_free() {
+        let mut a = c("a", 0.0, 4);
+        a.free_slots = 1;
+        let mut b = c("b", 0.5, 4);
+        b.free_slots = 4;
+        let full = Candidate {
+            free_slots: 0,
+            ..c("f", 0.0, 4)
+        };
+        let hosts = [a, b, full];
+        let ask = |min, max, up_to| SlotAsk { min, max, up_to };
+        // One per host: a (least loaded, 1 free) and b; f has none.
+        assert_eq!(
+            place_with_slots(&hosts, 2, false, ask(1, 2, false), 256).unwrap(),
+            ["a", "b"]
+        );
+        let err = place_with_slots(&hosts, 3, false, ask(1, 2, false), 256).unwrap_err();
+        assert!(matches!(err, Error::Limit(_)), "{err}");
+        assert_eq!(
+            place_with_slots(&hosts, 3, false, ask(1, 2, true), 256).unwrap(),
+            ["a", "b"]
+        );
+        // Needing 2 each, only b fits; with same host, b twice (2 + 2 of its 4).
+        assert_eq!(
+            place_with_slots(&hosts, 3, true, ask(2, 2, true), 256).unwrap(),
+            ["b", "b"]
+        );
+        // Taking all that is free, b fits once.
+        assert_eq!(
+            place_with_slots(&hosts, 3, true, ask(2, 0, true), 256).unwrap(),
+            ["b"]
+        );
+        assert!(place_with_slots(&hosts, 1, false, ask(5, 0, true), 256).is_err());
+        // Not counted: as before.
+        assert_eq!(
+            place_with_slots(&hosts, 3, false, ask(0, 0, false), 256)
+                .unwrap()
+                .len(),
+            3
+        );
     }
 
     #[test]

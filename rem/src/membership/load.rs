@@ -15,6 +15,9 @@
 //! burst (a controller reading its scene) or a second's starvation (the host's cores taken by
 //! something outside the group) does not reorder the hosts.
 //! `load_avg_1m` stays the host's figure, for information.
+//!
+//! Beside the load, the host's render slots ([`Slots`]): how many threads it lends the farm
+//! (`remd --slots`, by default its `cores` as reported here) and how many its processes hold.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -25,6 +28,7 @@ use sysinfo::{MemoryRefreshKind, System};
 use tokio::sync::watch;
 
 use crate::membership::cgroup::{CpuGroup, UsageSample};
+use crate::membership::slots::{FarmCpu, OwnerLoad, Slots};
 use crate::wire::proto;
 
 /// One sysinfo sample.
@@ -46,28 +50,50 @@ pub struct Sample {
 pub struct LoadGauge {
     sample: watch::Receiver<Sample>,
     rem_processes: Arc<AtomicU32>,
+    slots: Arc<Slots>,
 }
 
 impl LoadGauge {
     /// Starts sampling every `interval` on a thread of its own (sysinfo calls block);
-    /// the thread ends when every gauge is dropped.
-    pub fn start(interval: Duration) -> Self {
+    /// the thread ends when every gauge is dropped. The host lends `slots` render slots
+    /// (`None`: its cores as reported); with `owner_first`, fewer while its owner's own work
+    /// keeps its CPUs busy ([`crate::membership::slots`]).
+    pub fn start(interval: Duration, slots: Option<u32>, owner_first: bool) -> Self {
         let mut meter = Meter::new();
         let first = meter.measure();
+        let lent = slots.unwrap_or_else(|| to_load(&first, 0).cores);
+        let slots = Arc::new(Slots::new(lent));
         let (tx, rx) = watch::channel(first);
+        let lending = owner_first.then(|| slots.clone());
         std::thread::Builder::new()
             .name("remd-load".into())
-            .spawn(move || loop {
-                std::thread::sleep(interval);
-                if tx.send(meter.measure()).is_err() {
-                    break;
+            .spawn(move || {
+                let (mut farm, mut owner) = (FarmCpu::default(), OwnerLoad::default());
+                loop {
+                    std::thread::sleep(interval);
+                    let sample = meter.measure();
+                    if let Some(slots) = &lending {
+                        let load = to_load(&sample, 0);
+                        let busy = load.cpu_busy * load.capacity;
+                        let owner_cores = owner.add(busy, farm.measure(&slots.holders()));
+                        slots.lend_beside(load.capacity, owner_cores);
+                    }
+                    if tx.send(sample).is_err() {
+                        break;
+                    }
                 }
             })
             .ok();
         LoadGauge {
             sample: rx,
             rem_processes: Arc::new(AtomicU32::new(0)),
+            slots,
         }
+    }
+
+    /// The host's render slots (the process table takes and gives them back).
+    pub fn slots(&self) -> &Arc<Slots> {
+        &self.slots
     }
 
     /// The counter the process table keeps up to date.
@@ -78,7 +104,11 @@ impl LoadGauge {
     /// The latest figures.
     pub fn current(&self) -> proto::Load {
         let s = self.sample.borrow().clone();
-        to_load(&s, self.rem_processes.load(Ordering::Relaxed))
+        proto::Load {
+            slots: self.slots.lent(),
+            slots_used: self.slots.used(),
+            ..to_load(&s, self.rem_processes.load(Ordering::Relaxed))
+        }
     }
 }
 
@@ -105,6 +135,8 @@ pub fn to_load(s: &Sample, rem_processes: u32) -> proto::Load {
         capacity,
         // What this build speaks; membership announces the configured one.
         protocol: crate::wire::protocol::PROTOCOL,
+        slots: 0,
+        slots_used: 0,
     }
 }
 
@@ -250,12 +282,19 @@ mod tests {
 
     #[test]
     fn real_sample_has_cores_and_memory() {
-        let gauge = LoadGauge::start(Duration::from_millis(50));
+        let gauge = LoadGauge::start(Duration::from_millis(50), None, false);
         let l = gauge.current();
+        assert_eq!(l.slots, l.cores, "a host lends its cores by default");
         assert!(l.cores >= 1);
         assert!(l.mem_total_bytes > 0);
         assert!(l.load_avg_1m >= 0.0);
         gauge.rem_processes().store(2, Ordering::Relaxed);
         assert_eq!(gauge.current().rem_processes, 2);
+        assert_eq!(
+            LoadGauge::start(Duration::from_secs(1), Some(7), false)
+                .current()
+                .slots,
+            7
+        );
     }
 }

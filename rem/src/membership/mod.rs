@@ -9,9 +9,11 @@
 //! - `load`: this host's load (sysinfo) and REM process count; `cgroup`: the CPU limit and
 //!   use of remd's control group (containers).
 //! - `peers`: cached, signed connections to other daemons.
+//! - [`slots`]: the render slots this host lends and its processes hold (the owner first).
 
 pub(crate) mod cgroup;
 pub(crate) mod driver;
 pub(crate) mod load;
 pub(crate) mod peers;
+pub mod slots;
 pub mod swim;

@@ -34,6 +34,9 @@ pub const STATES: [&str; 7] = [
     "interrupted",
 ];
 
+/// Highest job priority (`JobRecord.priority`).
+pub const MAX_PRIORITY: u32 = 100;
+
 /// Longest job title (`JobRecord.title`), in bytes.
 pub const MAX_TITLE: usize = 200;
 

@@ -72,6 +72,8 @@ pub mod env {
     pub const JOB_RECORD: &str = "REM_JOB_RECORD";
     /// In a job's controller started by REM: the epoch it runs at (its writes carry it).
     pub const JOB_EPOCH: &str = "REM_JOB_EPOCH";
+    /// The render slots (threads) the process holds, when it was spawned with slots.
+    pub const SLOTS: &str = "REM_SLOTS";
     /// Largest relay payload in bytes.
     pub const MAX_MESSAGE: &str = "REM_MAX_MESSAGE";
     /// The host's process cache: a folder for what a process can rebuild (see

@@ -9,6 +9,7 @@
 //! - [`jobs`]: job records kept on two hosts, fenced by epoch, per user.
 //! - [`relay`]: 100,000 messages between processes on two daemons; checkpoints.
 //! - [`security`]: secret, allow-list, size limit, malformed requests, TLS.
+//! - [`slots`]: render slots lent, held and given back; the queue's shares.
 //! - [`common`]: the harness (daemons in this process or as real processes).
 //!
 //! One module: `cargo test --release -p rem --test daemon attacks::`.
@@ -23,3 +24,4 @@ mod fuzz;
 mod jobs;
 mod relay;
 mod security;
+mod slots;

@@ -338,6 +338,8 @@ impl Sim {
             load_per_core: busy + f64::from(procs) / f64::from(cores),
             capacity: f64::from(cores),
             protocol: rem::wire::protocol::PROTOCOL,
+            slots: cores,
+            slots_used: procs.min(cores),
         }
     }
 

@@ -48,11 +48,11 @@ pub enum PlotError {
 const W: u32 = 900;
 const H: u32 = 600;
 /// The font family name the embedded font is registered under.
-const FONT: &str = "dejavu-sans";
+pub(crate) const FONT: &str = "dejavu-sans";
 static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
 /// Registers the embedded font with plotters once per process.
-fn register_font() -> Result<(), PlotError> {
+pub(crate) fn register_font() -> Result<(), PlotError> {
     static DONE: OnceLock<bool> = OnceLock::new();
     let ok = *DONE.get_or_init(|| {
         plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()
@@ -64,7 +64,7 @@ fn register_font() -> Result<(), PlotError> {
     }
 }
 
-fn draw_err<E: std::fmt::Debug>(e: E) -> PlotError {
+pub(crate) fn draw_err<E: std::fmt::Debug>(e: E) -> PlotError {
     PlotError::Draw(format!("{e:?}"))
 }
 
@@ -119,7 +119,13 @@ pub fn loglog(series: &[Series], labels: &Labels, path: &Path) -> Result<(), Plo
         draw(&root, &series, labels)?;
         root.present().map_err(draw_err)?;
     }
-    let img = image::RgbImage::from_raw(W, H, buf)
+    save_png(buf, (W, H), path)
+}
+
+/// Writes an RGB bitmap of `size` as a PNG at `path` (to a temporary name, then renamed, so a
+/// reader never sees half a picture).
+pub(crate) fn save_png(buf: Vec<u8>, (w, h): (u32, u32), path: &Path) -> Result<(), PlotError> {
+    let img = image::RgbImage::from_raw(w, h, buf)
         .ok_or_else(|| PlotError::Draw("the bitmap has the wrong size".into()))?;
     let tmp = path.with_extension("tmp.png");
     img.save(&tmp)?;

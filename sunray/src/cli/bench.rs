@@ -33,6 +33,10 @@ pub enum Which {
     /// triangle; with --against OLD, that build too, alternately; with --smooth, also on
     /// tetra's triangles with vertex normals (this program only).
     Memory,
+    /// A farm three users share: each job's wait, run time and slots over time and each
+    /// user's slot-seconds against the fair share, from --input (the timeline that
+    /// `deploy/bench/run.sh shares` records); writes --out-dir/shares.md and shares.png.
+    Shares,
 }
 
 /// The flags of `sunray bench`.
@@ -76,6 +80,9 @@ pub struct BenchArgs {
     /// accuracy: where to write accuracy.png and accuracy.md.
     #[arg(long, default_value = "bench/results")]
     pub out_dir: std::path::PathBuf,
+    /// shares: the timeline to read [default: deploy/bench/results/shares.json].
+    #[arg(long)]
+    pub input: Option<std::path::PathBuf>,
 }
 
 /// Runs the chosen benchmark and prints its table (or writes its files).
@@ -139,6 +146,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             )?;
             crate::cli::convert::write_output(Some(&args.out_dir.join("to_error.md")), &text)?;
             text
+        }
+        Which::Shares => {
+            let input = args
+                .input
+                .clone()
+                .unwrap_or_else(|| "deploy/bench/results/shares.json".into());
+            crate::bench::shares::run(&input, &args.out_dir)?
         }
         Which::Precision => crate::bench::precision::run(),
         Which::Features => crate::bench::features::run(args.resolution)?,

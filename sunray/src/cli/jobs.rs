@@ -35,6 +35,12 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
     let index = job_record::list(&cluster.client)
         .await
         .map_err(|e| cluster.rpc_error(e))?;
+    // Where the waiting jobs stand in the farm's queue (every user's active jobs).
+    let queue = cluster
+        .client
+        .queue()
+        .await
+        .map_err(|e| cluster.rpc_error(e))?;
     let procs = cluster
         .client
         .ps()
@@ -50,9 +56,18 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
                 .filter(|p| p.state == "running" && p.job.starts_with(&prefix))
                 .filter(|p| p.args.first().is_some_and(|a| a == "worker"))
                 .count();
+            let queued = queue
+                .jobs
+                .iter()
+                .find(|q| q.id == j.job && q.user == j.user);
             serde_json::json!({
                 "job": j.job,
                 "state": job_record::shown_state(j, workers, now, job_record::STALE_MS),
+                "user": j.user,
+                "priority": j.priority,
+                "slots": j.slots,
+                "share": queued.map(|q| q.share),
+                "queue_position": queued.map(|q| q.queue_position).filter(|&p| p > 0),
                 "lines_done": j.lines_done,
                 "lines": j.height,
                 "hosts": j.hosts,
@@ -76,18 +91,33 @@ async fn print_jobs(cluster: &RemConnection, json: bool) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "{:<32} {:<12} {:>11} {:>5} {:>7} {:>5} {:<12} {:>9}  scene",
-        "job", "state", "lines", "hosts", "workers", "epoch", "controller", "started"
+        "{:<32} {:<12} {:>11} {:>5} {:>7} {:>5} {:>5} {:>5} {:<12} {:>9}  scene",
+        "job",
+        "state",
+        "lines",
+        "hosts",
+        "workers",
+        "slots",
+        "prio",
+        "epoch",
+        "controller",
+        "started"
     );
     for r in &rows {
         let ago = now.saturating_sub(r["started_unix_ms"].as_u64().unwrap_or(0)) / 1000;
+        let state = match r["queue_position"].as_u64() {
+            Some(p) => format!("queued #{p}"),
+            None => r["state"].as_str().unwrap_or("").to_string(),
+        };
         println!(
-            "{:<32} {:<12} {:>11} {:>5} {:>7} {:>5} {:<12} {:>9}  {}",
+            "{:<32} {:<12} {:>11} {:>5} {:>7} {:>5} {:>5} {:>5} {:<12} {:>9}  {}",
             r["job"].as_str().unwrap_or(""),
-            r["state"].as_str().unwrap_or(""),
+            state,
             format!("{}/{}", r["lines_done"], r["lines"]),
             r["hosts"].to_string(),
             r["workers"].to_string(),
+            r["slots"].to_string(),
+            r["priority"].to_string(),
             r["epoch"].to_string(),
             r["controller_host"].as_str().unwrap_or(""),
             format!("{}", Ago(ago)),

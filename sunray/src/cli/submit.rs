@@ -83,6 +83,11 @@ pub struct SubmitArgs {
     /// Allow more than one worker per host.
     #[arg(long)]
     pub same_host: bool,
+    /// The job's priority in the farm's queue, 0 to 100: a higher one is served first and
+    /// may take the slots of lower ones (which carry on smaller, or wait); equal ones share
+    /// the farm fairly between users.
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u32).range(0..=100))]
+    pub priority: u32,
     /// Never start a worker on HOST, as REM names it (your own workstation, say); repeat
     /// it or list several with commas. A farm job keeps to it when it moves.
     #[arg(long = "avoid-host", value_name = "HOST", value_delimiter = ',')]
@@ -108,6 +113,7 @@ impl SubmitArgs {
             strategy: self.strategy,
             same_host: self.same_host,
             avoid_hosts: self.avoid_hosts.clone(),
+            priority: self.priority,
             threads: self.render.threads,
             output: self.render.output.clone(),
             samples_map: self.render.samples_map.clone(),

@@ -33,6 +33,9 @@ pub fn to_record(entry: &JobEntry, width: u32, epoch: u64) -> rem::JobRecord {
         epoch: 0,
         controller_host: String::new(),
         message: String::new(),
+        user: String::new(),
+        priority: 0,
+        slots: 0,
         ..entry.clone()
     };
     rem::JobRecord {
@@ -44,6 +47,8 @@ pub fn to_record(entry: &JobEntry, width: u32, epoch: u64) -> rem::JobRecord {
         progress_total: entry.height.into(),
         app: app.encode_to_vec(),
         title: title(&entry.scene, width, entry.height),
+        priority: entry.priority,
+        slots: entry.slots,
         ..rem::JobRecord::default()
     }
 }
@@ -61,6 +66,9 @@ pub fn from_record(r: &rem::JobRecord) -> JobEntry {
     e.epoch = r.epoch;
     e.controller_host = r.controller_host.clone();
     e.message = r.message.clone();
+    e.user = r.user.clone();
+    e.priority = r.priority;
+    e.slots = r.slots;
     e
 }
 

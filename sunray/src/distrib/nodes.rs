@@ -21,6 +21,8 @@ pub enum Outcome {
     Silent,
     /// Its process exited early or its host was lost.
     Fault,
+    /// Gave its slots back to the farm's queue (another job's share) and left.
+    Retired,
 }
 
 /// How far a worker got towards rendering, as it last said (so that a node that rendered
@@ -323,10 +325,10 @@ pub fn table(nodes: &[NodeStats]) -> String {
                 n.stage.doing()
             ));
         } else {
-            let mark = if n.outcome == Outcome::Silent {
-                " (silent)"
-            } else {
-                ""
+            let mark = match n.outcome {
+                Outcome::Silent => " (silent)",
+                Outcome::Retired => " (retired)",
+                _ => "",
             };
             s.push_str(&format!(
                 "{:>4}  {:<12} {:>5} {:>6.2} {:>9} {:>12} {:>12} {:>15} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9} {:>6}{}\n",

@@ -91,6 +91,14 @@ impl LineQueue {
             lines.into_iter().filter(|&y| !finished(y)).collect()
         };
         match strategy {
+            // No node yet (a job waiting in the farm's queue): every line is anyone's.
+            Strategy::Dynamic | Strategy::Blocks | Strategy::Interleaved if nodes == 0 => {
+                LineQueue {
+                    shared: keep(Strategy::Dynamic.owned_lines(height, 1, 0)),
+                    own: Vec::new(),
+                    owned: false,
+                }
+            }
             Strategy::Dynamic => LineQueue {
                 shared: keep(strategy.owned_lines(height, nodes, 0)),
                 own: vec![VecDeque::new(); nodes],
@@ -131,6 +139,12 @@ impl LineQueue {
             Some(own) if self.owned => own.push_front(line),
             _ => self.shared.push_front(line),
         }
+    }
+
+    /// A node joins: it has no set of its own and takes from the shared queue (the lines of
+    /// nodes gone, under a static strategy).
+    pub fn add_node(&mut self) {
+        self.own.push(VecDeque::new());
     }
 
     /// A node is gone: the rest of its own set goes to the shared queue, in order.

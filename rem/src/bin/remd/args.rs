@@ -80,6 +80,14 @@ pub struct RemdArgs {
     /// Milliseconds between SIGTERM and SIGKILL when a process is killed [default: 2000].
     #[arg(long, env = "REMD_KILL_GRACE_MS")]
     pub kill_grace_ms: Option<u64>,
+    /// Render slots (threads) this host lends the farm; 0 lends none (the host still runs
+    /// controllers) [default: its cores, or its cgroup's CPU limit rounded up].
+    #[arg(long, env = "REMD_SLOTS")]
+    pub slots: Option<u32>,
+    /// Lend fewer slots while this host's own (non-farm) work keeps its CPUs busy, as the
+    /// thesis's nice did for workstation owners: the slots left beside the owner's load.
+    #[arg(long, env = "REMD_OWNER_FIRST")]
+    pub owner_first: bool,
     /// PEM certificate to serve TLS with (with --tls-key; plain HTTP/2 without).
     #[arg(long, env = "REMD_TLS_CERT")]
     pub tls_cert: Option<PathBuf>,
@@ -120,6 +128,8 @@ impl RemdArgs {
             suspect_ms: self.suspect_ms,
             max_message: self.max_message,
             kill_grace_ms: self.kill_grace_ms,
+            slots: self.slots,
+            owner_first: self.owner_first.then_some(true),
             tls_cert: self.tls_cert,
             tls_key: self.tls_key,
             tls_ca: self.tls_ca,

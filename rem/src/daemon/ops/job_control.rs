@@ -117,7 +117,16 @@ impl Daemon {
             }
             record.created_unix_ms = r.created_unix_ms;
         }
-        record.epoch = existing.map_or(1, |r| r.epoch + 1);
+        // A record's epoch comes from a client: the last one cannot be taken up again.
+        record.epoch = match existing {
+            None => 1,
+            Some(r) => r.epoch.checked_add(1).ok_or_else(|| {
+                Error::Invalid(format!(
+                    "job {} is at the last epoch: choose another id",
+                    r.id
+                ))
+            })?,
+        };
         record.state = "queued".into();
         record.message.clear();
         record.controller.clear();
@@ -155,6 +164,8 @@ impl Daemon {
         req.allow_same_host = true;
         req.job = format!("{}.c{}", record.id, record.epoch);
         req.host = host.unwrap_or_default();
+        // A controller coordinates: it holds no render slots (its workers do).
+        (req.slots_min, req.slots_max, req.up_to) = (0, 0, false);
         let tag = JobTag {
             record: record.id.clone(),
             epoch: record.epoch,
@@ -204,7 +215,14 @@ impl Daemon {
     async fn restart(&self, r: JobRecord, why: &str) {
         let owner = Identity::user(r.user.clone());
         let mut next = r.clone();
-        next.epoch = r.epoch + 1;
+        let Some(epoch) = r.epoch.checked_add(1) else {
+            // An epoch from a client's record that cannot go up: the job cannot move.
+            next.state = "failed".into();
+            next.message = format!("{why}; and the job is at the last epoch");
+            let _ = self.put_job(&owner, next).await;
+            return;
+        };
+        next.epoch = epoch;
         next.message = why.to_string();
         tracing::warn!(job = %r.id, user = %r.user, epoch = next.epoch, "restarting the controller: {why}");
         match self.spawn_controller(&owner, &next, None).await {

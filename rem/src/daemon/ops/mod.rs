@@ -8,10 +8,12 @@
 //! - [`records`]: checkpoints and job records, each kept here and on one more live host.
 //! - [`chunk_sharing`]: putting chunks on two hosts and fetching them from peers.
 //! - [`job_control`]: jobs the farm keeps running (`StartJob`, the supervisor, restarts).
+//! - [`queue`]: the farm's queue (every active job's share of the slots).
 
 mod chunk_sharing;
 pub(crate) mod job_control;
 mod processes;
+pub(crate) mod queue;
 mod records;
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

@@ -36,17 +36,35 @@ impl Daemon {
     ) -> Result<SpawnReply> {
         let job = self.check_spawn(who, &req)?;
         let candidates = self.candidates(&req)?;
-        let chosen = placement::place(
-            &candidates,
-            req.count,
-            req.allow_same_host,
-            self.limits.spawn_count,
-        )?;
-        let mut per_host: BTreeMap<String, u32> = BTreeMap::new();
-        for h in chosen {
-            *per_host.entry(h).or_default() += 1;
+        let ask = slot_ask(&req);
+        let (tried, first) = self
+            .place_and_start(who, (&req, &job, tag), &candidates, req.count)
+            .await;
+        let as_many_as_fit = ask.min > 0 && ask.up_to;
+        let (mut placed, mut refused) = match first {
+            Ok(p) => (p, None),
+            Err(e) if as_many_as_fit => (Vec::new(), Some(e)),
+            Err(e) => return Err(e),
+        };
+        if as_many_as_fit && (placed.len() as u32) < req.count {
+            let left = req.count - placed.len() as u32;
+            let spawn = (&req, job.as_str(), tag);
+            let more = self
+                .start_on_hosts_reported_full(who, spawn, &candidates, &tried, left)
+                .await;
+            match more {
+                Ok(more) => placed.extend(more),
+                Err(e) => refused = refused.or(Some(e)),
+            }
         }
-        let mut placed = self.start_placed(who, &req, &job, tag, per_host).await?;
+        if placed.is_empty() {
+            return Err(refused.unwrap_or_else(|| {
+                Error::Limit(format!(
+                    "no live host has {} render slots free (the farm's slots are held)",
+                    req.slots_min
+                ))
+            }));
+        }
         placed.sort_by(|a, b| a.proc_id.cmp(&b.proc_id));
         if !req.owner.is_empty() {
             self.announce_started(&job, &req.owner, &placed).await;
@@ -55,6 +73,62 @@ impl Daemon {
             job,
             processes: placed,
         })
+    }
+
+    /// Places `count` processes of `req` on `candidates` and starts them: the hosts chosen,
+    /// and what started (or why nothing did).
+    async fn place_and_start(
+        &self,
+        who: &Identity,
+        (req, job, tag): (&SpawnRequest, &str, &JobTag),
+        candidates: &[Candidate],
+        count: u32,
+    ) -> (Vec<String>, Result<Vec<Placement>>) {
+        let chosen = match placement::place_with_slots(
+            candidates,
+            count,
+            req.allow_same_host,
+            slot_ask(req),
+            self.limits.spawn_count,
+        ) {
+            Ok(c) => c,
+            Err(e) => return (Vec::new(), Err(e)),
+        };
+        let mut per_host: BTreeMap<String, u32> = BTreeMap::new();
+        for h in &chosen {
+            *per_host.entry(h.clone()).or_default() += 1;
+        }
+        (
+            chosen,
+            self.start_placed(who, req, job, tag, per_host).await,
+        )
+    }
+
+    /// For a spawn of as many as fit: the load reports are up to a second old, so a host
+    /// they say is full may have freed its slots since (a job just ended there). The hosts
+    /// not `tried` yet that lend enough are asked as if free; each decides by its own count
+    /// and refuses what it cannot give.
+    async fn start_on_hosts_reported_full(
+        &self,
+        who: &Identity,
+        spawn: (&SpawnRequest, &str, &JobTag),
+        candidates: &[Candidate],
+        tried: &[String],
+        count: u32,
+    ) -> Result<Vec<Placement>> {
+        let min = spawn.0.slots_min;
+        let rest: Vec<Candidate> = candidates
+            .iter()
+            .filter(|c| !tried.contains(&c.name) && c.lent_slots >= min)
+            .map(|c| Candidate {
+                free_slots: c.lent_slots,
+                ..c.clone()
+            })
+            .collect();
+        if rest.is_empty() {
+            return Ok(Vec::new());
+        }
+        self.place_and_start(who, spawn, &rest, count).await.1
     }
 
     /// Checks a spawn request against this daemon's state, limits and policy; the job id it
@@ -109,6 +183,8 @@ impl Daemon {
                     load_per_core: load.load_per_core,
                     cores: load.cores,
                     capacity: load.capacity,
+                    free_slots: load.slots.saturating_sub(load.slots_used),
+                    lent_slots: load.slots,
                 }
             })
             .collect())
@@ -137,6 +213,8 @@ impl Daemon {
                 count,
                 job_record: tag.record.clone(),
                 job_epoch: tag.epoch,
+                slots_min: req.slots_min,
+                slots_max: req.slots_max,
             };
             let processes = self.processes.clone();
             let remote = (host != self.name).then(|| self.membership.live_addr(&host));
@@ -161,7 +239,10 @@ impl Daemon {
                 Err(e) => failure = failure.or(Some(Error::Io(std::io::Error::other(e)))),
             }
         }
-        if let Some(e) = failure {
+        // A spawn of as many as fit keeps what started (a host whose slots went meanwhile
+        // refused its share).
+        let keep = req.up_to && !placed.is_empty();
+        if let Some(e) = failure.filter(|_| !keep) {
             for p in &placed {
                 if let Some(id) = ProcId::parse(&p.proc_id) {
                     let _ = self.kill(who, id).await;
@@ -241,6 +322,8 @@ impl Daemon {
                 count: req.count,
                 job_record: req.job_record,
                 job_epoch: req.job_epoch,
+                slots_min: req.slots_min,
+                slots_max: req.slots_max,
             })
             .await
     }
@@ -314,6 +397,7 @@ impl Daemon {
             proc_id: info.proc_id.clone(),
             host: info.host.clone(),
             pid: info.pid,
+            slots: info.slots,
         };
         self.jobs.record(&info.job, owner, &[placed]).await;
         Ok(info)
@@ -354,6 +438,15 @@ impl Daemon {
     }
 }
 
+/// The slots each process of `req` holds.
+fn slot_ask(req: &SpawnRequest) -> placement::SlotAsk {
+    placement::SlotAsk {
+        min: req.slots_min,
+        max: req.slots_max,
+        up_to: req.up_to,
+    }
+}
+
 async fn start_remote(
     peers: &PeerPool,
     host: &str,
@@ -371,6 +464,8 @@ async fn start_remote(
         count: spec.count,
         job_record: spec.job_record,
         job_epoch: spec.job_epoch,
+        slots_min: spec.slots_min,
+        slots_max: spec.slots_max,
     };
     let reply = peers
         .call(host, addr, method::START, req, |mut c, r| async move {

@@ -151,6 +151,13 @@ impl Daemon {
                 job_store::STATES.join(", ")
             )));
         }
+        if record.priority > job_store::MAX_PRIORITY {
+            return Err(Error::Invalid(format!(
+                "job priority {} is outside 0..={}",
+                record.priority,
+                job_store::MAX_PRIORITY
+            )));
+        }
         if record.title.len() > job_store::MAX_TITLE {
             return Err(Error::Invalid(format!(
                 "job title of {} bytes (at most {})",
@@ -179,7 +186,13 @@ impl Daemon {
     /// The newest record of each of `who`'s jobs (every user's for an admin) on this and the
     /// live hosts.
     pub async fn list_jobs(&self, who: &Identity) -> Result<Vec<JobRecord>> {
-        let user = (!who.admin).then(|| who.user.clone());
+        self.job_records((!who.admin).then(|| who.user.clone()))
+            .await
+    }
+
+    /// The newest record of each of `user`'s jobs (every user's for `None`) on this and the
+    /// live hosts.
+    pub(crate) async fn job_records(&self, user: Option<String>) -> Result<Vec<JobRecord>> {
         let mut all = self.job_store.list(user.as_deref()).await?;
         let req = ListJobsLocalRequest {
             user: user.clone().unwrap_or_default(),

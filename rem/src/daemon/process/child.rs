@@ -79,6 +79,10 @@ pub struct StartSpec {
     /// For a job's controller: the job record it runs and its epoch (empty, 0 otherwise).
     pub job_record: String,
     pub job_epoch: u64,
+    /// Render slots each process holds: at least `slots_min` (0: none, not counted), at
+    /// most `slots_max` (0: all that are free).
+    pub slots_min: u32,
+    pub slots_max: u32,
 }
 
 /// The command for one process of `spec`, with id `id` and attach token `token` (not yet
@@ -87,7 +91,7 @@ pub fn command(
     cfg: &ProcessConfig,
     spec: &StartSpec,
     id: &ProcId,
-    token: &Token,
+    (token, slots): (&Token, u32),
 ) -> tokio::process::Command {
     let mut cmd = tokio::process::Command::new(&spec.program);
     cmd.args(&spec.args)
@@ -111,6 +115,9 @@ pub fn command(
     if !spec.job_record.is_empty() {
         cmd.env(env::JOB_RECORD, &spec.job_record)
             .env(env::JOB_EPOCH, spec.job_epoch.to_string());
+    }
+    if spec.slots_min > 0 {
+        cmd.env(env::SLOTS, slots.to_string());
     }
     if let Some(user) = cfg.run_as {
         // std drops the supplementary groups when it changes the user as root.

@@ -18,6 +18,7 @@ use crate::daemon::process::child;
 use crate::daemon::process::logbuf::{self, Output};
 use crate::daemon::relay::router::Router;
 use crate::error::{Error, Result};
+use crate::membership::slots::Slots;
 use crate::wire::ids::ProcId;
 use crate::wire::proto::{job_event, JobEvent, LogsReply, Placement, ProcessInfo};
 
@@ -69,6 +70,7 @@ impl ProcessTable {
         cfg: ProcessConfig,
         router: Router,
         counter: Arc<AtomicU32>,
+        slots: Arc<Slots>,
         seq: Arc<AtomicU64>,
     ) -> Self {
         let (tx, rx) = mpsc::channel(256);
@@ -76,6 +78,7 @@ impl ProcessTable {
             cfg,
             router,
             counter,
+            slots,
             entries: BTreeMap::new(),
             seq,
             self_tx: tx.downgrade(),
@@ -134,6 +137,7 @@ struct Actor {
     cfg: ProcessConfig,
     router: Router,
     counter: Arc<AtomicU32>,
+    slots: Arc<Slots>,
     entries: BTreeMap<ProcId, Entry>,
     seq: Arc<AtomicU64>,
     self_tx: mpsc::WeakSender<Cmd>,
@@ -204,9 +208,28 @@ impl Actor {
         }
         let mut placed = Vec::new();
         for _ in 0..spec.count.max(1) {
-            match self.start_one(&spec) {
+            let slots = if spec.slots_min == 0 {
+                0
+            } else {
+                match self.slots.take(spec.slots_min, spec.slots_max) {
+                    Some(n) => n,
+                    // As many as the free slots allow.
+                    None if !placed.is_empty() => break,
+                    None => {
+                        return Err(Error::Limit(format!(
+                            "host {} lends {} slots and {} are held: none free for {} more",
+                            self.cfg.host,
+                            self.slots.lent(),
+                            self.slots.used(),
+                            spec.slots_min
+                        )))
+                    }
+                }
+            };
+            match self.start_one(&spec, slots) {
                 Ok(p) => placed.push(p),
                 Err(e) => {
+                    self.slots.give_back(slots);
                     for p in &placed {
                         if let Some(id) = ProcId::parse(&p.proc_id) {
                             let _ = self.kill(&id);
@@ -219,10 +242,11 @@ impl Actor {
         Ok(placed)
     }
 
-    fn start_one(&mut self, spec: &StartSpec) -> Result<Placement> {
+    /// Starts one process of `spec`, holding `slots` (taken already).
+    fn start_one(&mut self, spec: &StartSpec, slots: u32) -> Result<Placement> {
         let id = ProcId::new(&self.cfg.host, self.seq.fetch_add(1, Ordering::Relaxed));
         let token = Token::random()?;
-        let mut cmd = child::command(&self.cfg, spec, &id, &token);
+        let mut cmd = child::command(&self.cfg, spec, &id, (&token, slots));
         self.router.register(&id, Some(token), &spec.user);
         let mut child = match cmd.spawn() {
             Ok(c) => c,
@@ -269,6 +293,9 @@ impl Actor {
                     .await;
             }
         });
+        if slots > 0 {
+            self.slots.holds(pid);
+        }
         // A job's controller coordinates rather than computes: its CPU use shows in the
         // measured load, it is not counted ahead like a worker.
         if spec.job_record.is_empty() {
@@ -293,6 +320,7 @@ impl Actor {
             attached: false,
             job_record: spec.job_record.clone(),
             job_epoch: spec.job_epoch,
+            slots,
         };
         tracing::info!(proc = %id, pid, program = %spec.program, "started");
         self.entries.insert(id.clone(), Entry { info, output });
@@ -300,6 +328,7 @@ impl Actor {
             proc_id: id.to_string(),
             host: self.cfg.host.clone(),
             pid,
+            slots,
         })
     }
 
@@ -374,6 +403,8 @@ impl Actor {
         if e.info.job_record.is_empty() {
             self.counter.fetch_sub(1, Ordering::Relaxed);
         }
+        self.slots.give_back(e.info.slots);
+        self.slots.left(e.info.pid);
         self.router.unregister(&id);
         tracing::info!(proc = %id, ?code, ?signal, "exited");
         if !e.info.owner.is_empty() {

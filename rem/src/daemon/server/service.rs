@@ -197,6 +197,16 @@ impl Rem for Service {
         let records = self.0.list_jobs(&who).await?;
         Ok(Response::new(proto::ListJobsReply { records }))
     }
+
+    /// Any user may see the queue (as `condor_q` shows everyone's jobs): ids, users,
+    /// priorities and slots, not the jobs' settings.
+    async fn queue(
+        &self,
+        req: Request<proto::QueueRequest>,
+    ) -> Result<Response<proto::QueueReply>, Status> {
+        self.user(&req)?;
+        Ok(Response::new(self.0.queue().await?))
+    }
 }
 
 impl Service {

@@ -58,7 +58,7 @@ impl Running {
         let client_tls = settings.tls.as_ref().map(|t| t.client_tls()).transpose()?;
         let max_frame = settings.max_message + FRAME_OVERHEAD;
         let peers = PeerPool::new(key.clone(), client_tls, settings.insecure, max_frame);
-        let gauge = LoadGauge::start(settings.load_interval);
+        let gauge = LoadGauge::start(settings.load_interval, settings.slots, settings.owner_first);
         let accepting = Arc::new(AtomicBool::new(true));
         let stop = CancellationToken::new();
         let membership = start_membership(
@@ -91,6 +91,7 @@ impl Running {
             },
             router.clone(),
             gauge.rem_processes().clone(),
+            gauge.slots().clone(),
             seq.clone(),
         );
         let jobs = Jobs::start(router.clone(), observed, membership.subscribe());

@@ -14,9 +14,10 @@ use serde::Serialize;
 use tokio::sync::watch;
 
 use crate::auth::identity::Identity;
+use crate::daemon::ops::queue::queue_of;
 use crate::daemon::ops::Daemon;
 use crate::store::job_store::{is_ended, unix_ms};
-use crate::wire::proto::{HostInfo, JobRecord, ProcessInfo};
+use crate::wire::proto::{HostInfo, JobRecord, ProcessInfo, QueueReply};
 
 /// How often the sampler makes a new view.
 pub const TICK: Duration = Duration::from_secs(1);
@@ -61,6 +62,10 @@ pub struct HostRow {
     pub mem_total_bytes: u64,
     /// Processes REM runs there.
     pub processes: u32,
+    /// Render slots it lends the farm, and those held.
+    pub slots: u32,
+    /// See `slots`.
+    pub slots_used: u32,
     /// Load per core every 2 s, oldest first, at most [`HISTORY`].
     pub history: Vec<f64>,
 }
@@ -92,6 +97,13 @@ pub struct JobRow {
     pub eta_s: Option<f64>,
     /// Its processes running now, besides the controller.
     pub workers_alive: u32,
+    /// Its priority in the farm's queue.
+    pub priority: u32,
+    /// Render slots its processes hold (as its record says).
+    pub slots: u32,
+    /// Its place in the farm's queue while it waits for its first slot (`None`: it runs,
+    /// or has ended).
+    pub queue_position: Option<u32>,
     /// When it was submitted.
     pub created_unix_ms: u64,
     /// When its record was last written.
@@ -168,6 +180,8 @@ impl History {
                     mem_free_bytes: load.mem_free_bytes,
                     mem_total_bytes: load.mem_total_bytes,
                     processes: load.rem_processes,
+                    slots: load.slots,
+                    slots_used: load.slots_used,
                     history: history.iter().map(|v| round3(f64::from(*v))).collect(),
                 }
             })
@@ -179,6 +193,7 @@ impl History {
         &mut self,
         records: Vec<JobRecord>,
         procs: &[ProcessInfo],
+        queue: &QueueReply,
         now: Instant,
     ) -> Vec<JobRow> {
         let mut workers: BTreeMap<&str, u32> = BTreeMap::new();
@@ -219,8 +234,17 @@ impl History {
                 let lines_per_s = rate(samples, now).filter(|_| !ended);
                 let left = r.progress_total.saturating_sub(r.progress_done) as f64;
                 let eta_s = lines_per_s.filter(|v| *v > 0.0).map(|v| left / v);
+                let waiting = queue
+                    .jobs
+                    .iter()
+                    .find(|q| q.id == r.id && q.user == r.user)
+                    .map(|q| q.queue_position)
+                    .filter(|&p| p > 0);
                 JobRow {
                     workers_alive: workers.get(r.id.as_str()).copied().unwrap_or(0),
+                    priority: r.priority,
+                    slots: r.slots,
+                    queue_position: waiting,
                     id: r.id,
                     user: r.user,
                     title: r.title,
@@ -309,7 +333,11 @@ pub async fn sample(daemon: Arc<Daemon>, demand: Demand, out: watch::Sender<Arc<
             };
             let listed = tokio::time::timeout(TICK * 3, listing).await;
             match listed {
-                Ok(Ok((records, procs))) => Some(history.jobs(records, &procs, Instant::now())),
+                Ok(Ok((records, procs))) => {
+                    let hosts = daemon.membership.hosts();
+                    let queue = queue_of(records.clone(), &hosts, daemon.limits.user_slots);
+                    Some(history.jobs(records, &procs, &queue, Instant::now()))
+                }
                 Ok(Err(e)) => {
                     tracing::debug!("web view: listing jobs: {e}");
                     None

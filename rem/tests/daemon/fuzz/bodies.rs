@@ -35,6 +35,8 @@ impl Gen<'_> {
                     self.job()
                 },
                 job_epoch: self.u64(),
+                slots_min: self.u32(),
+                slots_max: self.u32(),
             }
             .encode_to_vec(),
             Rpc::Kill => proto::KillRequest {
@@ -133,6 +135,7 @@ impl Gen<'_> {
             }
             .encode_to_vec(),
             Rpc::ListJobs => proto::ListJobsRequest {}.encode_to_vec(),
+            Rpc::Queue => proto::QueueRequest {}.encode_to_vec(),
             Rpc::PutChunk | Rpc::StoreChunk => {
                 let data = self.string().into_bytes();
                 let hash = if self.rng.one_in(2) {

@@ -27,6 +27,7 @@ pub(super) enum Rpc {
     GetChunk,
     CachedChunks,
     AdoptProcess,
+    Queue,
     StartLocal,
     KillLocal,
     LogsLocal,
@@ -42,7 +43,7 @@ pub(super) enum Rpc {
     AdoptLocal,
 }
 
-const RPCS: [Rpc; 28] = [
+const RPCS: [Rpc; 29] = [
     Rpc::Hosts,
     Rpc::Spawn,
     Rpc::Ps,
@@ -58,6 +59,7 @@ const RPCS: [Rpc; 28] = [
     Rpc::GetChunk,
     Rpc::CachedChunks,
     Rpc::AdoptProcess,
+    Rpc::Queue,
     Rpc::StartLocal,
     Rpc::KillLocal,
     Rpc::LogsLocal,
@@ -104,6 +106,7 @@ impl Rpc {
             Rpc::HasChunks => "HasChunks",
             Rpc::FetchChunk => "FetchChunk",
             Rpc::AdoptProcess => "AdoptProcess",
+            Rpc::Queue => "Queue",
             Rpc::AdoptLocal => "AdoptLocal",
         }
     }

@@ -121,6 +121,9 @@ impl Gen<'_> {
                 self.string()
             },
             avoid_hosts: self.many(Gen::string),
+            slots_min: self.u32(),
+            slots_max: self.u32(),
+            up_to: self.rng.one_in(2),
         }
     }
 
@@ -144,6 +147,9 @@ impl Gen<'_> {
             controller_spawn: self.rng.one_in(2).then(|| self.spawn_request()),
             message: self.string(),
             title: self.string(),
+            priority: self.u32(),
+            slots: self.u32(),
+            slots_wanted: self.u32(),
         }
     }
 

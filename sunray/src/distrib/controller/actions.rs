@@ -233,7 +233,13 @@ impl<L: WorkerLink> Controller<L> {
 
     pub(super) fn no_worker_left(&mut self) -> bool {
         if self.table.live_nodes() == 0 {
-            return true;
+            // With a crew the site starts workers as the job's share allows: none for now is
+            // a job waiting in the queue, unless its workers keep failing.
+            return self
+                .cfg
+                .crew
+                .as_ref()
+                .is_none_or(|c| c.view().faults >= super::FAULTS_WITH_A_CREW);
         }
         if self.table.active_nodes() > 0 {
             self.all_silent_since = None;
@@ -270,6 +276,13 @@ impl<L: WorkerLink> Controller<L> {
             let Some(until) = until else { break };
             match tokio::time::timeout_at(until, inbox.recv()).await {
                 Ok(Some(Input::Relay(Ok(incoming)))) => self.on_incoming(incoming),
+                // The job is done: workers started meanwhile are not needed.
+                Ok(Some(Input::Workers(late, _))) => {
+                    for w in late {
+                        self.link.kill(&w.proc_id).await;
+                    }
+                }
+                Ok(Some(Input::Retire { .. })) => {}
                 Ok(_) => break,
                 Err(_) => {}
             }

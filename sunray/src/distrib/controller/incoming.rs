@@ -1,8 +1,9 @@
-//! The controller's handling of what the relay delivers: worker messages (Ready, Request,
-//! Done, WorkerError), job events (Exited, Lost) and undeliverable notices.
+//! What the actor is fed ([`Input`]), and its handling of what the relay delivers: worker
+//! messages (Ready, Request, Done, WorkerError), job events (Exited, Lost) and undeliverable
+//! notices.
 
 use super::link::WorkerLink;
-use super::Controller;
+use super::{Controller, WorkerProc};
 use crate::distrib::grants::Completion;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{Outcome, Stage};
@@ -11,11 +12,33 @@ use crate::render::adaptive::PixelEstimate;
 use crate::stats::Counters;
 use rem::{EventKind, Incoming};
 use serde_json::json;
+use tokio::sync::oneshot;
 
 /// What a Done brings: a line's pixels, or with a target error its estimates after a pass.
 enum Payload {
     Pixels(Vec<[f32; 3]>),
     Estimates(Vec<PixelEstimate>),
+}
+
+/// What the actor is fed.
+#[derive(Debug)]
+pub enum Input {
+    /// An item from the REM relay: a worker message, a job event, or the relay's failure (which
+    /// ends the feed).
+    Relay(rem::Result<Incoming>),
+    /// Workers started for the job while it runs: they get the Scene and join the table
+    /// (told on the oneshot once they have).
+    Workers(Vec<WorkerProc>, Option<oneshot::Sender<()>>),
+    /// Give back at least `slots` of the job's slots: the newest workers are told to stop
+    /// and their lines go back to the queue; one stays when `keep_one`.
+    Retire {
+        /// Slots to give back.
+        slots: u32,
+        /// Keep the last worker (the job still has a share).
+        keep_one: bool,
+        /// Told once they are retired.
+        done: Option<oneshot::Sender<()>>,
+    },
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -208,6 +231,14 @@ impl<L: WorkerLink> Controller<L> {
         let held = self.table.node_gone(i);
         let n = &mut self.nodes[i];
         n.lines_given_back += held as u64;
+        // A retired worker's exit is no fault, whatever its code: it was told to stop.
+        if self.retiring[i] {
+            n.outcome = super::super::nodes::Outcome::Retired;
+            return;
+        }
+        if let Some(crew) = &self.cfg.crew {
+            crew.left(i, !(self.finishing && clean));
+        }
         if self.finishing && clean {
             return;
         }

@@ -7,17 +7,25 @@
 //! `image` has the job's result then, before the workers have wound down.
 //!
 //! # Layout
-//! - [`incoming`]: what the relay delivers (worker messages, job events).
+//! - [`incoming`]: what the actor is fed ([`Input`]); what the relay delivers (worker
+//!   messages, job events).
 //! - [`resume`]: what a job resumed from its checkpoint starts from.
 //! - [`actions`]: what the controller does of itself (Assign, the tick, winding down).
+//! - [`crew`]: the live workers and their slots, for the farm's share keeper, which adds
+//!   workers ([`Input::Workers`]) and retires them ([`Input::Retire`]) while the job runs;
+//!   the workers themselves ([`WorkerProc`]).
+//! - [`staff`]: workers joining the running job, and retiring from it.
 //! - [`link`]: how it reaches the workers and REM's store (REM, or a fake in tests).
 //! - [`store_writer`]: the checkpoint and web view writes, on tasks of their own so that a
 //!   slow store never holds up a grant or the judgement of a silent worker.
 
 mod actions;
+pub mod crew;
 mod incoming;
+pub use incoming::Input;
 pub mod link;
 mod resume;
+mod staff;
 mod store_writer;
 #[cfg(test)]
 mod tests;
@@ -28,13 +36,14 @@ use crate::distrib::line_passes::LinePasses;
 use crate::distrib::nodes::{ControllerCost, LineCounts, NodeStats};
 use crate::distrib::progress::ProgressView;
 use crate::distrib::strategy::Strategy;
-use crate::distrib::timeline::{JobClock, NodeTimeline, Timeline};
+use crate::distrib::timeline::{JobClock, Timeline};
 use crate::distrib::web_view::{self, WebView};
 use crate::film::Film;
 use crate::render::adaptive::Adaptive;
 use crate::stats::Counters;
+pub use crew::{load_per_core, WorkerProc};
 use link::{RemLink, WorkerLink};
-use rem::{Incoming, ProcId, RelayReceiver, RelaySender, RemClient};
+use rem::{ProcId, RelayReceiver, RelaySender, RemClient};
 use serde_json::json;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -88,48 +97,15 @@ pub struct ControllerConfig {
     pub timeline: Timeline,
     /// The job's target error (its lines go out a pass at a time), or `None` (each line once).
     pub adaptive: Option<Adaptive>,
+    /// `Some`: the site adds and retires workers while the job runs (the farm's queue), and
+    /// sees them here; the job then ends with no worker left only after
+    /// [`FAULTS_WITH_A_CREW`] faults. `None`: its workers are those it starts with.
+    pub crew: Option<crew::Crew>,
 }
 
-/// A spawned worker.
-#[derive(Clone, Debug)]
-pub struct WorkerProc {
-    /// REM's id of the worker process: where its messages come from and go to.
-    pub proc_id: ProcId,
-    /// The host it runs on, as REM names it (the per-node table's first column).
-    pub host: String,
-    /// Its process id on that host.
-    pub pid: u32,
-    /// The host's load per core as REM reported it when the job started (cgroup-aware);
-    /// `None` leaves the column to the worker's own load average.
-    pub load_at_start: Option<f64>,
-    /// Started by the job's previous controller and taken over: it gets Adopt, not Scene.
-    pub adopted: bool,
-}
-
-impl WorkerProc {
-    /// The workers REM placed for `job`, with their hosts' load from `live` (REM's figures
-    /// when the job started).
-    pub fn placed(job: &rem::Job, live: &[rem::HostInfo]) -> Vec<WorkerProc> {
-        job.processes
-            .iter()
-            .map(|p| WorkerProc {
-                proc_id: p.proc_id.clone(),
-                host: p.host.clone(),
-                pid: p.pid,
-                load_at_start: load_per_core(live, &p.host),
-                adopted: false,
-            })
-            .collect()
-    }
-}
-
-/// REM's load per core of `host` among `live`, if it reported one.
-pub fn load_per_core(live: &[rem::HostInfo], host: &str) -> Option<f64> {
-    live.iter()
-        .find(|h| h.name == host)
-        .and_then(|h| h.load.as_ref())
-        .map(|l| l.load_per_core)
-}
+/// Faults after which a job whose site adds workers ends when none is left (its controller
+/// is then started again by REM, as a job without one is at its first).
+pub const FAULTS_WITH_A_CREW: u32 = 4;
 
 /// The end of a job.
 #[derive(Debug)]
@@ -176,14 +152,6 @@ impl From<rem::Error> for ControllerError {
     fn from(e: rem::Error) -> Self {
         ControllerError::Relay(e)
     }
-}
-
-/// What the actor is fed.
-#[derive(Debug)]
-pub enum Input {
-    /// An item from the REM relay: a worker message, a job event, or the relay's failure (which
-    /// ends the feed).
-    Relay(rem::Result<Incoming>),
 }
 
 /// A handle to the running controller: feed it, or wait for its result.
@@ -330,6 +298,10 @@ struct Controller<L> {
     timeline: Timeline,
     /// Told the job's result once its finished image is stored.
     image_stored: Option<oneshot::Sender<JobResult>>,
+    /// Nodes told to stop to give their slots back (not faults when they exit).
+    retiring: Vec<bool>,
+    /// The farm's slots each node holds.
+    slots: Vec<u32>,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -357,19 +329,7 @@ impl<L: WorkerLink> Controller<L> {
         let nodes = workers
             .iter()
             .enumerate()
-            .map(|(i, w)| NodeStats {
-                node: i + 1,
-                proc_id: w.proc_id.to_string(),
-                host: w.host.clone(),
-                pid: w.pid,
-                load_at_start: w.load_at_start.unwrap_or_default(),
-                rem_load: w.load_at_start.is_some(),
-                timeline: NodeTimeline {
-                    spawned,
-                    ..Default::default()
-                },
-                ..Default::default()
-            })
+            .map(|(i, w)| w.node_row(i, spawned))
             .collect();
         let view = ProgressView::new(
             cfg.height,
@@ -417,11 +377,16 @@ impl<L: WorkerLink> Controller<L> {
             adopted: workers.iter().map(|w| w.adopted).collect(),
             timeline,
             image_stored: None,
+            retiring: vec![false; workers.len()],
+            slots: workers.iter().map(|w| w.slots).collect(),
         }
     }
 
     async fn run(mut self, mut inbox: mpsc::Receiver<Input>) -> Result<JobResult, ControllerError> {
         for (i, w) in self.nodes.iter().enumerate() {
+            if let Some(crew) = &self.cfg.crew {
+                crew.joined(i, &w.host, self.slots[i]);
+            }
             self.view
                 .event(json!({"event": "spawned", "node": i + 1, "proc": w.proc_id,
                 "host": w.host, "pid": w.pid, "adopted": self.adopted[i]}));
@@ -440,14 +405,14 @@ impl<L: WorkerLink> Controller<L> {
         while !self.table.is_finished() {
             tokio::select! {
                 input = inbox.recv() => {
-                    self.on_input(input.ok_or(rem::Error::Closed)?)?;
+                    self.on_input(input.ok_or(rem::Error::Closed)?).await?;
                 }
                 Some(report) = self.writer.reports.recv() => self.on_report(report),
                 _ = tick.tick() => {
                     // What came while the actor was busy is read before anyone is judged
                     // silent: silence is the workers', not the controller's own stall.
                     while let Ok(input) = inbox.try_recv() {
-                        self.on_input(input)?;
+                        self.on_input(input).await?;
                     }
                     self.on_tick()
                 }
@@ -488,10 +453,22 @@ impl<L: WorkerLink> Controller<L> {
     }
 
     /// One item of the inbox: a relay item is handled; the relay's failure ends the job.
-    fn on_input(&mut self, input: Input) -> Result<(), ControllerError> {
+    async fn on_input(&mut self, input: Input) -> Result<(), ControllerError> {
         match input {
             Input::Relay(Ok(incoming)) => self.on_incoming(incoming),
             Input::Relay(Err(e)) => return Err(e.into()),
+            Input::Workers(workers, done) => {
+                self.add_workers(workers).await;
+                done.map(|d| d.send(()));
+            }
+            Input::Retire {
+                slots,
+                keep_one,
+                done,
+            } => {
+                self.retire(slots, keep_one).await;
+                done.map(|d| d.send(()));
+            }
         }
         Ok(())
     }

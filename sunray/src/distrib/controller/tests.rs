@@ -13,6 +13,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+mod crew;
 mod stall;
 mod timeline;
 mod web;
@@ -153,6 +154,7 @@ impl Job {
                 pid: 100,
                 load_at_start: None,
                 adopted: false,
+                slots: 1,
             })
             .collect();
         let mut cfg = ControllerConfig {
@@ -175,6 +177,7 @@ impl Job {
             clock: JobClock::at(0),
             timeline: Timeline::default(),
             adaptive: None,
+            crew: None,
         };
         edit(&mut cfg);
         let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());

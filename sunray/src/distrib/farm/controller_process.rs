@@ -2,8 +2,9 @@
 //! higher epoch, when it exits unfinished, stalls or loses its host). It reads the job from
 //! REM (its record, `JOB.scene` and the checkpoint), takes over the workers of its
 //! predecessors that still run (an Adopt message; they keep rendering the lines they hold),
-//! starts more on the live hosts up to the count asked (never failing for too few: as many
-//! as there are, at least one), runs the controller actor
+//! starts more on the live hosts as the job's share of the farm's slots allows (up to the
+//! count asked; none while the job waits in the queue: [`share_keeper`](super::share_keeper)
+//! grows and shrinks it as the shares move), runs the controller actor
 //! unchanged in its rules ([`drive`], as the in-process job does, with this process as the
 //! [`ControllerSite`]), and keeps its record fresh (state, lines in the checkpoint, its
 //! own process and host) every [`LEASE_WRITE`]: REM restarts a controller that stops writing.
@@ -11,11 +12,13 @@
 //! Every write carries the epoch REM gave it (`REM_JOB_EPOCH`); once a newer controller has
 //! the job REM refuses them, and this one stands down at once ([`ControllerEnd::Superseded`]).
 
-use super::job_workers::{start_workers, take_over_workers};
+use super::job_workers::take_over_workers;
 use super::lease::{keep_lease, own_record, put_record};
+use super::share_keeper::{slots_wanted, ShareKeeper};
 use super::{scene_key, stats_key, FarmError};
 use crate::distrib::checkpoint::{self, Checkpointer, Fenced, Restored, Store};
-use crate::distrib::controller::{ControllerConfig, ControllerError, WorkerProc};
+use crate::distrib::controller::crew::Crew;
+use crate::distrib::controller::{ControllerConfig, ControllerError, Input, WorkerProc};
 use crate::distrib::job::drive::{self, ControllerSite, Drive, Ran, Totals};
 use crate::distrib::job_record;
 use crate::distrib::messages::{self, proto, Body};
@@ -81,11 +84,13 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let (mut record, stored, live, history) = read_job(&client, (&job, epoch), &host).await?;
     let (width, height) = (stored.settings.render.width, stored.settings.render.height);
     let lines_in = stored.restored.finished_lines();
-    claim(&client, &mut record, &relay, (width, height), lines_in).await?;
     let spec = stored.restored.header.spec.clone().unwrap_or_default();
+    record.slots_wanted = slots_wanted(spec.hosts, spec.threads, &live);
+    claim(&client, &mut record, &relay, (width, height), lines_in).await?;
     let count = worker_count(&spec, live.len());
     let checkpointed = Arc::new(AtomicU32::new(lines_in));
     let strategy = Strategy::from_name(&spec.strategy).unwrap_or(Strategy::Dynamic);
+    let crew = Crew::default();
     let mut cfg = controller_config(
         &opts,
         (&job, epoch),
@@ -93,6 +98,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         stored.scene,
         (checkpointed.clone(), history),
     );
+    cfg.crew = Some(crew.clone());
     // The job's timeline counts from its submit; this process started a moment ago.
     let entry = job_record::from_record(&record);
     cfg.clock = JobClock::at(entry.submitted_unix_ms);
@@ -126,14 +132,22 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
         checkpointer,
         epoch,
     };
+    let keeper = ShareKeeper {
+        client: client.clone(),
+        worker_program: opts.worker_program.clone(),
+        spec,
+        job: job.clone(),
+        epoch,
+        user: record.user.clone(),
+        crew,
+        live,
+    };
     let mut site = FarmSite {
         client: &client,
-        opts: &opts,
-        spec,
+        keeper,
+        me: None,
         job: &job,
         epoch,
-        live,
-        count,
         all_in,
         record,
         checkpointed,
@@ -309,13 +323,12 @@ impl StoredJob {
 /// [`LEASE_WRITE`]).
 struct FarmSite<'a> {
     client: &'a RemClient,
-    opts: &'a ControllerOptions,
-    spec: proto::JobSpec,
+    /// The job's share of the farm's slots: its workers start and retire by it.
+    keeper: ShareKeeper,
+    /// The controller's relay (its workers' owner), once known.
+    me: Option<rem::ProcId>,
     job: &'a str,
     epoch: u64,
-    live: Vec<rem::HostInfo>,
-    /// Workers the job is to have.
-    count: u32,
     /// Every line is in the checkpoint: no worker is needed.
     all_in: bool,
     record: rem::JobRecord,
@@ -328,9 +341,11 @@ impl ControllerSite for FarmSite<'_> {
     type Error = FarmError;
 
     /// The previous controllers' workers that still run are taken over (they keep their
-    /// lines and their scene, and REM sends their events here now); new ones make up the
-    /// rest, on other hosts than theirs.
+    /// lines and their scene, and REM sends their events here now); new ones start on other
+    /// hosts than theirs, as many as the job's share of the farm's slots allows (none: the
+    /// job waits in the queue, and the keeper starts them when its turn comes).
     async fn workers(&mut self, me: &rem::ProcId) -> Result<Vec<WorkerProc>, FarmError> {
+        self.me = Some(me.clone());
         if self.all_in {
             return Ok(Vec::new());
         }
@@ -338,56 +353,38 @@ impl ControllerSite for FarmSite<'_> {
         // The first controller of a job has no predecessor's workers to take over.
         let mut workers = match epoch {
             0 | 1 => Vec::new(),
-            _ => take_over_workers(client, job, epoch, me, &self.live).await,
+            _ => take_over_workers(client, job, epoch, me, &self.keeper.live).await,
         };
-        let more = self.count.saturating_sub(workers.len() as u32);
-        if more == 0 {
-            return Ok(workers);
+        let share = match self.keeper.share().await {
+            Some(s) => s,
+            None => self.record.slots_wanted,
+        };
+        let mut crew = crate::distrib::controller::crew::CrewView::default();
+        for (i, w) in workers.iter().enumerate() {
+            crew.live.insert(i, (w.host.clone(), w.slots.max(1)));
         }
-        // Not where the taken-over workers run, nor where the user said.
-        let avoid: Vec<String> = workers
-            .iter()
-            .map(|w| w.host.clone())
-            .chain(
-                self.spec
-                    .avoid_hosts
-                    .iter()
-                    .take(rem::wire::MAX_AVOID_HOSTS)
-                    .cloned(),
-            )
-            .collect();
-        let free = self
-            .live
-            .iter()
-            .filter(|h| !avoid.contains(&h.name))
-            .count() as u32;
-        let more = if self.spec.same_host {
-            more
-        } else {
-            more.min(free)
-        };
-        let placed = match more {
-            0 => Ok(Vec::new()),
-            _ => {
-                let spawn = (&self.spec, (job, epoch), more, me);
-                start_workers(client, &self.opts.worker_program, spawn, &self.live, avoid).await
-            }
-        };
-        match placed {
-            Ok(placed) => workers.extend(placed),
-            // The taken-over workers can finish the job alone.
-            Err(e) if !workers.is_empty() => {
-                eprintln!("sunray controller: warning: no new workers: {e}");
-            }
-            Err(e) => return Err(e),
+        let need = share.saturating_sub(crew.slots());
+        if need > 0 {
+            workers.extend(self.keeper.grow(me, need, &crew).await);
         }
         Ok(workers)
     }
 
-    async fn hold(&mut self) -> String {
-        keep_lease(self.client, &mut self.record, &self.checkpointed, self.job)
-            .await
-            .to_string()
+    async fn hold(&mut self, feed: tokio::sync::mpsc::Sender<Input>) -> String {
+        let Some(me) = self.me.clone() else {
+            return std::future::pending().await;
+        };
+        let crew = &self.keeper.crew;
+        let lease = keep_lease(
+            self.client,
+            &mut self.record,
+            (&self.checkpointed, crew),
+            self.job,
+        );
+        tokio::select! {
+            e = lease => e.to_string(),
+            () = self.keeper.run(&me, feed) => std::future::pending().await,
+        }
     }
 
     /// The record says finished as soon as the image is stored: `watch` (and `submit`)
@@ -443,6 +440,8 @@ async fn store_finished(
     record.app = entry.encode_to_vec();
     record.state = "finished".into();
     record.progress_done = u64::from(height);
+    // Its workers are winding down: the farm's queue counts the job no more.
+    record.slots = 0;
     record.message.clear();
     put_record(client, record, job).await
 }

@@ -2,7 +2,6 @@
 //! over (REM's Adopt), and new ones started on the live hosts, never where the job's taken-over
 //! workers run nor where the user said not to (`--avoid-host`).
 
-use super::FarmError;
 use crate::distrib::controller::{self, WorkerProc};
 use crate::distrib::job::worker_spawn;
 use crate::distrib::messages::proto;
@@ -41,6 +40,7 @@ pub(super) async fn take_over_workers(
                 pid: p.pid,
                 load_at_start: controller::load_per_core(live, &p.host),
                 adopted: true,
+                slots: p.slots,
             }),
             Err(e) => eprintln!("sunray controller: not taking over {proc_id}: {e}"),
         }
@@ -48,14 +48,21 @@ pub(super) async fn take_over_workers(
     workers
 }
 
-/// Starts `count` workers of `spec` owned by this controller (`me`), not on `avoid_hosts`.
+/// Starts up to `count` workers of `spec` owned by this controller (`me`), not on
+/// `avoid_hosts`, each holding at least one of the farm's slots and at most `slots_max`
+/// (0: all its host has free): as many as there are hosts with a free slot, at least one.
 pub(super) async fn start_workers(
     client: &RemClient,
     worker_program: &Path,
-    (spec, (job, epoch), count, me): (&proto::JobSpec, (&str, u64), u32, &rem::ProcId),
+    (spec, (job, epoch), (count, slots_max), me): (
+        &proto::JobSpec,
+        (&str, u64),
+        (u32, u32),
+        &rem::ProcId,
+    ),
     live: &[rem::HostInfo],
     avoid_hosts: Vec<String>,
-) -> Result<Vec<WorkerProc>, FarmError> {
+) -> Result<Vec<WorkerProc>, rem::Error> {
     let threads = (spec.threads > 0).then_some(spec.threads as usize);
     let spawned = client
         .spawn(rem::SpawnRequest {
@@ -64,6 +71,9 @@ pub(super) async fn start_workers(
             job: Some(format!("{job}.w{epoch}")),
             owner: Some(me.clone()),
             avoid_hosts,
+            slots_min: 1,
+            slots_max,
+            up_to: true,
             ..worker_spawn(worker_program, threads, spec.nice)
         })
         .await?;

@@ -3,6 +3,7 @@
 //! and refuses the writes of one whose epoch is past (it then stands down).
 
 use super::FarmError;
+use crate::distrib::controller::crew::Crew;
 use crate::distrib::job_record;
 use rem::RemClient;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -10,6 +11,9 @@ use std::time::Duration;
 
 /// How often the controller writes its record (REM's lease is several times longer).
 pub const LEASE_WRITE: Duration = Duration::from_secs(1);
+
+/// How often it looks whether the slots its workers hold changed (then it writes at once).
+const LOOK: Duration = Duration::from_millis(100);
 
 /// The job's record at this epoch, waiting briefly for the write of whoever started this
 /// process; a newer epoch means this controller is not needed.
@@ -58,17 +62,32 @@ pub(super) async fn put_record(
     }
 }
 
-/// Writes the record with the checkpoint's progress every [`LEASE_WRITE`]; returns only when
-/// REM refuses it for a newer epoch or an ended job (a cancel).
+/// Writes the record with the checkpoint's progress and the slots its workers hold every
+/// [`LEASE_WRITE`], and as soon as those slots change (what the farm's queue and `sunray
+/// jobs` show; a job holding none is `queued`); returns only when REM refuses it for a
+/// newer epoch or an ended job (a cancel).
 pub(super) async fn keep_lease(
     client: &RemClient,
     record: &mut rem::JobRecord,
-    checkpointed: &AtomicU32,
+    (checkpointed, crew): (&AtomicU32, &Crew),
     job: &str,
 ) -> FarmError {
+    let mut written = tokio::time::Instant::now();
     loop {
-        tokio::time::sleep(LEASE_WRITE).await;
+        tokio::time::sleep(LOOK).await;
+        let slots = crew.view().slots();
+        if slots == record.slots && written.elapsed() < LEASE_WRITE {
+            continue;
+        }
+        written = tokio::time::Instant::now();
         record.progress_done = u64::from(checkpointed.load(Ordering::Relaxed));
+        record.slots = slots;
+        record.state = if record.slots > 0 {
+            "running"
+        } else {
+            "queued"
+        }
+        .into();
         // REM stores the record here before it sends the copy to a peer; a peer that hangs
         // (a host stopped) holds the answer up to REM's peer timeout, longer than a lease,
         // so the write is left after LEASE_WRITE and the next one renews the lease.

@@ -19,12 +19,15 @@
 //! - [`follow`]: `watch`, `fetch` and `cancel`.
 //! - [`job_workers`]: the workers a farm controller takes over or starts.
 //! - [`lease`]: the controller's lease on its job (its record, written at its epoch).
+//! - [`share_keeper`]: the job's share of the farm's slots (workers started and retired by
+//!   REM's queue).
 //! - [`tail`]: the controller's output, read through REM as it is written.
 
 pub mod controller_process;
 pub mod follow;
 mod job_workers;
 mod lease;
+pub mod share_keeper;
 pub mod tail;
 
 use super::checkpoint::{self, CheckpointError, Checkpointer, Fenced, Store};
@@ -234,6 +237,10 @@ pub async fn submit(
     };
     let mut record = job_record::to_record(&entry, width, 1);
     record.controller_spawn = Some(controller_spawn(req, flags).to_proto());
+    // What the queue shares the farm's slots by, from the start.
+    record.priority = req.priority;
+    let threads = plan.threads.unwrap_or(0) as u32;
+    record.slots_wanted = share_keeper::slots_wanted(plan.hosts, threads, &live);
     let stored = client.start_job(record, flags.anywhere).await?;
     Ok(Submitted {
         job: stored.id,

@@ -93,6 +93,8 @@ struct Node {
     live: BTreeSet<GrantId>,
     /// Grants handed to it that it has not reported, live or not.
     unreported: BTreeSet<GrantId>,
+    /// Retiring: it gets no more lines, whatever window it says.
+    closed: bool,
 }
 
 impl Node {
@@ -153,6 +155,7 @@ impl GrantTable {
                     window: 0,
                     live: BTreeSet::new(),
                     unreported: BTreeSet::new(),
+                    closed: false,
                 };
                 nodes
             ],
@@ -223,7 +226,7 @@ impl GrantTable {
             return;
         }
         n.state = NodeState::Active;
-        n.window = window;
+        n.window = if n.closed { 0 } else { window };
     }
 
     /// Hands out queued lines to active nodes with credit, one per node per round.
@@ -480,6 +483,7 @@ impl GrantTable {
     }
 }
 
+mod joining;
 mod passes;
 #[cfg(test)]
 mod tests;

@@ -382,3 +382,38 @@ fn a_line_in_passes_goes_to_the_back_and_only_its_current_pass_counts() {
         "a resumed line goes on from its pass"
     );
 }
+
+#[test]
+fn a_node_that_joins_takes_lines_and_a_retired_one_gives_its_back() {
+    for strategy in [Strategy::Dynamic, Strategy::Interleaved] {
+        let mut g = GrantTable::new(strategy, 6, 1, &[]);
+        g.set_window(0, 2);
+        let first = g.assign(t(0));
+        assert_eq!(first.len(), 2);
+        // Node 0 retires: its two lines go back; node 1, new, renders the whole image.
+        assert_eq!(g.node_gone(0), 2);
+        let n = g.add_node();
+        assert_eq!(n, 1);
+        g.set_window(n, 6);
+        let mut got = lines(&g.assign(t(1)));
+        got.sort_unstable();
+        assert_eq!(got, [0, 1, 2, 3, 4, 5], "{strategy:?}");
+        assert_eq!(g.live_nodes(), 1);
+    }
+}
+
+#[test]
+fn a_closed_node_gets_no_more_lines_but_its_own_still_count() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 2, &[]);
+    g.set_window(0, 2);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), [0, 1]);
+    g.close(0);
+    g.set_window(0, 3);
+    assert!(g.assign(t(1)).is_empty(), "a retiring node asks in vain");
+    // What it finishes is taken; what it hands back goes to the others.
+    assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Accepted);
+    g.release(0, &[a[1].grant]);
+    g.set_window(1, 4);
+    assert_eq!(lines(&g.assign(t(2))), [1, 2, 3]);
+}

@@ -27,9 +27,10 @@ pub(crate) trait ControllerSite {
     /// taken over from an earlier controller.
     async fn workers(&mut self, owner: &rem::ProcId) -> Result<Vec<WorkerProc>, Self::Error>;
 
-    /// Runs beside the controller (the farm's lease on the job); returns only when the
-    /// controller must stand down, with why.
-    async fn hold(&mut self) -> String;
+    /// Runs beside the controller (the farm's lease on the job, and its share of the
+    /// farm's slots: workers it starts or retires go to the actor through `feed`); returns
+    /// only when the controller must stand down, with why.
+    async fn hold(&mut self, feed: tokio::sync::mpsc::Sender<controller::Input>) -> String;
 
     /// The job's image is stored and every line is in (`ended` is the job as it is then);
     /// its workers are winding down. The farm's controller says now that the job is
@@ -128,6 +129,7 @@ pub(crate) fn controller_config(
         clock: JobClock::at(0),
         timeline: Timeline::default(),
         adaptive,
+        crew: None,
     }
 }
 
@@ -179,12 +181,13 @@ pub(crate) async fn run_controller<S: ControllerSite>(
     }
     // A controller that stands down stops at once: it says and writes nothing more.
     let stop = handle.task.abort_handle();
+    let feed = handle.tx.clone();
     let (mut image, joined) = handle.split();
     tokio::pin!(joined);
     let first = tokio::select! {
         r = &mut joined => First::Joined(r),
         Ok(now) = &mut image => First::Image(now),
-        why = site.hold() => First::StandDown(why),
+        why = site.hold(feed) => First::StandDown(why),
     };
     let result = match first {
         First::StandDown(why) => {

@@ -57,7 +57,10 @@ impl ControllerSite for InProcess<'_> {
     }
 
     /// Nobody takes an in-process job over; Ctrl-C stops it (it stops with this process).
-    async fn hold(&mut self) -> String {
+    async fn hold(
+        &mut self,
+        _feed: tokio::sync::mpsc::Sender<crate::distrib::controller::Input>,
+    ) -> String {
         if tokio::signal::ctrl_c().await.is_err() {
             return std::future::pending().await;
         }
@@ -216,6 +219,7 @@ async fn first_checkpoint(
         lines_done: checkpointer.lines_done(),
         height: plan.settings.render.height,
         hosts: plan.hosts,
+        priority: req.priority,
         started_unix_ms: checkpoint::unix_ms(),
         output: plan.output.display().to_string(),
         ..Default::default()
@@ -300,19 +304,42 @@ async fn start_workers(
             .is_embedded()
             .then(|| (cores / plan.hosts as usize).max(1))
     });
-    cluster
-        .client
-        .spawn(rem::SpawnRequest {
-            count: plan.hosts,
-            allow_same_host,
-            job: Some(rem_job),
-            owner: Some(owner),
-            avoid_hosts: req.avoid_hosts.clone(),
-            ..worker_spawn(&req.worker_program, threads, plan.nice)
-        })
-        .await
-        .map_err(|e| JobError::Spawn(cluster.rpc_error(e)))
+    // On a farm the workers hold slots: as many as there are hosts with one free (its
+    // workers do not change while it runs; a farm job's follow its share). The private remd
+    // of the default set-up runs this job alone: nothing to share.
+    let shared = !cluster.is_embedded();
+    let spawn = rem::SpawnRequest {
+        count: plan.hosts,
+        allow_same_host,
+        job: Some(rem_job),
+        owner: Some(owner),
+        avoid_hosts: req.avoid_hosts.clone(),
+        slots_min: u32::from(shared),
+        slots_max: threads.unwrap_or(0) as u32,
+        up_to: shared,
+        ..worker_spawn(&req.worker_program, threads, plan.nice)
+    };
+    // Every slot held (another job's workers, or this job's own from before a lost remd,
+    // still winding down): it waits for one, a while.
+    let deadline = std::time::Instant::now() + SLOT_WAIT;
+    let mut said = false;
+    loop {
+        match cluster.client.spawn(spawn.clone()).await {
+            Err(e) if e.is_exhausted() && std::time::Instant::now() < deadline => {
+                if !said {
+                    eprintln!("sunray: waiting for a free render slot: {}", e.root_cause());
+                    said = true;
+                }
+                tokio::time::sleep(std::time::Duration::from_millis(250)).await;
+            }
+            r => return r.map_err(|e| JobError::Spawn(cluster.rpc_error(e))),
+        }
+    }
 }
+
+/// How long a job in this process waits for a free render slot before it gives up (a farm
+/// job waits in the queue for as long as it takes).
+const SLOT_WAIT: std::time::Duration = std::time::Duration::from_secs(60);
 
 async fn record_update(cluster: &RemConnection, entry: &proto::JobEntry, width: u32, epoch: u64) {
     if let Err(e) = job_record::update(&cluster.client, entry, width, epoch).await {

@@ -55,6 +55,8 @@ pub struct JobRequest {
     pub same_host: bool,
     /// Hosts no worker is started on.
     pub avoid_hosts: Vec<String>,
+    /// Its priority in the farm's queue (0..=100, higher first).
+    pub priority: u32,
     /// Render threads per worker [default: every core; on the embedded default, the cores
     /// shared among the workers; on resume, as before].
     pub threads: Option<usize>,

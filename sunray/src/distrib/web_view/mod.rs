@@ -359,6 +359,7 @@ const COLUMNS: [&str; 9] = [
 fn row(n: &NodeStats) -> Value {
     let state = match (n.outcome, n.stage) {
         (Outcome::Fault, _) => "fault",
+        (Outcome::Retired, _) => "retired",
         (_, Stage::Fetching) => "fetching",
         (_, Stage::Building) => "building",
         (Outcome::Silent, _) => "silent",

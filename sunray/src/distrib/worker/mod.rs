@@ -91,6 +91,20 @@ pub enum WorkerError {
     Threads(std::io::Error),
 }
 
+/// How many threads render: the slots REM granted (`REM_SLOTS`, when the worker holds
+/// slots), never more than `--threads`; else `--threads`, else every core.
+fn render_threads(asked: Option<usize>, slots: Option<&str>, cores: usize) -> usize {
+    let granted = slots
+        .and_then(|s| s.parse::<usize>().ok())
+        .filter(|&n| n > 0);
+    match (asked, granted) {
+        (Some(t), Some(g)) => t.min(g),
+        (None, Some(g)) => g,
+        (t, None) => t.unwrap_or(cores),
+    }
+    .max(1)
+}
+
 /// Runs a worker until the controller says NoMoreWork (Ok) or goes away (Err).
 pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let started = Instant::now();
@@ -105,7 +119,8 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     };
     let mut inbox = spawn_reader(receiver);
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let threads = cfg.threads.unwrap_or(cores).max(1);
+    let slots = std::env::var(rem::wire::env::SLOTS).ok();
+    let threads = render_threads(cfg.threads, slots.as_deref(), cores);
     tokio::time::sleep(cfg.ready_delay).await;
     let ready = proto::Ready {
         host,
@@ -119,7 +134,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let scene_msg = loop {
         match next_from_owner(&mut inbox, &owner).await? {
             Body::Scene(s) => break s,
-            Body::NoMoreWork(_) => return Ok(()),
+            Body::NoMoreWork(_) | Body::Retire(_) => return Ok(()),
             _ => {}
         }
     };
@@ -163,6 +178,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
             accel_ready_s: (render_start - started).as_secs_f64(),
         },
         ready,
+        retiring: false,
     };
     render_loop
         .run(&mut inbox, results, cfg.idle_probe, cfg.adopt_wait)
@@ -372,5 +388,29 @@ pub fn load_average() -> f64 {
         avg[0]
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::render_threads;
+
+    #[test]
+    fn a_worker_renders_with_the_slots_it_was_granted() {
+        assert_eq!(
+            render_threads(None, None, 8),
+            8,
+            "every core outside the farm"
+        );
+        assert_eq!(render_threads(Some(3), None, 8), 3);
+        assert_eq!(render_threads(None, Some("2"), 8), 2, "REM's grant");
+        assert_eq!(
+            render_threads(Some(4), Some("2"), 8),
+            2,
+            "never more than granted"
+        );
+        assert_eq!(render_threads(Some(1), Some("2"), 8), 1, "nor than asked");
+        assert_eq!(render_threads(None, Some("junk"), 8), 8);
+        assert_eq!(render_threads(None, Some("0"), 0), 1);
     }
 }

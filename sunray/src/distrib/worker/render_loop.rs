@@ -42,6 +42,8 @@ pub(super) struct RenderLoop {
     pub(super) steps: proto::WorkerSteps,
     /// What the worker said when it started (said again to a new owner).
     pub(super) ready: proto::Ready,
+    /// Told to retire: it takes no more lines and exits once those it renders are in.
+    pub(super) retiring: bool,
 }
 
 /// Whether the loop goes on.
@@ -76,6 +78,9 @@ impl RenderLoop {
                 r = results.recv() => {
                     let Some(r) = r else { return Err(WorkerError::BadScene("render threads stopped".into())) };
                     self.on_rendered(r).await?;
+                    if self.retiring && self.held == 0 {
+                        return Ok(());
+                    }
                 }
                 _ = first_check.tick(), if !self.window.has_line_time() && self.owner.orphaned.is_none() => {
                     self.on_first_check().await?;
@@ -103,7 +108,11 @@ impl RenderLoop {
     fn request(&mut self, released: Vec<u64>) -> Body {
         let now = self.clock();
         Body::Request(proto::Request {
-            window: self.window.lines(now),
+            window: if self.retiring {
+                0
+            } else {
+                self.window.lines(now)
+            },
             preprocess_s: self.preprocess_s,
             stamp_s: now,
             released,
@@ -117,6 +126,7 @@ impl RenderLoop {
         match self.owner.hear(incoming) {
             Heard::Body(Body::Assign(a)) => self.on_assign(a),
             Heard::Body(Body::NoMoreWork(_)) => return Ok(Flow::Stop),
+            Heard::Body(Body::Retire(_)) => return self.retire().await,
             Heard::Body(_) | Heard::Nothing => {}
             Heard::Gone if self.owner.succeedable() => {
                 self.owner
@@ -200,6 +210,22 @@ impl RenderLoop {
         self.link.send(request).await
     }
 
+    /// Told to retire: the queued lines go back unstarted; it stops now if it renders none,
+    /// else once those are in.
+    async fn retire(&mut self) -> Result<Flow, WorkerError> {
+        self.retiring = true;
+        let back = self.pool.take_back(self.pool.queued());
+        self.held = self.held.saturating_sub(back.len());
+        let released = back
+            .into_iter()
+            .filter(|job| job.generation == self.owner.generation)
+            .map(|job| job.grant)
+            .collect();
+        let request = self.request(released);
+        self.link.send(request).await?;
+        Ok(if self.held == 0 { Flow::Stop } else { Flow::Go })
+    }
+
     /// A line rendered: its Done (held back while the worker has no owner).
     async fn on_rendered(&mut self, r: Rendered) -> Result<(), WorkerError> {
         self.held = self.held.saturating_sub(1);
@@ -216,7 +242,11 @@ impl RenderLoop {
             pass: r.job.pass,
             estimates: messages::estimates_to_bytes(&r.estimates),
             counters: Some(counters),
-            window: self.window.lines(now),
+            window: if self.retiring {
+                0
+            } else {
+                self.window.lines(now)
+            },
             clock: Some(proto::NodeClock {
                 cpu_s: process_cpu_seconds(),
                 elapsed_s: self.clock(),

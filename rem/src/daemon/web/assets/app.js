@@ -82,6 +82,7 @@ function renderHosts(hosts) {
     tr.appendChild(num(h.alive ? Math.round(h.busy * 100) + ' %' : '–'));
     tr.appendChild(num(bytes(h.mem_free_bytes)));
     tr.appendChild(num(h.processes));
+    tr.appendChild(num(h.alive ? h.slots_used + ' / ' + h.slots : '–'));
     return tr;
   }));
 }
@@ -109,11 +110,15 @@ function renderJobs(jobs) {
     tr.appendChild(el('td', j.id));
     tr.appendChild(el('td', j.title || '–'));
     tr.appendChild(el('td', j.user));
-    tr.appendChild(el('td', j.state));
+    // A job waiting for its first slot shows its place in the farm's queue.
+    tr.appendChild(el('td', j.queue_position ? 'queued #' + j.queue_position : j.state));
+    tr.dataset.queue = j.queue_position || '';
     tr.appendChild(progressBar(j.done, j.total, ENDED.includes(j.state)));
     tr.appendChild(num(j.lines_per_s === null ? '–' : j.lines_per_s.toFixed(1)));
     tr.appendChild(num(duration(j.eta_s)));
     tr.appendChild(num(j.workers_alive));
+    tr.appendChild(num(ENDED.includes(j.state) ? '–' : j.slots));
+    tr.appendChild(num(j.priority));
     tr.appendChild(el('td', j.controller_host || '–'));
     tr.appendChild(el('td', j.created_unix_ms ? new Date(j.created_unix_ms).toLocaleTimeString() : '–'));
     tr.addEventListener('click', () => open(j.id));

@@ -74,6 +74,7 @@ fn rates_etas_workers_and_who_sees_what() {
             record("j2", "bob", "finished", 100),
         ],
         &procs,
+        &QueueReply::default(),
         t0,
     );
     assert_eq!(rows[0].id, "j1", "running first");
@@ -88,6 +89,7 @@ fn rates_etas_workers_and_who_sees_what() {
             record("j2", "bob", "finished", 100),
         ],
         &procs,
+        &QueueReply::default(),
         t0 + Duration::from_secs(2),
     );
     assert_eq!(rows[0].lines_per_s, Some(10.0));
@@ -106,4 +108,36 @@ fn rates_etas_workers_and_who_sees_what() {
     };
     assert_eq!(view.jobs_for(&admin).unwrap().len(), 2);
     assert!(view.jobs_for(&Identity::user("carol")).unwrap().is_empty());
+}
+
+#[test]
+fn a_waiting_job_shows_its_place_in_the_farms_queue() {
+    let lend = |name: &str| HostInfo {
+        load: Some(Load {
+            slots: 1,
+            ..Load::default()
+        }),
+        ..host(name, true, 0.0)
+    };
+    let job = |id: &str, user: &str, created, priority| JobRecord {
+        created_unix_ms: created,
+        priority,
+        slots_wanted: 1,
+        ..record(id, user, "running", 0)
+    };
+    // One slot: the priority-90 job runs, the older priority-50 one waits first.
+    let records = vec![job("old", "alice", 1, 50), job("urgent", "bob", 2, 90)];
+    let queue = queue_of(records.clone(), &[lend("a")], None);
+    let rows = History::default().jobs(records, &[], &queue, Instant::now());
+    let row = |id: &str| rows.iter().find(|r| r.id == id).unwrap().clone();
+    assert_eq!(
+        (row("old").queue_position, row("old").priority),
+        (Some(1), 50)
+    );
+    assert_eq!(
+        (row("urgent").queue_position, row("urgent").priority),
+        (None, 90)
+    );
+    let hosts = History::default().hosts(&[lend("a")]);
+    assert_eq!((hosts[0].slots, hosts[0].slots_used), (1, 0));
 }
