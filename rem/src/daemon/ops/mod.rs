@@ -71,6 +71,8 @@ pub struct Daemon {
     pub seq: Arc<AtomicU64>,
     /// Fires when the daemon shuts down (ends relay streams).
     pub stop: CancellationToken,
+    /// The farm's queue as last computed here (the controllers of this host ask often).
+    pub queue_memo: queue::QueueMemo,
 }
 
 impl Daemon {

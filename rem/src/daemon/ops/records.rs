@@ -174,6 +174,8 @@ impl Daemon {
         record.updated_unix_ms = job_store::unix_ms(std::time::SystemTime::now());
         let cp = self.job_store.seal(&record, &self.name);
         let here = kept_here(self.job_store.put(&cp).await, &cp.job)?;
+        // A job submitted or changed here shows in this daemon's next queue at once.
+        self.queue_memo.forget();
         self.replicate(
             &cp,
             method::STORE_JOB,

@@ -112,6 +112,7 @@ impl Running {
             accepting,
             seq,
             stop,
+            queue_memo: Default::default(),
         });
         Ok(Running {
             daemon,
