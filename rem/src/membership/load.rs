@@ -76,7 +76,7 @@ impl LoadGauge {
                         let load = to_load(&sample, 0);
                         let busy = load.cpu_busy * load.capacity;
                         let owner_cores = owner.add(busy, farm.measure(&slots.holders()));
-                        slots.lend_beside(load.capacity, owner_cores);
+                        slots.lend_beside(owner_cores);
                     }
                     if tx.send(sample).is_err() {
                         break;

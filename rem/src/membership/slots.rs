@@ -6,7 +6,8 @@
 //! cores busy lends fewer slots, as the thesis's nice did for workstation owners. The owner's
 //! load is what the host's (or its control group's) CPUs are busy with besides the processes
 //! holding slots, whose CPU time is read from `/proc` ([`FarmCpu`]), averaged over a few
-//! seconds ([`OwnerLoad`]); the host lends its slots less that, rounded. Slots held beyond
+//! seconds ([`OwnerLoad`]); the host lends a slot less for each whole core of it (rounded).
+//! Slots held beyond
 //! what it lends are not taken back here: REM's queue then counts fewer slots in the farm,
 //! and the jobs above their share give theirs back at a line's end.
 
@@ -86,9 +87,9 @@ impl Slots {
         self.holders.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Lends what the owner's work leaves of `capacity` CPUs (the owner first).
-    pub(crate) fn lend_beside(&self, capacity: f64, owner_cores: f64) {
-        let n = lendable(self.configured, capacity, owner_cores);
+    /// Lends what the owner's work on `owner_cores` CPUs leaves (the owner first).
+    pub(crate) fn lend_beside(&self, owner_cores: f64) {
+        let n = lendable(self.configured, owner_cores);
         self.lent.store(n, Ordering::Relaxed);
     }
 
@@ -99,11 +100,15 @@ impl Slots {
 }
 
 /// The slots a host configured to lend `configured` lends while its owner's own work keeps
-/// `owner_cores` of its `capacity` CPUs busy: the CPUs left, rounded, never more than
-/// configured.
-pub fn lendable(configured: u32, capacity: f64, owner_cores: f64) -> u32 {
-    let left = (capacity - owner_cores.max(0.0)).max(0.0);
-    (left.round() as u32).min(configured)
+/// `owner_cores` CPUs busy: a slot less for each whole core of it, rounded (a quarter-CPU
+/// container lends its one slot while its owner is idle).
+pub fn lendable(configured: u32, owner_cores: f64) -> u32 {
+    let owner = owner_cores.max(0.0).round();
+    configured.saturating_sub(if owner >= f64::from(u32::MAX) {
+        u32::MAX
+    } else {
+        owner as u32
+    })
 }
 
 /// The CPU time the processes holding slots use, from `/proc/PID/stat` (user and system
@@ -200,11 +205,12 @@ mod tests {
 
     #[test]
     fn a_busy_owner_takes_slots_back_and_the_farms_own_work_does_not() {
-        assert_eq!(lendable(4, 4.0, 0.0), 4);
-        assert_eq!(lendable(4, 4.0, 1.4), 3, "rounded");
-        assert_eq!(lendable(4, 4.0, 1.6), 2);
-        assert_eq!(lendable(4, 4.0, 9.0), 0);
-        assert_eq!(lendable(2, 8.0, 1.0), 2, "never more than configured");
+        assert_eq!(lendable(4, 0.0), 4);
+        assert_eq!(lendable(4, 1.4), 3, "rounded");
+        assert_eq!(lendable(4, 1.6), 2);
+        assert_eq!(lendable(4, 9.0), 0);
+        assert_eq!(lendable(1, 0.1), 1, "a quarter-CPU container's one slot");
+        assert_eq!(lendable(4, f64::INFINITY), 0);
         // The CPUs busy with the farm's processes are not the owner's.
         let mut owner = OwnerLoad::default();
         assert_eq!(owner.add(4.0, 4.0), 0.0);
@@ -215,7 +221,7 @@ mod tests {
         }
         assert!((last - 2.0).abs() < 0.1, "{last}");
         let s = Slots::new(4);
-        s.lend_beside(4.0, last);
+        s.lend_beside(last);
         assert_eq!(s.lent(), 2);
         assert_eq!(s.take(3, 0), None, "what the owner uses is not lent");
     }
