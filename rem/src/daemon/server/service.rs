@@ -358,6 +358,7 @@ impl Peer for Service {
     ) -> Result<Response<proto::StoreReplicaReply>, Status> {
         self.peer(&req, method::STORE_JOB)?;
         self.0.job_store.put(req.get_ref()).await?;
+        self.0.queue_memo.forget();
         Ok(self.answer(&req, method::STORE_JOB, proto::StoreReplicaReply {}))
     }
 
