@@ -19,6 +19,18 @@ pub struct CrewView {
 }
 
 impl CrewView {
+    /// The crew of `workers` (node i is the i-th), before the actor keeps it.
+    pub fn of(workers: &[WorkerProc]) -> CrewView {
+        CrewView {
+            live: workers
+                .iter()
+                .enumerate()
+                .map(|(i, w)| (i, (w.host.clone(), w.slots)))
+                .collect(),
+            faults: 0,
+        }
+    }
+
     /// Slots the live workers hold.
     pub fn slots(&self) -> u32 {
         self.live.values().map(|(_, s)| *s).sum()

@@ -359,10 +359,7 @@ impl ControllerSite for FarmSite<'_> {
             Some(s) => s,
             None => self.record.slots_wanted,
         };
-        let mut crew = crate::distrib::controller::crew::CrewView::default();
-        for (i, w) in workers.iter().enumerate() {
-            crew.live.insert(i, (w.host.clone(), w.slots.max(1)));
-        }
+        let crew = crate::distrib::controller::crew::CrewView::of(&workers);
         let need = share.saturating_sub(crew.slots());
         if need > 0 {
             workers.extend(self.keeper.grow(me, need, &crew).await);

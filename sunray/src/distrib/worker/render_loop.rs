@@ -214,13 +214,7 @@ impl RenderLoop {
     /// else once those are in.
     async fn retire(&mut self) -> Result<Flow, WorkerError> {
         self.retiring = true;
-        let back = self.pool.take_back(self.pool.queued());
-        self.held = self.held.saturating_sub(back.len());
-        let released = back
-            .into_iter()
-            .filter(|job| job.generation == self.owner.generation)
-            .map(|job| job.grant)
-            .collect();
+        let released = self.take_back(self.pool.queued());
         let request = self.request(released);
         self.link.send(request).await?;
         Ok(if self.held == 0 { Flow::Stop } else { Flow::Go })
@@ -289,9 +283,15 @@ impl RenderLoop {
     /// controller (a line granted by an earlier one is simply dropped: its successor has it
     /// queued).
     fn give_back(&mut self, now: f64) -> Vec<u64> {
-        let pool = &self.pool;
-        pool.set_queue_target(self.window.queued(now) as usize);
-        let back = pool.take_back(self.window.excess(pool.queued(), now));
+        self.pool.set_queue_target(self.window.queued(now) as usize);
+        self.take_back(self.window.excess(self.pool.queued(), now))
+    }
+
+    /// Takes the last `n` queued lines back from the render threads; returns the grants to
+    /// report: those of the current controller (a line granted by an earlier one is simply
+    /// dropped: its successor has it queued).
+    fn take_back(&mut self, n: usize) -> Vec<u64> {
+        let back = self.pool.take_back(n);
         self.held = self.held.saturating_sub(back.len());
         back.into_iter()
             .filter(|job| job.generation == self.owner.generation)
