@@ -5,6 +5,7 @@
 //! - [`accuracy`]: error against time of the stochastic features (`sunray bench accuracy`).
 //! - [`precision`]: the hot path in f32 and f64, speed and error on hard cases.
 //! - [`hot_path`]: that hot path: the renderer's own kernels ([`crate::geometry::kernels`]) in f32 and f64.
+//! - [`limit`]: SunRay's eye + shadow rays without shading, beside Embree's kernels.
 //! - [`features`]: unused feature paths cost nothing; `--accel auto` against the fastest.
 //! - [`plot`]: the log-log plot of the accuracy benchmark, drawn with `image`.
 //! - [`memory`]: peak memory of `sunray render` per triangle, old builds against new.
@@ -16,6 +17,7 @@
 pub mod accuracy;
 pub mod features;
 pub mod hot_path;
+pub mod limit;
 pub mod memory;
 pub mod plot;
 pub mod pov_aa;

@@ -1,6 +1,7 @@
 //! `sunray bench table41|table42|throughput|build`: the thesis's tables with our numbers;
 //! `sunray bench accuracy|precision|features`: error against time, f32 against f64, and what a
-//! scene pays for (docs/accuracy.md).
+//! scene pays for (docs/accuracy.md); `sunray bench limit`: eye + shadow rays without shading,
+//! beside Embree's single-ray kernels (bench/limit/run.sh).
 
 use crate::accel::AccelKind;
 use clap::{Args, ValueEnum};
@@ -37,6 +38,10 @@ pub enum Which {
     /// user's slot-seconds against the fair share, from --input (the timeline that
     /// `deploy/bench/run.sh shares` records); writes --out-dir/shares.md and shares.png.
     Shares,
+    /// SunRay's eye + shadow rays without shading on --scene (one eye ray per pixel, one
+    /// shadow ray per light the hit faces), one thread, best of --repeat; prints one JSON
+    /// line. bench/limit/run.sh sets it beside Embree 3's single-ray kernels.
+    Limit,
 }
 
 /// The flags of `sunray bench`.
@@ -80,6 +85,12 @@ pub struct BenchArgs {
     /// accuracy: where to write accuracy.png and accuracy.md.
     #[arg(long, default_value = "bench/results")]
     pub out_dir: std::path::PathBuf,
+    /// limit: the scene (YARI, NFF, ...).
+    #[arg(long)]
+    pub scene: Option<std::path::PathBuf>,
+    /// limit: runs (the best time of each part is kept).
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
     /// shares: the timeline to read [default: deploy/bench/results/shares.json].
     #[arg(long)]
     pub input: Option<std::path::PathBuf>,
@@ -154,6 +165,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
                 .unwrap_or_else(|| "deploy/bench/results/shares.json".into());
             crate::bench::shares::run(&input, &args.out_dir)?
         }
+        Which::Limit => limit(&args)?,
         Which::Precision => crate::bench::precision::run(),
         Which::Features => crate::bench::features::run(args.resolution)?,
         Which::Memory => {
@@ -190,4 +202,21 @@ fn peak_rss_mib() -> f64 {
         return 0.0;
     }
     u.ru_maxrss as f64 / 1024.0
+}
+
+/// `sunray bench limit`: SunRay's eye + shadow rays on --scene, as one JSON line.
+fn limit(args: &BenchArgs) -> anyhow::Result<String> {
+    let Some(path) = &args.scene else {
+        anyhow::bail!("`sunray bench limit` needs --scene FILE");
+    };
+    let source = crate::scene::load::SceneSource::from_arg(path);
+    let loaded = crate::scene::load::load(&source, None)?;
+    let run = crate::bench::limit::run(
+        &loaded.scene,
+        &crate::accel::AccelOptions::default(),
+        args.resolution,
+        args.resolution,
+        args.repeat,
+    );
+    Ok(format!("{}\n", serde_json::to_string(&run)?))
 }

@@ -89,9 +89,11 @@ impl Bvh {
         check(&nodes, &order, prims)?;
         prims.adopt_order(&order);
         let items = LeafItems::new(prims, &order);
+        let leaves4 = super::leaf4::Leaves4::new(&nodes, &items, prims);
         Ok(Bvh {
             nodes: nodes.into(),
             items,
+            leaves4,
         })
     }
 }

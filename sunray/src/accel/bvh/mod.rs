@@ -3,7 +3,8 @@
 //! primitives' slots in the scene's compact tables ([`items`]), which take the leaves' order.
 //!
 //! A built tree can be written and read back, checked ([`file`]), or made of tables viewed
-//! in place in a prepared scene file ([`tables`]).
+//! in place in a prepared scene file ([`tables`]). Leaves of static triangles are also
+//! copied into groups of four tested at once ([`leaf4`]), within a memory budget.
 //!
 //! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
 //! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
@@ -12,6 +13,7 @@
 pub mod binary;
 pub mod file;
 pub mod items;
+pub mod leaf4;
 pub mod tables;
 pub mod wide;
 
@@ -28,6 +30,7 @@ use wide::{BoxRay, Child, WIDTH};
 pub struct Bvh {
     nodes: crate::store::Store<wide::Node>,
     items: LeafItems,
+    leaves4: leaf4::Leaves4,
 }
 
 /// A child waiting on the traversal stack, with the `t` at which the ray enters it.
@@ -49,9 +52,14 @@ impl Bvh {
         let costed = super::bounded(prims).map(|(i, b)| (i, b, prims.test_cost(i)));
         let bin = BinaryBvh::build(costed);
         prims.adopt_order(&bin.items);
-        let nodes = wide::collapse(&bin).into();
+        let nodes: crate::store::Store<wide::Node> = wide::collapse(&bin).into();
         let items = LeafItems::new(prims, &bin.items);
-        Bvh { nodes, items }
+        let leaves4 = leaf4::Leaves4::new(&nodes, &items, prims);
+        Bvh {
+            nodes,
+            items,
+            leaves4,
+        }
     }
 
     /// Nodes of the 4-wide tree.
@@ -190,6 +198,9 @@ impl Bvh {
         mut best: Option<Hit>,
         c: &mut Counters,
     ) -> Option<Hit> {
+        if let Some(groups) = self.leaves4.groups_of(leaf) {
+            return leaf4::closest(groups, r, t_max, best, c);
+        }
         let first = leaf.index as usize;
         for k in first..first + leaf.count as usize {
             c.intersection_tests += 1;
@@ -306,6 +317,9 @@ impl Bvh {
         accept: &dyn Fn(u32) -> bool,
         c: &mut Counters,
     ) -> Option<Hit> {
+        if let Some(groups) = self.leaves4.groups_of(leaf) {
+            return leaf4::any(groups, r, t_max, accept, c);
+        }
         let first = leaf.index as usize;
         for k in first..first + leaf.count as usize {
             c.intersection_tests += 1;

@@ -55,7 +55,12 @@ impl Bvh {
                 }
             }
         }
-        Ok(Bvh { nodes, items })
+        let leaves4 = super::leaf4::Leaves4::new(&nodes, &items, prims);
+        Ok(Bvh {
+            nodes,
+            items,
+            leaves4,
+        })
     }
 
     /// The full check of a tree read back ([`super::file`]'s): every box contains what is

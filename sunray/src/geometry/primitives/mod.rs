@@ -290,6 +290,15 @@ impl Primitives {
         }
     }
 
+    /// The corners of primitive `i` when it is a triangle of the static mesh, else None.
+    pub fn mesh_triangle(&self, i: u32) -> Option<[Vec3; 3]> {
+        let slot = self.slot(i);
+        (slot & KIND == TRIANGLE).then(|| {
+            self.mesh
+                .corners(&self.mesh.triangles[(slot & !KIND) as usize])
+        })
+    }
+
     /// The cost of primitive `i`'s intersection test relative to a triangle's, for the
     /// BVH's surface area heuristic: 3 for a clipped quadric (a quadratic in general form,
     /// then its clipping planes and box), 1 for the rest. With 3, tree11 (cones) renders 7%
