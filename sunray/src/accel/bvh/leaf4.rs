@@ -67,6 +67,10 @@ impl Leaves4 {
         for leaf in leaves(nodes) {
             out.add_leaf(leaf, items, prims);
         }
+        if out.groups.is_empty() {
+            // No leaf of triangles alone (balls, shells): no table to look up at every leaf.
+            return Leaves4::default();
+        }
         out
     }
 
