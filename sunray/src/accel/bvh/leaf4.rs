@@ -267,10 +267,25 @@ impl Tri4 {
         u64::from(self.lanes().count_ones())
     }
 
-    /// Primitive of `lane`.
+    /// The lanes whose triangles the ray crosses in `(0, t_max)`, in lane order, as (lane,
+    /// `t`, primitive); nothing is computed when the ray is known to miss every one.
     #[inline(always)]
-    pub fn prim(&self, lane: usize) -> u32 {
-        self.prims[lane]
+    fn crossings(&self, r: &RayPre, t_max: Real) -> impl Iterator<Item = (usize, Real, u32)> {
+        let live = self.live(r);
+        let (t, hits) = if live == 0 {
+            ([0.0; LANES], 0)
+        } else {
+            self.hits(r, t_max)
+        };
+        let mut m = hits & live;
+        let prims = self.prims;
+        std::iter::from_fn(move || {
+            (m != 0).then(|| {
+                let lane = m.trailing_zeros() as usize;
+                m &= m - 1;
+                (lane, t[lane], prims[lane])
+            })
+        })
     }
 }
 
@@ -285,21 +300,9 @@ pub fn closest(
 ) -> Option<Hit> {
     for g in groups {
         c.intersection_tests += g.count();
-        let live = g.live(r);
-        if live == 0 {
-            continue;
-        }
-        let (t, hits) = g.hits(r, t_max);
-        let mut m = hits & live;
-        while m != 0 {
-            let lane = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let i = g.prim(lane);
-            if Hit::improves(t[lane], i, &best) {
-                best = Some(Hit {
-                    t: t[lane],
-                    prim: i,
-                });
+        for (_, t, prim) in g.crossings(r, t_max) {
+            if Hit::improves(t, prim, &best) {
+                best = Some(Hit { t, prim });
             }
         }
     }
@@ -316,24 +319,11 @@ pub fn any(
     c: &mut Counters,
 ) -> Option<Hit> {
     for g in groups {
-        let live = g.live(r);
-        if live == 0 {
-            c.intersection_tests += g.count();
-            continue;
-        }
-        let (t, hits) = g.hits(r, t_max);
-        let mut m = hits & live;
-        while m != 0 {
-            let lane = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let i = g.prim(lane);
-            if accept(i) {
+        for (lane, t, prim) in g.crossings(r, t_max) {
+            if accept(prim) {
                 // Counted as the item-by-item walk counts: up to the triangle that ends it.
                 c.intersection_tests += lane as u64 + 1;
-                return Some(Hit {
-                    t: t[lane],
-                    prim: i,
-                });
+                return Some(Hit { t, prim });
             }
         }
         c.intersection_tests += g.count();
