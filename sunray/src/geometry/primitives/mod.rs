@@ -299,6 +299,16 @@ impl Primitives {
         })
     }
 
+    /// The centre and radius of primitive `i` when it is a sphere of the sphere table (a
+    /// static sphere), else None.
+    pub fn table_sphere(&self, i: u32) -> Option<(Vec3, Real)> {
+        let slot = self.slot(i);
+        (slot & KIND == SPHERE).then(|| {
+            let s = &self.spheres[(slot & !KIND) as usize];
+            (s.centre, s.radius)
+        })
+    }
+
     /// The cost of primitive `i`'s intersection test relative to a triangle's, for the
     /// BVH's surface area heuristic: 3 for a clipped quadric (a quadratic in general form,
     /// then its clipping planes and box), 1 for the rest. With 3, tree11 (cones) renders 7%
