@@ -9,7 +9,7 @@
 //! test's to the bit, the hits are the same and so are the counters (a leaf's primitives are
 //! counted as tested one by one would be, up to the one that ends a shadow ray).
 //!
-//! The groups copy the geometry (76 bytes a triangle, 40 a sphere, more where a leaf's last
+//! The groups copy the geometry (80 bytes a triangle, 40 a sphere, more where a leaf's last
 //! group is not full), so they are made only while they take at most [`BUDGET`] bytes: every
 //! SPD scene and models of some hundred thousand triangles; a scene of millions keeps the
 //! memory it had and tests item by item (bench/results/limit.md has the speed).
