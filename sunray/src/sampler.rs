@@ -11,6 +11,12 @@ pub fn splitmix64(state: &mut u64) -> u64 {
     mix64(*state)
 }
 
+/// A number in `[0, 1)` from the next output of [`splitmix64`] (its top 53 bits): a seeded
+/// stream of uniform numbers for tests and benchmarks.
+pub fn unit_f64(state: &mut u64) -> f64 {
+    (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64
+}
+
 /// The SplitMix64 finaliser: a bijective avalanche of 64 bits.
 #[inline]
 pub fn mix64(mut z: u64) -> u64 {

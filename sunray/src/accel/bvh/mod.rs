@@ -358,11 +358,8 @@ impl Bvh {
 mod tests {
     use super::*;
     use crate::geometry::{Primitive, PrimitiveKind, Ray, Vec3};
-    use crate::sampler::splitmix64;
 
-    fn rand(s: &mut u64) -> f64 {
-        (splitmix64(s) >> 11) as f64 / (1u64 << 53) as f64
-    }
+    use crate::sampler::unit_f64 as rand;
 
     fn sphere(centre: Vec3, radius: Real, i: u32) -> Primitive {
         Primitive {

@@ -4,13 +4,10 @@
 
 use super::*;
 use crate::geometry::Ray;
-use crate::sampler::splitmix64;
 use glam::DAffine3;
 use yari::model::{Object, Shape, Surface, World};
 
-fn rand(s: &mut u64) -> f64 {
-    (splitmix64(s) >> 11) as f64 / (1u64 << 53) as f64
-}
+use crate::sampler::unit_f64 as rand;
 
 fn bits(v: Vec3) -> [u64; 3] {
     v.to_array().map(f64::to_bits)

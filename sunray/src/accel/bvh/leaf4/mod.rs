@@ -179,6 +179,20 @@ impl Leaves4 {
     }
 }
 
+/// Each lane's `t` from `test(lane)` (None where it misses) for the lanes of `lanes`, and
+/// the mask of the lanes hit: a group's test one lane at a time, as the scalar kernels do it.
+fn lane_by_lane(lanes: u32, test: impl Fn(usize) -> Option<Real>) -> ([Real; LANES], u32) {
+    let mut out = [0.0; LANES];
+    let mut mask = 0;
+    for (lane, t) in out.iter_mut().enumerate() {
+        if let Some(hit) = test(lane) {
+            *t = hit;
+            mask |= 1 << lane;
+        }
+    }
+    (out, mask & lanes)
+}
+
 /// The leaves of `nodes`.
 fn leaves(nodes: &[Node]) -> impl Iterator<Item = Child> + '_ {
     nodes.iter().flat_map(|node| {
@@ -267,11 +281,8 @@ fn any_in<G: Lanes>(
 mod tests {
     use super::*;
     use crate::geometry::{Ray, Vec3};
-    use crate::sampler::splitmix64;
 
-    fn rand(s: &mut u64) -> Real {
-        (splitmix64(s) >> 11) as Real / (1u64 << 53) as Real
-    }
+    use crate::sampler::unit_f64 as rand;
 
     /// A tree with groups finds what the same tree tested item by item finds, with the same
     /// counts, on triangles (tetra), triangles with spheres (mount), slivers (gears) and

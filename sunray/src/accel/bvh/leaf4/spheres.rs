@@ -37,22 +37,11 @@ impl Sph4 {
 
     /// Each lane through the scalar kernel.
     pub fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
-        let mut out = [0.0; LANES];
-        let mut mask = 0;
-        for (lane, t) in out.iter_mut().enumerate() {
-            let c = Vec3::new(
-                self.centre[0][lane],
-                self.centre[1][lane],
-                self.centre[2][lane],
-            );
-            let hit =
-                crate::geometry::sphere::intersect_sphere(&r.ray, c, self.radius[lane], 0.0, t_max);
-            if let Some(hit) = hit {
-                *t = hit;
-                mask |= 1 << lane;
-            }
-        }
-        (out, mask & self.lanes())
+        super::lane_by_lane(self.lanes(), |lane| {
+            let c = self.centre.map(|axis| axis[lane]);
+            let (c, radius) = (Vec3::from(c), self.radius[lane]);
+            crate::geometry::sphere::intersect_sphere(&r.ray, c, radius, 0.0, t_max)
+        })
     }
 }
 
@@ -137,11 +126,8 @@ impl Lanes for Sph4 {
 mod tests {
     use super::*;
     use crate::geometry::Ray;
-    use crate::sampler::splitmix64;
 
-    fn rand(s: &mut u64) -> Real {
-        (splitmix64(s) >> 11) as Real / (1u64 << 53) as Real
-    }
+    use crate::sampler::unit_f64 as rand;
 
     /// Every lane gives the scalar kernel's answer to the bit: rays from outside and inside,
     /// grazing ones, tiny and huge spheres, limits exactly at a hit.

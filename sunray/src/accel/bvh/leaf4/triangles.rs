@@ -35,20 +35,10 @@ impl Tri4 {
 
     /// Each lane through the scalar kernel.
     pub fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
-        let mut out = [0.0; LANES];
-        let mut mask = 0;
-        for (lane, t) in out.iter_mut().enumerate() {
-            let corner = |j: usize| {
-                let c = &self.corners[j];
-                Vec3::new(c[0][lane], c[1][lane], c[2][lane])
-            };
-            let v = [corner(0), corner(1), corner(2)];
-            if let Some(hit) = crate::geometry::triangle::intersect_triangle(r, &v, 0.0, t_max) {
-                *t = hit;
-                mask |= 1 << lane;
-            }
-        }
-        (out, mask & self.lanes())
+        super::lane_by_lane(self.lanes(), |lane| {
+            let v = self.corners.map(|c| Vec3::from(c.map(|axis| axis[lane])));
+            crate::geometry::triangle::intersect_triangle(r, &v, 0.0, t_max)
+        })
     }
 }
 
@@ -153,11 +143,8 @@ impl Lanes for Tri4 {
 mod tests {
     use super::*;
     use crate::geometry::Ray;
-    use crate::sampler::splitmix64;
 
-    fn rand(s: &mut u64) -> Real {
-        (splitmix64(s) >> 11) as Real / (1u64 << 53) as Real
-    }
+    use crate::sampler::unit_f64 as rand;
 
     fn group(tris: &[[Vec3; 3]]) -> Tri4 {
         let lanes: Vec<_> = tris
