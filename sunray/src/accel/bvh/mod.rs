@@ -3,8 +3,9 @@
 //! primitives' slots in the scene's compact tables ([`items`]), which take the leaves' order.
 //!
 //! A built tree can be written and read back, checked ([`file`]), or made of tables viewed
-//! in place in a prepared scene file ([`tables`]). Leaves of static triangles are also
-//! copied into groups of four tested at once ([`leaf4`]), within a memory budget.
+//! in place in a prepared scene file ([`tables`]). Leaves of static triangles alone, or of
+//! static spheres alone, are also copied into groups of four tested at once ([`leaf4`]),
+//! within a memory budget.
 //!
 //! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
 //! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
@@ -358,7 +359,6 @@ impl Bvh {
 mod tests {
     use super::*;
     use crate::geometry::{Primitive, PrimitiveKind, Ray, Vec3};
-
     use crate::sampler::unit_f64 as rand;
 
     fn sphere(centre: Vec3, radius: Real, i: u32) -> Primitive {

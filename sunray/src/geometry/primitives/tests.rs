@@ -4,10 +4,9 @@
 
 use super::*;
 use crate::geometry::Ray;
+use crate::sampler::unit_f64 as rand;
 use glam::DAffine3;
 use yari::model::{Object, Shape, Surface, World};
-
-use crate::sampler::unit_f64 as rand;
 
 fn bits(v: Vec3) -> [u64; 3] {
     v.to_array().map(f64::to_bits)

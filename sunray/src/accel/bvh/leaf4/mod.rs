@@ -281,7 +281,6 @@ fn any_in<G: Lanes>(
 mod tests {
     use super::*;
     use crate::geometry::{Ray, Vec3};
-
     use crate::sampler::unit_f64 as rand;
 
     /// A tree with groups finds what the same tree tested item by item finds, with the same

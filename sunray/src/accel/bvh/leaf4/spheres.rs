@@ -126,7 +126,6 @@ impl Lanes for Sph4 {
 mod tests {
     use super::*;
     use crate::geometry::Ray;
-
     use crate::sampler::unit_f64 as rand;
 
     /// Every lane gives the scalar kernel's answer to the bit: rays from outside and inside,

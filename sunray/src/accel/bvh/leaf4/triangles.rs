@@ -143,7 +143,6 @@ impl Lanes for Tri4 {
 mod tests {
     use super::*;
     use crate::geometry::Ray;
-
     use crate::sampler::unit_f64 as rand;
 
     fn group(tris: &[[Vec3; 3]]) -> Tri4 {
