@@ -258,5 +258,46 @@ impl Accel {
     }
 }
 
+impl Accel {
+    /// Whether light `light`'s last opaque occluder ([`Occluders`]) lies on `r` in
+    /// `(0, t_max)`: one test that settles most blocked shadow rays.
+    pub fn last_occluder_blocks(
+        prims: &Primitives,
+        r: &RayPre,
+        t_max: Real,
+        light: usize,
+        scratch: &Scratch,
+        c: &mut Counters,
+    ) -> bool {
+        let Some(i) = scratch.occluders.get(light).filter(|&i| !r.skips(i)) else {
+            return false;
+        };
+        c.intersection_tests += 1;
+        prims.intersect(i, r, 0.0, t_max).is_some()
+    }
+
+    /// Whether anything lies on shadow ray `r` in `(0, t_max)` towards light `light`, every
+    /// primitive taken as opaque: the light's last occluder first, then the tree, whose
+    /// blocker becomes the light's occluder.
+    pub fn occluded(
+        &self,
+        prims: &Primitives,
+        r: &RayPre,
+        t_max: Real,
+        light: usize,
+        scratch: &mut Scratch,
+        c: &mut Counters,
+    ) -> bool {
+        if Accel::last_occluder_blocks(prims, r, t_max, light, scratch, c) {
+            return true;
+        }
+        let Some(hit) = self.any(prims, r, t_max, &|_| true, scratch, c) else {
+            return false;
+        };
+        scratch.occluders.set(light, hit.prim);
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests;

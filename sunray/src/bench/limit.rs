@@ -152,8 +152,8 @@ struct ShadowFrom {
 }
 
 /// Whether an opaque occluder lies between the point and light `light` at `dist` along `l`,
-/// as the renderer's shadow ray finds it in an opaque scene: the light's last occluder first,
-/// then the tree; the ray skips the flat face it leaves (it leaves on the eye's side).
+/// found as the renderer finds it in an opaque scene ([`Accel::occluded`]); the ray skips the
+/// flat face it leaves (it leaves on the eye's side).
 #[allow(clippy::too_many_arguments)]
 fn shadow(
     prims: &crate::geometry::Primitives,
@@ -171,18 +171,7 @@ fn shadow(
     if let Some(face) = from.face {
         pre = pre.leaving(face);
     }
-    if let Some(i) = scratch.occluders.get(light).filter(|&i| !pre.skips(i)) {
-        if prims.intersect(i, &pre, 0.0, t_max).is_some() {
-            return true;
-        }
-    }
-    match accel.any(prims, &pre, t_max, &|_| true, scratch, c) {
-        Some(hit) => {
-            scratch.occluders.set(light, hit.prim);
-            true
-        }
-        None => false,
-    }
+    accel.occluded(prims, &pre, t_max, light, scratch, c)
 }
 
 #[cfg(test)]

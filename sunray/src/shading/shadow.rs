@@ -12,6 +12,7 @@
 //! 8.4M opaque.)
 
 use super::hall::{FlatFace, Tracer};
+use crate::accel::Accel;
 use crate::geometry::{offset_from, Primitives, Ray, RayPre, Real, Vec3, OFFSET_RELATIVE};
 use crate::scene::Scene;
 use arrayvec::ArrayVec;
@@ -159,18 +160,12 @@ impl Tracer<'_> {
         }
         let scene = self.scene;
         let prims = &scene.prims;
-        if let Some(i) = self.scratch.occluders.get(light).filter(|&i| !pre.skips(i)) {
-            self.counters.intersection_tests += 1;
-            if prims.intersect(i, &pre, 0.0, t_max).is_some() {
-                return Vec3::ZERO;
-            }
-        }
         if !scene.world.features.transparency {
-            let hit = self
-                .accel
-                .any(prims, &pre, t_max, &|_| true, self.scratch, self.counters);
-            let Some(hit) = hit else { return Vec3::ONE };
-            self.scratch.occluders.set(light, hit.prim);
+            let (scratch, c) = (&mut *self.scratch, &mut *self.counters);
+            let blocked = self.accel.occluded(prims, &pre, t_max, light, scratch, c);
+            return if blocked { Vec3::ZERO } else { Vec3::ONE };
+        }
+        if Accel::last_occluder_blocks(prims, &pre, t_max, light, self.scratch, self.counters) {
             return Vec3::ZERO;
         }
         let walk = Crossings::new(scene, &pre, t_max);
