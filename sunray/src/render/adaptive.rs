@@ -359,7 +359,10 @@ pub fn advance_pixel(
 
 /// The most samples a pixel has after pass `pass` of a render to the error `a` in passes:
 /// `min_samples` after pass 0, twice as many after each later one. A pixel's next count is
-/// at most twice its samples, so every pixel not done takes at least one step in each pass.
+/// at most twice its samples (where `min_samples` is a whole number of rounds of the
+/// replicates, as the default is), so every pixel not done takes at least one step in each
+/// pass; with another `min_samples` a step may wait a pass, and the last pass, whose cap
+/// reaches `max_samples`, finishes every pixel.
 pub fn pass_cap(a: &Adaptive, pass: u32) -> u32 {
     let cap = u64::from(a.min_samples) << pass.min(32);
     cap.min(u64::from(u32::MAX)) as u32

@@ -246,6 +246,14 @@ impl Compiler<'_> {
         let t = state.transform.translation;
         for h in &mut halves {
             let n = lt * h.normal;
+            if n == DVec3::ZERO {
+                // Found by yari/tests/roundtrip_prop.rs: scales of 1e153 and 1e135.
+                self.error(
+                    span,
+                    "a clipping plane's normal vanishes after transformation (the numbers underflow)",
+                );
+                return None;
+            }
             *h = HalfSpace {
                 normal: n,
                 offset: h.offset + n.dot(t),

@@ -264,6 +264,10 @@ fn errors_with_spans() {
             .contains("overflows")
     );
     assert!(body("scale(0,1,1);")[0].contains("zero"));
+    assert!(
+        body("scale(1,1,1e300); quadric(1 1 1 0 0 0 0 0 0 -1; plane = 0,0,1e-30 0);")[0]
+            .contains("normal vanishes")
+    );
     let text = format!("{VIEW}begin\n  sphere(center=0,0,0; radius=0);\nend\n");
     let d = compile_text(&text).unwrap_err();
     assert!(d
