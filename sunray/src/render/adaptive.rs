@@ -67,9 +67,9 @@ pub const MAX_ADAPTIVE_SAMPLES: u32 = SOBOL_SAMPLES;
 /// How many independently scrambled Sobol sequences a pixel's samples come from, in turn:
 /// the estimate of its error has K - 1 = 3 degrees of freedom per channel. Measured at 64x64
 /// with the floor (bench/results/to_error.md's scenes): 2 let depth-of-field pixels stop at
-/// 1.6 to 2.5 E; 8 and 16 spread the samples over more scrambles, each stratified alone, and
-/// took longer to every RMSE (gloss to 0.01: 0.6x stratified jitter's speed with 8, 1.1x
-/// with 4).
+/// 1.6 to 2.5 E; 8 (and 16, measured without the floor) spread the samples over more
+/// scrambles, each stratified alone, and took longer to every RMSE (gloss to 0.01: 0.6x
+/// stratified jitter's speed with 8, 1.1x with 4).
 pub const REPLICATES: u32 = 4;
 
 /// The scramble of replicate `r` of a pixel whose render is scrambled by `seed` (replicate
