@@ -297,11 +297,12 @@ impl PixelEstimate {
         if n < a.min_samples {
             return Some(a.min_samples);
         }
-        if self.standard_error() <= a.target_error {
+        let se2 = self.squared_error();
+        if se2.sqrt() <= a.target_error {
             return None;
         }
         let e2 = a.target_error * a.target_error;
-        let asked = (f64::from(n) * self.squared_error() / e2).ceil();
+        let asked = (f64::from(n) * se2 / e2).ceil();
         let asked = if asked.is_finite() {
             asked.min(f64::from(u32::MAX)) as u32
         } else {
@@ -378,15 +379,14 @@ pub fn max_passes(a: &Adaptive) -> u32 {
 }
 
 /// A constant pixel (the background outside the scene's footprint) rendered to the error
-/// `a` asks: `min_samples` of `c`, no error (what adding them one by one gives, exactly).
+/// `a` asks: `min_samples` of `c`, no error, added one by one as a traced pixel's are (so
+/// the state is exactly the traced one's, its replicates' f32 means included).
 pub fn constant_pixel(c: DVec3, a: &Adaptive) -> PixelEstimate {
-    let held = a.min_samples.min(REPLICATES) as usize;
-    PixelEstimate {
-        n: a.min_samples,
-        mean: c,
-        m2: DVec3::ZERO,
-        replicates: std::array::from_fn(|r| if r < held { narrow(c) } else { [0.0; 3] }),
+    let mut est = PixelEstimate::default();
+    for _ in 0..a.min_samples {
+        est.add(c);
     }
+    est
 }
 
 /// What the pixels of a render to the error `a` reached and took (their `summaries`).

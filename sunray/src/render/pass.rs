@@ -57,12 +57,13 @@ pub(super) fn advance_line(
         counters: &mut counters,
     };
     let outside_row = frame.outside_row(y, opts.width);
+    let background = adaptive::constant_pixel(scene.world.background, a);
     for ((x, est), &outside) in (0..opts.width).zip(estimates.iter_mut()).zip(&outside_row) {
         match outside {
             Some(f) if est.count() == 0 => {
                 tracer.counters.eye += u64::from(a.min_samples);
                 tracer.counters.voxels += f.voxels_on_miss * u64::from(a.min_samples);
-                *est = adaptive::constant_pixel(scene.world.background, a);
+                *est = background;
             }
             _ => {
                 adaptive::advance_pixel(&mut tracer, &frame.camera, (x, y), 0, a, est, cap);
