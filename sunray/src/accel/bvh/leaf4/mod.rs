@@ -43,8 +43,19 @@ pub trait Lanes {
     fn live(&self, r: &RayPre) -> u32;
 
     /// Each lane's `t` where the ray meets its primitive in `(0, t_max)`, and the mask (a bit
-    /// per lane) of the lanes it meets.
+    /// per lane) of the lanes it meets: in AVX2 lanes where the build has AVX2.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     fn hits(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32);
+
+    /// [`Lanes::hits`] without AVX2: each lane through the scalar kernel.
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+    #[inline(always)]
+    fn hits(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
+        self.hits_scalar(r, t_max)
+    }
+
+    /// What [`Lanes::hits`] gives, each lane through the scalar kernel.
+    fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32);
 
     /// The lanes holding a primitive.
     #[inline(always)]
@@ -275,6 +286,23 @@ fn any_in<G: Lanes>(
         c.intersection_tests += g.count();
     }
     None
+}
+
+/// Asserts that group `g`'s lanes, in AVX2 and scalar alike, give `want` (each lane's `t`,
+/// the scalar kernel's) to the bit, and that no empty lane is hit; `round` names the case.
+#[cfg(test)]
+fn assert_lanes_are(g: &impl Lanes, r: &RayPre, t_max: Real, want: &[Option<Real>], round: usize) {
+    for (t, mask) in [g.hits(r, t_max), g.hits_scalar(r, t_max)] {
+        for (lane, w) in want.iter().enumerate() {
+            let got = (mask >> lane & 1 == 1).then_some(t[lane]);
+            assert_eq!(
+                got.map(Real::to_bits),
+                w.map(Real::to_bits),
+                "{round} {lane}"
+            );
+        }
+        assert_eq!(mask >> want.len(), 0, "no empty lane is hit");
+    }
 }
 
 #[cfg(test)]

@@ -34,18 +34,17 @@ impl Sph4 {
         }
         g
     }
+}
 
-    /// Each lane through the scalar kernel.
-    pub fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
+impl Lanes for Sph4 {
+    fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
         super::lane_by_lane(self.lanes(), |lane| {
             let c = self.centre.map(|axis| axis[lane]);
             let (c, radius) = (Vec3::from(c), self.radius[lane]);
             crate::geometry::sphere::intersect_sphere(&r.ray, c, radius, 0.0, t_max)
         })
     }
-}
 
-impl Lanes for Sph4 {
     #[inline(always)]
     fn prims(&self) -> &[u32; LANES] {
         &self.prims
@@ -114,12 +113,6 @@ impl Lanes for Sph4 {
         }
         (out, mask & self.lanes())
     }
-
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-    #[inline(always)]
-    fn hits(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
-        self.hits_scalar(r, t_max)
-    }
 }
 
 #[cfg(test)]
@@ -170,17 +163,7 @@ mod tests {
                 }
             }
             let want = scalar(t_max);
-            for (t, mask) in [g.hits(&r, t_max), g.hits_scalar(&r, t_max)] {
-                for (lane, w) in want.iter().enumerate() {
-                    let got = (mask >> lane & 1 == 1).then_some(t[lane]);
-                    assert_eq!(
-                        got.map(Real::to_bits),
-                        w.map(Real::to_bits),
-                        "{round} {lane}"
-                    );
-                }
-                assert_eq!(mask >> used, 0, "no empty lane is hit");
-            }
+            super::super::assert_lanes_are(&g, &r, t_max, &want, round);
             hits += want.iter().flatten().count();
         }
         assert!(hits > 2000, "{hits}");

@@ -32,17 +32,16 @@ impl Tri4 {
         }
         g
     }
+}
 
-    /// Each lane through the scalar kernel.
-    pub fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
+impl Lanes for Tri4 {
+    fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
         super::lane_by_lane(self.lanes(), |lane| {
             let v = self.corners.map(|c| Vec3::from(c.map(|axis| axis[lane])));
             crate::geometry::triangle::intersect_triangle(r, &v, 0.0, t_max)
         })
     }
-}
 
-impl Lanes for Tri4 {
     #[inline(always)]
     fn prims(&self) -> &[u32; LANES] {
         &self.prims
@@ -131,12 +130,6 @@ impl Lanes for Tri4 {
         }
         (out, mask & self.lanes())
     }
-
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-    #[inline(always)]
-    fn hits(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32) {
-        self.hits_scalar(r, t_max)
-    }
 }
 
 #[cfg(test)]
@@ -193,17 +186,7 @@ mod tests {
                 .iter()
                 .map(|v| crate::geometry::triangle::intersect_triangle(&r, v, 0.0, t_max))
                 .collect();
-            for (t, mask) in [g.hits(&r, t_max), g.hits_scalar(&r, t_max)] {
-                for (lane, w) in want.iter().enumerate() {
-                    let got = (mask >> lane & 1 == 1).then_some(t[lane]);
-                    assert_eq!(
-                        got.map(Real::to_bits),
-                        w.map(Real::to_bits),
-                        "{round} {lane}"
-                    );
-                }
-                assert_eq!(mask >> used, 0, "no empty lane is hit");
-            }
+            super::super::assert_lanes_are(&g, &r, t_max, &want, round);
             hits += want.iter().flatten().count();
         }
         assert!(hits > 1000, "{hits}");
