@@ -19,14 +19,12 @@ use super::accuracy::{cases as accuracy_cases, errors, render_with, world, Accur
 use super::plot::{loglog, Labels, Series};
 use super::pov_aa;
 use crate::accel::{Accel, AccelOptions};
-use crate::camera::Camera;
 use crate::geometry::Vec3;
-use crate::render::adaptive::{trace_pixel_to_error, Adaptive};
-use crate::render::{trace_pixel, trace_pixel_sobol};
+use crate::render::adaptive::Adaptive;
+use crate::render::{render_image_summarized, trace_pixel, Progress, RenderOptions};
+use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::shading::Tracer;
 use std::path::Path;
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 mod report;
@@ -83,16 +81,22 @@ impl Method {
         }
     }
 
-    /// Pixel (x, y) as the method renders it (not POV-Ray's), and the samples it took.
-    fn pixel(&self, tracer: &mut Tracer, camera: &Camera, xy: (u32, u32)) -> (Vec3, u32) {
+    /// What `sunray render` is given for the method on `scene` (`None` for POV-Ray's).
+    fn options(&self, scene: &Scene) -> Option<RenderOptions> {
+        let scene_own = RenderOptions::for_scene(scene);
+        let fixed = |samples, sampler| RenderOptions {
+            samples,
+            sampler,
+            ..scene_own
+        };
         match *self {
-            Method::Stratified(n) => (trace_pixel(tracer, camera, xy, 0, n), n),
-            Method::Sobol(n) => (trace_pixel_sobol(tracer, camera, xy, 0, n), n),
-            Method::Adaptive(e) => {
-                let est = trace_pixel_to_error(tracer, camera, xy, 0, &adaptive_of(e));
-                (est.mean(), est.count())
-            }
-            Method::Pov(..) => (Vec3::ZERO, 0),
+            Method::Stratified(n) => Some(fixed(n, Sampler::Stratified)),
+            Method::Sobol(n) => Some(fixed(n, Sampler::Sobol)),
+            Method::Adaptive(e) => Some(RenderOptions {
+                adaptive: Some(adaptive_of(e)),
+                ..scene_own
+            }),
+            Method::Pov(..) => None,
         }
     }
 }
@@ -239,32 +243,45 @@ struct Measured {
 }
 
 /// Best-of-3 time (stopping after half a second spent), the image of `method` and the
-/// samples each pixel took (kept as it renders, so nothing is rendered again to know them).
+/// samples each pixel took, rendered as `sunray render` renders it (line by line, the
+/// background outside the scene's footprint not traced).
 fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> Measured {
-    let width = scene.world.resolution[0].max(1);
-    let pixels = (width * scene.world.resolution[1].max(1)) as usize;
-    let samples: Vec<AtomicU32> = (0..pixels).map(|_| AtomicU32::new(0)).collect();
-    let (mut best, mut image, mut spent) = (f64::MAX, Vec::new(), 0.0);
-    for _ in 0..3 {
+    let Some(opts) = method.options(scene) else {
+        return Measured {
+            seconds: f64::NAN,
+            image: Vec::new(),
+            samples: Vec::new(),
+        };
+    };
+    let render = || {
         let t = Instant::now();
-        image = render_with(scene, accel, threads, &|tr, cam, (x, y)| {
-            let (c, n) = method.pixel(tr, cam, (x, y));
-            if let Some(s) = samples.get((y * width + x) as usize) {
-                s.store(n, Ordering::Relaxed);
-            }
-            c
-        });
-        let s = t.elapsed().as_secs_f64();
-        best = best.min(s);
-        spent += s;
+        let rendered =
+            render_image_summarized(scene, accel, &opts, threads, true, Progress::Hidden);
+        (t.elapsed().as_secs_f64(), rendered)
+    };
+    let (mut best, mut last) = render();
+    let mut spent = best;
+    for _ in 1..3 {
         if spent > 0.5 {
             break;
         }
+        let (s, rendered) = render();
+        (best, spent, last) = (best.min(s), spent + s, rendered);
     }
+    let (film, _, summaries) = last;
+    let samples = if opts.adaptive.is_some() {
+        summaries.iter().map(|p| p.samples).collect()
+    } else {
+        vec![opts.samples; film.pixels.len()]
+    };
     Measured {
         seconds: best,
-        image,
-        samples: samples.into_iter().map(AtomicU32::into_inner).collect(),
+        image: film
+            .pixels
+            .iter()
+            .map(|p| Vec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
+            .collect(),
+        samples,
     }
 }
 
