@@ -249,23 +249,14 @@ impl Farm {
     fn fetch(&self, job: &JobPlan, dir: &Path) -> (Vec<u8>, serde_json::Value) {
         let via = &self.up()[0];
         let out = dir.join(format!("{}.png", job.id));
-        // The job list can say finished a moment before the checkpoint this daemon holds has
-        // the last line (seen once in 5 runs: 63 of 64 lines); fetch again for up to 10 s.
-        let mut tries = 0;
-        let st = loop {
-            let st = self
-                .sunray_as(job.user, via)
-                .args(["fetch", &job.id, "-o"])
-                .arg(&out)
-                .output()
-                .unwrap();
-            tries += 1;
-            let lagging = String::from_utf8_lossy(&st.stderr).contains("it is not finished");
-            if st.status.success() || !lagging || tries == 40 {
-                break st;
-            }
-            std::thread::sleep(Duration::from_millis(250));
-        };
+        // `fetch` itself waits (up to 10 s) when the job list says finished before the
+        // checkpoint copies that answer have the last line (seen once in 5 runs: 63 of 64).
+        let st = self
+            .sunray_as(job.user, via)
+            .args(["fetch", &job.id, "-o"])
+            .arg(&out)
+            .output()
+            .unwrap();
         assert!(
             st.status.success(),
             "{}",

@@ -397,6 +397,27 @@ fn a_cancelled_job_ends_its_processes_and_keeps_its_checkpointed_lines() {
         said.contains(&format!("{done} of {LINES} lines are in")),
         "{said} vs {row}"
     );
+    // A record that says finished while the checkpoint copies that answer lack lines (a copy
+    // trailing its record): fetch reads again for its 10 s, then says so, and writes nothing.
+    let mut finished = r.clone();
+    finished.state = "finished".into();
+    finished.epoch += 1;
+    cluster.put_record("b", finished);
+    let out = std::env::temp_dir().join(format!("{job}.png"));
+    let t0 = Instant::now();
+    let fetched = cluster
+        .sunray_via("b")
+        .args(["fetch", &job, "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&fetched.stderr).to_string();
+    assert!(!fetched.status.success() && !out.exists(), "{said}");
+    assert!(t0.elapsed() >= Duration::from_secs(10), "{said}");
+    assert!(
+        said.contains(&format!("its record says finished, but after 10 s the hosts that answer hold {done} of {LINES} lines")),
+        "{said}"
+    );
 }
 
 #[test]

@@ -280,22 +280,8 @@ pub async fn fetch(
     if let Some(path) = samples_map {
         Format::from_path(path)?;
     }
-    let restored = checkpoint::load(client, job)
-        .await?
-        .ok_or_else(|| FarmError::Stored {
-            job: job.to_string(),
-            reason: "no host holds its image or checkpoint".into(),
-        })?;
+    let restored = finished_checkpoint(client, job).await?;
     let (width, height) = restored.size();
-    let finished = restored.finished_lines();
-    if finished < height {
-        return Err(FarmError::Stored {
-            job: job.to_string(),
-            reason: format!(
-                "it is not finished: {finished} of {height} lines are in (`sunray watch {job}` waits for it)"
-            ),
-        });
-    }
     let map = match samples_map {
         Some(path) => match restored.samples_map() {
             Some(map) => Some((path, map)),
@@ -314,6 +300,48 @@ pub async fn fetch(
         map.write(path)?;
     }
     Ok(())
+}
+
+/// How long `fetch` waits for the image of a job whose record says finished: the checkpoint
+/// copies on the hosts that answer can trail the record by a write when the host that took
+/// the last one is stopped or cut off (seen in the chaos test: 63 of 64 lines).
+pub const FETCH_CATCH_UP: Duration = Duration::from_secs(10);
+
+/// Job `job`'s checkpoint with every line in. When fewer are in but its record says
+/// finished, it is read again every [`POLL`] for up to [`FETCH_CATCH_UP`].
+async fn finished_checkpoint(
+    client: &RemClient,
+    job: &str,
+) -> Result<checkpoint::Restored, FarmError> {
+    let deadline = tokio::time::Instant::now() + FETCH_CATCH_UP;
+    loop {
+        let restored = checkpoint::load(client, job)
+            .await?
+            .ok_or_else(|| FarmError::Stored {
+                job: job.to_string(),
+                reason: "no host holds its image or checkpoint".into(),
+            })?;
+        let (_, height) = restored.size();
+        let finished = restored.finished_lines();
+        if finished >= height {
+            return Ok(restored);
+        }
+        let said_finished = job_record::find(client, job)
+            .await?
+            .is_some_and(|r| r.state == "finished");
+        if !said_finished || tokio::time::Instant::now() >= deadline {
+            let why = if said_finished {
+                format!("its record says finished, but after {} s the hosts that answer hold {finished} of {height} lines (the host with the rest may be down)", FETCH_CATCH_UP.as_secs())
+            } else {
+                format!("it is not finished: {finished} of {height} lines are in (`sunray watch {job}` waits for it)")
+            };
+            return Err(FarmError::Stored {
+                job: job.to_string(),
+                reason: why,
+            });
+        }
+        tokio::time::sleep(POLL).await;
+    }
 }
 
 /// Cancels job `job`: its record says cancelled (so no controller is started again), then
