@@ -242,21 +242,13 @@ struct Measured {
     samples: Vec<u32>,
 }
 
-/// Best-of-3 time (stopping after half a second spent), the image of `method` and the
+/// Best-of-3 time (stopping after half a second spent), the image `opts` give and the
 /// samples each pixel took, rendered as `sunray render` renders it (line by line, the
 /// background outside the scene's footprint not traced).
-fn measure(scene: &Scene, accel: &Accel, threads: usize, method: Method) -> Measured {
-    let Some(opts) = method.options(scene) else {
-        return Measured {
-            seconds: f64::NAN,
-            image: Vec::new(),
-            samples: Vec::new(),
-        };
-    };
+fn measure(scene: &Scene, accel: &Accel, threads: usize, opts: &RenderOptions) -> Measured {
     let render = || {
         let t = Instant::now();
-        let rendered =
-            render_image_summarized(scene, accel, &opts, threads, true, Progress::Hidden);
+        let rendered = render_image_summarized(scene, accel, opts, threads, true, Progress::Hidden);
         (t.elapsed().as_secs_f64(), rendered)
     };
     let (mut best, mut last) = render();
@@ -303,10 +295,10 @@ fn sunray_curves(
         .map(|sweep| {
             sweep
                 .into_iter()
-                .map(|method| {
-                    let m = measure(&case.scene, accel, threads, method);
+                .filter_map(|method| {
+                    let m = measure(&case.scene, accel, threads, &method.options(&case.scene)?);
                     let adaptive = matches!(method, Method::Adaptive(_));
-                    Point {
+                    Some(Point {
                         method,
                         seconds: m.seconds.max(1e-6),
                         rmse: errors(&m.image, &reference.image).0,
@@ -319,7 +311,7 @@ fn sunray_curves(
                             }
                             _ => None,
                         },
-                    }
+                    })
                 })
                 .collect()
         })

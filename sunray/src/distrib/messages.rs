@@ -36,8 +36,8 @@ pub enum MessageError {
         /// Pixels in a line.
         width: u32,
     },
-    /// A line's estimates are not 100 bytes per pixel of the width, or one holds more samples
-    /// than the render's most.
+    /// A line's estimates are not [`PixelEstimate::BYTES`] per pixel of the width, or one
+    /// holds more samples than the render's most.
     #[error("bad pixel estimates for a line of {width} pixels: {why}")]
     Estimates {
         /// Pixels in a line.

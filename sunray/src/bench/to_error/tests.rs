@@ -72,7 +72,7 @@ fn every_method_converges_on_a_tiny_penumbra() {
     let mut s = scene("penumbra", body, 10).unwrap();
     let accel = Accel::build(&mut s.prims, &AccelOptions::default());
     let reference = Reference::render(&s, &accel, 2, 2048);
-    let image = |m: Method| measure(&s, &accel, 2, m).image;
+    let image = |m: Method| measure(&s, &accel, 2, &m.options(&s).unwrap()).image;
     let rmse = |m: Method| errors(&image(m), &reference.image).0;
     for (low, high) in [
         (Method::Stratified(4), Method::Stratified(64)),

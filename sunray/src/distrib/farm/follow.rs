@@ -308,12 +308,14 @@ pub async fn fetch(
 pub const FETCH_CATCH_UP: Duration = Duration::from_secs(10);
 
 /// Job `job`'s checkpoint with every line in. When fewer are in but its record says
-/// finished, it is read again every [`POLL`] for up to [`FETCH_CATCH_UP`].
+/// finished (read once: finished is final), it is read again every [`POLL`] for up to
+/// [`FETCH_CATCH_UP`].
 async fn finished_checkpoint(
     client: &RemClient,
     job: &str,
 ) -> Result<checkpoint::Restored, FarmError> {
     let deadline = tokio::time::Instant::now() + FETCH_CATCH_UP;
+    let mut said_finished = None;
     loop {
         let restored = checkpoint::load(client, job)
             .await?
@@ -326,11 +328,15 @@ async fn finished_checkpoint(
         if finished >= height {
             return Ok(restored);
         }
-        let said_finished = job_record::find(client, job)
-            .await?
-            .is_some_and(|r| r.state == "finished");
-        if !said_finished || tokio::time::Instant::now() >= deadline {
-            let why = if said_finished {
+        let said = match said_finished {
+            Some(said) => said,
+            None => {
+                let r = job_record::find(client, job).await?;
+                *said_finished.insert(r.is_some_and(|r| r.state == "finished"))
+            }
+        };
+        if !said || tokio::time::Instant::now() >= deadline {
+            let why = if said {
                 format!("its record says finished, but after {} s the hosts that answer hold {finished} of {height} lines (the host with the rest may be down)", FETCH_CATCH_UP.as_secs())
             } else {
                 format!("it is not finished: {finished} of {height} lines are in (`sunray watch {job}` waits for it)")
