@@ -19,6 +19,8 @@ pub use hall::{TraceOptions, Tracer};
 pub use media::Media;
 
 #[cfg(test)]
+mod ray_tree_tests;
+#[cfg(test)]
 mod smooth_tests;
 #[cfg(test)]
 mod tests;

@@ -73,20 +73,25 @@ impl Fixture {
             counters: &mut self.counters,
         }
     }
+
+    /// The colour an eye ray from `from` towards `dir` (in air) sees with `opts`; what it
+    /// took is added to the counters.
+    pub(super) fn eye(&mut self, opts: TraceOptions, from: Vec3, dir: Vec3) -> Vec3 {
+        self.tracer(opts).trace(
+            Ray::new(from, dir),
+            RayKind::Eye,
+            1,
+            1.0,
+            crate::shading::Media::AIR,
+            &mut SampleStream::new(0, 0, 0),
+        )
+    }
 }
 
 /// Traces one ray from (0, 0, 5) towards -z; returns the colour and the counters.
 pub(super) fn trace(w: World, opts: TraceOptions) -> (Vec3, Counters) {
     let mut f = Fixture::new(w);
-    let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
-    let c = f.tracer(opts).trace(
-        ray,
-        RayKind::Eye,
-        1,
-        1.0,
-        crate::shading::Media::AIR,
-        &mut SampleStream::new(0, 0, 0),
-    );
+    let c = f.eye(opts, Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
     (c, f.counters)
 }
 
@@ -365,160 +370,10 @@ fn shadows_block_and_transparent_occluders_filter() {
         w
     };
     let shade = |w: World| {
-        let mut scene = Scene::new(w);
-        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-        let mut scratch = Scratch::new(scene.prims.len(), true);
-        let mut counters = Counters::default();
-        let mut t = Tracer {
-            scene: &scene,
-            accel: &accel,
-            opts,
-            scratch: &mut scratch,
-            counters: &mut counters,
-        };
         let from = Vec3::new(3.0, 0.0, 5.0);
-        t.trace(
-            Ray::new(from, (Vec3::ZERO - from).normalize()),
-            RayKind::Eye,
-            1,
-            1.0,
-            crate::shading::Media::AIR,
-            &mut SampleStream::new(0, 0, 0),
-        )
+        Fixture::new(w).eye(opts, from, (Vec3::ZERO - from).normalize())
     };
     close(shade(scene(1.0)), Vec3::ZERO);
     // kst = 0.6: the light arrives filtered by 0.6 * (1, 0.5, 0).
     close(shade(scene(0.4)), Vec3::new(0.6, 0.3, 0.0));
-}
-
-#[test]
-fn ray_tree_stops_at_the_depth_limit_and_the_weight_threshold() {
-    // Two facing mirrors: the eye ray bounces between them until the depth limit.
-    let mirror = Surface {
-        kdr: 0.0,
-        ka: 0.0,
-        ..Surface::default()
-    };
-    let mut w2 = world(
-        vec![(square(0.0), mirror.clone()), (square(4.0), mirror)],
-        vec![],
-    );
-    // Start between the mirrors.
-    w2.camera.position = Vec3::new(0.0, 0.0, 2.0);
-    let run = |w: &World, opts: TraceOptions| {
-        let mut scene = Scene::new(w.clone());
-        let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-        let mut scratch = Scratch::new(scene.prims.len(), true);
-        let mut counters = Counters::default();
-        let mut t = Tracer {
-            scene: &scene,
-            accel: &accel,
-            opts,
-            scratch: &mut scratch,
-            counters: &mut counters,
-        };
-        t.trace(
-            Ray::new(Vec3::new(0.0, 0.0, 2.0), -Vec3::Z),
-            RayKind::Eye,
-            1,
-            1.0,
-            crate::shading::Media::AIR,
-            &mut SampleStream::new(0, 0, 0),
-        );
-        counters
-    };
-    assert_eq!(
-        run(
-            &w2,
-            TraceOptions {
-                max_depth: 5,
-                min_weight: 0.0,
-                spawn_all: false,
-            }
-        )
-        .reflected,
-        4
-    );
-    assert_eq!(
-        run(
-            &w2,
-            TraceOptions {
-                max_depth: 1,
-                min_weight: 0.0,
-                spawn_all: false,
-            }
-        )
-        .reflected,
-        0
-    );
-    // With ksr = 0.5 per bounce, weights are 0.5, 0.25, 0.125, ...: a threshold of 0.2 stops
-    // after two reflections.
-    let half = Surface {
-        kdr: 0.5,
-        ka: 0.0,
-        ..Surface::default()
-    };
-    w2.objects.iter_mut().for_each(|o| o.surface = 0);
-    w2.surfaces = vec![half];
-    assert_eq!(
-        run(
-            &w2,
-            TraceOptions {
-                max_depth: 10,
-                min_weight: 0.2,
-                spawn_all: false,
-            }
-        )
-        .reflected,
-        2
-    );
-}
-
-#[test]
-fn the_ray_tree_never_goes_past_max_depth_whatever_it_is_asked() {
-    // Two facing perfect mirrors, no depth limit asked and a negative weight threshold: only
-    // the tracer's own cap stops the bounces (before, the recursion overflowed the stack).
-    let mirror = Surface {
-        kdr: 0.0,
-        ka: 0.0,
-        ..Surface::default()
-    };
-    let mut w = world(
-        vec![(square(0.0), mirror.clone()), (square(4.0), mirror)],
-        vec![],
-    );
-    w.camera.position = Vec3::new(0.0, 0.0, 2.0);
-    let mut scene = Scene::new(w);
-    let accel = Accel::build(&mut scene.prims, &AccelOptions::default());
-    for opts in [
-        TraceOptions {
-            max_depth: u32::MAX,
-            min_weight: -1.0,
-            spawn_all: false,
-        },
-        TraceOptions {
-            max_depth: 1_000_000_000,
-            min_weight: 0.0,
-            spawn_all: false,
-        },
-    ] {
-        let mut scratch = Scratch::new(scene.prims.len(), true);
-        let mut counters = Counters::default();
-        let mut t = Tracer {
-            scene: &scene,
-            accel: &accel,
-            opts,
-            scratch: &mut scratch,
-            counters: &mut counters,
-        };
-        t.trace(
-            Ray::new(Vec3::new(0.0, 0.0, 2.0), -Vec3::Z),
-            RayKind::Eye,
-            1,
-            1.0,
-            crate::shading::Media::AIR,
-            &mut SampleStream::new(0, 0, 0),
-        );
-        assert_eq!(counters.reflected, u64::from(TraceOptions::MAX_DEPTH - 1));
-    }
 }
