@@ -136,7 +136,7 @@ fn wait_sealed(cluster: &LoopbackCluster, hosts: &[&str], since: std::time::Syst
         let cache = cluster.dir.path().join(format!("state-{h}")).join("cache");
         files_in(&cache).iter().any(|(_, f)| {
             let modified = std::fs::metadata(f).and_then(|m| m.modified()).ok();
-            f.to_string_lossy().ends_with(".v1.seal") && modified >= Some(since)
+            f.to_string_lossy().ends_with(".v2.seal") && modified >= Some(since)
         })
     };
     let t0 = std::time::Instant::now();
@@ -192,7 +192,7 @@ fn a_scene_over_the_message_limit_renders_and_a_second_job_ships_nothing() {
     for (host, f) in ["a", "b", "c"].iter().flat_map(|h| files_in(&cache(h))) {
         let mut bytes = std::fs::read(&f).unwrap();
         let name = f.file_name().unwrap().to_string_lossy().into_owned();
-        match (host, name.ends_with(".v1")) {
+        match (host, name.ends_with(".v2")) {
             ("b", _) => std::fs::remove_file(&f).unwrap(),
             ("c", true) if name.starts_with("sunray-scene") => {
                 let at = bytes.len() / 2;

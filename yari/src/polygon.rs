@@ -1,8 +1,9 @@
 //! Polygons to triangles, the one way every part of SunRay cuts them: repeated vertices
-//! removed, zero-area polygons refused, convex polygons fan-triangulated, concave ones
-//! ear-clipped in their plane. The renderer (`sunray::geometry::polygon`) and the POV-Ray
-//! writer ([`crate::pov`], for smooth polygons) both use it, so a smooth polygon's triangles
-//! and their corners' normals are the same in both.
+//! removed, zero-area polygons refused, convex triangles and quadrilaterals fan-triangulated,
+//! anything else ear-clipped in its plane, the shortest ear first. The renderer
+//! (`sunray::geometry::polygon`) and the POV-Ray writer ([`crate::pov`], for smooth polygons)
+//! both use it, so a smooth polygon's triangles and their corners' normals are the same in
+//! both.
 
 use glam::DVec3;
 
@@ -66,7 +67,8 @@ pub fn triangulate(vertices: &[DVec3]) -> Result<Triangulation, Degenerate> {
     let (i, j) = ((k + 1) % 3, (k + 2) % 3);
     let sign = if normal[k] >= 0.0 { 1.0 } else { -1.0 };
     let p2: Vec<[f64; 2]> = v.iter().map(|p| [p[i], p[j] * sign]).collect();
-    let index_triangles = if is_convex(&p2) {
+    // A fan of a convex polygon of many corners is slivers too (a disc's cap).
+    let index_triangles = if v.len() <= 4 && is_convex(&p2) {
         fan(v.len())
     } else {
         ear_clip(&p2)
@@ -146,38 +148,70 @@ fn fan(n: usize) -> Vec<[usize; 3]> {
     (1..n - 1).map(|i| [0, i, i + 1]).collect()
 }
 
-/// Ear clipping for a simple counter-clockwise polygon; O(n^2), enough for modelled input.
+/// Ear clipping for a simple counter-clockwise polygon, the shortest ear first: each step cuts
+/// off the ear whose new edge (from its previous to its next corner) is the shortest, ties to
+/// the lowest corner. Cutting the first ear found would make a fan of long slivers across a
+/// many-sided polygon (a gear's 144 corners), every one of them crossing the same boxes of an
+/// accelerator; the shortest ear first peels the rim and leaves triangles about as wide as
+/// they are long. Only the two corners beside a cut change whether they are ears, so it is
+/// O(n^2) for n corners.
 fn ear_clip(p: &[[f64; 2]]) -> Vec<[usize; 3]> {
-    let mut idx: Vec<usize> = (0..p.len()).collect();
-    let mut out = Vec::with_capacity(p.len().saturating_sub(2));
-    let mut guard = 0;
-    while idx.len() > 3 && guard < 4 * p.len() * p.len() {
-        guard += 1;
-        let n = idx.len();
-        let mut clipped = false;
-        for k in 0..n {
-            let (a, b, c) = (idx[(k + n - 1) % n], idx[k], idx[(k + 1) % n]);
-            if cross2(p[a], p[b], p[c]) <= 0.0 {
-                continue; // reflex or flat corner
-            }
-            let contains_other = idx
-                .iter()
-                .any(|&m| m != a && m != b && m != c && inside_triangle(p[m], p[a], p[b], p[c]));
-            if !contains_other {
-                out.push([a, b, c]);
-                idx.remove(k);
-                clipped = true;
+    let n = p.len();
+    let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
+    let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
+    let mut alive = vec![true; n];
+    let mut left = n;
+    // Only a reflex (or flat) corner can lie inside an ear, and cutting ears never makes a
+    // corner reflex: the corners reflex at the start are all an ear's test needs.
+    let reflex: Vec<usize> = (0..n)
+        .filter(|&b| cross2(p[prev[b]], p[b], p[next[b]]) <= 0.0)
+        .collect();
+    let ear = |b: usize, prev: &[usize], next: &[usize], alive: &[bool]| -> Option<f64> {
+        let (a, c) = (prev[b], next[b]);
+        if cross2(p[a], p[b], p[c]) <= 0.0 {
+            return None; // reflex or flat corner
+        }
+        let contains_other = reflex.iter().any(|&m| {
+            alive[m] && m != a && m != b && m != c && inside_triangle(p[m], p[a], p[b], p[c])
+        });
+        if contains_other {
+            return None;
+        }
+        let (dx, dy) = (p[c][0] - p[a][0], p[c][1] - p[a][1]);
+        Some(dx * dx + dy * dy)
+    };
+    let mut ears: Vec<Option<f64>> = (0..n).map(|b| ear(b, &prev, &next, &alive)).collect();
+    let mut out = Vec::with_capacity(n.saturating_sub(2));
+    while left > 3 {
+        let best = (0..n)
+            .filter(|&b| alive[b])
+            .filter_map(|b| ears[b].map(|len| (len, b)))
+            .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let Some((_, b)) = best else {
+            break; // not simple: fall back to a fan of what is left
+        };
+        let (a, c) = (prev[b], next[b]);
+        out.push([a, b, c]);
+        alive[b] = false;
+        left -= 1;
+        next[a] = c;
+        prev[c] = a;
+        ears[a] = ear(a, &prev, &next, &alive);
+        ears[c] = ear(c, &prev, &next, &alive);
+    }
+    let mut rest: Vec<usize> = Vec::with_capacity(left);
+    if let Some(first) = (0..n).find(|&i| alive[i]) {
+        let mut i = first;
+        loop {
+            rest.push(i);
+            i = next[i];
+            if i == first {
                 break;
             }
         }
-        if !clipped {
-            break; // not simple: fall back to a fan of what is left
-        }
     }
-    if idx.len() >= 3 {
-        for i in 1..idx.len() - 1 {
-            out.push([idx[0], idx[i], idx[i + 1]]);
-        }
+    for i in 1..rest.len().saturating_sub(1) {
+        out.push([rest[0], rest[i], rest[i + 1]]);
     }
     out
 }
@@ -204,6 +238,61 @@ mod tests {
         let t = triangulate(&sq).unwrap();
         assert_eq!(t.triangles, vec![[0, 1, 3], [0, 3, 4]]);
         assert_eq!(t.normal, DVec3::Z);
+    }
+
+    /// The triangles' signed areas (all positive: none flipped) and the total length of the
+    /// edges they add inside the polygon (each diagonal counted on both of its sides).
+    fn areas_and_diagonals(v: &[DVec3], t: &Triangulation) -> (Vec<f64>, f64) {
+        let n = v.len();
+        let mut inner = 0.0;
+        let mut areas = Vec::new();
+        for &[a, b, c] in &t.triangles {
+            areas.push((v[b] - v[a]).cross(v[c] - v[a]).dot(t.normal) / 2.0);
+            for (x, y) in [(a, b), (b, c), (c, a)] {
+                if (x + 1) % n != y && (y + 1) % n != x {
+                    inner += (v[x] - v[y]).length();
+                }
+            }
+        }
+        (areas, inner)
+    }
+
+    /// A gear's outline (72 teeth, 144 corners) and a 144-sided disc are cut into triangles
+    /// that cover them exactly, and with short inner edges: less than a third of the length
+    /// a fan from one corner adds (the slivers the first ear found, or a fan, made).
+    #[test]
+    fn many_cornered_polygons_are_cut_into_short_triangles_not_slivers() {
+        let ring = |n: usize, radius: &dyn Fn(usize) -> f64| -> Vec<DVec3> {
+            (0..n)
+                .map(|k| {
+                    let a = std::f64::consts::TAU * k as f64 / n as f64;
+                    DVec3::new(a.cos(), a.sin(), 0.0) * radius(k)
+                })
+                .collect()
+        };
+        let gear = ring(144, &|k| if (k / 2) % 2 == 0 { 1.0 } else { 0.9 });
+        let disc = ring(144, &|_| 1.0);
+        for v in [gear, disc] {
+            let t = triangulate(&v).unwrap();
+            assert_eq!(t.triangles.len(), v.len() - 2);
+            let (areas, inner) = areas_and_diagonals(&v, &t);
+            assert!(areas.iter().all(|&a| a > 0.0));
+            let polygon_area = newell_normal(&v).length() / 2.0;
+            let total: f64 = areas.iter().sum();
+            assert!(
+                (total - polygon_area).abs() < 1e-12,
+                "{total} vs {polygon_area}"
+            );
+            let fan = Triangulation {
+                triangles: fan(v.len()),
+                normal: t.normal,
+            };
+            let (_, fan_inner) = areas_and_diagonals(&v, &fan);
+            assert!(
+                inner < fan_inner / 3.0,
+                "inner edges {inner} vs a fan's {fan_inner}"
+            );
+        }
     }
 
     #[test]

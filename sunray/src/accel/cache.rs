@@ -21,9 +21,11 @@ pub struct Provenance {
     pub warning: Option<String>,
 }
 
-/// The file of the BVH of the model with `model_hash` and `prims` primitives in `dir`.
+/// The file of the BVH of the model with `model_hash` and `prims` primitives in `dir`. The
+/// suffix names how the primitives were made: `.v2` since polygons are cut shortest ear
+/// first ([`yari::polygon`]); a `.v1` file is a tree over the triangles cut before.
 fn path_of(dir: &Path, model_hash: u64, prims: usize) -> PathBuf {
-    dir.join(format!("sunray-bvh-{model_hash:016x}-{prims}.v1"))
+    dir.join(format!("sunray-bvh-{model_hash:016x}-{prims}.v2"))
 }
 
 /// The accelerator of `prims` (a model with hash `model_hash`) as `opts` asks, from the cache
