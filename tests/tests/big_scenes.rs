@@ -13,6 +13,7 @@
 //! each starts workers that hold a million triangles, and the machine may have two cores.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failed unwrap is a failed test
 
+use ::sunray::accel::cache::FILE_SUFFIX;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use sunray_e2e::bins::sunray;
@@ -136,7 +137,9 @@ fn wait_sealed(cluster: &LoopbackCluster, hosts: &[&str], since: std::time::Syst
         let cache = cluster.dir.path().join(format!("state-{h}")).join("cache");
         files_in(&cache).iter().any(|(_, f)| {
             let modified = std::fs::metadata(f).and_then(|m| m.modified()).ok();
-            f.to_string_lossy().ends_with(".v2.seal") && modified >= Some(since)
+            f.to_string_lossy()
+                .ends_with(&format!("{FILE_SUFFIX}.seal"))
+                && modified >= Some(since)
         })
     };
     let t0 = std::time::Instant::now();
@@ -192,7 +195,7 @@ fn a_scene_over_the_message_limit_renders_and_a_second_job_ships_nothing() {
     for (host, f) in ["a", "b", "c"].iter().flat_map(|h| files_in(&cache(h))) {
         let mut bytes = std::fs::read(&f).unwrap();
         let name = f.file_name().unwrap().to_string_lossy().into_owned();
-        match (host, name.ends_with(".v2")) {
+        match (host, name.ends_with(FILE_SUFFIX)) {
             ("b", _) => std::fs::remove_file(&f).unwrap(),
             ("c", true) if name.starts_with("sunray-scene") => {
                 let at = bytes.len() / 2;

@@ -21,11 +21,15 @@ pub struct Provenance {
     pub warning: Option<String>,
 }
 
-/// The file of the BVH of the model with `model_hash` and `prims` primitives in `dir`. The
-/// suffix names how the primitives were made: `.v2` since polygons are cut shortest ear
-/// first ([`yari::polygon`]); a `.v1` file is a tree over the triangles cut before.
+/// The suffix of every file the host's caches keep (this BVH's, and the prepared scenes of
+/// [`crate::prepared`]): it names how the primitives were made, `.v2` since polygons are cut
+/// shortest ear first ([`yari::polygon`]). A `.v1` file holds the triangles cut before and is
+/// never read.
+pub const FILE_SUFFIX: &str = ".v2";
+
+/// The file of the BVH of the model with `model_hash` and `prims` primitives in `dir`.
 fn path_of(dir: &Path, model_hash: u64, prims: usize) -> PathBuf {
-    dir.join(format!("sunray-bvh-{model_hash:016x}-{prims}.v2"))
+    dir.join(format!("sunray-bvh-{model_hash:016x}-{prims}{FILE_SUFFIX}"))
 }
 
 /// The accelerator of `prims` (a model with hash `model_hash`) as `opts` asks, from the cache

@@ -63,14 +63,14 @@ struct SceneRest {
 }
 
 /// The file of the prepared scene of the model with `model_hash`, accelerated as `opts`
-/// asks, in `dir`; None when such scenes are not kept (an octree, the exhaustive list). The
-/// suffix is the accelerator cache's ([`crate::accel::cache`]): `.v2` since polygons are cut
-/// shortest ear first, so a `.v1` file, with the triangles cut before, is never read.
+/// asks, in `dir`; None when such scenes are not kept (an octree, the exhaustive list). Its
+/// suffix is [`crate::accel::cache::FILE_SUFFIX`].
 pub fn path_of(dir: &Path, model_hash: u64, opts: &AccelOptions) -> Option<PathBuf> {
     matches!(opts.kind, AccelKind::Auto | AccelKind::Bvh).then(|| {
         dir.join(format!(
-            "sunray-scene-{model_hash:016x}-{}.v2",
-            opts.kind.name()
+            "sunray-scene-{model_hash:016x}-{}{}",
+            opts.kind.name(),
+            crate::accel::cache::FILE_SUFFIX
         ))
     })
 }

@@ -4,6 +4,25 @@
 
 use super::*;
 
+/// Waits (a minute at most) until a checkpoint of `run`'s job holds at least `lines` lines;
+/// returns how many it holds.
+fn checkpointed(run: &mut SubmitRun, lines: u64) -> u64 {
+    run.wait_until(Duration::from_secs(60), |seen| {
+        seen.iter()
+            .filter(|v| v["event"] == "checkpoint")
+            .filter_map(|v| v["lines"].as_u64())
+            .find(|&l| l >= lines)
+    })
+}
+
+/// `c`, a `sunray submit` command line so far, resuming job `id`: quiet, its statistics
+/// into the job's JSON file.
+fn resume(mut c: Command, id: &str, job: &Job) -> std::process::Output {
+    c.args(["--resume", id, "-q", "--stats-json"])
+        .arg(&job.json);
+    output(&mut c)
+}
+
 #[test]
 fn a_killed_controller_resumes_from_its_checkpoint() {
     let cluster = LoopbackCluster::start(3);
@@ -15,12 +34,7 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
         60,
         &["--in-process", "--job", id, "--checkpoint-ms", "100"],
     ));
-    let stored = run.wait_until(Duration::from_secs(60), |seen| {
-        seen.iter()
-            .filter(|v| v["event"] == "checkpoint")
-            .filter_map(|v| v["lines"].as_u64())
-            .find(|&l| l >= 12)
-    });
+    let stored = checkpointed(&mut run, 12);
     assert!(stored < LINES);
     run.child.kill().unwrap();
     run.child.wait().unwrap();
@@ -53,12 +67,7 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
     );
 
     // The checkpoint remembers the scene, the options and the output.
-    let out = output(
-        cluster
-            .submit()
-            .args(["--resume", id, "-q", "--stats-json"])
-            .arg(&job.json),
-    );
+    let out = resume(cluster.submit(), id, &job);
     assert!(out.status.success());
     let s = check(&job, 1, "ok");
     let resumed = s["lines"]["resumed"].as_u64().unwrap();
@@ -71,12 +80,7 @@ fn a_killed_controller_resumes_from_its_checkpoint() {
 
     // Resuming a finished job writes the image again without starting anyone.
     std::fs::remove_file(&job.out).unwrap();
-    let out = output(
-        cluster
-            .submit()
-            .args(["--resume", id, "-q", "--stats-json"])
-            .arg(&job.json),
-    );
+    let out = resume(cluster.submit(), id, &job);
     assert!(out.status.success());
     let s = read_json(&job.json);
     assert_eq!(s["lines"]["resumed"], LINES);
@@ -109,12 +113,7 @@ fn with_no_worker_left_the_job_says_so_keeps_its_checkpoint_and_resumes() {
     assert!((4..LINES).contains(&kept), "{failed}");
     assert!(!job.out.exists(), "no image from a failed job");
 
-    let out = output(
-        cluster
-            .submit()
-            .args(["--resume", id, "-q", "--stats-json"])
-            .arg(&job.json),
-    );
+    let out = resume(cluster.submit(), id, &job);
     assert!(out.status.success());
     let s = check(&job, 1, "ok");
     assert_eq!(s["lines"]["resumed"].as_u64().unwrap(), kept);
@@ -149,12 +148,7 @@ fn ctrl_c_on_the_default_set_up_says_what_was_kept_and_the_job_resumes() {
         .arg("-o")
         .arg(&job.out);
     let mut run = SubmitRun::start(c);
-    let stored = run.wait_until(Duration::from_secs(60), |seen| {
-        seen.iter()
-            .filter(|v| v["event"] == "checkpoint")
-            .filter_map(|v| v["lines"].as_u64())
-            .find(|&l| l >= 12)
-    });
+    let stored = checkpointed(&mut run, 12);
     let workers: Vec<i32> = (1..=2).map(|n| run.worker_pid(n)).collect();
     signal(run.child.id() as i32, libc::SIGINT);
     let status = run.wait(Duration::from_secs(60));
@@ -191,11 +185,9 @@ fn ctrl_c_on_the_default_set_up_says_what_was_kept_and_the_job_resumes() {
         "{said}"
     );
 
-    let out = output(
-        here()
-            .args(["submit", "--resume", id, "-q", "--stats-json"])
-            .arg(&job.json),
-    );
+    let mut c = here();
+    c.arg("submit");
+    let out = resume(c, id, &job);
     assert!(out.status.success());
     let s = check(&job, 1, "ok");
     assert_eq!(s["lines"]["resumed"].as_u64().unwrap(), kept);
@@ -214,12 +206,7 @@ fn losing_the_controllers_remd_is_one_line_and_the_job_resumes_on_the_hosts_left
         60,
         &["--in-process", "--job", id, "--checkpoint-ms", "100"],
     ));
-    run.wait_until(Duration::from_secs(60), |seen| {
-        seen.iter()
-            .filter(|v| v["event"] == "checkpoint")
-            .filter_map(|v| v["lines"].as_u64())
-            .find(|&l| l >= 12)
-    });
+    checkpointed(&mut run, 12);
     // The remd the controller talks to (and every process under it) dies.
     cluster.daemon("a").signal(libc::SIGKILL);
     assert!(!run.wait(Duration::from_secs(60)).success());
@@ -233,18 +220,15 @@ fn losing_the_controllers_remd_is_one_line_and_the_job_resumes_on_the_hosts_left
     assert!(!text.contains("h2 protocol"), "{text}");
     cluster.wait_alive("b", 2);
     // Resumed through another remd, with no --hosts: it goes on with the two hosts left.
-    let out = output(
-        sunray()
-            .args([
-                "submit",
-                "--remd",
-                &cluster.daemon("b").addr,
-                "--secret-file",
-            ])
-            .arg(&cluster.secret_file)
-            .args(["--resume", id, "-q", "--stats-json"])
-            .arg(&job.json),
-    );
+    let mut c = sunray();
+    c.args([
+        "submit",
+        "--remd",
+        &cluster.daemon("b").addr,
+        "--secret-file",
+    ])
+    .arg(&cluster.secret_file);
+    let out = resume(c, id, &job);
     assert!(out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("resuming on 2 host(s)"), "{err}");
@@ -317,12 +301,7 @@ fn a_render_to_an_error_survives_a_worker_and_its_controller_killed_mid_pass() {
         .iter()
         .any(|v| v["event"] == "fault" && v["node"] == 2));
 
-    let out = output(
-        cluster
-            .submit()
-            .args(["--resume", id, "-q", "--stats-json"])
-            .arg(&job.json),
-    );
+    let out = resume(cluster.submit(), id, &job);
     assert!(
         out.status.success(),
         "{}",
