@@ -359,13 +359,19 @@ pub fn advance_pixel(
 }
 
 /// The most samples a pixel has after pass `pass` of a render to the error `a` in passes:
-/// `min_samples` after pass 0, twice as many after each later one. A pixel's next count is
-/// at most twice its samples (where `min_samples` is a whole number of rounds of the
-/// replicates, as the default is), so every pixel not done takes at least one step in each
-/// pass; with another `min_samples` a step may wait a pass, and the last pass, whose cap
-/// reaches `max_samples`, finishes every pixel.
+/// `min_samples` after pass 0, then twice `min_samples` rounded up to whole rounds of the
+/// replicates after pass 1, and twice as many after each later one. A pixel's next count is
+/// at most twice its samples rounded up to whole rounds ([`PixelEstimate::next_count`]), so
+/// every pixel not done takes at least one step in each pass, whatever `min_samples` is, and
+/// the last pass, whose cap reaches `max_samples`, finishes every pixel. (Doubling
+/// `min_samples` alone let a pixel of 5 first samples, whose next count is 12, wait through
+/// pass 1's cap of 10.)
 pub fn pass_cap(a: &Adaptive, pass: u32) -> u32 {
-    let cap = u64::from(a.min_samples) << pass.min(32);
+    if pass == 0 {
+        return a.min_samples;
+    }
+    let second = (u64::from(a.min_samples) * 2).next_multiple_of(u64::from(REPLICATES));
+    let cap = second << (pass - 1).min(32);
     cap.min(u64::from(u32::MAX)) as u32
 }
 

@@ -162,6 +162,41 @@ end
         );
     }
 
+    /// A pixel that never reaches its target: each pass must take it at least one step on,
+    /// whatever its first samples.
+    #[test]
+    fn every_pixel_not_done_takes_a_step_in_every_pass() {
+        for min in 1..=40 {
+            let a = Adaptive::new(1e-6, Some(min), Some(4096));
+            let mut est = PixelEstimate::default();
+            for pass in 0..max_passes(&a) {
+                if est.next_count(&a).is_none() {
+                    // One replicate alone has no spread to estimate (min 1, 2 or 3).
+                    assert!(est.count() < 4, "min {min}: done at {}", est.count());
+                    break;
+                }
+                let before = est.count();
+                while let Some(want) = est.next_count(&a).filter(|&w| w <= pass_cap(&a, pass)) {
+                    while est.count() < want {
+                        // Replicates 0 and 2 see 0, 1 and 3 see 1: their means never agree.
+                        est.add(glam::DVec3::splat(f64::from(est.count() % 2)));
+                    }
+                }
+                assert!(est.count() > before, "min {min}: pass {pass} took no step");
+            }
+            assert_eq!(
+                est.next_count(&a),
+                None,
+                "min {min}: done after the last pass"
+            );
+            assert!(
+                est.count() == 4096 || est.count() < 4,
+                "min {min}: {}",
+                est.count()
+            );
+        }
+    }
+
     #[test]
     fn passes_are_bounded() {
         for (min, max, passes) in [(16, 1024, 7), (2, 65_536, 16), (4, 4, 1), (3, 10, 3)] {
