@@ -7,6 +7,7 @@
 //! - `error`: typed errors and name rules.
 //! - `skeleton`: points, line segments and Bézier curves in a principal plane.
 //! - [`mesh`]: polygon meshes and the closed/oriented checks.
+//! - [`mesh_files`]: where a project's mesh files are (relative to the project's folder).
 //! - `sweep`: revolve (surfaces of revolution) and extrude.
 //! - `tree`: the object tree; combine, explode, copy, world-space transformations.
 //! - [`export`]: project to YARI (names as comments).
@@ -19,6 +20,7 @@ mod error;
 pub mod export;
 mod import;
 pub mod mesh;
+pub mod mesh_files;
 pub mod preview;
 pub mod project;
 mod skeleton;

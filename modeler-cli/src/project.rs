@@ -250,7 +250,8 @@ pub enum Primitive {
     /// `mesh(file = "..." [; materials = file])` (extension): a mesh file's faces, read
     /// when the scene is compiled.
     Mesh {
-        /// The file as written: relative to the YARI file's folder unless absolute.
+        /// The file: relative to the project file's folder unless absolute (as a scene's is
+        /// to the YARI file's; [`crate::mesh_files`]).
         file: String,
         /// Whether the faces take the file's own materials (else the object's surface).
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]

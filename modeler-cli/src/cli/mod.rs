@@ -20,6 +20,7 @@ mod show;
 mod values;
 
 use crate::error::ModelError;
+use crate::mesh_files::folder_of;
 use crate::preview::{self, Options};
 use crate::project::{write_atomic, Project, Transform};
 use commands::{Cli, Command};
@@ -97,6 +98,23 @@ impl<'a> Session<'a> {
             .map_err(|e| ModelError::io(Path::new("<stdout>"), e))
     }
 
+    /// Writes the project as YARI to `output` (standard output without one, or `-`), its
+    /// relative mesh files named from the written file's folder ([`crate::mesh_files`]).
+    fn export(&mut self, output: Option<PathBuf>) -> Result<(), ModelError> {
+        let here = folder_of(&self.path);
+        match output {
+            Some(path) if path.as_os_str() != "-" => {
+                let mut p = self.project()?.clone();
+                crate::mesh_files::rebase(&mut p, &here, &folder_of(&path));
+                write_atomic(&path, crate::export::to_yari(&p).as_bytes())
+            }
+            _ => {
+                let text = crate::export::to_yari(self.project()?);
+                self.write_out(&text)
+            }
+        }
+    }
+
     /// Applies one command.
     pub fn execute(&mut self, cmd: Command) -> Result<(), ModelError> {
         use Command as C;
@@ -117,22 +135,19 @@ impl<'a> Session<'a> {
                 let text =
                     std::fs::read_to_string(&a.file).map_err(|e| ModelError::io(&a.file, e))?;
                 let src = yari::span::Source::new(a.file.display().to_string(), text);
-                let p = crate::import::from_yari(&src)?;
+                let mut p = crate::import::from_yari(&src)?;
+                let (from, to) = (folder_of(&a.file), folder_of(&self.path));
+                crate::mesh_files::rebase(&mut p, &from, &to);
                 return self.replace(p, a.force);
             }
-            C::Export(a) => {
-                let text = crate::export::to_yari(self.project()?);
-                return match a.output {
-                    Some(path) if path.as_os_str() != "-" => write_atomic(&path, text.as_bytes()),
-                    _ => self.write_out(&text),
-                };
-            }
+            C::Export(a) => return self.export(a.output),
             C::Preview(a) => {
                 let opts = Options {
                     size: a.size as usize,
                     style: a.style,
                 };
-                let img = preview::render_project(self.project()?, &opts)?;
+                let folder = folder_of(&self.path);
+                let img = preview::render_project(self.project()?, &folder, &opts)?;
                 return preview::write_png(&img, &a.output);
             }
             C::Show(a) => {

@@ -285,3 +285,46 @@ fn editing_commands_change_what_they_say() {
     script(&proj, dir.path(), "view --camera\n").unwrap();
     assert!(Project::load(&proj).unwrap().settings.view.is_none());
 }
+
+/// A scene whose mesh file sits beside it, imported into a project in another folder: the
+/// preview finds the mesh from the project's folder, and `export -o` to a third folder
+/// writes a scene that finds it from there (none of them is the current folder).
+#[test]
+fn relative_mesh_files_follow_the_project_and_the_exported_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scenes, work, out) = (
+        dir.path().join("scenes"),
+        dir.path().join("work"),
+        dir.path().join("out/deep"),
+    );
+    for d in [scenes.join("meshes"), work.clone(), out.clone()] {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    let obj = "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n";
+    std::fs::write(scenes.join("meshes/tri.obj"), obj).unwrap();
+    let scene = scenes.join("scene.yari");
+    std::fs::write(
+        &scene,
+        "camera(position = 0,0,-5; at = 0,0,0; up = 0,1,0; angle = 30);\n\
+         light(position = -5,5,-5; color = 1,1,1);\nbegin\n\
+         attribute(color = 1,0.5,0.2; kdr = 0.8);\n\
+         mesh(file = \"meshes/tri.obj\");\nend\n",
+    )
+    .unwrap();
+    let proj = work.join("p.json");
+    run_args(&proj, &["import", scene.to_str().unwrap()]).unwrap();
+    let png = work.join("v.png");
+    let preview = ["preview", "-o", png.to_str().unwrap(), "--size", "32"];
+    run_args(&proj, &preview).unwrap();
+    assert!(png.exists());
+    let exported = out.join("x.yari");
+    run_args(&proj, &["export", "-o", exported.to_str().unwrap()]).unwrap();
+    let colours = yari::colour::ColourTable::builtin();
+    let loaded = yari::load::load_path(&exported, &colours).unwrap();
+    assert_eq!(loaded.meshes.len(), 1, "the exported scene reads the mesh");
+    // Exported again to the scene's own folder: the file as first written.
+    let back = scenes.join("again.yari");
+    run_args(&proj, &["export", "-o", back.to_str().unwrap()]).unwrap();
+    let text = std::fs::read_to_string(&back).unwrap();
+    assert!(text.contains("\"meshes/tri.obj\""), "{text}");
+}

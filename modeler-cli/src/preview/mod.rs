@@ -111,12 +111,17 @@ impl Overlay {
     }
 }
 
-/// Compiles the project and draws its four views.
-pub fn render_project(project: &Project, opts: &Options) -> Result<image::RgbImage, ModelError> {
+/// Compiles the project, its relative mesh files found in `folder` (the project file's,
+/// [`crate::mesh_files`]), and draws its four views.
+pub fn render_project(
+    project: &Project,
+    folder: &std::path::Path,
+    opts: &Options,
+) -> Result<image::RgbImage, ModelError> {
     let table =
         yari::colour::ColourTable::for_run(None).map_err(|e| ModelError::Yari(e.to_string()))?;
     let scene = crate::export::to_scene(project);
-    let world = match yari::compile::compile(&scene, &table) {
+    let world = match yari::compile::compile_in(&scene, &table, folder) {
         Ok(c) => c.world,
         Err(d) => {
             let msgs: Vec<String> = d.errors().map(|e| e.message.clone()).collect();

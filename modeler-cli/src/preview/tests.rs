@@ -1,5 +1,6 @@
 use super::*;
 use crate::project::{Clip, Color, Object, Primitive, Surface};
+use std::path::Path;
 
 fn with(objects: Vec<Object>) -> Project {
     let mut p = Project::new_default();
@@ -44,6 +45,7 @@ const PERSP: (usize, usize) = (1, 0);
 fn the_image_holds_four_views_of_the_requested_size() {
     let img = render_project(
         &with(vec![]),
+        Path::new("."),
         &Options {
             size: 50,
             style: Style::Flat,
@@ -66,6 +68,7 @@ fn flat_shading_hides_the_farther_square_in_the_front_view() {
     ]);
     let img = render_project(
         &p,
+        Path::new("."),
         &Options {
             size,
             style: Style::Flat,
@@ -91,6 +94,7 @@ fn wireframe_draws_edges_and_leaves_faces_empty() {
     )]);
     let img = render_project(
         &p,
+        Path::new("."),
         &Options {
             size,
             style: Style::Wire,
@@ -131,7 +135,7 @@ fn spheres_and_clipped_quadrics_show_in_the_front_view() {
         coloured("tube", [1.0, 1.0, 0.0], vec![cylinder]),
     ]);
     for style in [Style::Flat, Style::Wire] {
-        let img = render_project(&p, &Options { size, style }).unwrap();
+        let img = render_project(&p, Path::new("."), &Options { size, style }).unwrap();
         let (cx, cy) = FRONT;
         let count = |pred: &dyn Fn([u8; 3]) -> bool| {
             (0..size)
@@ -161,6 +165,7 @@ fn skeletons_are_drawn_over_the_views() {
     p.skeletons.push(s);
     let img = render_project(
         &p,
+        Path::new("."),
         &Options {
             size,
             style: Style::Wire,
@@ -201,6 +206,7 @@ fn an_unknown_colour_name_is_a_clear_error() {
     }]);
     let e = render_project(
         &p,
+        Path::new("."),
         &Options {
             size: 32,
             style: Style::Flat,

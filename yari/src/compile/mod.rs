@@ -58,9 +58,21 @@ pub struct Compiled {
 
 /// Compiles a scene. On failure the diagnostics hold the errors (and any warnings). A `mesh`
 /// statement's relative file is found in the current directory; [`crate::load`] finds it
-/// beside the YARI file.
+/// beside the YARI file, [`compile_in`] in a folder given.
 pub fn compile(scene: &Scene, colours: &ColourTable) -> Result<Compiled, Diagnostics> {
-    let mut stream = CompileStream::new(colours);
+    compile_stream(scene, CompileStream::new(colours))
+}
+
+/// [`compile`], finding the files of relative `mesh` statements in `folder`.
+pub fn compile_in(
+    scene: &Scene,
+    colours: &ColourTable,
+    folder: &std::path::Path,
+) -> Result<Compiled, Diagnostics> {
+    compile_stream(scene, CompileStream::new(colours).meshes_from(folder))
+}
+
+fn compile_stream(scene: &Scene, mut stream: CompileStream) -> Result<Compiled, Diagnostics> {
     let mut objects = Vec::new();
     for item in &scene.body.items {
         stream.item(item, &mut |_, o| objects.push(o));
