@@ -7,7 +7,8 @@
 //! - [`accel`]: exhaustive search, Glassner's octree with mailbox, and a SAH BVH.
 //! - [`shading`]: the Hall model's recursive ray tracer.
 //! - [`texture`]: Perlin noise and the solid textures (wood, marble, bumps, ...).
-//! - [`camera`], [`film`], [`sampler`]: eye rays, images and files, counter-based random numbers.
+//! - [`camera`], [`film`], [`sampler`]: eye rays, images and files, counter-based random numbers;
+//!   [`sobol`]: the Sobol samples the sampler draws, by table.
 //! - [`scene`]: a model ready to render; [`render`]: the scanline render loop.
 //! - [`prepared`]: scenes kept ready on a host (tables and BVH), mapped in place when used;
 //!   [`store`]: a table owned or viewed in a mapped file.
@@ -28,6 +29,7 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod shading;
+pub mod sobol;
 pub mod stats;
 pub mod store;
 pub mod texture;

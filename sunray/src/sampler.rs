@@ -136,7 +136,17 @@ impl SampleStream {
     fn sobol_dim(&self, d: u32) -> Real {
         let seed = mix64(self.pixel_key ^ self.next);
         let seed = (seed ^ (seed >> 32)) as u32;
-        Real::from(sobol_burley::sample(self.index, d, seed))
+        Real::from(crate::sobol::sample(self.index, d, seed))
+    }
+
+    /// Dimensions 0 and 1 of this sample in the Sobol sequence scrambled for the draw
+    /// numbered `self.next`: [`Self::sobol_dim`] of 0 and 1, bit for bit ([`crate::sobol`]).
+    #[inline]
+    fn sobol_2d(&self) -> (Real, Real) {
+        let seed = mix64(self.pixel_key ^ self.next);
+        let seed = (seed ^ (seed >> 32)) as u32;
+        let (u, v) = crate::sobol::sample_2d(self.index, seed);
+        (Real::from(u), Real::from(v))
     }
 
     /// The next uniform number in [0, 1).
@@ -154,7 +164,7 @@ impl SampleStream {
     pub fn next_2d(&mut self) -> (Real, Real) {
         if self.sobol {
             self.next += 1;
-            return (self.sobol_dim(0), self.sobol_dim(1));
+            return self.sobol_2d();
         }
         let (u, v) = (self.next_real(), self.next_real());
         if self.count <= 1 {
@@ -258,6 +268,39 @@ pub fn sample_disc(u: Real, v: Real) -> (Real, Real) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A Sobol stream's 2-D draws are dimensions 0 and 1 of `sobol_burley`'s sequence for
+    /// its draw's scramble, bit for bit: what every image rendered with `--sampler sobol` or a
+    /// target error was made of.
+    #[test]
+    fn a_sobol_2d_draw_is_dimensions_0_and_1_of_its_scramble() {
+        for (x, y, seed, index) in [
+            (0, 0, 0, 0),
+            (3, 9, 0, 1),
+            (511, 7, 2, 65_535),
+            (40, 2, 1, 12),
+        ] {
+            let mut s = SampleStream::sobol(x, y, seed, index);
+            for _ in 0..8 {
+                let (u, v) = s.next_2d();
+                let key = mix64(s.pixel_key ^ s.next);
+                let key = (key ^ (key >> 32)) as u32;
+                let want = (
+                    sobol_burley::sample(index, 0, key),
+                    sobol_burley::sample(index, 1, key),
+                );
+                let got = (u.to_bits(), v.to_bits());
+                assert_eq!(
+                    got,
+                    (f64::from(want.0).to_bits(), f64::from(want.1).to_bits())
+                );
+                let w = s.next_real();
+                let key = mix64(s.pixel_key ^ s.next);
+                let key = (key ^ (key >> 32)) as u32;
+                assert_eq!(w, f64::from(sobol_burley::sample(index, 0, key)));
+            }
+        }
+    }
 
     #[test]
     fn streams_depend_only_on_their_key() {
