@@ -32,6 +32,7 @@ fn tables() -> &'static Tables {
 /// `seed`: `sobol_burley::sample(index, dim, seed)`.
 #[inline]
 pub fn sample(index: u32, dim: u32, seed: u32) -> f32 {
+    debug_assert!(dim < 2, "only dimensions 0 and 1 have tables");
     let shuffled = shuffled_index(index, seed);
     dimension(tables(), shuffled, dim & 1, seed)
 }
