@@ -427,7 +427,7 @@ impl<L: WorkerLink> Controller<L> {
         }
         let finished = self.table.is_finished();
         let stored = self
-            .save_now(if finished { "finished" } else { "failed" })
+            .save_final(if finished { "finished" } else { "failed" })
             .await;
         if finished && stored {
             self.timeline.image_stored = Some(self.cfg.clock.now());

@@ -54,6 +54,8 @@ struct Record {
     puts: Vec<String>,
     /// How long each `put` takes (a store held up by a stopped replica).
     put_takes: Duration,
+    /// How many of the next `put`s fail (a replica stopped or restarting refuses them).
+    failing_puts: u32,
 }
 
 #[derive(Clone, Default)]
@@ -64,6 +66,10 @@ impl Store for FakeLink {
         let takes = {
             let mut r = self.0.lock().unwrap();
             r.puts.push(key.to_string());
+            if r.failing_puts > 0 {
+                r.failing_puts -= 1;
+                return Err(rem::Error::Closed);
+            }
             r.put_takes
         };
         tokio::time::sleep(takes).await;
@@ -429,6 +435,26 @@ async fn a_resumed_job_hands_out_only_the_missing_lines() {
     let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
     assert_eq!(reread.lines.len(), 8);
     assert_eq!(reread.header.state, "finished");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_last_save_refused_for_a_moment_is_tried_again_until_stored() {
+    let job = Job::start(4, 1, None);
+    job.ready(0, 4).await;
+    let grants = job.link.take_grants(&job.procs[0]);
+    let last = grants.len() - 1;
+    for g in &grants[..last] {
+        job.done(0, g.line, g.grant).await;
+    }
+    // The store refuses the next writes: the last save's first tries fail.
+    job.link.0.lock().unwrap().failing_puts = 3;
+    job.done(0, grants[last].line, grants[last].grant).await;
+    job.serve_until_done(0).await;
+    let (r, link) = job.end().await;
+    assert_image_complete(&r, 4);
+    let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
+    assert_eq!(reread.header.state, "finished");
+    assert_eq!(reread.lines.len(), 4, "every line stored, the last one too");
 }
 
 #[tokio::test(start_paused = true)]
