@@ -4,16 +4,12 @@
 //! the same files from the project's folder, and `export -o FILE` rewrites them so they name
 //! the same files from FILE's folder. Absolute files are kept as they are.
 
-use crate::project::{Object, Primitive, Project};
+use crate::project::{Primitive, Project};
 use std::path::{Path, PathBuf};
 
-/// The folder relative mesh files of the project or YARI file at `file` are found in.
-pub fn folder_of(file: &Path) -> PathBuf {
-    match file.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    }
-}
+/// The folder relative mesh files of the project or YARI file at `file` are found in: the
+/// YARI loader's rule (empty for a bare file name: the current folder).
+pub use yari::load::folder_of;
 
 /// Rewrites every relative mesh file of `project`, written relative to folder `from`, to name
 /// the same file relative to folder `to` (absolute where no relative path reaches it).
@@ -23,27 +19,27 @@ pub fn rebase(project: &mut Project, from: &Path, to: &Path) {
         return;
     }
     for o in &mut project.objects {
-        rebase_object(o, &from, &to);
-    }
-}
-
-fn rebase_object(o: &mut Object, from: &Path, to: &Path) {
-    for p in &mut o.primitives {
-        if let Primitive::Mesh { file, .. } = p {
-            if Path::new(file.as_str()).is_relative() {
-                let target = resolved(&from.join(file.as_str()));
-                let moved = pathdiff::diff_paths(&target, to).unwrap_or(target);
-                *file = moved.to_string_lossy().into_owned();
+        o.walk_mut(&mut |o| {
+            for p in &mut o.primitives {
+                if let Primitive::Mesh { file, .. } = p {
+                    if Path::new(file.as_str()).is_relative() {
+                        let target = resolved(&from.join(file.as_str()));
+                        let moved = pathdiff::diff_paths(&target, &to).unwrap_or(target);
+                        *file = moved.to_string_lossy().into_owned();
+                    }
+                }
             }
-        }
-    }
-    for c in &mut o.children {
-        rebase_object(c, from, to);
+        });
     }
 }
 
-/// `path` made absolute, through symbolic links where it exists.
+/// `path` made absolute, through symbolic links where it exists (empty: the current folder).
 fn resolved(path: &Path) -> PathBuf {
+    let path = if path.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        path
+    };
     std::fs::canonicalize(path)
         .or_else(|_| std::path::absolute(path))
         .unwrap_or_else(|_| path.to_path_buf())
@@ -52,6 +48,7 @@ fn resolved(path: &Path) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::project::Object;
 
     fn with_mesh(file: &str) -> Project {
         let mut p = Project::default();
@@ -110,7 +107,8 @@ mod tests {
 
     #[test]
     fn a_bare_file_name_is_in_the_current_folder() {
-        assert_eq!(folder_of(Path::new("p.json")), PathBuf::from("."));
-        assert_eq!(folder_of(Path::new("a/b/p.json")), PathBuf::from("a/b"));
+        let current = resolved(Path::new("."));
+        assert_eq!(resolved(folder_of(Path::new("p.json"))), current);
+        assert_eq!(folder_of(Path::new("a/b/p.json")), Path::new("a/b"));
     }
 }

@@ -25,7 +25,8 @@ impl Object {
         }
     }
 
-    fn walk_mut(&mut self, f: &mut dyn FnMut(&mut Object)) {
+    /// This object and all objects inside it, depth first, to change.
+    pub fn walk_mut(&mut self, f: &mut dyn FnMut(&mut Object)) {
         f(self);
         for c in &mut self.children {
             c.walk_mut(f);

@@ -134,18 +134,21 @@ impl SampleStream {
     /// numbered `self.next`.
     #[inline]
     fn sobol_dim(&self, d: u32) -> Real {
+        Real::from(crate::sobol::sample(self.index, d, self.sobol_seed()))
+    }
+
+    /// The Sobol scramble of the draw numbered `self.next` (keyed by the pixel).
+    #[inline]
+    fn sobol_seed(&self) -> u32 {
         let seed = mix64(self.pixel_key ^ self.next);
-        let seed = (seed ^ (seed >> 32)) as u32;
-        Real::from(crate::sobol::sample(self.index, d, seed))
+        (seed ^ (seed >> 32)) as u32
     }
 
     /// Dimensions 0 and 1 of this sample in the Sobol sequence scrambled for the draw
     /// numbered `self.next`: [`Self::sobol_dim`] of 0 and 1, bit for bit ([`crate::sobol`]).
     #[inline]
     fn sobol_2d(&self) -> (Real, Real) {
-        let seed = mix64(self.pixel_key ^ self.next);
-        let seed = (seed ^ (seed >> 32)) as u32;
-        let (u, v) = crate::sobol::sample_2d(self.index, seed);
+        let (u, v) = crate::sobol::sample_2d(self.index, self.sobol_seed());
         (Real::from(u), Real::from(v))
     }
 

@@ -267,8 +267,10 @@ fn loaded(world: World, kind: InputKind, warnings: Diagnostics, source: Option<S
     }
 }
 
-/// The folder of the scene file `path`, where its relative mesh files are found.
-fn folder_of(path: &Path) -> &Path {
+/// The folder of the scene file `path`, where its relative mesh files are found (empty, the
+/// current folder, for a bare file name). The modeler finds a project's mesh files the same
+/// way.
+pub fn folder_of(path: &Path) -> &Path {
     path.parent().unwrap_or(Path::new(""))
 }
 

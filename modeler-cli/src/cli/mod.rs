@@ -101,11 +101,11 @@ impl<'a> Session<'a> {
     /// Writes the project as YARI to `output` (standard output without one, or `-`), its
     /// relative mesh files named from the written file's folder ([`crate::mesh_files`]).
     fn export(&mut self, output: Option<PathBuf>) -> Result<(), ModelError> {
-        let here = folder_of(&self.path);
+        let here = folder_of(&self.path).to_path_buf();
         match output {
             Some(path) if path.as_os_str() != "-" => {
                 let mut p = self.project()?.clone();
-                crate::mesh_files::rebase(&mut p, &here, &folder_of(&path));
+                crate::mesh_files::rebase(&mut p, &here, folder_of(&path));
                 write_atomic(&path, crate::export::to_yari(&p).as_bytes())
             }
             _ => {
@@ -137,7 +137,7 @@ impl<'a> Session<'a> {
                 let src = yari::span::Source::new(a.file.display().to_string(), text);
                 let mut p = crate::import::from_yari(&src)?;
                 let (from, to) = (folder_of(&a.file), folder_of(&self.path));
-                crate::mesh_files::rebase(&mut p, &from, &to);
+                crate::mesh_files::rebase(&mut p, from, to);
                 return self.replace(p, a.force);
             }
             C::Export(a) => return self.export(a.output),
@@ -146,7 +146,7 @@ impl<'a> Session<'a> {
                     size: a.size as usize,
                     style: a.style,
                 };
-                let folder = folder_of(&self.path);
+                let folder = folder_of(&self.path).to_path_buf();
                 let img = preview::render_project(self.project()?, &folder, &opts)?;
                 return preview::write_png(&img, &a.output);
             }
