@@ -35,11 +35,14 @@ pub fn mix64(mut z: u64) -> u64 {
 /// (so the estimate is unbiased), and the error falls faster than with independent numbers.
 ///
 /// A stream made by [`SampleStream::sobol`] draws from an Owen-scrambled Sobol sequence
-/// (`sobol_burley`, Burley 2020) instead: sample `index` of the pixel's sequence, each 1-D or
-/// 2-D draw its own scramble (keyed by the pixel and the draw's number, "padded" as pbrt and
-/// Cycles do). Any prefix of a pixel's samples is then stratified in every draw (the first
-/// 2^k in each of 2^k strata of every 1-D draw, and of every elementary box of a 2-D draw), so
-/// a pixel may stop after any count: what rendering to an error needs.
+/// (`sobol_burley`, Burley 2020) instead: sample `index` of the pixel's sequence. Draws go in
+/// pairs, each pair a 4-D set of its own scramble (keyed by the pixel and the pair's number,
+/// "padded" by 4-D sets as Burley recommends): a pair's first draw takes dimensions 0 and 1
+/// (0 for a 1-D draw), its second 2 and 3 (2), so the point in the pixel and the lens point,
+/// or a light point and a gloss direction, are stratified together in four dimensions, not
+/// only each pair on its own. Any prefix of a pixel's samples is then stratified in every draw
+/// (the first 2^k in each of 2^k strata of every 1-D draw), so a pixel may stop after any
+/// count: what rendering to an error needs.
 #[derive(Clone, Debug)]
 pub struct SampleStream {
     key: u64,
@@ -130,25 +133,39 @@ impl SampleStream {
         self.sobol
     }
 
-    /// Dimension `d` (0 or 1) of this sample in the Sobol sequence scrambled for the draw
-    /// numbered `self.next`.
+    /// The first Sobol dimension of the draw numbered `self.next` (counted from 1): 0 for
+    /// the first draw of a pair, 2 for the second.
     #[inline]
-    fn sobol_dim(&self, d: u32) -> Real {
-        Real::from(crate::sobol::sample(self.index, d, self.sobol_seed()))
+    fn sobol_first_dim(&self) -> u32 {
+        if self.next & 1 == 1 {
+            0
+        } else {
+            2
+        }
     }
 
-    /// The Sobol scramble of the draw numbered `self.next` (keyed by the pixel).
+    /// Dimension `d` (0 or 1) of the draw numbered `self.next`: dimension `d` or `d + 2` of
+    /// this sample in its pair's Sobol sequence.
+    #[inline]
+    fn sobol_dim(&self, d: u32) -> Real {
+        let dim = self.sobol_first_dim() + d;
+        Real::from(crate::sobol::sample(self.index, dim, self.sobol_seed()))
+    }
+
+    /// The Sobol scramble of the pair of draws the draw numbered `self.next` is in (keyed by
+    /// the pixel): draws 1 and 2 are pair 1, 3 and 4 pair 2.
     #[inline]
     fn sobol_seed(&self) -> u32 {
-        let seed = mix64(self.pixel_key ^ self.next);
+        let seed = mix64(self.pixel_key ^ self.next.div_ceil(2));
         (seed ^ (seed >> 32)) as u32
     }
 
-    /// Dimensions 0 and 1 of this sample in the Sobol sequence scrambled for the draw
-    /// numbered `self.next`: [`Self::sobol_dim`] of 0 and 1, bit for bit ([`crate::sobol`]).
+    /// The 2-D draw numbered `self.next`: [`Self::sobol_dim`] of 0 and 1, bit for bit
+    /// ([`crate::sobol`]).
     #[inline]
     fn sobol_2d(&self) -> (Real, Real) {
-        let (u, v) = crate::sobol::sample_2d(self.index, self.sobol_seed());
+        let first = self.sobol_first_dim();
+        let (u, v) = crate::sobol::sample_2d(self.index, first, self.sobol_seed());
         (Real::from(u), Real::from(v))
     }
 
@@ -272,11 +289,12 @@ pub fn sample_disc(u: Real, v: Real) -> (Real, Real) {
 mod tests {
     use super::*;
 
-    /// A Sobol stream's 2-D draws are dimensions 0 and 1 of `sobol_burley`'s sequence for
-    /// its draw's scramble, bit for bit: what every image rendered with `--sampler sobol` or a
-    /// target error was made of.
+    /// A Sobol stream's draws go in pairs, each pair one scramble of `sobol_burley`'s
+    /// sequence: the first draw dimensions 0 and 1, the second 2 and 3, bit for bit (a 1-D
+    /// draw the first of those): what every image rendered with `--sampler sobol` or a target
+    /// error is made of.
     #[test]
-    fn a_sobol_2d_draw_is_dimensions_0_and_1_of_its_scramble() {
+    fn sobol_draws_are_dimensions_0_to_3_of_their_pairs_scramble() {
         for (x, y, seed, index) in [
             (0, 0, 0, 0),
             (3, 9, 0, 1),
@@ -284,24 +302,36 @@ mod tests {
             (40, 2, 1, 12),
         ] {
             let mut s = SampleStream::sobol(x, y, seed, index);
-            for _ in 0..8 {
-                let (u, v) = s.next_2d();
-                let key = mix64(s.pixel_key ^ s.next);
-                let key = (key ^ (key >> 32)) as u32;
-                let want = (
-                    sobol_burley::sample(index, 0, key),
-                    sobol_burley::sample(index, 1, key),
-                );
-                let got = (u.to_bits(), v.to_bits());
-                assert_eq!(
-                    got,
-                    (f64::from(want.0).to_bits(), f64::from(want.1).to_bits())
-                );
-                let w = s.next_real();
-                let key = mix64(s.pixel_key ^ s.next);
-                let key = (key ^ (key >> 32)) as u32;
-                assert_eq!(w, f64::from(sobol_burley::sample(index, 0, key)));
+            let scramble = |pair: u64| {
+                let key = mix64(s.pixel_key ^ pair);
+                (key ^ (key >> 32)) as u32
+            };
+            // Draws 1-2, 3-4, ...: 2-D and 2-D, then 2-D and 1-D, then 1-D and 2-D.
+            let mut want = Vec::new();
+            for (pair, shape) in [(1, [2, 2]), (2, [2, 1]), (3, [1, 2]), (4, [2, 2])] {
+                let key = scramble(pair);
+                for (second, width) in shape.into_iter().enumerate() {
+                    let first_dim = 2 * second as u32;
+                    for d in 0..width {
+                        want.push(f64::from(sobol_burley::sample(index, first_dim + d, key)));
+                    }
+                }
             }
+            let mut got = Vec::new();
+            for width in [2, 2, 2, 1, 1, 2, 2, 2] {
+                if width == 2 {
+                    let (u, v) = s.next_2d();
+                    got.extend([u, v]);
+                } else {
+                    got.push(s.next_real());
+                }
+            }
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&got),
+                bits(&want),
+                "pixel ({x}, {y}) seed {seed} sample {index}"
+            );
         }
     }
 
@@ -376,8 +406,10 @@ mod tests {
 
     /// Every power-of-two prefix of a pixel's Sobol samples is stratified: its n points fall
     /// one in each of the n strata of a 1-D draw, and one in each elementary box (2^a x 2^b,
-    /// a + b = log2 n) of a 2-D draw; the pixel point and a later draw alike. Another pixel or
-    /// seed is another scramble.
+    /// a + b = log2 n) of a 2-D draw that opens a pair (dimensions 0 and 1); the pixel point
+    /// and a later draw alike. (A pair's second draw, dimensions 2 and 3, is stratified with
+    /// the first in four dimensions: [`a_pair_of_draws_is_stratified_in_four_dimensions`].)
+    /// Another pixel or seed is another scramble.
     #[test]
     fn sobol_prefixes_are_stratified_in_every_draw() {
         for (x, y, seed) in [(0, 0, 0), (17, 3, 0), (17, 3, 9)] {
@@ -418,6 +450,47 @@ mod tests {
         let first = |x, seed| SampleStream::sobol(x, 0, seed, 0).next_2d();
         assert_ne!(first(1, 0), first(2, 0));
         assert_ne!(first(1, 0), first(1, 1));
+    }
+
+    /// The two draws of a pair are stratified together in four dimensions: the first 2^k
+    /// samples' (pixel point, lens point) put 2^3 in every elementary box of volume 2^(3-k)
+    /// (every split of k - 3 halvings among the four axes; the first four Sobol dimensions are
+    /// a (3, 4)-sequence or better). Draws scrambled each on its own are stratified only
+    /// pair by pair and fail this.
+    #[test]
+    fn a_pair_of_draws_is_stratified_in_four_dimensions() {
+        for (x, y, seed) in [(0, 0, 0), (17, 3, 0), (17, 3, 9), (250, 90, 4)] {
+            for k in 4..=10u32 {
+                let n = 1u32 << k;
+                let points: Vec<[Real; 4]> = (0..n)
+                    .map(|i| {
+                        let mut s = SampleStream::sobol(x, y, seed, i);
+                        let (a, b) = s.next_2d();
+                        let (c, d) = s.next_2d();
+                        [a, b, c, d]
+                    })
+                    .collect();
+                let m = k - 3;
+                for a in 0..=m {
+                    for b in 0..=m - a {
+                        for c in 0..=m - a - b {
+                            let splits = [a, b, c, m - a - b - c];
+                            let mut boxes = std::collections::HashMap::new();
+                            for p in &points {
+                                let cell: Vec<u32> = (0..4)
+                                    .map(|i| (p[i] * Real::from(1u32 << splits[i])) as u32)
+                                    .collect();
+                                *boxes.entry(cell).or_insert(0) += 1;
+                            }
+                            assert!(
+                                boxes.len() == 1 << m && boxes.values().all(|&c| c == 8),
+                                "pixel ({x}, {y}) seed {seed}, {n} samples, boxes {splits:?}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

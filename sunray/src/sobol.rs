@@ -1,9 +1,12 @@
-//! Owen-scrambled Sobol samples of dimensions 0 and 1, bit for bit what
-//! `sobol_burley::sample` gives, made faster. The crate computes the Sobol point by walking
+//! Owen-scrambled Sobol samples of dimensions 0 to 3 (the crate's first 4-D set), bit for
+//! bit what `sobol_burley::sample` gives, made faster. The crate computes the Sobol point by walking
 //! the set bits of the (scrambled, 16-bit) index, up to 16 dependent steps, for each
 //! dimension; that product is linear over GF(2) in the index's bits, so two lookups in
 //! tables of 256 entries per dimension (the products of every byte, made once from the
-//! crate's own `parts::sobol_rev`) give the same bits. Everything else (the index's shuffle,
+//! crate's own `parts::sobol_rev`) give the same bits. A stream pairs its 2-D draws into
+//! 4-D sets (Burley's padding by 4-D sets): dimensions 0 and 1, then 2 and 3, of one
+//! shuffled index, so a pixel's point and its lens (or light, or gloss) point are stratified
+//! together, not only each on its own. Everything else (the index's shuffle,
 //! the per-dimension Owen scramble, the conversion to [0, 1)) is the crate's own `parts`,
 //! called in the order its `sample` calls them. A pixel's 2-D draw was a fifth of a
 //! depth-of-field render's time with `--sampler sobol`.
@@ -11,13 +14,13 @@
 use sobol_burley::parts::{hash, owen_scramble_rev, sobol_rev, u32_to_f32_norm};
 use std::sync::OnceLock;
 
-/// Per dimension (0 and 1), the Sobol products of the index's top byte and its next byte.
-type Tables = [[[u32; 256]; 2]; 2];
+/// Per dimension (0 to 3), the Sobol products of the index's top byte and its next byte.
+type Tables = [[[u32; 256]; 2]; 4];
 
 fn tables() -> &'static Tables {
     static TABLES: OnceLock<Tables> = OnceLock::new();
     TABLES.get_or_init(|| {
-        let mut t = [[[0; 256]; 2]; 2];
+        let mut t = [[[0; 256]; 2]; 4];
         for (dim, dt) in t.iter_mut().enumerate() {
             for b in 0..256u32 {
                 dt[0][b as usize] = sobol_rev(b << 24, dim as u32);
@@ -28,24 +31,28 @@ fn tables() -> &'static Tables {
     })
 }
 
-/// Dimension `dim` (0 or 1) of sample `index` (below 2^16) of the sequence scrambled by
+/// Dimension `dim` (0 to 3) of sample `index` (below 2^16) of the sequence scrambled by
 /// `seed`: `sobol_burley::sample(index, dim, seed)`.
 #[inline]
 pub fn sample(index: u32, dim: u32, seed: u32) -> f32 {
-    debug_assert!(dim < 2, "only dimensions 0 and 1 have tables");
+    debug_assert!(dim < 4, "only dimensions 0 to 3 have tables");
     let shuffled = shuffled_index(index, seed);
-    dimension(tables(), shuffled, dim & 1, seed)
+    dimension(tables(), shuffled, dim & 3, seed)
 }
 
-/// Dimensions 0 and 1 of sample `index` (below 2^16) of the sequence scrambled by `seed`:
-/// `sobol_burley::sample` of each.
+/// Dimensions `first` and `first + 1` (0 and 1, or 2 and 3) of sample `index` (below 2^16)
+/// of the sequence scrambled by `seed`: `sobol_burley::sample` of each.
 #[inline]
-pub fn sample_2d(index: u32, seed: u32) -> (f32, f32) {
+pub fn sample_2d(index: u32, first: u32, seed: u32) -> (f32, f32) {
+    debug_assert!(
+        first == 0 || first == 2,
+        "a 2-D draw is dimensions 0-1 or 2-3"
+    );
     let t = tables();
     let shuffled = shuffled_index(index, seed);
     (
-        dimension(t, shuffled, 0, seed),
-        dimension(t, shuffled, 1, seed),
+        dimension(t, shuffled, first & 2, seed),
+        dimension(t, shuffled, (first & 2) | 1, seed),
     )
 }
 
@@ -57,11 +64,11 @@ fn shuffled_index(index: u32, seed: u32) -> u32 {
 
 #[inline]
 fn dimension(t: &Tables, shuffled: u32, dim: u32, seed: u32) -> f32 {
-    let d = &t[dim as usize & 1];
+    let d = &t[dim as usize & 3];
     let sobol = d[0][(shuffled >> 24) as usize] ^ d[1][((shuffled >> 16) & 0xff) as usize];
-    // The crate's scramble constant of dimensions 0 and 1 (dimension set 0).
-    const SCRAMBLE: [u32; 2] = [0x912f_69ba, 0x174f_18ab];
-    let scramble = seed.wrapping_mul(0x9c8f_2d3b) ^ SCRAMBLE[dim as usize & 1];
+    // The crate's scramble constants of dimensions 0 to 3 (dimension set 0).
+    const SCRAMBLE: [u32; 4] = [0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8];
+    let scramble = seed.wrapping_mul(0x9c8f_2d3b) ^ SCRAMBLE[dim as usize & 3];
     u32_to_f32_norm(owen_scramble_rev(sobol, hash(scramble)).reverse_bits())
 }
 
@@ -77,17 +84,19 @@ mod tests {
         seeds.extend((0..40).map(|_| (crate::sampler::splitmix64(&mut h) >> 32) as u32));
         for &seed in &seeds {
             for index in (0..1u32 << 16).step_by(if seed < 2 { 1 } else { 97 }) {
-                let (u, v) = sample_2d(index, seed);
-                let want = (
-                    sobol_burley::sample(index, 0, seed),
-                    sobol_burley::sample(index, 1, seed),
-                );
-                assert_eq!(
-                    (u.to_bits(), v.to_bits()),
-                    (want.0.to_bits(), want.1.to_bits())
-                );
-                assert_eq!(sample(index, 0, seed).to_bits(), want.0.to_bits());
-                assert_eq!(sample(index, 1, seed).to_bits(), want.1.to_bits());
+                for first in [0, 2] {
+                    let (u, v) = sample_2d(index, first, seed);
+                    let want = (
+                        sobol_burley::sample(index, first, seed),
+                        sobol_burley::sample(index, first + 1, seed),
+                    );
+                    assert_eq!(
+                        (u.to_bits(), v.to_bits()),
+                        (want.0.to_bits(), want.1.to_bits())
+                    );
+                    assert_eq!(sample(index, first, seed).to_bits(), want.0.to_bits());
+                    assert_eq!(sample(index, first + 1, seed).to_bits(), want.1.to_bits());
+                }
             }
         }
     }
