@@ -24,6 +24,10 @@ pub fn code_of(e: &anyhow::Error) -> u8 {
 /// and `sunray submit --resume JOB` continues it.
 pub const NO_WORKERS_LEFT: u8 = 3;
 
+/// `sunray controller`: every line is in, but the checkpoint store refused the last save;
+/// REM starts the controller again (its record still says running).
+pub const NOT_STORED: u8 = 3;
+
 /// `sunray worker`: the controller went away, so the worker stopped.
 pub const CONTROLLER_GONE: u8 = 3;
 

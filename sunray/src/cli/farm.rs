@@ -100,8 +100,8 @@ pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
         .build()?)
 }
 
-/// Runs a farm job's controller (exit 0 finished, 3 unfinished: REM starts it again, 5
-/// superseded by a newer controller).
+/// Runs a farm job's controller (exit 0 finished, 3 unfinished or its image not stored: REM
+/// starts it again, 5 superseded by a newer controller).
 pub fn controller(args: ControllerArgs) -> anyhow::Result<ExitCode> {
     let worker_program = match args.worker_program {
         Some(p) => p,
@@ -117,6 +117,12 @@ pub fn controller(args: ControllerArgs) -> anyhow::Result<ExitCode> {
         ControllerEnd::Unfinished => {
             eprintln!("sunray controller: no worker is left; REM starts the controller again");
             Ok(ExitCode::from(exit::NO_WORKERS_LEFT))
+        }
+        ControllerEnd::NotStored => {
+            eprintln!(
+                "sunray controller: every line is in but the checkpoint store refused the last save; REM starts the controller again"
+            );
+            Ok(ExitCode::from(exit::NOT_STORED))
         }
         ControllerEnd::Superseded(why) => {
             eprintln!("sunray controller: standing down: {why}");

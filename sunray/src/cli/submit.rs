@@ -200,6 +200,14 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::from(exit::NO_WORKERS_LEFT));
     }
+    if !outcome.stored {
+        eprintln!(
+            "sunray: warning: {} is written, but the farm's checkpoint store refused the last save, so `sunray fetch {}` cannot give it; `sunray submit --resume {}` stores the rest",
+            outcome.output.display(),
+            outcome.job,
+            outcome.job
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
 

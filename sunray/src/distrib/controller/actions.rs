@@ -39,21 +39,26 @@ impl<L: WorkerLink> Controller<L> {
     }
 
     /// The job's result as it stands (the image and figures are copies).
-    pub(super) fn result(&mut self, finished: bool) -> JobResult {
+    pub(super) fn result(&mut self, finished: bool, stored: bool) -> JobResult {
         let film = self.film.clone();
         let passes = self.passes.clone();
-        self.result_with(finished, film, passes)
+        self.result_with((finished, stored), film, passes)
     }
 
     /// The job's result at its end: the image and the pixels' estimates are moved out, not
     /// copied.
-    pub(super) fn into_result(mut self, finished: bool) -> JobResult {
+    pub(super) fn into_result(mut self, finished: bool, stored: bool) -> JobResult {
         let film = std::mem::replace(&mut self.film, Film::new(0, 0));
         let passes = self.passes.take();
-        self.result_with(finished, film, passes)
+        self.result_with((finished, stored), film, passes)
     }
 
-    fn result_with(&mut self, finished: bool, film: Film, passes: Option<LinePasses>) -> JobResult {
+    fn result_with(
+        &mut self,
+        (finished, stored): (bool, bool),
+        film: Film,
+        passes: Option<LinePasses>,
+    ) -> JobResult {
         let counts = self.table.counts();
         self.lines.requeued = counts.requeued;
         self.lines.released = counts.released;
@@ -67,6 +72,7 @@ impl<L: WorkerLink> Controller<L> {
             lines: self.lines.clone(),
             elapsed_s: self.started.elapsed().as_secs_f64(),
             finished,
+            stored,
             cost: self.cost(),
             timeline: self.timeline.clone(),
             passes,

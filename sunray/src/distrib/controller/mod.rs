@@ -122,6 +122,9 @@ pub struct JobResult {
     pub elapsed_s: f64,
     /// False when no worker was left to finish the image.
     pub finished: bool,
+    /// Whether the job's last checkpoint was stored ([`Controller::save_final`]): a job
+    /// finished but not stored has its whole image here, and only part of it on the farm.
+    pub stored: bool,
     /// The controller's own CPU time and message counts, in total and per line.
     pub cost: ControllerCost,
     /// The job's steps, in seconds since it was submitted.
@@ -432,7 +435,7 @@ impl<L: WorkerLink> Controller<L> {
         if finished && stored {
             self.timeline.image_stored = Some(self.cfg.clock.now());
             if let Some(tell) = self.image_stored.take() {
-                let mut now = self.result(finished);
+                let mut now = self.result(finished, stored);
                 now.timeline.finished = now.timeline.image_stored;
                 let _ = tell.send(now);
             }
@@ -449,7 +452,7 @@ impl<L: WorkerLink> Controller<L> {
         for report in self.writer.close().await {
             self.on_report(report);
         }
-        Ok(self.into_result(finished))
+        Ok(self.into_result(finished, stored))
     }
 
     /// One item of the inbox: a relay item is handled; the relay's failure ends the job.

@@ -1,6 +1,7 @@
 //! The controller's rules without processes: a recording [`WorkerLink`] in place of REM, the
 //! workers played by the test, tokio's clock paused (so timeouts pass instantly and in order).
 
+use super::actions::FINAL_SAVE_TRIES;
 use super::link::WorkerLink;
 use super::{spawn_with, ControllerConfig, ControllerHandle, Input, JobResult, WorkerProc};
 use crate::distrib::checkpoint::{self, Checkpointer, Restored, Store};
@@ -455,6 +456,33 @@ async fn a_last_save_refused_for_a_moment_is_tried_again_until_stored() {
     let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
     assert_eq!(reread.header.state, "finished");
     assert_eq!(reread.lines.len(), 4, "every line stored, the last one too");
+    assert!(r.finished && r.stored);
+}
+
+/// A store that refuses every try of the last save: the job's image is whole, but the result
+/// says it is not stored (a farm controller then exits for REM to start another, which
+/// renders the lines the store lacks; `submit` writes the image and says `fetch` cannot give
+/// it), and the stored checkpoint is the one before, not marked finished.
+#[tokio::test(start_paused = true)]
+async fn a_last_save_refused_every_time_says_the_image_is_not_stored() {
+    let job = Job::start(4, 1, None);
+    job.ready(0, 4).await;
+    let grants = job.link.take_grants(&job.procs[0]);
+    let last = grants.len() - 1;
+    for g in &grants[..last] {
+        job.done(0, g.line, g.grant).await;
+    }
+    job.link.0.lock().unwrap().failing_puts = 10 * FINAL_SAVE_TRIES;
+    job.done(0, grants[last].line, grants[last].grant).await;
+    job.serve_until_done(0).await;
+    let (r, link) = job.end().await;
+    assert_image_complete(&r, 4);
+    assert!(r.finished, "every line is in");
+    assert!(!r.stored, "but the store has not got them all");
+    if let Some(reread) = checkpoint::load(&link, JOB).await.unwrap() {
+        assert_ne!(reread.header.state, "finished");
+        assert!(reread.lines.len() < 4);
+    }
 }
 
 #[tokio::test(start_paused = true)]

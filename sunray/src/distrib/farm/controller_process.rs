@@ -54,6 +54,10 @@ pub enum ControllerEnd {
     Finished,
     /// No worker was left: REM starts the controller again.
     Unfinished,
+    /// Every line is in, but the last checkpoint could not be stored (after
+    /// [`crate::distrib::controller`]'s tries): the record still says running, so REM starts
+    /// the controller again, and the next one renders the lines the store lacks.
+    NotStored,
     /// A newer controller has the job.
     Superseded(String),
 }
@@ -156,6 +160,7 @@ pub async fn run(opts: ControllerOptions) -> Result<ControllerEnd, FarmError> {
     let ended = match drive::run_controller(&mut site, start, totals).await? {
         Ran::Superseded(why) => return Ok(ControllerEnd::Superseded(why)),
         Ran::Ended(ended) if !ended.finished => return Ok(ControllerEnd::Unfinished),
+        Ran::Ended(ended) if !ended.stored => return Ok(ControllerEnd::NotStored),
         Ran::Ended(ended) => ended,
     };
     if !site.told_finished {

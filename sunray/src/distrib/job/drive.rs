@@ -86,6 +86,8 @@ pub(crate) enum Ran {
 pub(crate) struct Ended {
     /// False when no worker was left to finish the image.
     pub(crate) finished: bool,
+    /// Whether the job's last checkpoint was stored (a finished job's image is on the farm).
+    pub(crate) stored: bool,
     /// The image of the accepted lines (and those of earlier runs).
     pub(crate) film: Film,
     /// The per-node table and the totals.
@@ -227,6 +229,7 @@ fn job_stats(
         lines,
         elapsed_s,
         finished,
+        stored,
         cost,
         timeline,
         passes,
@@ -254,6 +257,7 @@ fn job_stats(
     };
     Ended {
         finished,
+        stored,
         film,
         stats,
         passes,

@@ -155,6 +155,12 @@ async fn run_plan(
     let stats = ended.stats;
     entry.lines_done = stats.lines.finished;
     entry.state = if ended.finished { "finished" } else { "failed" }.into();
+    if ended.finished && !ended.stored {
+        // The image is whole here, not in the store: the record says what the store holds,
+        // and `--resume` renders the rest into it.
+        entry.lines_done = stored_lines(cluster, &plan, &entry).await as u32;
+        entry.state = "interrupted".into();
+    }
     record_update(cluster, &entry, plan.settings.render.width, epoch).await;
     if ended.finished {
         ended.film.write(&plan.output)?;
@@ -166,8 +172,18 @@ async fn run_plan(
         job: plan.job,
         output: plan.output,
         finished: ended.finished,
+        stored: ended.stored,
         stats,
     })
+}
+
+/// How many lines the job's stored checkpoint holds (its header counts them; the record's
+/// count if the header cannot be read).
+async fn stored_lines(cluster: &RemConnection, plan: &Plan, entry: &proto::JobEntry) -> usize {
+    match job_record::header(&cluster.client, &plan.job).await {
+        Ok(Some(h)) => h.lines_done as usize,
+        _ => entry.lines_done as usize,
+    }
 }
 
 /// Ends a job that Ctrl-C interrupted: its record `interrupted` with the lines its checkpoint
@@ -180,10 +196,7 @@ async fn interrupted(
     epoch: u64,
 ) -> JobError {
     // The checkpoint's header counts its lines: its segments need not be read.
-    let kept = match job_record::header(&cluster.client, &plan.job).await {
-        Ok(Some(h)) => h.lines_done as usize,
-        _ => entry.lines_done as usize,
-    };
+    let kept = stored_lines(cluster, plan, &entry).await;
     entry.lines_done = kept as u32;
     entry.state = "interrupted".into();
     record_update(cluster, &entry, plan.settings.render.width, epoch).await;

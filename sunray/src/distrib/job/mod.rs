@@ -210,6 +210,9 @@ pub struct JobOutcome {
     pub output: PathBuf,
     /// False when no worker was left to finish the image (its lines are in the checkpoint).
     pub finished: bool,
+    /// Whether the farm stored the image (its last checkpoint): a finished job not stored has
+    /// its image written here, and its record says interrupted (`--resume` stores the rest).
+    pub stored: bool,
     /// The per-node table and the totals.
     pub stats: JobStats,
 }
