@@ -438,8 +438,9 @@ async fn a_resumed_job_hands_out_only_the_missing_lines() {
     assert_eq!(reread.header.state, "finished");
 }
 
-#[tokio::test(start_paused = true)]
-async fn a_last_save_refused_for_a_moment_is_tried_again_until_stored() {
+/// A job of four lines whose store refuses the next `refused` writes as its last line comes
+/// in, run to its end: the last save's first tries fail.
+async fn last_save_refused(refused: u32) -> (JobResult, FakeLink) {
     let job = Job::start(4, 1, None);
     job.ready(0, 4).await;
     let grants = job.link.take_grants(&job.procs[0]);
@@ -447,12 +448,17 @@ async fn a_last_save_refused_for_a_moment_is_tried_again_until_stored() {
     for g in &grants[..last] {
         job.done(0, g.line, g.grant).await;
     }
-    // The store refuses the next writes: the last save's first tries fail.
-    job.link.0.lock().unwrap().failing_puts = 3;
+    job.link.0.lock().unwrap().failing_puts = refused;
     job.done(0, grants[last].line, grants[last].grant).await;
     job.serve_until_done(0).await;
     let (r, link) = job.end().await;
     assert_image_complete(&r, 4);
+    (r, link)
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_last_save_refused_for_a_moment_is_tried_again_until_stored() {
+    let (r, link) = last_save_refused(3).await;
     let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
     assert_eq!(reread.header.state, "finished");
     assert_eq!(reread.lines.len(), 4, "every line stored, the last one too");
@@ -465,18 +471,7 @@ async fn a_last_save_refused_for_a_moment_is_tried_again_until_stored() {
 /// it), and the stored checkpoint is the one before, not marked finished.
 #[tokio::test(start_paused = true)]
 async fn a_last_save_refused_every_time_says_the_image_is_not_stored() {
-    let job = Job::start(4, 1, None);
-    job.ready(0, 4).await;
-    let grants = job.link.take_grants(&job.procs[0]);
-    let last = grants.len() - 1;
-    for g in &grants[..last] {
-        job.done(0, g.line, g.grant).await;
-    }
-    job.link.0.lock().unwrap().failing_puts = 10 * FINAL_SAVE_TRIES;
-    job.done(0, grants[last].line, grants[last].grant).await;
-    job.serve_until_done(0).await;
-    let (r, link) = job.end().await;
-    assert_image_complete(&r, 4);
+    let (r, link) = last_save_refused(10 * FINAL_SAVE_TRIES).await;
     assert!(r.finished, "every line is in");
     assert!(!r.stored, "but the store has not got them all");
     if let Some(reread) = checkpoint::load(&link, JOB).await.unwrap() {
