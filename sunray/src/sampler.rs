@@ -3,6 +3,7 @@
 //! host renders it, nor in what order.
 
 use crate::geometry::Real;
+use crate::sobol::Sample4;
 
 /// SplitMix64 step (Steele, Lea and Flood 2014): advances `state` and returns a mixed value.
 #[inline]
@@ -53,6 +54,8 @@ pub struct SampleStream {
     count: u32,
     /// Draw from the pixel's Sobol sequence (sample `index`) rather than stratified jitter.
     sobol: bool,
+    /// The Sobol sample of the pair of draws under way, made by the pair's first draw.
+    pair: Sample4,
 }
 
 /// Which numbers a fixed number of samples per pixel draws from (`--sampler`). Rendering to
@@ -108,6 +111,7 @@ impl SampleStream {
             index: index.min(count.saturating_sub(1)),
             count: count.max(1),
             sobol: false,
+            pair: Sample4::default(),
         }
     }
 
@@ -124,6 +128,7 @@ impl SampleStream {
             index: index.min(SOBOL_SAMPLES - 1),
             count: SOBOL_SAMPLES,
             sobol: true,
+            pair: Sample4::default(),
         }
     }
 
@@ -133,23 +138,17 @@ impl SampleStream {
         self.sobol
     }
 
-    /// The first Sobol dimension of the draw numbered `self.next` (counted from 1): 0 for
-    /// the first draw of a pair, 2 for the second.
+    /// The first Sobol dimension of the draw numbered `self.next` (counted from 1), after
+    /// starting a new pair's sample if the draw opens one: 0 for the first draw of a pair, 2
+    /// for the second, which uses the first one's sample.
     #[inline]
-    fn sobol_first_dim(&self) -> u32 {
+    fn sobol_draw(&mut self) -> u32 {
         if self.next & 1 == 1 {
+            self.pair = Sample4::new(self.index, self.sobol_seed());
             0
         } else {
             2
         }
-    }
-
-    /// Dimension `d` (0 or 1) of the draw numbered `self.next`: dimension `d` or `d + 2` of
-    /// this sample in its pair's Sobol sequence.
-    #[inline]
-    fn sobol_dim(&self, d: u32) -> Real {
-        let dim = self.sobol_first_dim() + d;
-        Real::from(crate::sobol::sample(self.index, dim, self.sobol_seed()))
     }
 
     /// The Sobol scramble of the pair of draws the draw numbered `self.next` is in (keyed by
@@ -160,21 +159,13 @@ impl SampleStream {
         (seed ^ (seed >> 32)) as u32
     }
 
-    /// The 2-D draw numbered `self.next`: [`Self::sobol_dim`] of 0 and 1, bit for bit
-    /// ([`crate::sobol`]).
-    #[inline]
-    fn sobol_2d(&self) -> (Real, Real) {
-        let first = self.sobol_first_dim();
-        let (u, v) = crate::sobol::sample_2d(self.index, first, self.sobol_seed());
-        (Real::from(u), Real::from(v))
-    }
-
     /// The next uniform number in [0, 1).
     #[inline]
     pub fn next_real(&mut self) -> Real {
         self.next += 1;
         if self.sobol {
-            return self.sobol_dim(0);
+            let dim = self.sobol_draw();
+            return Real::from(self.pair.dim(dim));
         }
         let bits = mix64(self.key ^ mix64(self.next));
         (bits >> 11) as Real * (1.0 / (1u64 << 53) as Real)
@@ -184,7 +175,9 @@ impl SampleStream {
     pub fn next_2d(&mut self) -> (Real, Real) {
         if self.sobol {
             self.next += 1;
-            return self.sobol_2d();
+            let first = self.sobol_draw();
+            let (u, v) = self.pair.dims_2d(first);
+            return (Real::from(u), Real::from(v));
         }
         let (u, v) = (self.next_real(), self.next_real());
         if self.count <= 1 {

@@ -31,29 +31,46 @@ fn tables() -> &'static Tables {
     })
 }
 
-/// Dimension `dim` (0 to 3) of sample `index` (below 2^16) of the sequence scrambled by
-/// `seed`: `sobol_burley::sample(index, dim, seed)`.
-#[inline]
-pub fn sample(index: u32, dim: u32, seed: u32) -> f32 {
-    debug_assert!(dim < 4, "only dimensions 0 to 3 have tables");
-    let shuffled = shuffled_index(index, seed);
-    dimension(tables(), shuffled, dim & 3, seed)
+/// Sample `index` (below 2^16) of the sequence scrambled by `seed`, its index shuffled once
+/// for all four dimensions: a stream's pair of draws shares one (the shuffle is half the work
+/// of a draw).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Sample4 {
+    shuffled: u32,
+    seed: u32,
 }
 
-/// Dimensions `first` and `first + 1` (0 and 1, or 2 and 3) of sample `index` (below 2^16)
-/// of the sequence scrambled by `seed`: `sobol_burley::sample` of each.
-#[inline]
-pub fn sample_2d(index: u32, first: u32, seed: u32) -> (f32, f32) {
-    debug_assert!(
-        first == 0 || first == 2,
-        "a 2-D draw is dimensions 0-1 or 2-3"
-    );
-    let t = tables();
-    let shuffled = shuffled_index(index, seed);
-    (
-        dimension(t, shuffled, first & 2, seed),
-        dimension(t, shuffled, (first & 2) | 1, seed),
-    )
+impl Sample4 {
+    /// Sample `index` of the sequence scrambled by `seed`.
+    #[inline]
+    pub fn new(index: u32, seed: u32) -> Sample4 {
+        Sample4 {
+            shuffled: shuffled_index(index, seed),
+            seed,
+        }
+    }
+
+    /// Dimension `dim` (0 to 3): `sobol_burley::sample(index, dim, seed)`.
+    #[inline]
+    pub fn dim(&self, dim: u32) -> f32 {
+        debug_assert!(dim < 4, "only dimensions 0 to 3 have tables");
+        dimension(tables(), self.shuffled, dim & 3, self.seed)
+    }
+
+    /// Dimensions `first` and `first + 1` (0 and 1, or 2 and 3): `sobol_burley::sample` of
+    /// each.
+    #[inline]
+    pub fn dims_2d(&self, first: u32) -> (f32, f32) {
+        debug_assert!(
+            first == 0 || first == 2,
+            "a 2-D draw is dimensions 0-1 or 2-3"
+        );
+        let t = tables();
+        (
+            dimension(t, self.shuffled, first & 2, self.seed),
+            dimension(t, self.shuffled, (first & 2) | 1, self.seed),
+        )
+    }
 }
 
 /// The index with its bits reversed and shuffled for `seed` (the crate's first step).
@@ -84,8 +101,9 @@ mod tests {
         seeds.extend((0..40).map(|_| (crate::sampler::splitmix64(&mut h) >> 32) as u32));
         for &seed in &seeds {
             for index in (0..1u32 << 16).step_by(if seed < 2 { 1 } else { 97 }) {
+                let sample = Sample4::new(index, seed);
                 for first in [0, 2] {
-                    let (u, v) = sample_2d(index, first, seed);
+                    let (u, v) = sample.dims_2d(first);
                     let want = (
                         sobol_burley::sample(index, first, seed),
                         sobol_burley::sample(index, first + 1, seed),
@@ -94,8 +112,8 @@ mod tests {
                         (u.to_bits(), v.to_bits()),
                         (want.0.to_bits(), want.1.to_bits())
                     );
-                    assert_eq!(sample(index, first, seed).to_bits(), want.0.to_bits());
-                    assert_eq!(sample(index, first + 1, seed).to_bits(), want.1.to_bits());
+                    assert_eq!(sample.dim(first).to_bits(), want.0.to_bits());
+                    assert_eq!(sample.dim(first + 1).to_bits(), want.1.to_bits());
                 }
             }
         }
