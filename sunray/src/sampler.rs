@@ -1,6 +1,6 @@
 //! Counter-based random numbers: every value is a hash of (pixel x, y, sample index, and a
 //! per-path dimension counter), so a pixel's samples never depend on which thread, process or
-//! host renders it, nor in what order. [`jitter`] places a stratified draw in its cell;
+//! host renders it, nor in what order. `jitter` places a stratified draw in its cell;
 //! [`crate::sobol`] makes a Sobol stream's numbers.
 
 use crate::geometry::Real;
