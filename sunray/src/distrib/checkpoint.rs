@@ -27,8 +27,11 @@ use prost::Message;
 use std::collections::BTreeMap;
 use std::future::Future;
 
-/// The header format this code writes and reads.
-pub const FORMAT: u32 = 1;
+/// The header format this code writes and reads. Format 2: a render to an error's pixel
+/// estimates are one Sobol sequence's blocks ([`PixelEstimate`], 148 bytes); format 1's
+/// were four replicates' (100 bytes, other samples), so a format 1 checkpoint is read only
+/// when its job renders a fixed sample count, which the change left as it was.
+pub const FORMAT: u32 = 2;
 
 /// Where checkpoints are kept: REM, or a map in tests.
 pub trait Store {
@@ -101,8 +104,9 @@ pub enum CheckpointError {
         /// The missing segment's number (key `JOB.s{segment}`).
         segment: u32,
     },
-    /// The header was written by a program with another [`FORMAT`].
-    #[error("checkpoint format {0} is not supported (this program reads format {FORMAT})")]
+    /// The header was written by a program with another [`FORMAT`] (or format 1 with a
+    /// target error).
+    #[error("checkpoint format {0} is not supported (this program reads format {FORMAT}, and format 1 without a target error)")]
     Format(u32),
     /// The header holds no render settings.
     #[error("checkpoint of job {job} holds no render settings")]
@@ -319,10 +323,13 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
         reason: e.to_string(),
     };
     let header = CheckpointHeader::decode(bytes.as_slice()).map_err(|e| corrupt(job, e))?;
-    if header.format != FORMAT {
+    if header.format != FORMAT && header.format != 1 {
         return Err(CheckpointError::Format(header.format));
     }
     let settings = header_settings(job, &header)?;
+    if header.format == 1 && settings.render.adaptive.is_some() {
+        return Err(CheckpointError::Format(header.format));
+    }
     let (width, height) = (settings.render.width, settings.render.height);
     let inconsistent = |key: &str, reason: String| CheckpointError::Inconsistent {
         key: key.to_string(),

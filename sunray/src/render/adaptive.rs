@@ -7,27 +7,36 @@
 //! A pixel's decisions depend only on its own samples (their values, in the order taken), so
 //! the image is the same for any thread, process or host that renders the pixel.
 //!
-//! The estimate: a pixel's samples are [`REPLICATES`] independently scrambled Sobol
-//! sequences taken in turn (sample i is sample i / 4 of replicate i mod 4), so the means of
-//! the replicates are independent, unbiased estimates of the pixel, and the spread of those
-//! means says how far their mean is from the truth: the standard error is
-//! sqrt(sum (m_r - m)^2 / (K (K - 1))) over the K replicate means m_r, per channel, the worst
-//! channel's. This is honest for any sampler, the Sobol sequence's faster convergence
-//! included: the sample variance over n (what independent samples would need) overstates a
-//! Sobol mean's error by a factor that grows with n (about n^(1/4) on an edge), and rendered
-//! pixels to 0.08 to 0.55 E where E was asked (measured before this estimate).
+//! The estimate: a pixel's samples are one Owen-scrambled Sobol sequence (sample i is its
+//! point i, the same samples `--sampler sobol` takes, so the union of everything a pixel
+//! takes is one net whatever its count), kept as the means of [`BLOCKS`] or fewer
+//! consecutive blocks of [`block_len`] samples. A block of 2^k consecutive points of the
+//! sequence is itself a scrambled net, an unbiased estimate of the pixel with the same
+//! distribution as every other block, so the spread of the blocks' means measures how far
+//! their mean is from the truth: the standard error is sqrt(sum (m_j - m)^2 / (K (K - 1)))
+//! over the K block means m_j, per channel, the worst channel's. The blocks of one sequence
+//! are not independent: they fill one another's gaps, so their means differ by more than
+//! their mean errs, and the estimate overstates the error by a little (about K^((a - 1) / 2)
+//! for an error falling as n^(-a/2); 1.4x on an edge's a = 1.5), which is honest. Four
+//! independently scrambled replicates (the estimate before) measured the error exactly but
+//! paid that same factor in the error itself, each replicate a net of a quarter of the
+//! samples: with the blocks a pixel reaches the same RMSE with 1.4 to 1.6 times fewer
+//! samples (docs/renderer.md). The sample variance over n (what independent samples need)
+//! overstates a Sobol mean's error by a factor that grows with n (about n^(1/4) on an edge),
+//! and rendered pixels to 0.08 to 0.55 E where E was asked.
 //!
 //! One floor: the estimate never credits the samples with converging faster than an edge
 //! does under stratification (error n^-3/4, against independent samples' n^-1/2), so it is
-//! at least sqrt(s^2 / n^1.5), s^2 the samples' own variance. Replicates of few samples can
-//! agree by chance (an edge that each replicate's two or four points split alike) while the
+//! at least sqrt(s^2 / n^1.5), s^2 the samples' own variance. Blocks of few samples can
+//! agree by chance (an edge that each block's one or two points split alike) while the
 //! samples themselves differ; without the floor such a pixel stops with its error left (on
 //! a 1-D edge, 3.3 E at E = 0.01, measured in this module's tests before the floor).
 //!
 //! The schedule: `min_samples` first; then, while the estimate is above E, the count the
 //! estimate asks for (n s^2 / E^2 for an estimate s after n samples), at least `min_samples`
-//! more and at most twice as many as taken (the error is estimated again on the way), a
-//! whole number of rounds of the replicates, never above `max_samples`.
+//! more and at most twice as many as taken (the error is estimated again on the way), rounded
+//! up to whole blocks ([`whole_blocks`]: 5 to 8 of them, so a step is rounded up by less
+//! than a quarter), never above `max_samples`.
 
 use super::trace_sobol_sample;
 use crate::camera::Camera;
@@ -64,24 +73,21 @@ pub const DEFAULT_MAX_SAMPLES: u32 = 1024;
 /// The most samples a pixel may take with a target error: the length of its Sobol sequence.
 pub const MAX_ADAPTIVE_SAMPLES: u32 = SOBOL_SAMPLES;
 
-/// How many independently scrambled Sobol sequences a pixel's samples come from, in turn:
-/// the estimate of its error has K - 1 = 3 degrees of freedom per channel. Measured at 64x64
-/// with the floor (bench/results/to_error.md's scenes): 2 let depth-of-field pixels stop at
-/// 1.6 to 2.5 E; 8 (and 16, measured without the floor) spread the samples over more
-/// scrambles, each stratified alone, and took longer to every RMSE (gloss to 0.01: 0.6x
-/// stratified jitter's speed with 8, 1.1x with 4).
-pub const REPLICATES: u32 = 4;
+/// How many consecutive blocks a pixel's samples are kept in: the estimate of its error
+/// has 4 to 7 degrees of freedom per channel at every count the schedule stops at.
+pub const BLOCKS: u32 = 8;
 
-/// The scramble of replicate `r` of a pixel whose render is scrambled by `seed` (replicate
-/// 0's is the render's own, what `--sampler sobol` draws).
-pub fn replicate_seed(seed: u32, r: u32) -> u32 {
-    seed ^ r.wrapping_mul(0x9E37_79B9)
+/// The length of each block a pixel of `n` samples keeps: the least power of two that puts
+/// them in at most [`BLOCKS`] blocks (1 up to 8 samples, 2 up to 16, 4 up to 32, ...).
+pub fn block_len(n: u32) -> u32 {
+    n.div_ceil(BLOCKS).max(1).next_power_of_two()
 }
 
-/// Sample `i` of a pixel rendered to an error: its replicate and its index in that
-/// replicate's sequence.
-pub fn replicate_of(i: u32) -> (u32, u32) {
-    (i % REPLICATES, i / REPLICATES)
+/// The least count from `n` on at which every block is whole: 5 to 8 whole blocks (or 1 to
+/// 8 single samples), so the schedule's steps are at most a quarter of the count.
+pub fn whole_blocks(n: u32) -> u32 {
+    let b = block_len(n);
+    n.div_ceil(b).saturating_mul(b)
 }
 
 /// What rendering to an error asks of every pixel.
@@ -149,19 +155,19 @@ impl Adaptive {
 }
 
 /// A pixel's samples so far: their count, their mean and sum of squared deviations per
-/// channel (Welford) and the mean of each replicate's (running means, added in the order
-/// taken: a constant's mean is the constant exactly).
-/// A replicate's mean is kept in f32 (it only measures the spread, and an error target
-/// is far above f32's rounding), so a pixel travels and is checkpointed in 100 bytes.
+/// channel (Welford) and the mean of each of its blocks of [`block_len`] consecutive
+/// samples (running means, added in the order taken: a constant's mean is the constant
+/// exactly). A block's mean is kept in f32 (it only measures the spread, and an error target
+/// is far above f32's rounding), so a pixel travels and is checkpointed in 148 bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelEstimate {
     n: u32,
     mean: DVec3,
     m2: DVec3,
-    replicates: [Rgb32; REPLICATES as usize],
+    blocks: [Rgb32; BLOCKS as usize],
 }
 
-/// A replicate's running mean, one f32 per channel.
+/// A block's running mean, one f32 per channel.
 type Rgb32 = [f32; 3];
 
 fn widen(v: Rgb32) -> DVec3 {
@@ -173,21 +179,25 @@ fn narrow(v: DVec3) -> Rgb32 {
 }
 
 impl PixelEstimate {
-    /// Adds one sample: the next one, which belongs to replicate `count() mod 4`.
+    /// Adds one sample: the next one, which joins the last block (after the blocks pair
+    /// up, when all [`BLOCKS`] are whole and the sample would start a ninth).
     pub fn add(&mut self, c: DVec3) {
-        let (r, k) = replicate_of(self.n);
+        let i = self.n;
+        let b = block_len(i + 1);
+        if b > block_len(i) {
+            for j in 0..BLOCKS as usize / 2 {
+                let pair = widen(self.blocks[2 * j]) + widen(self.blocks[2 * j + 1]);
+                self.blocks[j] = narrow(pair * 0.5);
+            }
+            self.blocks[BLOCKS as usize / 2..].fill([0.0; 3]);
+        }
         self.n += 1;
         let delta = c - self.mean;
         self.mean += delta / f64::from(self.n);
         self.m2 += delta * (c - self.mean);
-        let m = &mut self.replicates[r as usize];
+        let m = &mut self.blocks[(i / b) as usize];
         let w = widen(*m);
-        *m = narrow(w + (c - w) / f64::from(k + 1));
-    }
-
-    /// How many of the samples replicate `r` holds.
-    fn replicate_count(&self, r: u32) -> u32 {
-        (self.n + REPLICATES - 1 - r) / REPLICATES
+        *m = narrow(w + (c - w) / f64::from(i % b + 1));
     }
 
     /// How many samples were added.
@@ -201,24 +211,25 @@ impl PixelEstimate {
     }
 
     /// The estimated squared standard error of the mean, the worst channel's: the spread of
-    /// the replicates' means, each weighted by its share of the samples, over K (K - 1) for
-    /// the K replicates that hold samples (0 with fewer than two), and never below the
-    /// samples' own variance over n^1.5 (see the module's text).
+    /// the blocks' means, each weighted by its share of the samples, over K (K - 1) for the
+    /// K blocks that hold samples (0 with fewer than two), and never below the samples' own
+    /// variance over n^1.5 (see the module's text).
     fn squared_error(&self) -> f64 {
-        let held = self.n.min(REPLICATES);
+        let b = block_len(self.n);
+        let held = self.n.div_ceil(b);
         if held < 2 {
             return 0.0;
         }
         let n = f64::from(self.n);
-        let weight = |r: u32| f64::from(self.replicate_count(r)) / n;
-        let first = widen(self.replicates[0]);
+        let weight = |j: u32| f64::from(b.min(self.n - j * b)) / n;
+        let first = widen(self.blocks[0]);
         // Their weighted mean, as an offset from the first (0 exactly when all agree).
-        let mean = (0..held).fold(first, |m, r| {
-            m + (widen(self.replicates[r as usize]) - first) * weight(r)
+        let mean = (0..held).fold(first, |m, j| {
+            m + (widen(self.blocks[j as usize]) - first) * weight(j)
         });
         let mut sum = DVec3::ZERO;
-        for r in 0..held {
-            let d = (widen(self.replicates[r as usize]) - mean) * weight(r);
+        for j in 0..held {
+            let d = (widen(self.blocks[j as usize]) - mean) * weight(j);
             sum += d * d;
         }
         let k = f64::from(held);
@@ -238,7 +249,7 @@ impl PixelEstimate {
     }
 
     /// Bytes of [`PixelEstimate::to_le_bytes`].
-    pub const BYTES: usize = 4 + 48 + 12 * REPLICATES as usize;
+    pub const BYTES: usize = 4 + 48 + 12 * BLOCKS as usize;
 
     /// True when the pixel needs no more samples ([`PixelEstimate::next_count`] is `None`).
     pub fn is_done(&self, a: &Adaptive) -> bool {
@@ -247,7 +258,7 @@ impl PixelEstimate {
 
     /// The estimate exactly, to go on from elsewhere (the farm's passes, its checkpoints):
     /// the count as a little-endian `u32`, then the mean and the sum of squared deviations,
-    /// three little-endian `f64` each, and each replicate's mean, three little-endian `f32`.
+    /// three little-endian `f64` each, and each block's mean, three little-endian `f32`.
     pub fn to_le_bytes(&self) -> [u8; Self::BYTES] {
         let mut out = [0u8; Self::BYTES];
         out[..4].copy_from_slice(&self.n.to_le_bytes());
@@ -255,7 +266,7 @@ impl PixelEstimate {
         for (i, v) in wide.enumerate() {
             out[4 + 8 * i..12 + 8 * i].copy_from_slice(&v.to_le_bytes());
         }
-        for (i, v) in self.replicates.iter().flatten().enumerate() {
+        for (i, v) in self.blocks.iter().flatten().enumerate() {
             out[52 + 4 * i..56 + 4 * i].copy_from_slice(&v.to_le_bytes());
         }
         out
@@ -275,7 +286,7 @@ impl PixelEstimate {
             n: u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
             mean: DVec3::new(f(0), f(1), f(2)),
             m2: DVec3::new(f(3), f(4), f(5)),
-            replicates: std::array::from_fn(|r| [g(3 * r), g(3 * r + 1), g(3 * r + 2)]),
+            blocks: std::array::from_fn(|j| [g(3 * j), g(3 * j + 1), g(3 * j + 2)]),
         }
     }
 
@@ -311,15 +322,14 @@ impl PixelEstimate {
         let next = asked
             .min(n.saturating_mul(2))
             .max(n.saturating_add(a.min_samples));
-        // Whole rounds of the replicates, so each holds as many samples as the others.
-        let next = next.saturating_add(REPLICATES - 1) / REPLICATES * REPLICATES;
+        // Whole blocks, so each holds as many samples as the others.
+        let next = whole_blocks(next);
         Some(next.min(a.max_samples))
     }
 }
 
-/// Pixel (x, y) rendered to the error `a` asks: its samples from its replicates' Sobol
-/// sequences ([`replicate_seed`] of `seed`, the render's is 0), taken as
-/// [`PixelEstimate::next_count`] says.
+/// Pixel (x, y) rendered to the error `a` asks: its samples from its Sobol sequence
+/// scrambled by `seed` (the render's is 0), taken as [`PixelEstimate::next_count`] says.
 pub fn trace_pixel_to_error(
     tracer: &mut Tracer,
     camera: &Camera,
@@ -350,8 +360,7 @@ pub fn advance_pixel(
             return false;
         }
         while est.count() < want {
-            let (r, k) = replicate_of(est.count());
-            let c = trace_sobol_sample(tracer, camera, (x, y), replicate_seed(seed, r), k);
+            let c = trace_sobol_sample(tracer, camera, (x, y), seed, est.count());
             est.add(c);
         }
     }
@@ -359,10 +368,12 @@ pub fn advance_pixel(
 }
 
 /// The most samples a pixel has after pass `pass` of a render to the error `a` in passes:
-/// `min_samples` after pass 0, then twice `min_samples` rounded up to whole rounds of the
-/// replicates after pass 1, and twice as many after each later one. A pixel's next count is
-/// at most twice its samples rounded up to whole rounds ([`PixelEstimate::next_count`]), so
-/// every pixel not done takes at least one step in each pass, whatever `min_samples` is, and
+/// `min_samples` after pass 0, then twice `min_samples` rounded up to whole blocks
+/// ([`whole_blocks`]) after pass 1, and twice as many after each later one. A pixel's next
+/// count is at most twice its samples rounded up to whole blocks
+/// ([`PixelEstimate::next_count`]), and rounding up to whole blocks keeps its order and
+/// leaves a count of whole blocks and its doublings as they are, so every pixel not done
+/// takes at least one step in each pass, whatever `min_samples` is, and
 /// the last pass, whose cap reaches `max_samples`, finishes every pixel. (Doubling
 /// `min_samples` alone let a pixel of 5 first samples, whose next count is 12, wait through
 /// pass 1's cap of 10.)
@@ -370,7 +381,7 @@ pub fn pass_cap(a: &Adaptive, pass: u32) -> u32 {
     if pass == 0 {
         return a.min_samples;
     }
-    let second = (u64::from(a.min_samples) * 2).next_multiple_of(u64::from(REPLICATES));
+    let second = u64::from(whole_blocks(a.min_samples.saturating_mul(2)));
     let cap = second << (pass - 1).min(32);
     cap.min(u64::from(u32::MAX)) as u32
 }
@@ -386,7 +397,7 @@ pub fn max_passes(a: &Adaptive) -> u32 {
 
 /// A constant pixel (the background outside the scene's footprint) rendered to the error
 /// `a` asks: `min_samples` of `c`, no error, added one by one as a traced pixel's are (so
-/// the state is exactly the traced one's, its replicates' f32 means included).
+/// the state is exactly the traced one's, its blocks' f32 means included).
 pub fn constant_pixel(c: DVec3, a: &Adaptive) -> PixelEstimate {
     let mut est = PixelEstimate::default();
     for _ in 0..a.min_samples {

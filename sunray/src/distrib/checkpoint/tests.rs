@@ -324,3 +324,38 @@ fn a_render_to_an_error_keeps_each_lines_latest_pass() {
     let e = load_error(&saved(to_error, &[with_pixels])).to_string();
     assert!(e.contains("pixels and estimates"), "{e}");
 }
+
+/// Format 1 (before a render to an error's estimates changed) is read for a job of a fixed
+/// sample count, whose lines are what they were, and refused with a target error; a format
+/// this program does not know is refused.
+#[test]
+fn a_format_1_checkpoint_is_read_only_without_a_target_error() {
+    let with_format = |spec: JobSpec, format: u32| {
+        let store = saved(spec, &[line(0)]);
+        let header = CheckpointHeader {
+            format,
+            ..CheckpointHeader::decode(store.map.lock().unwrap()["j4"].as_slice()).unwrap()
+        };
+        let bytes = header.encode_to_vec();
+        store.map.lock().unwrap().insert("j4".into(), bytes);
+        store
+    };
+    let r = rt().block_on(load(&with_format(spec(), 1), "j4"));
+    assert_eq!(r.unwrap().unwrap().lines.len(), 1);
+    let to_error = JobSpec {
+        settings: Some(RenderSettings {
+            target_error: 0.01,
+            min_samples: 16,
+            max_samples: 64,
+            ..settings(10, 16)
+        }),
+        ..spec()
+    };
+    for (s, format) in [(to_error, 1), (spec(), 3)] {
+        let e = load_error(&with_format(s, format));
+        assert!(
+            matches!(e, CheckpointError::Format(f) if f == format),
+            "{e}"
+        );
+    }
+}

@@ -71,19 +71,22 @@ fn a_pixel_of_known_variance_takes_the_count_the_formula_says() {
     }
 }
 
-/// An edge across a pixel seen through its Sobol replicates: the mean of n scrambled Sobol
-/// points converges far faster than n independent samples' (one stratum holds the edge), and
-/// the replicates' spread sees it: the error is still E's, honestly, at a small fraction of
-/// the samples the variance of independent samples would ask (0.21 / E^2; measured: a sixth
-/// at E = 0.02, growing as E falls).
+/// A slanted edge across a pixel seen through its Sobol sequence (x + y / 2 < 0.55 covers
+/// 0.3 of it): the mean of n scrambled Sobol points converges far faster than n independent
+/// samples' (the edge crosses few strata), and the spread of the sequence's blocks sees it:
+/// the error is still E's, honestly, at a small fraction of the samples the variance of
+/// independent samples would ask (0.21 / E^2).
 #[test]
-fn sobol_replicates_estimate_an_edge_honestly_with_few_samples() {
+fn sobol_blocks_estimate_an_edge_honestly_with_few_samples() {
     for e in [0.01, 0.0025] {
         let a = adaptive(e, 16, 65_536);
         let (rms, count) = over_pixels(&a, 300, 0.3, |p, k| {
-            let (r, i) = replicate_of(k);
-            let seed = replicate_seed(crate::sampler::mix64(p) as u32, r);
-            f64::from(u8::from(sobol_burley::sample(i, 0, seed) < 0.3))
+            let seed = crate::sampler::mix64(p) as u32;
+            let (x, y) = (
+                sobol_burley::sample(k, 0, seed),
+                sobol_burley::sample(k, 1, seed),
+            );
+            f64::from(u8::from(x + y / 2.0 < 0.55))
         });
         let independent = 0.21 / (e * e);
         assert!(count < independent / 4.0, "E {e}: {count} samples");
@@ -91,31 +94,44 @@ fn sobol_replicates_estimate_an_edge_honestly_with_few_samples() {
     }
 }
 
-/// A sample stream that repeats with the replicates' period is not independent across them;
-/// a pixel's estimate is as good as its replicates are independent scrambles (the render
-/// draws each from its own).
+/// The blocks are consecutive runs of the samples, at most [`BLOCKS`] of them, each pair
+/// becoming one when a ninth would start; every count the schedule asks after the first is
+/// whole blocks, and the estimate travels exactly.
 #[test]
-fn replicates_take_samples_in_turn_from_their_own_scrambles() {
-    let k = REPLICATES;
+fn blocks_hold_consecutive_samples_and_steps_end_on_whole_blocks() {
     assert_eq!(
-        [0, 1, k - 1, k, k + 1, 2 * k].map(replicate_of),
-        [(0, 0), (1, 0), (k - 1, 0), (0, 1), (1, 1), (0, 2)]
+        [1, 8, 9, 16, 17, 32, 33, 4096].map(block_len),
+        [1, 1, 2, 2, 4, 4, 8, 512]
     );
     assert_eq!(
-        replicate_seed(7, 0),
-        7,
-        "replicate 0 is the render's own scramble"
+        [1, 7, 9, 10, 17, 20, 33, 40, 65, 4097].map(whole_blocks),
+        [1, 7, 10, 10, 20, 20, 40, 40, 80, 5120]
     );
-    let seeds: std::collections::HashSet<u32> =
-        (0..REPLICATES).map(|r| replicate_seed(7, r)).collect();
-    assert_eq!(seeds.len(), REPLICATES as usize);
-    // Every count the schedule asks after the first is a whole number of rounds.
+    let mut state = 11;
+    let samples: Vec<f64> = (0..100)
+        .map(|_| crate::sampler::unit_f64(&mut state))
+        .collect();
+    for n in [3, 8, 9, 16, 40, 64, 65, 100] {
+        let mut est = PixelEstimate::default();
+        for &v in &samples[..n] {
+            est.add(DVec3::splat(v));
+        }
+        let b = block_len(n as u32) as usize;
+        for (j, block) in samples[..n].chunks(b).enumerate() {
+            let mean = block.iter().sum::<f64>() / block.len() as f64;
+            let kept = f64::from(est.blocks[j][0]);
+            assert!(
+                (kept - mean).abs() < 1e-6,
+                "n {n}, block {j}: {kept} {mean}"
+            );
+        }
+        assert!(est.blocks[n.div_ceil(b)..].iter().all(|m| *m == [0.0; 3]));
+    }
     let a = adaptive(1e-3, 6, 1000);
-    let mut state = 3;
     let mut est = PixelEstimate::default();
     while let Some(want) = est.next_count(&a) {
         assert!(
-            want == 6 || want % REPLICATES == 0 || want == 1000,
+            want == 6 || want == whole_blocks(want) || want == 1000,
             "{want}"
         );
         while est.count() < want {
