@@ -16,8 +16,8 @@
 //! their mean is from the truth: the standard error is sqrt(sum (m_j - m)^2 / (K (K - 1)))
 //! over the K block means m_j, per channel, the worst channel's. The blocks of one sequence
 //! are not independent: they fill one another's gaps, so their means differ by more than
-//! their mean errs, and the estimate overstates the error by a little (about K^((a - 1) / 2)
-//! for an error falling as n^(-a/2); 1.4x on an edge's a = 1.5), which is honest. Four
+//! their mean errs, and the estimate overstates the error (by about K^((a - 1) / 2)
+//! for an error falling as n^(-a/2): 1.5 to 1.7x on an edge's a = 1.5), which is honest. Four
 //! independently scrambled replicates (the estimate before) measured the error exactly but
 //! paid that same factor in the error itself, each replicate a net of a quarter of the
 //! samples: with the blocks a pixel reaches the same RMSE with 1.4 to 1.6 times fewer
