@@ -444,10 +444,8 @@ impl<L: WorkerLink> Controller<L> {
         self.wind_down(&mut inbox).await;
         self.view.finish();
         self.timeline.finished = Some(self.cfg.clock.now());
-        self.view.event(
-            json!({"event": if finished { "finished" } else { "failed" },
-            "done": self.table.done()}),
-        );
+        self.view
+            .event(json!({"event": end_event(finished, stored), "done": self.table.done()}));
         self.publish(true);
         for report in self.writer.close().await {
             self.on_report(report);
@@ -474,5 +472,17 @@ impl<L: WorkerLink> Controller<L> {
             }
         }
         Ok(())
+    }
+}
+
+/// The web view's event for a job's end: `finished` only when every line is in and the last
+/// checkpoint holds them; `not-stored` when every line is in but the store refused the last
+/// save (the job is not done: REM starts another controller, or `submit` marks it
+/// interrupted); `failed` when lines are missing.
+fn end_event(finished: bool, stored: bool) -> &'static str {
+    match (finished, stored) {
+        (true, true) => "finished",
+        (true, false) => "not-stored",
+        (false, _) => "failed",
     }
 }

@@ -76,7 +76,7 @@ pub struct Event {
     /// When it happened (wall clock).
     pub unix_ms: u64,
     /// What it is, in one machine word: `submitted`, `controller`, `spawned`, `adopted`,
-    /// `ready`, `fault`, `silent`, `finished`, `failed`.
+    /// `ready`, `fault`, `silent`, `finished`, `not-stored`, `failed`.
     pub kind: String,
     /// What happened, for people.
     pub text: String,
@@ -262,6 +262,13 @@ impl WebView {
                 format!("{node} went silent; {} given back", lines(n("given_back"))),
             ),
             "finished" => ("finished", format!("finished: {} in", lines(n("done")))),
+            "not-stored" => (
+                "not-stored",
+                format!(
+                    "{} in, but the checkpoint store refused the last save: not finished",
+                    lines(n("done"))
+                ),
+            ),
             "failed" => (
                 "failed",
                 format!("failed: no worker left, {} in", lines(n("done"))),

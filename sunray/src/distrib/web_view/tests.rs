@@ -53,6 +53,10 @@ fn the_history_keeps_the_last_100_events() {
     assert_eq!(v.events().count(), MAX_EVENTS);
     assert_eq!(v.events().next().unwrap().text, "e51");
     assert_eq!(v.events().last().unwrap().text, "finished: 96 lines in");
+    v.on_event(&json!({"event": "not-stored", "done": 96}));
+    let last = v.events().last().unwrap();
+    assert_eq!(last.kind, "not-stored");
+    assert!(last.text.ends_with("refused the last save: not finished"));
     let long = Event::now("fault", &"é".repeat(1000));
     assert_eq!(
         WebView::new("j", vec![long])

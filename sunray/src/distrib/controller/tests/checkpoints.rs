@@ -88,6 +88,16 @@ async fn a_last_save_refused_every_time_says_the_image_is_not_stored() {
     }
 }
 
+/// The web view says `finished` only for a job whose last save was stored.
+#[test]
+fn the_view_calls_a_job_finished_only_when_its_image_is_stored() {
+    use super::super::end_event;
+    assert_eq!(end_event(true, true), "finished");
+    assert_eq!(end_event(true, false), "not-stored");
+    assert_eq!(end_event(false, true), "failed");
+    assert_eq!(end_event(false, false), "failed");
+}
+
 #[tokio::test(start_paused = true)]
 async fn with_no_worker_left_the_job_ends_unfinished_and_checkpointed() {
     let job = Job::start(6, 1, None);
