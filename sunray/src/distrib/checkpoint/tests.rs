@@ -177,6 +177,13 @@ fn load_error(store: &MemStore) -> CheckpointError {
     rt().block_on(load(store, "j4")).unwrap_err()
 }
 
+/// Replaces the stored header of job j4 by what `change` makes of it.
+fn rewrite_header(store: &MemStore, change: impl FnOnce(CheckpointHeader) -> CheckpointHeader) {
+    let mut map = store.map.lock().unwrap();
+    let header = CheckpointHeader::decode(map["j4"].as_slice()).unwrap();
+    map.insert("j4".into(), change(header).encode_to_vec());
+}
+
 #[test]
 fn a_header_without_settings_or_out_of_bounds_is_refused() {
     let none = saved(
@@ -243,15 +250,7 @@ fn lines_that_disagree_with_the_header_are_refused() {
     );
     // A header naming more segments than the image has lines.
     let store = saved(spec(), &[line(0)]);
-    let header = CheckpointHeader {
-        segments: 17,
-        ..CheckpointHeader::decode(store.map.lock().unwrap()["j4"].as_slice()).unwrap()
-    };
-    store
-        .map
-        .lock()
-        .unwrap()
-        .insert("j4".into(), header.encode_to_vec());
+    rewrite_header(&store, |h| CheckpointHeader { segments: 17, ..h });
     let e = load_error(&store);
     assert!(matches!(e, CheckpointError::Inconsistent { .. }), "{e}");
     // The same lines under a matching header are read back.
@@ -332,12 +331,7 @@ fn a_render_to_an_error_keeps_each_lines_latest_pass() {
 fn a_format_1_checkpoint_is_read_only_without_a_target_error() {
     let with_format = |spec: JobSpec, format: u32| {
         let store = saved(spec, &[line(0)]);
-        let header = CheckpointHeader {
-            format,
-            ..CheckpointHeader::decode(store.map.lock().unwrap()["j4"].as_slice()).unwrap()
-        };
-        let bytes = header.encode_to_vec();
-        store.map.lock().unwrap().insert("j4".into(), bytes);
+        rewrite_header(&store, |h| CheckpointHeader { format, ..h });
         store
     };
     let r = rt().block_on(load(&with_format(spec(), 1), "j4"));
