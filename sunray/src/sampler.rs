@@ -58,6 +58,11 @@ pub struct SampleStream {
     count: u32,
     /// Draw from the pixel's Sobol sequence (sample `index`) rather than stratified jitter.
     sobol: bool,
+    /// False until a stratified stream's first draw: `key` then holds the pixel (x, y) and
+    /// `pixel_key` the stream and its base, hashed into the keys at that draw
+    /// ([`SampleStream::make_keys`]), so a sample that draws nothing (one sample a pixel of a
+    /// scene with nothing stochastic) hashes nothing.
+    keyed: bool,
     /// The Sobol sample of the pair of draws under way, made by the pair's first draw.
     pair: Sample4,
 }
@@ -105,18 +110,30 @@ impl SampleStream {
     /// `stream` (the render uses `stream = index`; the accuracy benchmark's reference uses
     /// streams disjoint from the measured ones).
     pub fn stratified(x: u32, y: u32, stream: u32, index: u32, count: u32) -> SampleStream {
-        let pixel = mix64(mix64(u64::from(x) ^ 0x5EED) ^ u64::from(y));
-        let key = mix64(pixel ^ u64::from(stream));
         let base = stream.wrapping_sub(index);
         SampleStream {
-            key,
+            key: u64::from(x) | u64::from(y) << 32,
             next: 0,
-            pixel_key: mix64(pixel ^ 0xA5A5_0000_0000 ^ u64::from(base)),
+            pixel_key: u64::from(stream) | u64::from(base) << 32,
             index: index.min(count.saturating_sub(1)),
             count: count.max(1),
             sobol: false,
+            keyed: false,
             pair: Sample4::default(),
         }
+    }
+
+    /// A stratified stream's keys, from the pixel, stream and base its fields hold until its
+    /// first draw ([`SampleStream::stratified`]).
+    #[cold]
+    #[inline(never)]
+    fn make_keys(&mut self) {
+        let (x, y) = (self.key & 0xFFFF_FFFF, self.key >> 32);
+        let (stream, base) = (self.pixel_key & 0xFFFF_FFFF, self.pixel_key >> 32);
+        let pixel = mix64(mix64(x ^ 0x5EED) ^ y);
+        self.key = mix64(pixel ^ stream);
+        self.pixel_key = mix64(pixel ^ 0xA5A5_0000_0000 ^ base);
+        self.keyed = true;
     }
 
     /// The stream of sample `index` (below [`SOBOL_SAMPLES`]) of pixel (x, y)'s Sobol
@@ -132,6 +149,7 @@ impl SampleStream {
             index: index.min(SOBOL_SAMPLES - 1),
             count: SOBOL_SAMPLES,
             sobol: true,
+            keyed: true,
             pair: Sample4::default(),
         }
     }
@@ -170,6 +188,9 @@ impl SampleStream {
         if self.sobol {
             let dim = self.sobol_draw();
             return Real::from(self.pair.dim(dim));
+        }
+        if !self.keyed {
+            self.make_keys();
         }
         let bits = mix64(self.key ^ mix64(self.next));
         (bits >> 11) as Real * (1.0 / (1u64 << 53) as Real)

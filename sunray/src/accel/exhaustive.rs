@@ -32,13 +32,13 @@ pub fn any_in(
     list: &[u32],
     r: &RayPre,
     t_max: Real,
-    accept: &dyn Fn(u32) -> bool,
+    accept: &dyn Fn(u32, Real) -> bool,
     c: &mut Counters,
 ) -> Option<Hit> {
     for &i in list {
         c.intersection_tests += 1;
         if let Some(t) = prims.intersect(i, r, 0.0, t_max) {
-            if accept(i) {
+            if accept(i, t) {
                 return Some(Hit { t, prim: i });
             }
         }

@@ -231,14 +231,15 @@ impl Accel {
         best
     }
 
-    /// Some hit in `(0, t_max)` for which `accept(prim)` holds (for shadow rays: an opaque
-    /// occluder), or None.
+    /// Some hit in `(0, t_max)` for which `accept(prim, t)` holds, `t` where the ray meets
+    /// `prim` (its nearest crossing in the interval; for shadow rays: an opaque occluder), or
+    /// None.
     pub fn any(
         &self,
         prims: &Primitives,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         scratch: &mut Scratch,
         c: &mut Counters,
     ) -> Option<Hit> {
@@ -291,7 +292,7 @@ impl Accel {
         if Accel::last_occluder_blocks(prims, r, t_max, light, scratch, c) {
             return true;
         }
-        let Some(hit) = self.any(prims, r, t_max, &|_| true, scratch, c) else {
+        let Some(hit) = self.any(prims, r, t_max, &|_, _| true, scratch, c) else {
             return false;
         };
         scratch.occluders.set(light, hit.prim);

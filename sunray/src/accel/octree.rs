@@ -164,7 +164,7 @@ impl Octree {
         prims: &Primitives,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         mb: &mut Mailbox,
         c: &mut Counters,
     ) -> Option<Hit> {
@@ -174,7 +174,7 @@ impl Octree {
             c.voxels += 1;
             for &i in &self.items[leaf.first as usize..(leaf.first + leaf.count) as usize] {
                 if let Some(t) = test(prims, i, r, t_max, mb, c) {
-                    if accept(i) {
+                    if accept(i, t) {
                         found = Some(Hit { t, prim: i });
                         return true;
                     }

@@ -131,7 +131,7 @@ fn octree_and_bvh_agree_with_exhaustive() {
                 "{:?}",
                 a.kind
             );
-            let any = a.any(prims, &r, t_max, &|_| true, &mut scratch, &mut c);
+            let any = a.any(prims, &r, t_max, &|_, _| true, &mut scratch, &mut c);
             assert_eq!(any.is_some(), want.is_some());
         }
     }

@@ -133,16 +133,21 @@ impl Frame {
 
     /// For each pixel of line `y` of a `width`-pixel image: the footprint when the pixel lies
     /// outside it (no eye ray through it can meet anything: it is background), else `None`.
-    fn outside_row(&self, y: u32, width: u32) -> Vec<Option<&Footprint>> {
-        let Some(f) = &self.footprint else {
-            return vec![None; width as usize];
-        };
-        let mut row = vec![Some(f); width as usize];
-        for span in f.row(y, width) {
-            let span = span.start.min(width) as usize..span.end.min(width) as usize;
-            row[span].fill(None);
-        }
-        row
+    /// (Pixel by pixel from the line's spans: no line-long list is made for each line.)
+    fn outside_row(&self, y: u32, width: u32) -> impl Iterator<Item = Option<&Footprint>> {
+        let f = self.footprint.as_ref();
+        let spans = f.map(|f| f.row(y, width)).unwrap_or_default();
+        let mut k = 0;
+        (0..width).map(move |x| {
+            let f = f?;
+            while spans.get(k).is_some_and(|s| s.end <= x) {
+                k += 1;
+            }
+            match spans.get(k) {
+                Some(s) if s.start <= x => None,
+                _ => Some(f),
+            }
+        })
     }
 }
 
@@ -208,7 +213,7 @@ pub fn render_line_into(
     // Pixels outside the scene's footprint are background, counted as the eye rays the
     // tracer would have sent (each visits the root and misses).
     let outside_row = frame.outside_row(y, opts.width);
-    for ((x, pixel), &outside) in (0..opts.width).zip(pixels.iter_mut()).zip(&outside_row) {
+    for ((x, pixel), outside) in (0..opts.width).zip(pixels.iter_mut()).zip(outside_row) {
         let c = match outside {
             Some(f) => {
                 tracer.counters.eye += u64::from(n);

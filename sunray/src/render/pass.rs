@@ -58,7 +58,7 @@ pub(super) fn advance_line(
     };
     let outside_row = frame.outside_row(y, opts.width);
     let background = adaptive::constant_pixel(scene.world.background, a);
-    for ((x, est), &outside) in (0..opts.width).zip(estimates.iter_mut()).zip(&outside_row) {
+    for ((x, est), outside) in (0..opts.width).zip(estimates.iter_mut()).zip(outside_row) {
         match outside {
             Some(f) if est.count() == 0 => {
                 tracer.counters.eye += u64::from(a.min_samples);

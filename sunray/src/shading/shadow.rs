@@ -58,15 +58,15 @@ impl<'a> Crossings<'a> {
         }
     }
 
-    /// The ray meets primitive `i` in `(0, t_max)`: true ends the walk (an opaque surface,
-    /// or the light left negligible), false goes on.
+    /// The ray meets primitive `i` in `(0, t_max)`, first at `t` (what the walk's test found):
+    /// true ends the walk (an opaque surface, or the light left negligible), false goes on.
     ///
     /// Each of the primitive's crossings filters once, except one at the same place as a
     /// crossing already counted (within the offset secondary rays start at,
     /// [`OFFSET_RELATIVE`]): a ray through the edge shared by two triangles of a face meets
     /// both, and crosses the face once. (The loop this replaced stepped past such a second
     /// hit the same way.)
-    pub fn meets(&self, i: u32) -> bool {
+    pub fn meets(&self, i: u32, t: Real) -> bool {
         let s = self.scene.surface(i);
         let kst = s.kst();
         if kst <= 0.0 {
@@ -80,7 +80,7 @@ impl<'a> Crossings<'a> {
         let mut at = self.at.borrow_mut();
         let mut filter = self.filter.get();
         let origin = self.ray.ray.origin.abs().max_element();
-        for t in roots(&self.scene.prims, i, self.ray, self.t_max, &self.tests) {
+        for t in roots(&self.scene.prims, i, t, self.ray, self.t_max, &self.tests) {
             let scale = origin.max(self.ray.ray.at(t).abs().max_element());
             let same_place = 4.0 * OFFSET_RELATIVE * scale;
             if at.iter().any(|&u| (u - t).abs() <= same_place) {
@@ -105,18 +105,26 @@ impl<'a> Crossings<'a> {
     }
 }
 
-/// Where primitive `i` meets `ray` in `(0, t_max)`, nearest first: each further root is found
-/// from just past the last one (a quadric has two, a polygon one).
+/// Where primitive `i` meets `ray` in `(0, t_max)`, nearest first, `first` the nearest (found
+/// by the walk's own test): each further root is found from just past the last one (a
+/// quadric has two; a triangle one, so the walk's test was all).
 fn roots(
     prims: &Primitives,
     i: u32,
+    first: Real,
     ray: &RayPre,
     t_max: Real,
     tests: &Cell<u64>,
 ) -> ArrayVec<Real, MAX_ROOTS> {
     let mut found = ArrayVec::new();
-    let mut t = 0.0;
-    while !found.is_full() {
+    found.push(first);
+    let most = if prims.is_mesh_triangle(i) {
+        1
+    } else {
+        MAX_ROOTS
+    };
+    let mut t = first;
+    while found.len() < most {
         tests.set(tests.get() + 1);
         match prims.intersect(i, ray, t, t_max) {
             Some(next) if next > t => {
@@ -173,7 +181,7 @@ impl Tracer<'_> {
             prims,
             &pre,
             t_max,
-            &|i| walk.meets(i),
+            &|i, t| walk.meets(i, t),
             self.scratch,
             self.counters,
         );

@@ -243,7 +243,7 @@ impl Bvh {
         prims: &Primitives,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         c: &mut Counters,
     ) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
@@ -263,7 +263,7 @@ impl Bvh {
         prims: &Primitives,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         c: &mut Counters,
     ) -> Option<Hit> {
         self.any_impl(prims, r, t_max, accept, c)
@@ -275,7 +275,7 @@ impl Bvh {
         prims: &Primitives,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         c: &mut Counters,
     ) -> Option<Hit> {
         if self.nodes.is_empty() {
@@ -315,7 +315,7 @@ impl Bvh {
         leaf: Child,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         c: &mut Counters,
     ) -> Option<Hit> {
         if let Some(groups) = self.leaves4.groups_of(leaf) {
@@ -326,7 +326,7 @@ impl Bvh {
             c.intersection_tests += 1;
             if let Some(t) = self.items.intersect(prims, k, r, t_max) {
                 let i = self.items.prim(prims, k);
-                if accept(i) {
+                if accept(i, t) {
                     return Some(Hit { t, prim: i });
                 }
             }
@@ -340,7 +340,7 @@ impl Bvh {
         child: Child,
         r: &RayPre,
         t_max: Real,
-        accept: &dyn Fn(u32) -> bool,
+        accept: &dyn Fn(u32, Real) -> bool,
         c: &mut Counters,
     ) -> Option<Hit> {
         if child.is_leaf() {
@@ -429,7 +429,7 @@ mod tests {
             hits += usize::from(want.is_some());
             assert_eq!(bvh.closest(&prims, &r, Real::INFINITY, None, &mut c), want);
             assert_eq!(
-                bvh.any(&prims, &r, Real::INFINITY, &|_| true, &mut c)
+                bvh.any(&prims, &r, Real::INFINITY, &|_, _| true, &mut c)
                     .is_some(),
                 want.is_some()
             );
@@ -460,7 +460,7 @@ mod tests {
                 want
             );
             assert_eq!(bvh.closest(&prims, &r, Real::INFINITY, None, &mut c), want);
-            let any = bvh.any_impl(&prims, &r, Real::INFINITY, &|_| true, &mut c);
+            let any = bvh.any_impl(&prims, &r, Real::INFINITY, &|_, _| true, &mut c);
             assert_eq!(any.is_some(), want.is_some());
         }
     }

@@ -412,6 +412,13 @@ impl Primitives {
         self.smooth.counts()
     }
 
+    /// Whether primitive `i` is a triangle of the static mesh, which a line meets at most
+    /// once (a shadow ray through glass looks for no second crossing of it).
+    #[inline]
+    pub fn is_mesh_triangle(&self, i: u32) -> bool {
+        self.slot(i) & KIND == TRIANGLE
+    }
+
     /// Whether primitive `i` encloses a volume ([`Primitive::is_closed`]).
     #[inline]
     pub fn is_closed(&self, i: u32) -> bool {

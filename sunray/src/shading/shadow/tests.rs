@@ -25,13 +25,17 @@ fn shadow_by_crossings(
     let t_max = (p + l * dist - origin).dot(l);
     let pre = RayPre::new(Ray::new(origin, l));
     let scene = t.scene;
-    let opaque = |i: u32| scene.surface(i).kst() <= 0.0;
-    match t
-        .accel
-        .any(&scene.prims, &pre, t_max, &|_| true, t.scratch, t.counters)
-    {
+    let opaque = |i: u32, _: Real| scene.surface(i).kst() <= 0.0;
+    match t.accel.any(
+        &scene.prims,
+        &pre,
+        t_max,
+        &|_, _| true,
+        t.scratch,
+        t.counters,
+    ) {
         None => return Vec3::ONE,
-        Some(h) if opaque(h.prim) => return Vec3::ZERO,
+        Some(h) if opaque(h.prim, h.t) => return Vec3::ZERO,
         Some(_) => {}
     }
     if t.accel

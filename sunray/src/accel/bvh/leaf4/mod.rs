@@ -239,7 +239,7 @@ pub fn any(
     groups: Groups<'_>,
     r: &RayPre,
     t_max: Real,
-    accept: &dyn Fn(u32) -> bool,
+    accept: &dyn Fn(u32, Real) -> bool,
     c: &mut Counters,
 ) -> Option<Hit> {
     match groups {
@@ -272,12 +272,12 @@ fn any_in<G: Lanes>(
     groups: &[G],
     r: &RayPre,
     t_max: Real,
-    accept: &dyn Fn(u32) -> bool,
+    accept: &dyn Fn(u32, Real) -> bool,
     c: &mut Counters,
 ) -> Option<Hit> {
     for g in groups {
         for (lane, t, prim) in g.crossings(r, t_max) {
-            if accept(prim) {
+            if accept(prim, t) {
                 // Counted as the item-by-item walk counts: up to the primitive that ends it.
                 c.intersection_tests += lane as u64 + 1;
                 return Some(Hit { t, prim });
@@ -351,7 +351,11 @@ mod tests {
                     plain.closest(&prims, &r, t_max, None, &mut c2),
                 );
                 assert_eq!(a, b);
-                let opaque = |i: u32| !i.is_multiple_of(3);
+                let opaque = |i: u32, t: Real| {
+                    // The walk passes the t where the ray meets the primitive.
+                    assert_eq!(prims.intersect(i, &r, 0.0, t_max), Some(t));
+                    !i.is_multiple_of(3)
+                };
                 let (a, b) = (
                     grouped.any(&prims, &r, t_max, &opaque, &mut c1),
                     plain.any(&prims, &r, t_max, &opaque, &mut c2),
