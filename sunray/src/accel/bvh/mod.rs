@@ -135,15 +135,14 @@ impl Bvh {
                 c.voxels += 1;
                 let limit = best.map_or(t_max, |b| b.t);
                 let node = &self.nodes[child.index as usize];
-                let t = node.entries(&br, limit);
+                let (t, mut hits) = node.entries_hit(&br, limit);
                 // The nearest child hit is visited next; the others wait on the stack,
-                // farthest deepest.
+                // farthest deepest. The children hit in slot order, from their bits.
                 let mut near = WIDTH;
                 let mut pushed = 0;
-                for k in 0..WIDTH {
-                    if t[k] == Real::INFINITY {
-                        continue;
-                    }
+                while hits != 0 {
+                    let k = hits.trailing_zeros() as usize & (WIDTH - 1);
+                    hits &= hits - 1;
                     if near == WIDTH {
                         near = k;
                         continue;
@@ -293,11 +292,10 @@ impl Bvh {
             }
             c.voxels += 1;
             let node = &self.nodes[child.index as usize];
-            let t = node.entries(&br, t_max);
-            for (tk, child) in t.iter().zip(node.children) {
-                if *tk == Real::INFINITY {
-                    continue;
-                }
+            let (_, mut hits) = node.entries_hit(&br, t_max);
+            while hits != 0 {
+                let child = node.children[hits.trailing_zeros() as usize & (WIDTH - 1)];
+                hits &= hits - 1;
                 if stack.try_push(child).is_err() {
                     if let Some(h) = self.any_subtree(prims, child, r, t_max, accept, c) {
                         return Some(h);

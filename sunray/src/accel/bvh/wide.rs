@@ -117,24 +117,31 @@ impl Node {
     }
 
     /// The entry `t` of the ray into each child box within `[0, limit]`, or +inf where it
-    /// misses (the slab test of [`Aabb::hit`], four boxes at once). Written with AVX2
-    /// intrinsics where the build has AVX2 (the x86-64-v3 default): from the plain loop
-    /// ([`Node::entries_scalar`]) the compiler made one vector step, then lane by lane
-    /// scalar code with a branch per lane. The instructions compute exactly what the loop
-    /// does: `max_pd(a, t)` is `if a > t { a } else { t }`, `min_pd` likewise.
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    /// misses (the slab test of [`Aabb::hit`], four boxes at once).
     #[inline(always)]
     pub fn entries(&self, r: &BoxRay, limit: Real) -> [Real; WIDTH] {
+        self.entries_hit(r, limit).0
+    }
+
+    /// [`Node::entries`] and the children hit as bits (bit k for child k), so a walk visits
+    /// the children hit without testing each slot. Written with AVX2 intrinsics where the
+    /// build has AVX2 (the x86-64-v3 default): from the plain loop ([`Node::entries_scalar`])
+    /// the compiler made one vector step, then lane by lane scalar code with a branch per
+    /// lane. The instructions compute exactly what the loop does: `max_pd(a, t)` is
+    /// `if a > t { a } else { t }`, `min_pd` likewise.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[inline(always)]
+    pub fn entries_hit(&self, r: &BoxRay, limit: Real) -> ([Real; WIDTH], u32) {
         use std::arch::x86_64::{
             _mm256_blendv_pd, _mm256_cmp_pd, _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd,
-            _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd, _mm256_sub_pd,
-            _CMP_LE_OQ,
+            _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+            _mm256_sub_pd, _CMP_LE_OQ,
         };
         let limit = limit.min(Real::MAX);
         let mut out = [0.0; WIDTH];
         // SAFETY: the build enables AVX2 (the cfg above); every load and store is an
         // unaligned one of a whole `[f64; 4]`.
-        unsafe {
+        let mask = unsafe {
             let mut t0 = _mm256_setzero_pd();
             let mut t1 = _mm256_set1_pd(limit);
             for axis in 0..3 {
@@ -149,15 +156,18 @@ impl Node {
             let hit = _mm256_cmp_pd::<_CMP_LE_OQ>(t0, t1);
             let t = _mm256_blendv_pd(_mm256_set1_pd(Real::INFINITY), t0, hit);
             _mm256_storeu_pd(out.as_mut_ptr(), t);
-        }
-        out
+            _mm256_movemask_pd(hit) as u32
+        };
+        (out, mask)
     }
 
-    /// [`Node::entries`] where the build has no AVX2.
+    /// [`Node::entries_hit`] where the build has no AVX2.
     #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
     #[inline(always)]
-    pub fn entries(&self, r: &BoxRay, limit: Real) -> [Real; WIDTH] {
-        self.entries_scalar(r, limit)
+    pub fn entries_hit(&self, r: &BoxRay, limit: Real) -> ([Real; WIDTH], u32) {
+        let t = self.entries_scalar(r, limit);
+        let mask = (0..WIDTH).fold(0, |m, k| m | u32::from(t[k] != Real::INFINITY) << k);
+        (t, mask)
     }
 
     /// [`Node::entries`] as a plain loop.
@@ -322,6 +332,10 @@ mod tests {
             let got = node.entries(&BoxRay::new(&r), limit);
             let plain = node.entries_scalar(&BoxRay::new(&r), limit);
             assert_eq!(got.map(f64::to_bits), plain.map(f64::to_bits));
+            let (_, mask) = node.entries_hit(&BoxRay::new(&r), limit);
+            for (k, t) in got.iter().enumerate() {
+                assert_eq!(mask >> k & 1 == 1, *t != Real::INFINITY, "child {k}");
+            }
             for k in 0..3 {
                 let want = boxes[k].1.hit(&r, 0.0, limit).map(|(t0, _)| t0);
                 match want {
