@@ -11,6 +11,7 @@ use crate::ast::{has_direction, Spanned, Vec3};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::lines::TextLines;
 use crate::span::{Source, Span};
+use std::fmt::Display;
 use std::io::BufRead;
 
 /// The reader stops after this many errors.
@@ -89,7 +90,7 @@ impl<R: BufRead> Reader<'_, R> {
         }
     }
 
-    fn expect_token(&mut self, what: &str) -> Parsed<Token> {
+    fn expect_token(&mut self, what: impl Display + Copy) -> Parsed<Token> {
         let end = self.tokens.end();
         self.tokens.next().ok_or_else(|| {
             Diagnostic::error(
@@ -99,7 +100,7 @@ impl<R: BufRead> Reader<'_, R> {
         })
     }
 
-    fn number(&mut self, what: &str) -> Parsed<(f64, Span)> {
+    fn number(&mut self, what: impl Display + Copy) -> Parsed<(f64, Span)> {
         let t = self.expect_token(what)?;
         match t.text.parse::<f64>() {
             Ok(x) if x.is_finite() => Ok((x, t.span)),
@@ -119,27 +120,27 @@ impl<R: BufRead> Reader<'_, R> {
         }
     }
 
-    fn num(&mut self, what: &str) -> Parsed<f64> {
+    fn num(&mut self, what: impl Display + Copy) -> Parsed<f64> {
         self.number(what).map(|(x, _)| x)
     }
 
-    fn vec3(&mut self, what: &str) -> Parsed<Vec3> {
+    fn vec3(&mut self, what: impl Display + Copy) -> Parsed<Vec3> {
         Ok([
-            self.num(&format!("the x coordinate of {what}"))?,
-            self.num(&format!("the y coordinate of {what}"))?,
-            self.num(&format!("the z coordinate of {what}"))?,
+            self.num(format_args!("the x coordinate of {what}"))?,
+            self.num(format_args!("the y coordinate of {what}"))?,
+            self.num(format_args!("the z coordinate of {what}"))?,
         ])
     }
 
-    fn color(&mut self, what: &str) -> Parsed<Vec3> {
+    fn color(&mut self, what: impl Display + Copy) -> Parsed<Vec3> {
         Ok([
-            self.num(&format!("the red component of {what}"))?,
-            self.num(&format!("the green component of {what}"))?,
-            self.num(&format!("the blue component of {what}"))?,
+            self.num(format_args!("the red component of {what}"))?,
+            self.num(format_args!("the green component of {what}"))?,
+            self.num(format_args!("the blue component of {what}"))?,
         ])
     }
 
-    fn count(&mut self, what: &str, min: u64, max: u64) -> Parsed<(u64, Span)> {
+    fn count(&mut self, what: impl Display + Copy, min: u64, max: u64) -> Parsed<(u64, Span)> {
         let t = self.expect_token(what)?;
         let n: u64 = t.text.parse().map_err(|_| {
             Diagnostic::error(
@@ -300,10 +301,10 @@ impl<R: BufRead> Reader<'_, R> {
         let mut vertices = Vec::with_capacity(n.min(1024) as usize);
         let mut normals = Vec::new();
         for i in 0..n {
-            vertices.push(self.vec3(&format!("vertex {}", i + 1))?);
+            vertices.push(self.vec3(format_args!("vertex {}", i + 1))?);
             if with_normals {
                 let first = self.tokens.peek().map(|t| t.span).unwrap_or_default();
-                let normal = self.vec3(&format!("the normal of vertex {}", i + 1))?;
+                let normal = self.vec3(format_args!("the normal of vertex {}", i + 1))?;
                 if !has_direction(&normal) && normals.iter().all(has_direction) {
                     let span = first.to(self.tokens.last_span());
                     let why = "has no direction (zero or out of range); this `pp` is shaded flat";
