@@ -378,6 +378,14 @@ fn eight_jobs_of_three_users_finish_byte_identical_through_30_overlapping_faults
     }
     farm.heal(Instant::now(), true);
     let injected_s = start.elapsed().as_secs_f64();
+    // The faults are over once every daemon sees every other alive again: a daemon just
+    // continued or started again is not yet among the live peers the others ask for a
+    // checkpoint, and `fetch` reads the newest copy on the live hosts (a finished job once
+    // failed its fetch with 60 of 64 lines on the hosts that answered; the likeliest reading
+    // is that the copy with all 64 was on a host the others did not yet see alive).
+    for d in &farm.cluster.daemons {
+        farm.cluster.wait_alive(&d.name, DAEMONS);
+    }
 
     let mut moves = 0;
     let (mut requeued, mut duplicated, mut resumed, mut lost_s) = (0, 0, 0, 0.0);
