@@ -102,7 +102,7 @@ impl<R: BufRead> Reader<'_, R> {
 
     fn number(&mut self, what: impl Display + Copy) -> Parsed<(f64, Span)> {
         let t = self.expect_token(what)?;
-        match t.text.parse::<f64>() {
+        match t.text.as_str().parse::<f64>() {
             Ok(x) if x.is_finite() => Ok((x, t.span)),
             Ok(_) => Err(Diagnostic::error(
                 t.span,
@@ -142,7 +142,7 @@ impl<R: BufRead> Reader<'_, R> {
 
     fn count(&mut self, what: impl Display + Copy, min: u64, max: u64) -> Parsed<(u64, Span)> {
         let t = self.expect_token(what)?;
-        let n: u64 = t.text.parse().map_err(|_| {
+        let n: u64 = t.text.as_str().parse().map_err(|_| {
             Diagnostic::error(
                 t.span,
                 format!("expected {what} (a whole number), found `{}`", t.text),
@@ -160,7 +160,7 @@ impl<R: BufRead> Reader<'_, R> {
     fn next_is_number(&mut self) -> bool {
         self.tokens
             .peek()
-            .is_some_and(|t| t.text.parse::<f64>().is_ok())
+            .is_some_and(|t| t.text.as_str().parse::<f64>().is_ok())
     }
 
     fn warn(&mut self, span: Span, message: impl Into<String>) {
@@ -192,7 +192,7 @@ impl<R: BufRead> Reader<'_, R> {
                 }
                 Ok(Entity::Sphere { center, radius })
             }
-            "p" | "pp" => self.polygon(tok.text == "pp"),
+            "p" | "pp" => self.polygon(tok.text.as_str() == "pp"),
             "c" => self.cone(tok.span),
             other => Err(Diagnostic::error(
                 tok.span,
