@@ -144,6 +144,11 @@ impl Primitive {
         }
     }
 
+    /// Whether the shape is flat (a triangle): a line meets it at most once.
+    pub fn is_planar(&self) -> bool {
+        matches!(self.kind, PrimitiveKind::Triangle { .. })
+    }
+
     /// Whether the shape encloses a volume (rays can be inside it).
     pub fn is_closed(&self) -> bool {
         matches!(

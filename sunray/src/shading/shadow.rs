@@ -107,7 +107,7 @@ impl<'a> Crossings<'a> {
 
 /// Where primitive `i` meets `ray` in `(0, t_max)`, nearest first, `first` the nearest (found
 /// by the walk's own test): each further root is found from just past the last one (a
-/// quadric has two; a triangle one, so the walk's test was all).
+/// quadric has two; a flat primitive one, so the walk's test was all).
 fn roots(
     prims: &Primitives,
     i: u32,
@@ -118,11 +118,7 @@ fn roots(
 ) -> ArrayVec<Real, MAX_ROOTS> {
     let mut found = ArrayVec::new();
     found.push(first);
-    let most = if prims.is_mesh_triangle(i) {
-        1
-    } else {
-        MAX_ROOTS
-    };
+    let most = if prims.is_planar(i) { 1 } else { MAX_ROOTS };
     let mut t = first;
     while found.len() < most {
         tests.set(tests.get() + 1);

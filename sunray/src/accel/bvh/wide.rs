@@ -117,14 +117,8 @@ impl Node {
     }
 
     /// The entry `t` of the ray into each child box within `[0, limit]`, or +inf where it
-    /// misses (the slab test of [`Aabb::hit`], four boxes at once).
-    #[inline(always)]
-    pub fn entries(&self, r: &BoxRay, limit: Real) -> [Real; WIDTH] {
-        self.entries_hit(r, limit).0
-    }
-
-    /// [`Node::entries`] and the children hit as bits (bit k for child k), so a walk visits
-    /// the children hit without testing each slot. Written with AVX2 intrinsics where the
+    /// misses (the slab test of [`Aabb::hit`], four boxes at once), and the children hit as
+    /// bits (bit k for child k), so a walk visits the children hit without testing each slot. Written with AVX2 intrinsics where the
     /// build has AVX2 (the x86-64-v3 default): from the plain loop ([`Node::entries_scalar`])
     /// the compiler made one vector step, then lane by lane scalar code with a branch per
     /// lane. The instructions compute exactly what the loop does: `max_pd(a, t)` is
@@ -170,7 +164,7 @@ impl Node {
         (t, mask)
     }
 
-    /// [`Node::entries`] as a plain loop.
+    /// [`Node::entries_hit`]'s entries as a plain loop.
     #[inline(always)]
     pub fn entries_scalar(&self, r: &BoxRay, limit: Real) -> [Real; WIDTH] {
         let limit = limit.min(Real::MAX);
@@ -329,10 +323,9 @@ mod tests {
             } else {
                 rnd() * 20.0
             };
-            let got = node.entries(&BoxRay::new(&r), limit);
+            let (got, mask) = node.entries_hit(&BoxRay::new(&r), limit);
             let plain = node.entries_scalar(&BoxRay::new(&r), limit);
             assert_eq!(got.map(f64::to_bits), plain.map(f64::to_bits));
-            let (_, mask) = node.entries_hit(&BoxRay::new(&r), limit);
             for (k, t) in got.iter().enumerate() {
                 assert_eq!(mask >> k & 1 == 1, *t != Real::INFINITY, "child {k}");
             }

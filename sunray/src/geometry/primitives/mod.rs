@@ -412,11 +412,17 @@ impl Primitives {
         self.smooth.counts()
     }
 
-    /// Whether primitive `i` is a triangle of the static mesh, which a line meets at most
-    /// once (a shadow ray through glass looks for no second crossing of it).
+    /// Whether primitive `i` is flat ([`Primitive::is_planar`]: a triangle of the mesh or a
+    /// moving one), so a line meets it at most once (a shadow ray through glass looks for no
+    /// second crossing of it).
     #[inline]
-    pub fn is_mesh_triangle(&self, i: u32) -> bool {
-        self.slot(i) & KIND == TRIANGLE
+    pub fn is_planar(&self, i: u32) -> bool {
+        let slot = self.slot(i);
+        match slot & KIND {
+            TRIANGLE => true,
+            SPHERE => false,
+            _ => self.others[(slot & !KIND) as usize].is_planar(),
+        }
     }
 
     /// Whether primitive `i` encloses a volume ([`Primitive::is_closed`]).
