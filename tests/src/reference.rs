@@ -145,6 +145,15 @@ pub fn scene_figures(stats: &serde_json::Value) -> Vec<(String, u64, bool)> {
     .collect()
 }
 
+/// The hosts whose worker had its scene (its timeline says when) by the moment the job's
+/// figures were taken: a worker still starting then says neither bytes received nor cached.
+pub fn scene_ready_hosts(stats: &serde_json::Value) -> Vec<String> {
+    per_node(stats, |n| !n["timeline"]["scene_ready"].is_null())
+        .into_iter()
+        .filter_map(|(host, ready)| ready.then_some(host))
+        .collect()
+}
+
 /// Per node of a job's statistics: its host and whether it read its accelerator from its
 /// host's cache instead of building it.
 pub fn accel_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
