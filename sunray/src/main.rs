@@ -12,7 +12,7 @@ fn main() -> ExitCode {
     match sunray::cli::run(args) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("sunray: error: {}", sunray::cli::error_line(&e));
+            eprintln!("{}", sunray::cli::error_report(&e));
             ExitCode::from(sunray::cli::exit::code_of(&e))
         }
     }

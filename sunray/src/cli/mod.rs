@@ -115,9 +115,21 @@ pub fn error_line(e: &anyhow::Error) -> String {
     line
 }
 
+/// The line `sunray` prints to stderr for an error: `sunray: error: ` and [`error_line`], or
+/// only `sunray: ` where the line carries a scene's own `file:line:col: error:` diagnostic
+/// (which says "error" itself).
+pub fn error_report(e: &anyhow::Error) -> String {
+    let line = error_line(e);
+    if line.contains(": error: ") {
+        format!("sunray: {line}")
+    } else {
+        format!("sunray: error: {line}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::error_line;
+    use super::{error_line, error_report};
     use crate::scene::load::SceneLoadError;
     use yari::load::LoadError;
 
@@ -132,5 +144,18 @@ mod tests {
         assert_eq!(error_line(&e), "cannot read a.yari: no such file");
         let e = anyhow::Error::new(std::io::Error::other("disk full")).context("writing out.png");
         assert_eq!(error_line(&e), "writing out.png: disk full");
+        assert_eq!(
+            error_report(&e),
+            "sunray: error: writing out.png: disk full"
+        );
+    }
+
+    #[test]
+    fn a_scene_diagnostic_says_error_once() {
+        let e = anyhow::anyhow!("bad.yari:3:36: error: expected the radius, found `x`");
+        assert_eq!(
+            error_report(&e),
+            "sunray: bad.yari:3:36: error: expected the radius, found `x`"
+        );
     }
 }
