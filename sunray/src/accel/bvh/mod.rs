@@ -188,7 +188,11 @@ impl Bvh {
         }
     }
 
-    #[inline(always)]
+    /// A leaf's primitives against the ray. Not inlined: inlined, the leaf code's tables
+    /// (groups, items, primitives) were loaded and kept on the stack at every walk's start
+    /// (58 instructions a ray), and its registers crowded the node loop's; called, they are
+    /// loaded when a leaf is reached (a ray that misses every leaf never pays them).
+    #[inline(never)]
     fn closest_in_leaf(
         &self,
         prims: &Primitives,
@@ -282,31 +286,44 @@ impl Bvh {
         }
         let br = BoxRay::new(r);
         let mut stack = ArrayVec::<Child, STACK>::new();
-        stack.push(Child { index: 0, count: 0 });
-        while let Some(child) = stack.pop() {
+        let mut child = Child { index: 0, count: 0 };
+        loop {
             if child.is_leaf() {
                 if let Some(h) = self.any_in_leaf(prims, child, r, t_max, accept, c) {
                     return Some(h);
                 }
-                continue;
-            }
-            c.voxels += 1;
-            let node = &self.nodes[child.index as usize];
-            let (_, mut hits) = node.entries_hit(&br, t_max);
-            while hits != 0 {
-                let child = node.children[hits.trailing_zeros() as usize & (WIDTH - 1)];
-                hits &= hits - 1;
-                if stack.try_push(child).is_err() {
-                    if let Some(h) = self.any_subtree(prims, child, r, t_max, accept, c) {
-                        return Some(h);
+            } else {
+                c.voxels += 1;
+                let node = &self.nodes[child.index as usize];
+                let (_, mut hits) = node.entries_hit(&br, t_max);
+                if hits != 0 {
+                    // The children hit wait in slot order and the last of them is taken at
+                    // once, without a push and a pop: the order of a stack of them all.
+                    let last = (31 - hits.leading_zeros()) as usize & (WIDTH - 1);
+                    hits &= !(1 << last);
+                    while hits != 0 {
+                        let child = node.children[hits.trailing_zeros() as usize & (WIDTH - 1)];
+                        hits &= hits - 1;
+                        if stack.try_push(child).is_err() {
+                            if let Some(h) = self.any_subtree(prims, child, r, t_max, accept, c) {
+                                return Some(h);
+                            }
+                        }
                     }
+                    child = node.children[last];
+                    continue;
                 }
+            }
+            match stack.pop() {
+                Some(next) => child = next,
+                None => break,
             }
         }
         None
     }
 
-    #[inline(always)]
+    /// [`Bvh::closest_in_leaf`]'s twin for [`Bvh::any`], not inlined for the same reason.
+    #[inline(never)]
     fn any_in_leaf(
         &self,
         prims: &Primitives,
