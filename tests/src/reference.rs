@@ -148,10 +148,7 @@ pub fn scene_figures(stats: &serde_json::Value) -> Vec<(String, u64, bool)> {
 /// The hosts whose worker had its scene (its timeline says when) by the moment the job's
 /// figures were taken: a worker still starting then says neither bytes received nor cached.
 pub fn scene_ready_hosts(stats: &serde_json::Value) -> Vec<String> {
-    per_node(stats, |n| !n["timeline"]["scene_ready"].is_null())
-        .into_iter()
-        .filter_map(|(host, ready)| ready.then_some(host))
-        .collect()
+    hosts_where(stats, |n| !n["timeline"]["scene_ready"].is_null())
 }
 
 /// Per node of a job's statistics: its host and whether it read its accelerator from its
@@ -170,9 +167,14 @@ pub fn mapped_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
 /// read, and a built BVH kept): a worker still fetching or building when the image was done
 /// is killed at the job's end, and keeps nothing.
 pub fn prepared_hosts(stats: &serde_json::Value) -> Vec<String> {
-    per_node(stats, |n| n["preprocess_s"].as_f64().unwrap() > 0.0)
+    hosts_where(stats, |n| n["preprocess_s"].as_f64().unwrap() > 0.0)
+}
+
+/// The hosts of the nodes of a job's statistics for which `f` holds.
+fn hosts_where(stats: &serde_json::Value, f: impl Fn(&serde_json::Value) -> bool) -> Vec<String> {
+    per_node(stats, f)
         .into_iter()
-        .filter_map(|(host, prepared)| prepared.then_some(host))
+        .filter_map(|(host, yes)| yes.then_some(host))
         .collect()
 }
 
