@@ -91,6 +91,7 @@ impl Camera {
 
     /// The eye ray through (px, py); with an aperture, from a point on the lens (using two
     /// numbers of `rng`) towards the same point on the plane in focus.
+    #[inline]
     pub fn ray(&self, px: Real, py: Real, time: Real, rng: Option<&mut SampleStream>) -> Ray {
         let dir = self.direction(px, py).normalize();
         let mut ray = Ray {

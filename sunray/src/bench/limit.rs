@@ -91,7 +91,10 @@ pub fn run(scene: &Scene, opts: &AccelOptions, width: u32, height: u32, repeat: 
     best
 }
 
-/// One pass: every pixel's eye ray, and the shadow rays of its hit.
+/// One pass: every pixel's eye ray, and the shadow rays of its hit. Never inlined, so a
+/// profiler can count its instructions alone (`valgrind --tool=callgrind
+/// --toggle-collect='*limit::trace*'`) without the scene's loading and build.
+#[inline(never)]
 fn trace(scene: &Scene, accel: &Accel, width: u32, height: u32) -> Tally {
     let prims = &scene.prims;
     let camera = Camera::new(&scene.world.camera, width, height);

@@ -41,6 +41,10 @@ macro_rules! kernels {
             /// Woop's shear of a direction `d`: the axis along which `d` is largest goes last
             /// (`k = [kx, ky, kz]`, swapped to keep the winding when `d[kz] < 0`), and
             /// `s = [d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]]`.
+            ///
+            /// The components are read from an array by indices the compiler can see are in
+            /// range (glam's `d[k]` is a `match` with a panic arm), and each quotient is the
+            /// same one division as `V / R` computes it.
             #[inline]
             pub fn shear(d: V) -> ([usize; 3], [R; 3]) {
                 let a = d.abs();
@@ -51,13 +55,13 @@ macro_rules! kernels {
                 } else {
                     2
                 };
-                let mut kx = (kz + 1) % 3;
-                let mut ky = (kx + 1) % 3;
-                if d[kz] < 0.0 {
+                let v = d.to_array();
+                let [mut kx, mut ky] = [[1, 2], [2, 0], [0, 1]][kz];
+                let dz = v[kz];
+                if dz < 0.0 {
                     std::mem::swap(&mut kx, &mut ky);
                 }
-                let q = V::new(d[kx], d[ky], 1.0) / d[kz];
-                ([kx, ky, kz], [q.x, q.y, q.z])
+                ([kx, ky, kz], [v[kx] / dz, v[ky] / dz, 1.0 / dz])
             }
 
             /// Watertight ray / triangle (Woop, Benthin and Wald, JCGT 2013): the nearest `t`

@@ -28,6 +28,15 @@ use triangles::Tri4;
 /// Primitives per group.
 pub const LANES: usize = 4;
 
+/// The mask of the lanes of `prims` that hold a primitive (not `u32::MAX`).
+fn used_lanes(prims: &[u32; LANES]) -> u32 {
+    let mut m = 0;
+    for (lane, p) in prims.iter().enumerate() {
+        m |= u32::from(*p != u32::MAX) << lane;
+    }
+    m
+}
+
 /// The most bytes of groups a tree holds (see the module's text).
 pub const BUDGET: usize = 64 << 20;
 
@@ -57,15 +66,9 @@ pub trait Lanes {
     /// What [`Lanes::hits`] gives, each lane through the scalar kernel.
     fn hits_scalar(&self, r: &RayPre, t_max: Real) -> ([Real; LANES], u32);
 
-    /// The lanes holding a primitive.
-    #[inline(always)]
-    fn lanes(&self) -> u32 {
-        let mut m = 0;
-        for (lane, p) in self.prims().iter().enumerate() {
-            m |= u32::from(*p != u32::MAX) << lane;
-        }
-        m
-    }
+    /// The lanes holding a primitive (a bit a lane, kept with the group: computed from
+    /// [`Lanes::prims`] at every test, it took some 20 instructions a group, twice).
+    fn lanes(&self) -> u32;
 
     /// How many lanes hold a primitive.
     #[inline(always)]

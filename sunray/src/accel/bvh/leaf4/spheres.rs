@@ -15,6 +15,8 @@ pub struct Sph4 {
     centre: [[Real; LANES]; 3],
     radius: [Real; LANES],
     prims: [u32; LANES],
+    /// The lanes holding a sphere, a bit a lane.
+    lanes: u32,
 }
 
 impl Sph4 {
@@ -24,6 +26,7 @@ impl Sph4 {
             centre: [[0.0; LANES]; 3],
             radius: [0.0; LANES],
             prims: [u32::MAX; LANES],
+            lanes: 0,
         };
         for (lane, (i, c, r)) in spheres.iter().enumerate().take(LANES) {
             g.prims[lane] = *i;
@@ -32,6 +35,7 @@ impl Sph4 {
                 g.centre[axis][lane] = c[axis];
             }
         }
+        g.lanes = super::used_lanes(&g.prims);
         g
     }
 }
@@ -53,7 +57,12 @@ impl Lanes for Sph4 {
     /// Every lane holding a sphere (no ray is known to miss a sphere untested).
     #[inline(always)]
     fn live(&self, _: &RayPre) -> u32 {
-        self.lanes()
+        self.lanes
+    }
+
+    #[inline(always)]
+    fn lanes(&self) -> u32 {
+        self.lanes
     }
 
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]

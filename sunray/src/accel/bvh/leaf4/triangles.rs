@@ -13,6 +13,8 @@ use crate::geometry::{RayPre, Real, Vec3};
 pub struct Tri4 {
     pub(super) corners: [[[Real; LANES]; 3]; 3],
     pub(super) prims: [u32; LANES],
+    /// The lanes holding a triangle, a bit a lane.
+    lanes: u32,
 }
 
 impl Tri4 {
@@ -21,6 +23,7 @@ impl Tri4 {
         let mut g = Tri4 {
             corners: [[[0.0; LANES]; 3]; 3],
             prims: [u32::MAX; LANES],
+            lanes: 0,
         };
         for (lane, (i, v)) in tris.iter().enumerate().take(LANES) {
             g.prims[lane] = *i;
@@ -30,6 +33,7 @@ impl Tri4 {
                 }
             }
         }
+        g.lanes = super::used_lanes(&g.prims);
         g
     }
 }
@@ -49,13 +53,20 @@ impl Lanes for Tri4 {
 
     /// The lanes holding a triangle that `r` is not known to miss ([`RayPre::skips`]: a ray
     /// leaving a flat face skips its triangles before anything is computed, the shear too).
+    /// Every lane is checked without a branch (the empty ones are masked off after): with
+    /// `&&` the compiler branched per lane and loaded the skipped range four times.
     #[inline(always)]
     fn live(&self, r: &RayPre) -> u32 {
-        let mut m = 0;
+        let mut skipped = 0;
         for (lane, p) in self.prims.iter().enumerate() {
-            m |= u32::from(*p != u32::MAX && !r.skips(*p)) << lane;
+            skipped |= u32::from(r.skips(*p)) << lane;
         }
-        m
+        self.lanes & !skipped
+    }
+
+    #[inline(always)]
+    fn lanes(&self) -> u32 {
+        self.lanes
     }
 
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
