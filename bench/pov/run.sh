@@ -17,7 +17,11 @@
 # seconds, the fairer figure on a shared machine; SunRay's include building its BVH,
 # POV-Ray's are its trace only). Each figure is the best of REPEAT runs (default 5); the runs
 # alternate SunRay, POV-Ray on ours, POV-Ray on Haines's.
-# Usage: [REPEAT=5] [RES=512] [SCENES="db:size ..."] [SUNRAY=path] [HAINES_POV=dir]
+# With SUNRAY_OLD=path, every round also runs that SunRay binary (before the new one), and a
+# last column gives POV-Ray's faster SDL against it: two SunRays against the same POV-Ray runs,
+# so a change of a few percent can be read through this machine's drift.
+# Usage: [REPEAT=5] [RES=512] [SCENES="db:size ..."] [SUNRAY=path] [SUNRAY_OLD=path]
+#        [HAINES_POV=dir]
 #        bench/pov/run.sh [OUTDIR]   (default OUTDIR: target/pov-bench)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -65,8 +69,13 @@ print(sum(int(m.group(1)) for m in (rays, shadow) if m))
 PY
 }
 
-echo "| scene | SunRay build + render s | SunRay CPU s | SunRay rays | POV-Ray on ours: trace s / CPU s / rays | POV-Ray on Haines's: trace s / CPU s / rays | POV / SunRay (wall) | POV / SunRay (CPU) | POV-Ray's faster SDL |"
-echo "|---|---:|---:|---:|---:|---:|---:|---:|---|"
+SUNRAY_OLD=${SUNRAY_OLD:-}
+old_head=; old_rule=
+if [ -n "$SUNRAY_OLD" ]; then
+  old_head=" SUNRAY_OLD CPU s | POV / SUNRAY_OLD (CPU) |"; old_rule="---:|---:|"
+fi
+echo "| scene | SunRay build + render s | SunRay CPU s | SunRay rays | POV-Ray on ours: trace s / CPU s / rays | POV-Ray on Haines's: trace s / CPU s / rays | POV / SunRay (wall) | POV / SunRay (CPU) | POV-Ray's faster SDL |$old_head"
+echo "|---|---:|---:|---:|---:|---:|---:|---:|---|$old_rule"
 SCENES=${SCENES:-tetra:6 mount:6 balls:4 gears:4 rings:7 tree:11 teapot:6 lattice:12 shells:5 jacks:1 sombrero:1}
 for spec in $SCENES; do
   db=${spec%:*}; size=${spec#*:}; name=$db$size
@@ -77,8 +86,14 @@ for spec in $SCENES; do
     haines=$HAINES_POV/$name.pov
     [ -f "$haines" ] || { echo "$haines is missing (Haines's \`$db -s $size -r 4\`)" >&2; exit 2; }
   fi
-  sr_s=; sr_cpu=; ours_s=; ours_cpu=; hn_s=; hn_cpu=
+  sr_s=; sr_cpu=; ours_s=; ours_cpu=; hn_s=; hn_cpu=; old_cpu=
   for _ in $(seq "${REPEAT:-5}"); do
+    if [ -n "$SUNRAY_OLD" ]; then
+      "$SUNRAY_OLD" render "$OUT/$name.yari" -o "$OUT/$name-old.png" --threads 1 --samples 1 \
+          --resolution "${RES}x${RES}" --stats-json "$OUT/$name-old.json" -q
+      c=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['time']['cpu_s'])" "$OUT/$name-old.json")
+      old_cpu=$(min "$c" "$old_cpu")
+    fi
     "$SUNRAY" render "$OUT/$name.yari" -o "$OUT/$name-sunray.png" --threads 1 --samples 1 \
         --resolution "${RES}x${RES}" --stats-json "$OUT/$name-sunray.json" -q
     read -r s c sr_rays < <(python3 -c "import json,sys; j=json.load(open(sys.argv[1])); t=j['time']; print(t['preprocess_s'] + t['render_s'], t['cpu_s'], j['rays']['total'])" "$OUT/$name-sunray.json")
@@ -102,7 +117,11 @@ for spec in $SCENES; do
   fi
   ratio=$(python3 -c "print(f'{float(\"$pov_s\")/float(\"$sr_s\"):.2f}')")
   cpu_ratio=$(python3 -c "print(f'{float(\"$pov_cpu\")/float(\"$sr_cpu\"):.2f}')")
-  printf '| %s | %.3f | %.3f | %s | %.3f / %.3f / %s | %s | %sx | %sx | %s |\n' "$name" "$sr_s" \
+  old_cells=
+  if [ -n "$SUNRAY_OLD" ]; then
+    old_cells=$(python3 -c "print(f' {float(\"$old_cpu\"):.3f} | {float(\"$pov_cpu\")/float(\"$old_cpu\"):.2f}x |')")
+  fi
+  printf '| %s | %.3f | %.3f | %s | %.3f / %.3f / %s | %s | %sx | %sx | %s |%s\n' "$name" "$sr_s" \
       "$sr_cpu" "$sr_rays" "$ours_s" "$ours_cpu" "$ours_rays" "$haines_cell" "$ratio" \
-      "$cpu_ratio" "$faster"
+      "$cpu_ratio" "$faster" "$old_cells"
 done
