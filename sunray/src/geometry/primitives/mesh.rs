@@ -55,7 +55,7 @@ pub struct Mesh {
     /// Normals that cannot be recomputed from a triangle's corners.
     normals: Vec<Vec3>,
     /// Corner positions (their exact bits) to their index, while the mesh is built.
-    ids: HashMap<[u64; 3], u32>,
+    ids: HashMap<[u64; 3], u32, foldhash::fast::RandomState>,
 }
 
 impl Mesh {
@@ -159,7 +159,7 @@ impl Mesh {
     /// Ends the building: forgets the corner index. (Corners were added in order of first
     /// use, so nothing needs renumbering until the triangles are reordered.)
     pub fn finish(&mut self) {
-        self.ids = HashMap::new();
+        self.ids = HashMap::default();
         self.triangles.edit().shrink_to_fit();
         self.vertices.edit().shrink_to_fit();
         self.normals.shrink_to_fit();
@@ -222,7 +222,7 @@ impl Mesh {
             vertices,
             triangles,
             normals,
-            ids: HashMap::new(),
+            ids: HashMap::default(),
         })
     }
 }

@@ -9,8 +9,8 @@
 //! at a corner share its normal whichever way each is wound.
 //!
 //! Entries are added in primitive order (the builder numbers primitives as it goes), so the
-//! table is sorted by primitive number and a hit finds its entry by binary search, only
-//! when the table is not empty.
+//! table is sorted by primitive number and a hit finds its entry where a run of consecutive
+//! numbers puts it, or else by binary search, only when the table is not empty.
 
 use super::super::Vec3;
 
@@ -116,9 +116,19 @@ impl SmoothTable {
     }
 
     /// The corner normals of primitive `prim`, if it is a smooth triangle.
+    ///
+    /// A mesh's smooth triangles are numbered one after another, so the entry sits where
+    /// its number's distance from the first entry's says; that guess is checked, and a
+    /// binary search is left for the numbers a gap has moved.
     #[inline]
     pub fn get(&self, prim: u32) -> Option<[Vec3; 3]> {
-        let k = self.entries.binary_search_by_key(&prim, |e| e.prim).ok()?;
+        let first = self.entries.first()?.prim;
+        let guess = prim.wrapping_sub(first) as usize;
+        let k = match self.entries.get(guess) {
+            Some(e) if e.prim == prim => guess,
+            _ if prim < first => return None,
+            _ => self.entries.binary_search_by_key(&prim, |e| e.prim).ok()?,
+        };
         let ids = self.entries[k].normals;
         let sign = if ids[0] & NEGATE != 0 { -1.0 } else { 1.0 };
         Some(ids.map(|i| self.normals[(i & !NEGATE) as usize] * sign))
@@ -169,6 +179,25 @@ mod tests {
             false,
         );
         assert_eq!(z.counts(), (1, 2));
+    }
+
+    /// Runs of consecutive smooth primitives with gaps between them (flat triangles, other
+    /// shapes): every number is found where it is, through the guess or the search, and no
+    /// number without an entry finds one, below, inside or past the runs.
+    #[test]
+    fn runs_with_gaps_are_found_by_guess_or_search() {
+        let mut t = SmoothTable::default();
+        let n = |i: u32| Vec3::new(1.0, i as f64, 2.0).normalize();
+        let smooth = |p: u32| (5..9).contains(&p) || (12..13).contains(&p) || (20..40).contains(&p);
+        for prim in (0..50).filter(|&p| smooth(p)) {
+            assert!(t.add(prim, [n(prim), n(prim), n(prim + 1)], false));
+        }
+        t.finish();
+        for prim in 0..60 {
+            let want = smooth(prim).then(|| [n(prim), n(prim), n(prim + 1)]);
+            assert_eq!(t.get(prim), want, "{prim}");
+        }
+        assert_eq!(t.get(u32::MAX), None);
     }
 
     #[test]
