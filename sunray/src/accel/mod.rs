@@ -279,7 +279,7 @@ impl Accel {
 
     /// Whether anything lies on shadow ray `r` in `(0, t_max)` towards light `light`, every
     /// primitive taken as opaque: the light's last occluder first, then the tree, whose
-    /// blocker becomes the light's occluder.
+    /// blocker becomes the light's occluder (and whose miss makes the light forget it).
     pub fn occluded(
         &self,
         prims: &Primitives,
@@ -293,6 +293,7 @@ impl Accel {
             return true;
         }
         let Some(hit) = self.any(prims, r, t_max, &|_, _| true, scratch, c) else {
+            scratch.occluders.forget(light);
             return false;
         };
         scratch.occluders.set(light, hit.prim);

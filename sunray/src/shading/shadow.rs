@@ -183,6 +183,7 @@ impl Tracer<'_> {
         );
         self.counters.intersection_tests += walk.tests();
         let Some(hit) = blocker else {
+            self.scratch.occluders.forget(light);
             return walk.filter();
         };
         // The walk also ends at glass that leaves too little light; only an opaque surface
