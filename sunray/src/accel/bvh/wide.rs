@@ -59,26 +59,54 @@ unsafe impl crate::store::Plain for Node {
     }
 }
 
-/// A ray prepared for the box tests: origin and inverse direction per axis, and which of
-/// min (0) and max (1) is the near plane on each axis.
+/// A ray prepared for the box tests: origin and inverse direction per axis, which of min
+/// (0) and max (1) is the near plane on each axis, and where those planes' rows lie in a
+/// node ([`ROWS`]).
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
     origin: [Real; 3],
     inv: [Real; 3],
     near: [usize; 3],
+    rows: &'static [usize; 6],
+}
+
+/// For each combination of the direction's signs (bit `axis` set where the inverse direction
+/// is negative): the offset, in `Real`s from the start of a node's planes, of each axis's near
+/// row, then of each axis's far row. Read from this table, a walk's set-up is the three signs;
+/// computed at every walk's start, the six offsets took some 24 instructions and six stack
+/// slots (bench/results/limit.md, session 40).
+static ROWS: [[usize; 6]; 8] = rows_table();
+
+const fn rows_table() -> [[usize; 6]; 8] {
+    let mut t = [[0; 6]; 8];
+    let mut code = 0;
+    while code < 8 {
+        let mut axis = 0;
+        while axis < 3 {
+            let n = (code >> axis) & 1;
+            t[code][axis] = (n * 3 + axis) * WIDTH;
+            t[code][axis + 3] = ((n ^ 1) * 3 + axis) * WIDTH;
+            axis += 1;
+        }
+        code += 1;
+    }
+    t
 }
 
 impl BoxRay {
     /// Prepares `r` for the box tests of every node it visits.
+    #[inline(always)]
     pub fn new(r: &RayPre) -> BoxRay {
+        let near = [
+            usize::from(r.inv_dir.x < 0.0),
+            usize::from(r.inv_dir.y < 0.0),
+            usize::from(r.inv_dir.z < 0.0),
+        ];
         BoxRay {
             origin: r.ray.origin.to_array(),
             inv: r.inv_dir.to_array(),
-            near: [
-                usize::from(r.inv_dir.x < 0.0),
-                usize::from(r.inv_dir.y < 0.0),
-                usize::from(r.inv_dir.z < 0.0),
-            ],
+            near,
+            rows: &ROWS[near[0] | near[1] << 1 | near[2] << 2],
         }
     }
 }
@@ -133,15 +161,16 @@ impl Node {
         };
         let limit = limit.min(Real::MAX);
         let mut out = [0.0; WIDTH];
+        let planes = self.planes.as_ptr().cast::<Real>();
         // SAFETY: the build enables AVX2 (the cfg above); every load and store is an
-        // unaligned one of a whole `[f64; 4]`.
+        // unaligned one of a whole `[f64; 4]` (a row of `planes`, by ROWS's offsets).
         let mask = unsafe {
             let mut t0 = _mm256_setzero_pd();
             let mut t1 = _mm256_set1_pd(limit);
             for axis in 0..3 {
-                let n = r.near[axis] & 1;
-                let near = _mm256_loadu_pd(self.planes[n][axis].as_ptr());
-                let far = _mm256_loadu_pd(self.planes[n ^ 1][axis].as_ptr());
+                // Rows of `planes`: every offset in ROWS is a whole row's start, below 6 rows.
+                let near = _mm256_loadu_pd(planes.add(r.rows[axis]));
+                let far = _mm256_loadu_pd(planes.add(r.rows[axis + 3]));
                 let o = _mm256_set1_pd(r.origin[axis]);
                 let inv = _mm256_set1_pd(r.inv[axis]);
                 t0 = _mm256_max_pd(_mm256_mul_pd(_mm256_sub_pd(near, o), inv), t0);
