@@ -167,7 +167,10 @@ pub fn mapped_figures(stats: &serde_json::Value) -> Vec<(String, bool)> {
 /// read, and a built BVH kept): a worker still fetching or building when the image was done
 /// is killed at the job's end, and keeps nothing.
 pub fn prepared_hosts(stats: &serde_json::Value) -> Vec<String> {
-    hosts_where(stats, |n| n["preprocess_s"].as_f64().unwrap() > 0.0)
+    hosts_where(stats, |n| {
+        let s = n["preprocess_s"].as_f64();
+        s.unwrap_or_else(|| panic!("a node's statistics without preprocess_s: {n}")) > 0.0
+    })
 }
 
 /// The hosts of the nodes of a job's statistics for which `f` holds.

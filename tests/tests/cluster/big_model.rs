@@ -34,8 +34,10 @@ pub fn a_quarter_million_triangles_on_six_hosts(cluster: &ComposeCluster) {
             ]),
         ));
         assert!(o.status.success(), "{run}: submit failed");
+        let png = cluster.out(&format!("{run}.png"));
+        let got = std::fs::read(&png).unwrap_or_else(|e| panic!("{}: {e}", png.display()));
         assert!(
-            std::fs::read(cluster.out(&format!("{run}.png"))).unwrap() == want,
+            got == want,
             "{run}: the cluster's image of tetra9 differs from sunray render"
         );
         let stats = read_json(&cluster.out(&format!("{run}.json")));

@@ -59,14 +59,12 @@ unsafe impl crate::store::Plain for Node {
     }
 }
 
-/// A ray prepared for the box tests: origin and inverse direction per axis, which of min
-/// (0) and max (1) is the near plane on each axis, and where those planes' rows lie in a
-/// node ([`ROWS`]).
+/// A ray prepared for the box tests: origin and inverse direction per axis, and where each
+/// axis's near and far planes lie in a node ([`ROWS`]).
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
     origin: [Real; 3],
     inv: [Real; 3],
-    near: [usize; 3],
     rows: &'static [usize; 6],
 }
 
@@ -97,16 +95,12 @@ impl BoxRay {
     /// Prepares `r` for the box tests of every node it visits.
     #[inline(always)]
     pub fn new(r: &RayPre) -> BoxRay {
-        let near = [
-            usize::from(r.inv_dir.x < 0.0),
-            usize::from(r.inv_dir.y < 0.0),
-            usize::from(r.inv_dir.z < 0.0),
-        ];
+        let sign = |i: Real| usize::from(i < 0.0);
+        let d = r.inv_dir;
         BoxRay {
             origin: r.ray.origin.to_array(),
-            inv: r.inv_dir.to_array(),
-            near,
-            rows: &ROWS[near[0] | near[1] << 1 | near[2] << 2],
+            inv: d.to_array(),
+            rows: &ROWS[sign(d.x) | sign(d.y) << 1 | sign(d.z) << 2],
         }
     }
 }
@@ -199,10 +193,9 @@ impl Node {
         let limit = limit.min(Real::MAX);
         let mut t0 = [0.0; WIDTH];
         let mut t1 = [limit; WIDTH];
+        let rows = self.planes.as_flattened();
         for axis in 0..3 {
-            // Indices, not a branch: `& 1` shows the compiler they are in range.
-            let n = r.near[axis] & 1;
-            let (near, far) = (&self.planes[n][axis], &self.planes[n ^ 1][axis]);
+            let (near, far) = (&rows[r.rows[axis] / WIDTH], &rows[r.rows[axis + 3] / WIDTH]);
             let (o, inv) = (r.origin[axis], r.inv[axis]);
             for k in 0..WIDTH {
                 let a = (near[k] - o) * inv;
