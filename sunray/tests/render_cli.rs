@@ -189,7 +189,9 @@ fn a_target_error_reports_its_error_and_writes_a_samples_map() {
         let pixels: u64 = buckets.iter().map(|b| b["pixels"].as_u64().unwrap()).sum();
         assert_eq!(pixels, 48 * 40);
         assert!(buckets.len() >= 2, "{e}");
-        assert_eq!(buckets[0]["from"], 16, "the fewest is min-samples: {e}");
+        // The fewest is min-samples (4 at E = 0.02); raised pixels take 4 x as many.
+        assert_eq!(buckets[0]["from"], 4, "the fewest is min-samples: {e}");
+        assert_eq!(buckets[1]["from"], 16, "a raised pixel's fewest: {e}");
         let mean = e["mean_samples"].as_f64().unwrap();
         let eye = s["rays"]["eye"].as_u64().unwrap() as f64;
         assert!((mean * 48.0 * 40.0 - eye).abs() < 0.5, "{mean} {eye}");

@@ -251,7 +251,7 @@ fn the_api_needs_a_credential_and_shows_each_user_only_their_jobs() {
         views[0]["caption"]
             .as_str()
             .unwrap()
-            .contains("black 16, white 64"),
+            .contains("black 4, white 64"),
         "{views}"
     );
     let map = web.get("/api/jobs/web3/view/samples", &alice);

@@ -20,7 +20,7 @@ use super::plot::{loglog, Labels, Series};
 use super::pov_aa;
 use crate::accel::{Accel, AccelOptions};
 use crate::geometry::Vec3;
-use crate::render::adaptive::Adaptive;
+use crate::render::adaptive::{raised_samples, Adaptive};
 use crate::render::{render_image_summarized, trace_pixel, Progress, RenderOptions};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -319,13 +319,14 @@ fn sunray_curves(
 }
 
 /// The pixels whose count `a`'s estimate decided, of those that took `samples`: more than
-/// their first samples, fewer than the most. Their RMSE against E says whether the estimate
-/// is honest, apart from the pixels that need no more than their first samples and those the
-/// cap stops.
+/// a raised pixel's fewest ([`raised_samples`]), fewer than the most. Their RMSE against E
+/// says whether the estimate is honest, apart from the pixels that need no more than their
+/// first samples or than a raised pixel's fewest, and those the cap stops.
 fn stopped_by_target(samples: &[u32], a: &Adaptive) -> Vec<bool> {
+    let least = raised_samples(a);
     samples
         .iter()
-        .map(|&n| n > a.min_samples && n < a.max_samples)
+        .map(|&n| n > least && n < a.max_samples)
         .collect()
 }
 

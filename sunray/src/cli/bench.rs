@@ -151,7 +151,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
                 args.accuracy_resolution,
                 args.max_samples,
                 args.reference_samples,
-                &[0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125],
+                &[0.16, 0.08, 0.04, 0.02, 0.01, 0.005, 0.0025, 0.00125],
                 threads,
                 Some(&args.out_dir),
             )?;

@@ -53,8 +53,10 @@ pub struct RenderArgs {
         conflicts_with = "target_error"
     )]
     pub sampler: Sampler,
-    /// With --target-error: the fewest samples a pixel takes, 2 or more [default: 0.16/E
-    /// rounded up to a power of two, at least 16, at most --max-samples].
+    /// With --target-error: the first samples every pixel takes (the fewest), 2 or more; a
+    /// pixel with an open pixel within 2 of it (its first samples' error above E) goes on,
+    /// to at least 4 times as many [default: 0.08/E rounded up to a power of two, at least
+    /// 4, at most --max-samples].
     #[arg(long, requires = "target_error")]
     pub min_samples: Option<u32>,
     /// With --target-error: the most samples a pixel takes (at most 65536) [default: 1024].

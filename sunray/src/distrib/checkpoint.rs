@@ -27,11 +27,13 @@ use prost::Message;
 use std::collections::BTreeMap;
 use std::future::Future;
 
-/// The header format this code writes and reads. Format 2: a render to an error's pixel
-/// estimates are one Sobol sequence's blocks ([`PixelEstimate`], 148 bytes); format 1's
-/// were four replicates' (100 bytes, other samples), so a format 1 checkpoint is read only
-/// when its job renders a fixed sample count, which the change left as it was.
-pub const FORMAT: u32 = 2;
+/// The header format this code writes and reads. Format 3: a render to an error's pixel
+/// estimates carry their stage (open, decided, raised: the neighbourhood's decision after
+/// the first samples; [`PixelEstimate`], 149 bytes). Format 2's were 148 bytes and decided
+/// alone, format 1's were four replicates' (100 bytes, other samples), so a format 1 or 2
+/// checkpoint is read only when its job renders a fixed sample count, which the changes
+/// left as it was.
+pub const FORMAT: u32 = 3;
 
 /// Where checkpoints are kept: REM, or a map in tests.
 pub trait Store {
@@ -104,9 +106,9 @@ pub enum CheckpointError {
         /// The missing segment's number (key `JOB.s{segment}`).
         segment: u32,
     },
-    /// The header was written by a program with another [`FORMAT`] (or format 1 with a
+    /// The header was written by a program with another [`FORMAT`] (or format 1 or 2 with a
     /// target error).
-    #[error("checkpoint format {0} is not supported (this program reads format {FORMAT}, and format 1 without a target error)")]
+    #[error("checkpoint format {0} is not supported (this program reads format {FORMAT}, and formats 1 and 2 without a target error)")]
     Format(u32),
     /// The header holds no render settings.
     #[error("checkpoint of job {job} holds no render settings")]
@@ -323,11 +325,11 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
         reason: e.to_string(),
     };
     let header = CheckpointHeader::decode(bytes.as_slice()).map_err(|e| corrupt(job, e))?;
-    if header.format != FORMAT && header.format != 1 {
+    if !(1..=FORMAT).contains(&header.format) {
         return Err(CheckpointError::Format(header.format));
     }
     let settings = header_settings(job, &header)?;
-    if header.format == 1 && settings.render.adaptive.is_some() {
+    if header.format < FORMAT && settings.render.adaptive.is_some() {
         return Err(CheckpointError::Format(header.format));
     }
     let (width, height) = (settings.render.width, settings.render.height);
@@ -338,7 +340,8 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
     // Every segment holds at least one line, each line is finished once, and with a target
     // error recorded once per pass.
     let adaptive = settings.render.adaptive;
-    let records = height.saturating_mul(adaptive.as_ref().map_or(1, max_passes));
+    // (A line's decision after its first samples is one more record.)
+    let records = height.saturating_mul(adaptive.as_ref().map_or(1, |a| max_passes(a) + 1));
     for (what, n, most) in [
         ("segments", header.segments, records),
         ("lines_done", header.lines_done, height),

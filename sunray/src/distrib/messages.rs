@@ -114,6 +114,9 @@ pub fn estimates_from_bytes(
     let mut out = Vec::with_capacity(width as usize);
     for b in bytes.chunks_exact(PixelEstimate::BYTES) {
         let e = PixelEstimate::from_le_bytes(b.try_into().unwrap_or(&[0; PixelEstimate::BYTES]));
+        if !e.stage_is_valid() {
+            return Err(bad(format!("pixel {} has an unknown stage", out.len())));
+        }
         if e.count() > a.max_samples {
             return Err(bad(format!(
                 "pixel {} has {} samples, more than --max-samples {}",

@@ -4,8 +4,16 @@
 //! every channel, with at least `min_samples` (by default [`default_min_samples`]) and at most
 //! `max_samples`.
 //!
-//! A pixel's decisions depend only on its own samples (their values, in the order taken), so
-//! the image is the same for any thread, process or host that renders the pixel.
+//! First every pixel takes `min_samples` (its first samples). Then one decision looks at
+//! the pixel's neighbourhood (the pixels within [`RADIUS`](super::neighbourhood::RADIUS) of it, across and down):
+//! when no pixel there is open (its first samples' own estimate above E), the pixel stops;
+//! else it is raised to [`raised_samples`] (4 x `min_samples`) and goes on by its own
+//! samples alone. Every other decision depends only on the pixel's own samples (their
+//! values, in the order taken), and the neighbourhood's only on the first samples of the
+//! pixels in it, so the image is the same for any thread, process or host that renders a
+//! pixel, and in any order ([`crate::render::pass`]: the farm decides a line once the lines
+//! within [`RADIUS`](super::neighbourhood::RADIUS) of it have their first samples).
+//!
 //!
 //! The estimate: a pixel's samples are one Owen-scrambled Sobol sequence (sample i is its
 //! point i, the same samples `--sampler sobol` takes, so the union of everything a pixel
@@ -32,29 +40,34 @@
 //! samples themselves differ; without the floor such a pixel stops with its error left (on
 //! a 1-D edge, 3.3 E at E = 0.01, measured in this module's tests before the floor).
 //!
-//! The schedule: `min_samples` first; then, while the estimate is above E, the count the
+//! The schedule: `min_samples` first; then the neighbourhood's decision; a raised pixel
+//! takes [`raised_samples`], then, while the estimate is above E, the count the
 //! estimate asks for (n s^2 / E^2 for an estimate s after n samples), at least `min_samples`
 //! more and at most twice as many as taken (the error is estimated again on the way), rounded
 //! up to whole blocks ([`whole_blocks`]: 5 to 8 of them, so a step is rounded up by less
 //! than a quarter), never above `max_samples`.
+//!
+//! [`report`] makes what a render to an error reports: its error statistics and samples map.
 
 use super::trace_sobol_sample;
 use crate::camera::Camera;
-use crate::film::Film;
 use crate::sampler::SOBOL_SAMPLES;
 use crate::shading::Tracer;
-use crate::stats::{ErrorStats, SamplesBucket};
 use glam::DVec3;
 
-/// The least samples a pixel takes with a target error E when `--min-samples` is not given:
-/// 0.16 / E rounded up to a power of two, at least 16. A pixel whose first samples all miss a
-/// thin feature (an edge across one corner, a checker seen through a lens) stops with a
-/// variance of 0 and a wrong mean, and such a feature covers about 1/n of a pixel after n
-/// stratified samples: so the first samples grow as E falls. Measured on the built-in scene
-/// at 64x64 against a 4,096-sample reference, with 4 first samples the RMSE reached 4.9 E at
-/// E = 0.002, with 16 0.96 E (docs/renderer.md, "Rendering to an error").
+pub mod report;
+pub use report::{error_stats, samples_map};
+
+/// The first samples a pixel takes with a target error E when `--min-samples` is not given:
+/// 0.08 / E rounded up to a power of two, at least 4 (4 at E >= 0.02, 8 at 0.01, 16 at
+/// 0.005; a raised pixel then takes at least 4 times as many). A thin feature (an edge across one corner, a
+/// checker seen through a lens) missed by every first sample of a whole neighbourhood stops
+/// its pixels with a wrong mean, and such a feature covers about 1/n of a pixel after n
+/// stratified samples: so the first samples grow as E falls. (A pixel deciding alone needed
+/// 16 at every E: with 4, on the built-in scene at 64x64 against a 4,096-sample reference,
+/// the RMSE reached 4.9 E at E = 0.002; docs/renderer.md, "Rendering to an error".)
 pub fn default_min_samples(target_error: f64) -> u32 {
-    let n = (0.16 / target_error).ceil();
+    let n = (0.08 / target_error).ceil();
     // NaN (a target refused later) counts as 1; infinity (a tiny target) as the most.
     let n = if n >= 1.0 {
         n.min(f64::from(MAX_ADAPTIVE_SAMPLES)) as u32
@@ -66,7 +79,14 @@ pub fn default_min_samples(target_error: f64) -> u32 {
 }
 
 /// The fewest first samples [`default_min_samples`] gives.
-pub const MIN_FIRST_SAMPLES: u32 = 16;
+pub const MIN_FIRST_SAMPLES: u32 = 4;
+
+/// The fewest samples a raised pixel takes: 4 x `min_samples` rounded up to whole blocks,
+/// at most `max_samples` (16 with the default first samples at E >= 0.02, what a pixel
+/// deciding alone needed at every E, 32 at E = 0.01).
+pub fn raised_samples(a: &Adaptive) -> u32 {
+    whole_blocks(a.min_samples.saturating_mul(4)).min(a.max_samples)
+}
 
 /// The default most samples a pixel takes with a target error.
 pub const DEFAULT_MAX_SAMPLES: u32 = 1024;
@@ -95,7 +115,8 @@ pub fn whole_blocks(n: u32) -> u32 {
 pub struct Adaptive {
     /// The standard error of a pixel's mean to reach, in linear radiance: finite, > 0.
     pub target_error: f64,
-    /// The fewest samples a pixel takes: 2 (a variance needs two) to `max_samples`.
+    /// The first samples every pixel takes (the fewest): 2 (a variance needs two) to
+    /// `max_samples`.
     pub min_samples: u32,
     /// The most samples a pixel takes: up to [`MAX_ADAPTIVE_SAMPLES`].
     pub max_samples: u32,
@@ -158,14 +179,23 @@ impl Adaptive {
 /// channel (Welford) and the mean of each of its blocks of [`block_len`] consecutive
 /// samples (running means, added in the order taken: a constant's mean is the constant
 /// exactly). A block's mean is kept in f32 (it only measures the spread, and an error target
-/// is far above f32's rounding), so a pixel travels and is checkpointed in 148 bytes.
+/// is far above f32's rounding), and its stage (open after its first samples, decided,
+/// raised) in a byte, so a pixel travels and is checkpointed in 149 bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelEstimate {
     n: u32,
     mean: DVec3,
     m2: DVec3,
     blocks: [Rgb32; BLOCKS as usize],
+    stage: u8,
 }
+
+/// [`PixelEstimate::stage`]: its first samples' own estimate was above the target.
+const OPEN: u8 = 1;
+/// [`PixelEstimate::stage`]: its neighbourhood was looked at.
+const DECIDED: u8 = 2;
+/// [`PixelEstimate::stage`]: decided to go on (a pixel near it, or itself, was open).
+const RAISED: u8 = 4;
 
 /// A block's running mean, one f32 per channel.
 type Rgb32 = [f32; 3];
@@ -203,6 +233,42 @@ impl PixelEstimate {
     /// How many samples were added.
     pub fn count(&self) -> u32 {
         self.n
+    }
+
+    /// Whether its first samples' own estimate was above the target (known once it has
+    /// them: [`PixelEstimate::first_samples_in`]).
+    pub fn is_open(&self) -> bool {
+        self.stage & OPEN != 0
+    }
+
+    /// Whether it has its first samples and waits for its neighbourhood's decision
+    /// ([`PixelEstimate::decide`]).
+    pub fn awaits_decision(&self, a: &Adaptive) -> bool {
+        self.n >= a.min_samples && self.stage & DECIDED == 0
+    }
+
+    /// Notes whether the pixel is open, when it has exactly its first samples (again and
+    /// again the same answer: it depends on those samples alone).
+    pub fn first_samples_in(&mut self, a: &Adaptive) {
+        if self.n == a.min_samples && self.stage & DECIDED == 0 {
+            let open = self.squared_error().sqrt() > a.target_error;
+            self.stage = if open { OPEN } else { 0 };
+        }
+    }
+
+    /// The neighbourhood's decision: `raise` when a pixel within [`RADIUS`](super::neighbourhood::RADIUS) of this
+    /// one (itself included) is open. Made once; a later call changes nothing.
+    pub fn decide(&mut self, raise: bool) {
+        if self.stage & DECIDED == 0 {
+            self.stage |= DECIDED | if raise { RAISED } else { 0 };
+        }
+    }
+
+    /// Whether the stage byte is one this program writes (what came over the network may
+    /// not be).
+    pub fn stage_is_valid(&self) -> bool {
+        self.stage & !(OPEN | DECIDED | RAISED) == 0
+            && (self.stage & RAISED == 0 || self.stage & DECIDED != 0)
     }
 
     /// The mean of the samples (black with none).
@@ -249,16 +315,19 @@ impl PixelEstimate {
     }
 
     /// Bytes of [`PixelEstimate::to_le_bytes`].
-    pub const BYTES: usize = 4 + 48 + 12 * BLOCKS as usize;
+    pub const BYTES: usize = 4 + 48 + 12 * BLOCKS as usize + 1;
 
-    /// True when the pixel needs no more samples ([`PixelEstimate::next_count`] is `None`).
+    /// True when the pixel is finished: it needs no more samples
+    /// ([`PixelEstimate::next_count`] is `None`) and no decision (it has one, or it is at
+    /// `max_samples`).
     pub fn is_done(&self, a: &Adaptive) -> bool {
-        self.next_count(a).is_none()
+        self.next_count(a).is_none() && (self.stage & DECIDED != 0 || self.n >= a.max_samples)
     }
 
     /// The estimate exactly, to go on from elsewhere (the farm's passes, its checkpoints):
     /// the count as a little-endian `u32`, then the mean and the sum of squared deviations,
-    /// three little-endian `f64` each, and each block's mean, three little-endian `f32`.
+    /// three little-endian `f64` each, each block's mean, three little-endian `f32`, and the
+    /// stage byte (1 open, 2 decided, 4 raised).
     pub fn to_le_bytes(&self) -> [u8; Self::BYTES] {
         let mut out = [0u8; Self::BYTES];
         out[..4].copy_from_slice(&self.n.to_le_bytes());
@@ -269,6 +338,7 @@ impl PixelEstimate {
         for (i, v) in self.blocks.iter().flatten().enumerate() {
             out[52 + 4 * i..56 + 4 * i].copy_from_slice(&v.to_le_bytes());
         }
+        out[Self::BYTES - 1] = self.stage;
         out
     }
 
@@ -287,6 +357,7 @@ impl PixelEstimate {
             mean: DVec3::new(f(0), f(1), f(2)),
             m2: DVec3::new(f(3), f(4), f(5)),
             blocks: std::array::from_fn(|j| [g(3 * j), g(3 * j + 1), g(3 * j + 2)]),
+            stage: b[Self::BYTES - 1],
         }
     }
 
@@ -298,8 +369,9 @@ impl PixelEstimate {
         }
     }
 
-    /// The count the pixel should reach next, or `None` when it is done: at the target, or
-    /// at `max_samples`.
+    /// The count the pixel should reach next, or `None` when it takes none now: at the
+    /// target, at `max_samples`, stopped by its neighbourhood or waiting for its decision
+    /// after its first samples.
     pub fn next_count(&self, a: &Adaptive) -> Option<u32> {
         let n = self.n;
         if n >= a.max_samples {
@@ -307,6 +379,13 @@ impl PixelEstimate {
         }
         if n < a.min_samples {
             return Some(a.min_samples);
+        }
+        if self.stage & RAISED == 0 {
+            return None;
+        }
+        let raised = raised_samples(a);
+        if n < raised {
+            return Some(raised);
         }
         let se2 = self.squared_error();
         if se2.sqrt() <= a.target_error {
@@ -328,8 +407,9 @@ impl PixelEstimate {
     }
 }
 
-/// Pixel (x, y) rendered to the error `a` asks: its samples from its Sobol sequence
-/// scrambled by `seed` (the render's is 0), taken as [`PixelEstimate::next_count`] says.
+/// Pixel (x, y) rendered to the error `a` asks as a pixel alone (its neighbourhood itself):
+/// its samples from its Sobol sequence scrambled by `seed` (the render's is 0), taken as
+/// [`PixelEstimate::next_count`] says.
 pub fn trace_pixel_to_error(
     tracer: &mut Tracer,
     camera: &Camera,
@@ -339,13 +419,17 @@ pub fn trace_pixel_to_error(
 ) -> PixelEstimate {
     let mut est = PixelEstimate::default();
     advance_pixel(tracer, camera, (x, y), seed, a, &mut est, u32::MAX);
+    est.decide(est.is_open());
+    advance_pixel(tracer, camera, (x, y), seed, a, &mut est, u32::MAX);
     est
 }
 
 /// Pixel (x, y) taken on from `est` as [`trace_pixel_to_error`] takes it, step by step of
 /// [`PixelEstimate::next_count`], stopping before a step that would pass `cap` samples;
 /// returns whether the pixel is done. The steps are the same whether a pixel is taken in one
-/// go or over several calls (the farm's passes), so its samples and estimate are too.
+/// go or over several calls (the farm's passes), so its samples and estimate are too. A pixel
+/// that reaches its first samples here stops for its neighbourhood's decision, whether it is
+/// open noted.
 pub fn advance_pixel(
     tracer: &mut Tracer,
     camera: &Camera,
@@ -363,25 +447,24 @@ pub fn advance_pixel(
             let c = trace_sobol_sample(tracer, camera, (x, y), seed, est.count());
             est.add(c);
         }
+        est.first_samples_in(a);
     }
     true
 }
 
 /// The most samples a pixel has after pass `pass` of a render to the error `a` in passes:
-/// `min_samples` after pass 0, then twice `min_samples` rounded up to whole blocks
-/// ([`whole_blocks`]) after pass 1, and twice as many after each later one. A pixel's next
-/// count is at most twice its samples rounded up to whole blocks
-/// ([`PixelEstimate::next_count`]), and rounding up to whole blocks keeps its order and
-/// leaves a count of whole blocks and its doublings as they are, so every pixel not done
-/// takes at least one step in each pass, whatever `min_samples` is, and
-/// the last pass, whose cap reaches `max_samples`, finishes every pixel. (Doubling
-/// `min_samples` alone let a pixel of 5 first samples, whose next count is 12, wait through
-/// pass 1's cap of 10.)
+/// `min_samples` after pass 0 (the first samples; then the neighbourhoods decide), then
+/// [`raised_samples`] after pass 1, and twice as many after each later one. A raised pixel's
+/// first step is to [`raised_samples`], each later one at most to twice its samples rounded
+/// up to whole blocks ([`PixelEstimate::next_count`]), and rounding up to whole blocks keeps
+/// order and leaves a count of whole blocks and its doublings as they are, so every raised
+/// pixel not done takes at least one step in each pass, whatever `min_samples` is, and the
+/// last pass, whose cap reaches `max_samples`, finishes every pixel.
 pub fn pass_cap(a: &Adaptive, pass: u32) -> u32 {
     if pass == 0 {
         return a.min_samples;
     }
-    let second = u64::from(whole_blocks(a.min_samples.saturating_mul(2)));
+    let second = u64::from(raised_samples(a));
     let cap = second << (pass - 1).min(32);
     cap.min(u64::from(u32::MAX)) as u32
 }
@@ -395,81 +478,16 @@ pub fn max_passes(a: &Adaptive) -> u32 {
         + 1
 }
 
-/// A constant pixel (the background outside the scene's footprint) rendered to the error
-/// `a` asks: `min_samples` of `c`, no error, added one by one as a traced pixel's are (so
+/// A constant pixel (the background outside the scene's footprint) at its first samples:
+/// `min_samples` of `c`, no error (not open), added one by one as a traced pixel's are (so
 /// the state is exactly the traced one's, its blocks' f32 means included).
 pub fn constant_pixel(c: DVec3, a: &Adaptive) -> PixelEstimate {
     let mut est = PixelEstimate::default();
     for _ in 0..a.min_samples {
         est.add(c);
     }
+    est.first_samples_in(a);
     est
-}
-
-/// What the pixels of a render to the error `a` reached and took (their `summaries`).
-pub fn error_stats(summaries: &[super::PixelSummary], a: &Adaptive) -> ErrorStats {
-    // Bucket k holds the pixels of 2^k to 2^(k+1) - 1 samples.
-    let mut buckets = [0u64; 32];
-    let (mut sq, mut max, mut samples, mut at_max) = (0.0, 0.0_f64, 0u64, 0u64);
-    for p in summaries {
-        let e = f64::from(p.error);
-        sq += e * e;
-        max = max.max(e);
-        samples += u64::from(p.samples);
-        at_max += u64::from(p.samples >= a.max_samples && e > a.target_error);
-        buckets[31 - p.samples.max(1).leading_zeros() as usize] += 1;
-    }
-    let histogram = (0..32u32)
-        .zip(buckets)
-        .filter(|&(_, pixels)| pixels > 0)
-        .map(|(k, pixels)| SamplesBucket {
-            from: 1 << k,
-            to: ((1u64 << (k + 1)) - 1).min(u64::from(u32::MAX)) as u32,
-            pixels,
-        })
-        .collect();
-    let n = summaries.len().max(1) as f64;
-    ErrorStats {
-        target: a.target_error,
-        rms: (sq / n).sqrt(),
-        max,
-        at_max_samples: at_max,
-        mean_samples: samples as f64 / n,
-        histogram,
-    }
-}
-
-/// A heat map of the samples each pixel took (`--samples-map`): black for `min_samples`
-/// through blue, red and yellow to white for `max_samples`, on a log scale.
-pub fn samples_map(
-    summaries: &[super::PixelSummary],
-    a: &Adaptive,
-    width: u32,
-    height: u32,
-) -> Film {
-    let (lo, hi) = (f64::from(a.min_samples).ln(), f64::from(a.max_samples).ln());
-    let ramp = [
-        [0.0, 0.0, 0.0],
-        [0.1, 0.1, 0.8],
-        [0.9, 0.1, 0.1],
-        [1.0, 0.9, 0.1],
-        [1.0, 1.0, 1.0],
-    ];
-    let mut film = Film::new(width, height);
-    for (px, s) in film.pixels.iter_mut().zip(summaries) {
-        let t = if hi > lo {
-            ((f64::from(s.samples).ln() - lo) / (hi - lo)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let f = t * (ramp.len() - 1) as f64;
-        let k = (f as usize).min(ramp.len() - 2);
-        let w = (f - k as f64) as f32;
-        for c in 0..3 {
-            px[c] = ramp[k][c] * (1.0 - w) + ramp[k + 1][c] * w;
-        }
-    }
-    film
 }
 
 #[cfg(test)]

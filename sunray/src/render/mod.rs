@@ -3,12 +3,14 @@
 //! each taking the film's next row, the same request-render-complete loop a SunRay III
 //! worker runs against its controller. [`settings`] holds what decides the
 //! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything;
-//! [`adaptive`], rendering each pixel to a target error instead of a sample count, and
+//! [`adaptive`], rendering each pixel to a target error instead of a sample count,
+//! [`neighbourhood`], the one decision a pixel then takes from the pixels around it, and
 //! [`pass`], doing so a pass at a time (the farm's unit of work then).
 //! [`parallel`] runs the lines of one image on all cores.
 
 pub mod adaptive;
 pub mod footprint;
+pub mod neighbourhood;
 pub mod parallel;
 pub mod pass;
 pub mod settings;
@@ -163,8 +165,9 @@ pub struct PixelSummary {
 /// [`render_line`] into `pixels` (the row of a film, `opts.width` long) in `frame` (made
 /// for the same scene and options), returning the line's counts: a whole image is rendered
 /// in place, with no line allocated and copied and the frame made once. With a target error
-/// the line is taken to it as the farm's passes take it ([`pass::advance_line`], uncapped),
-/// and what each pixel took goes to `summaries` when given (as long as `pixels`).
+/// the line is taken to it alone, each pixel deciding by its own first samples (an image's
+/// pixels decide over their neighbourhoods: [`pass::render_image_to_error`]), and what each
+/// pixel took goes to `summaries` when given (as long as `pixels`).
 #[allow(clippy::too_many_arguments)] // the row's parts, each borrowed as the caller holds it
 pub fn render_line_into(
     scene: &Scene,
@@ -177,18 +180,10 @@ pub fn render_line_into(
     mut summaries: Option<&mut [PixelSummary]>,
 ) -> Counters {
     if let Some(a) = &opts.adaptive {
-        // To an error: the line's pixels taken as far as they go, in one pass without cap.
+        // To an error: the line alone, each pixel its own neighbourhood (an image decides
+        // over neighbourhoods: `pass::render_image_to_error`).
         let mut estimates = vec![adaptive::PixelEstimate::default(); opts.width as usize];
-        let counters = pass::advance_line(
-            scene,
-            (accel, frame),
-            y,
-            opts,
-            a,
-            scratch,
-            &mut estimates,
-            u32::MAX,
-        );
+        let counters = pass::line_alone(scene, (accel, frame), y, opts, a, scratch, &mut estimates);
         for (x, (pixel, est)) in pixels.iter_mut().zip(&estimates).enumerate() {
             let c = est.mean();
             *pixel = [c.x as f32, c.y as f32, c.z as f32];

@@ -1,7 +1,10 @@
-//! All cores on one image: threads take the film's rows in order from a shared queue,
-//! render into them with [`super::render_line_into`] and keep their own counters, summed at
-//! the end.
+//! All cores on one image: threads take the film's rows in order from a shared queue
+//! ([`each_row`]), render into them with [`super::render_line_into`] (or, to an error, take
+//! the image's estimates through [`render_image_to_error`]) and keep their own
+//! counters, summed at the end.
 
+use super::adaptive::{self, Adaptive, PixelEstimate};
+use super::neighbourhood;
 use super::{render_line_into, Frame, PixelSummary, RenderOptions};
 use crate::accel::{Accel, Scratch};
 use crate::film::Film;
@@ -43,9 +46,11 @@ pub fn render_image_summarized(
     mailbox: bool,
     progress: Progress,
 ) -> (Film, Counters, Vec<PixelSummary>) {
+    // A render to an error goes over the lines twice: their first samples, then the rest.
+    let goes = if opts.adaptive.is_some() { 2 } else { 1 };
     let bar = match progress {
         Progress::Bar => {
-            let b = indicatif::ProgressBar::new(u64::from(opts.height));
+            let b = indicatif::ProgressBar::new(u64::from(opts.height) * goes);
             b.set_style(
                 indicatif::ProgressStyle::with_template(
                     "{bar:40} {pos}/{len} lines  {per_sec}  eta {eta}",
@@ -56,56 +61,124 @@ pub fn render_image_summarized(
         }
         Progress::Hidden => None,
     };
-    // Threads take the film's rows in order and render into them.
+    let rows = Rows {
+        threads,
+        prims: scene.prims.len(),
+        mailbox,
+        bar: bar.as_ref(),
+    };
     let mut film = Film::new(opts.width, opts.height);
     let frame = Frame::new(scene, accel, opts);
-    let pixels = if opts.adaptive.is_some() {
-        film.pixels.len()
-    } else {
-        0
-    };
-    let mut summaries = vec![PixelSummary::default(); pixels];
     let width = opts.width.max(1) as usize;
-    let mut summary_rows = summaries.chunks_mut(width);
-    let rows = Mutex::new(
-        film.pixels
-            .chunks_mut(width)
-            .zip(0..opts.height)
-            .map(move |(row, y)| (row, y, summary_rows.next())),
-    );
+    let (counters, summaries) = match &opts.adaptive {
+        Some(a) => {
+            let mut estimates = vec![PixelEstimate::default(); film.pixels.len()];
+            let counters =
+                render_image_to_error(scene, (accel, &frame), opts, a, &rows, &mut estimates);
+            for (px, e) in film.pixels.iter_mut().zip(&estimates) {
+                let c = e.mean();
+                *px = [c.x as f32, c.y as f32, c.z as f32];
+            }
+            (
+                counters,
+                estimates.iter().map(PixelEstimate::summary).collect(),
+            )
+        }
+        None => {
+            let counters = each_row(&rows, &mut film.pixels, width, |scratch, y, row| {
+                render_line_into(scene, accel, y, opts, scratch, &frame, row, None)
+            });
+            (counters, Vec::new())
+        }
+    };
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    (film, counters, summaries)
+}
+
+/// The whole image rendered to the error `a` (`estimates` row by row, all empty): every
+/// line's first samples, every pixel decided ([`decide_image`]), then every raised pixel
+/// taken to its end, each step on `rows`' threads; the counts of it all.
+pub fn render_image_to_error(
+    scene: &Scene,
+    (accel, frame): (&Accel, &Frame),
+    opts: &RenderOptions,
+    a: &Adaptive,
+    rows: &Rows<'_>,
+    estimates: &mut [PixelEstimate],
+) -> Counters {
+    let width = opts.width as usize;
+    let mut counters = each_row(rows, estimates, width, |scratch, y, row| {
+        super::pass::advance_line(
+            scene,
+            (accel, frame),
+            y,
+            opts,
+            a,
+            scratch,
+            row,
+            adaptive::pass_cap(a, 0),
+        )
+    });
+    neighbourhood::decide_image(estimates, width, a);
+    counters += each_row(rows, estimates, width, |scratch, y, row| {
+        super::pass::advance_line(scene, (accel, frame), y, opts, a, scratch, row, u32::MAX)
+    });
+    counters
+}
+
+/// How an image's rows are shared out: the threads (at least 1), the scratch each needs (a
+/// scene of `prims` primitives, the mailbox on or off) and the progress bar to advance.
+pub struct Rows<'a> {
+    /// Threads to run.
+    pub threads: usize,
+    /// Primitives in the scene (for each thread's scratch).
+    pub prims: usize,
+    /// Whether the mailbox is on.
+    pub mailbox: bool,
+    /// The bar advanced by each row done.
+    pub bar: Option<&'a indicatif::ProgressBar>,
+}
+
+/// `f(scratch, y, row)` on every `width`-long row of `items`, threads taking the rows in
+/// order from a shared queue, each with its own scratch; their counters summed.
+pub fn each_row<T: Send>(
+    rows: &Rows<'_>,
+    items: &mut [T],
+    width: usize,
+    f: impl Fn(&mut Scratch, u32, &mut [T]) -> Counters + Sync,
+) -> Counters {
+    let queue = Mutex::new(items.chunks_mut(width.max(1)).zip(0u32..));
     let worker = || {
-        let mut scratch = Scratch::new(scene.prims.len(), mailbox);
+        let mut scratch = Scratch::new(rows.prims, rows.mailbox);
         let mut counters = Counters::default();
         loop {
-            let next = rows.lock().unwrap_or_else(|e| e.into_inner()).next();
-            let Some((row, y, summaries)) = next else {
+            let next = queue.lock().unwrap_or_else(|e| e.into_inner()).next();
+            let Some((row, y)) = next else {
                 break;
             };
-            counters +=
-                render_line_into(scene, accel, y, opts, &mut scratch, &frame, row, summaries);
-            if let Some(b) = &bar {
+            counters += f(&mut scratch, y, row);
+            if let Some(b) = rows.bar {
                 b.inc(1);
             }
         }
         counters
     };
-    let results: Vec<Counters> = if threads <= 1 {
+    let results: Vec<Counters> = if rows.threads <= 1 {
         vec![worker()]
     } else {
         std::thread::scope(|s| {
-            let handles: Vec<_> = (0..threads).map(|_| s.spawn(worker)).collect();
+            let handles: Vec<_> = (0..rows.threads).map(|_| s.spawn(worker)).collect();
             handles
                 .into_iter()
                 .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
                 .collect()
         })
     };
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
     let mut total = Counters::default();
     for counters in results {
         total += counters;
     }
-    (film, total, summaries)
+    total
 }

@@ -1,11 +1,14 @@
-//! Rendering to an error a pass at a time (and, with no cap, `sunray render`'s whole line:
+//! Rendering to an error a pass at a time (and, with no cap, `sunray render`'s lines:
 //! [`advance_line`] is both): the farm's unit of work with `--target-error` is
-//! a (line, pass). Pass 0 takes every pixel of the line to its first samples; pass `k` takes
-//! each pixel not done on by whole steps of its schedule while it stays within
-//! [`pass_cap`]`(k)` samples. A pixel's steps are those [`render_line`](super::render_line)
-//! takes in one go, so after its last pass a line is bit for bit what `sunray render`
-//! gives, wherever and in however many goes each pass ran: a pass starts from the line's
-//! [`PixelEstimate`]s as the previous one left them (exactly: they travel as bytes).
+//! a (line, pass). Pass 0 takes every pixel of the line to its first samples; then, once
+//! the lines within [`RADIUS`](super::neighbourhood::RADIUS) of it have theirs, its pixels
+//! are decided ([`super::neighbourhood`]); pass `k` takes each raised pixel not done on by
+//! whole steps of its schedule while it stays within [`pass_cap`]`(k)` samples. A pixel's
+//! steps are those [`render_image_to_error`](super::parallel::render_image_to_error) takes (all first samples, every decision, the
+//! rest in one go), so after its last pass a line is bit for bit what `sunray render` gives,
+//! wherever and in however many goes each pass ran: a pass starts from the line's
+//! [`PixelEstimate`]s as the previous one and the decision left them (exactly: they travel
+//! as bytes).
 
 use super::adaptive::{self, pass_cap, Adaptive, PixelEstimate};
 use super::{Frame, RenderOptions};
@@ -73,7 +76,46 @@ pub(super) fn advance_line(
     counters
 }
 
-/// True when every pixel of a line is done (it needs no further pass).
+/// Line `y` rendered to the error `a` with each pixel its own neighbourhood (raised only
+/// when it is open itself): what [`render_line`](super::render_line) gives for one line
+/// alone. An image's lines decide over their neighbourhoods
+/// ([`render_image_to_error`](super::parallel::render_image_to_error)).
+pub(super) fn line_alone(
+    scene: &Scene,
+    (accel, frame): (&Accel, &Frame),
+    y: u32,
+    opts: &RenderOptions,
+    a: &Adaptive,
+    scratch: &mut Scratch,
+    estimates: &mut [PixelEstimate],
+) -> Counters {
+    let mut counters = advance_line(
+        scene,
+        (accel, frame),
+        y,
+        opts,
+        a,
+        scratch,
+        estimates,
+        a.min_samples,
+    );
+    for e in estimates.iter_mut() {
+        e.decide(e.is_open());
+    }
+    counters += advance_line(
+        scene,
+        (accel, frame),
+        y,
+        opts,
+        a,
+        scratch,
+        estimates,
+        u32::MAX,
+    );
+    counters
+}
+
+/// True when every pixel of a line is done (it needs no further pass and no decision).
 pub fn line_done(estimates: &[PixelEstimate], a: &Adaptive) -> bool {
     estimates.iter().all(|e| e.is_done(a))
 }
@@ -93,7 +135,8 @@ pub fn line_pixels(estimates: &[PixelEstimate]) -> Vec<[f32; 3]> {
 mod tests {
     use super::*;
     use crate::accel::{AccelKind, AccelOptions};
-    use crate::render::{adaptive::max_passes, render_line};
+    use crate::render::neighbourhood::decide_image;
+    use crate::render::{adaptive::max_passes, render_image_summarized, Progress};
 
     /// A sphere, its shadow under an area light and the background around: pixels that stop
     /// at their first samples, and pixels that need every pass.
@@ -107,8 +150,11 @@ begin
 end
 ";
 
+    /// The farm's way (every line's first samples, the decisions, then pass after pass of
+    /// each line) gives `sunray render`'s image bit for bit, with the same samples; the
+    /// neighbourhood raises pixels that are not open themselves.
     #[test]
-    fn a_line_in_passes_is_the_line_in_one_go() {
+    fn an_image_in_passes_is_the_image_in_one_go() {
         let table = yari::colour::ColourTable::default();
         let loaded =
             yari::load::load_str("t.yari", SCENE, yari::load::InputKind::Yari, &table).unwrap();
@@ -123,39 +169,61 @@ end
             adaptive: Some(a),
             ..RenderOptions::asked([24, 16], 1)
         };
+        let (film, counters, summaries) =
+            render_image_summarized(&scene, &accel, &opts, 2, false, Progress::Hidden);
         let frame = Frame::new(&scene, &accel, &opts);
         let mut scratch = Scratch::new(scene.prims.len(), false);
-        let (mut most_passes, mut eye) = (0, [0u64; 2]);
-        for y in 0..opts.height {
-            let whole = render_line(&scene, &accel, y, &opts, &mut scratch);
-            let mut est = vec![PixelEstimate::default(); opts.width as usize];
-            let mut pass = 0;
-            while pass == 0 || !line_done(&est, &a) {
+        let w = opts.width as usize;
+        let mut est = vec![PixelEstimate::default(); w * opts.height as usize];
+        let mut eye = 0;
+        let mut pass_of = |y: u32, pass: u32, row: &mut [PixelEstimate]| {
+            let c = render_pass_into(
+                &scene,
+                &accel,
+                (y, pass),
+                &opts,
+                &a,
+                &mut scratch,
+                &frame,
+                row,
+            );
+            c.eye
+        };
+        for (y, row) in (0..).zip(est.chunks_mut(w)) {
+            eye += pass_of(y, 0, row);
+        }
+        assert!(est.iter().all(|e| e.awaits_decision(&a) && e.count() == 4));
+        decide_image(&mut est, w, &a);
+        let open = est.iter().filter(|e| e.is_open()).count();
+        let near_open = est
+            .iter()
+            .filter(|e| !e.is_open() && !e.is_done(&a))
+            .count();
+        let stopped = est.iter().filter(|e| e.is_done(&a)).count();
+        assert!(
+            open > 0 && near_open > 0 && stopped > 0,
+            "{open} {near_open} {stopped}"
+        );
+        let mut most_passes = 0;
+        for (y, row) in (0..).zip(est.chunks_mut(w)) {
+            let mut pass = 1;
+            while !line_done(row, &a) {
                 assert!(pass < max_passes(&a), "line {y} still not done");
-                let c = render_pass_into(
-                    &scene,
-                    &accel,
-                    (y, pass),
-                    &opts,
-                    &a,
-                    &mut scratch,
-                    &frame,
-                    &mut est,
-                );
-                eye[1] += c.eye;
-                for e in &est {
+                eye += pass_of(y, pass, row);
+                for e in row.iter() {
                     assert!(e.is_done(&a) || e.count() <= pass_cap(&a, pass));
                 }
                 pass += 1;
             }
             most_passes = most_passes.max(pass);
-            eye[0] += whole.counters.eye;
-            assert_eq!(line_pixels(&est), whole.pixels, "line {y}");
-            for e in &est {
-                assert_eq!(PixelEstimate::from_le_bytes(&e.to_le_bytes()), *e);
-            }
         }
-        assert_eq!(eye[0], eye[1], "the same samples, counted once");
+        assert_eq!(line_pixels(&est), film.pixels);
+        assert_eq!(eye, counters.eye, "the same samples, counted once");
+        let took: Vec<_> = est.iter().map(PixelEstimate::summary).collect();
+        assert_eq!(took, summaries);
+        for e in &est {
+            assert_eq!(PixelEstimate::from_le_bytes(&e.to_le_bytes()), *e);
+        }
         assert!(
             most_passes >= 4,
             "{most_passes} passes: the scene must need several"
@@ -170,6 +238,10 @@ end
             let a = Adaptive::new(1e-6, Some(min), Some(4096));
             let mut est = PixelEstimate::default();
             for pass in 0..max_passes(&a) {
+                // Raised by its neighbourhood after its first samples.
+                if est.awaits_decision(&a) {
+                    est.decide(true);
+                }
                 if est.next_count(&a).is_none() {
                     // One sample alone has no spread to estimate (min 1).
                     assert!(est.count() < 2, "min {min}: done at {}", est.count());
@@ -200,7 +272,7 @@ end
 
     #[test]
     fn passes_are_bounded() {
-        for (min, max, passes) in [(16, 1024, 7), (2, 65_536, 16), (4, 4, 1), (3, 10, 3)] {
+        for (min, max, passes) in [(16, 1024, 6), (2, 65_536, 15), (4, 4, 1), (3, 10, 2)] {
             let a = Adaptive::new(0.01, Some(min), Some(max));
             assert_eq!(max_passes(&a), passes, "{min}..{max}");
             assert!(pass_cap(&a, passes - 1) >= max);

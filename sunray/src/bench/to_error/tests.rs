@@ -34,13 +34,13 @@ fn the_lower_envelope_keeps_the_fastest_way_to_each_error() {
     assert_eq!(got, [(1.0, 0.02), (2.0, 0.01), (4.0, 0.005)]);
 }
 
-/// The pixels whose count the estimate decided: more than the first samples, fewer than the
-/// most.
+/// The pixels whose count the estimate decided: more than a raised pixel's fewest (4 x the
+/// first samples), fewer than the most.
 #[test]
-fn the_pixels_stopped_by_the_target_are_between_first_and_most() {
+fn the_pixels_stopped_by_the_target_are_between_raised_and_most() {
     let a = Adaptive::new(0.01, Some(16), Some(4096));
-    let got = stopped_by_target(&[16, 17, 4096, 64, 4095], &a);
-    assert_eq!(got, [false, true, false, true, true]);
+    let got = stopped_by_target(&[16, 17, 4096, 64, 65, 4095], &a);
+    assert_eq!(got, [false, false, false, false, true, true]);
 }
 
 /// A pixel whose halves agree carries no error and is left out of the varying RMSE; the

@@ -278,7 +278,8 @@ fn a_render_to_an_error_keeps_each_lines_latest_pass() {
     };
     let mut noisy = PixelEstimate::default();
     (0..4).for_each(|k| noisy.add(DVec3::splat(f64::from(k % 2))));
-    let done = constant_pixel(DVec3::splat(0.25), &a);
+    let mut done = constant_pixel(DVec3::splat(0.25), &a);
+    done.decide(false);
     let record = |y: u32, pass: u32, px: [PixelEstimate; 2], eye: u64| FinishedLine {
         line: y,
         pass,
@@ -324,18 +325,20 @@ fn a_render_to_an_error_keeps_each_lines_latest_pass() {
     assert!(e.contains("pixels and estimates"), "{e}");
 }
 
-/// Format 1 (before a render to an error's estimates changed) is read for a job of a fixed
-/// sample count, whose lines are what they were, and refused with a target error; a format
-/// this program does not know is refused.
+/// Formats 1 and 2 (before a render to an error's estimates changed) are read for a job of
+/// a fixed sample count, whose lines are what they were, and refused with a target error; a
+/// format this program does not know is refused.
 #[test]
-fn a_format_1_checkpoint_is_read_only_without_a_target_error() {
+fn formats_1_and_2_are_read_only_without_a_target_error() {
     let with_format = |spec: JobSpec, format: u32| {
         let store = saved(spec, &[line(0)]);
         rewrite_header(&store, |h| CheckpointHeader { format, ..h });
         store
     };
-    let r = rt().block_on(load(&with_format(spec(), 1), "j4"));
-    assert_eq!(r.unwrap().unwrap().lines.len(), 1);
+    for format in [1, 2] {
+        let r = rt().block_on(load(&with_format(spec(), format), "j4"));
+        assert_eq!(r.unwrap().unwrap().lines.len(), 1);
+    }
     let to_error = JobSpec {
         settings: Some(RenderSettings {
             target_error: 0.01,
@@ -345,7 +348,7 @@ fn a_format_1_checkpoint_is_read_only_without_a_target_error() {
         }),
         ..spec()
     };
-    for (s, format) in [(to_error, 1), (spec(), 3)] {
+    for (s, format) in [(to_error.clone(), 1), (to_error, 2), (spec(), 4)] {
         let e = load_error(&with_format(s, format));
         assert!(
             matches!(e, CheckpointError::Format(f) if f == format),

@@ -5,6 +5,7 @@
 use super::link::WorkerLink;
 use super::{Controller, WorkerProc};
 use crate::distrib::grants::Completion;
+use crate::distrib::line_passes::Decided;
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{Outcome, Stage};
 use crate::distrib::timeline;
@@ -175,12 +176,15 @@ impl<L: WorkerLink> Controller<L> {
                 let proto_counters = d.counters.unwrap_or_default();
                 let c = Counters::from(&proto_counters);
                 self.max_line_s = self.max_line_s.max(proto_counters.line_s);
-                let (pixels, more) = match payload {
-                    Payload::Pixels(px) => (px, false),
-                    Payload::Estimates(e) => self
-                        .passes
-                        .as_mut()
-                        .map_or((Vec::new(), false), |p| p.pass_in(d.line, e)),
+                let (pixels, more, waiting, decided) = match payload {
+                    Payload::Pixels(px) => (px, false, false, Vec::new()),
+                    Payload::Estimates(e) => match self.passes.as_mut() {
+                        Some(p) => {
+                            let got = p.pass_in(d.line, e);
+                            (got.pixels, got.more, got.waiting, got.decided)
+                        }
+                        None => (Vec::new(), false, false, Vec::new()),
+                    },
                 };
                 if more {
                     self.table.another_pass(d.line);
@@ -205,8 +209,9 @@ impl<L: WorkerLink> Controller<L> {
                         pass: d.pass,
                         estimates: d.estimates,
                     },
-                    !more,
+                    !more && !waiting,
                 );
+                self.lines_decided(decided);
                 self.unsaved = true;
                 let done = self.table.done();
                 self.view.set_done(done);
@@ -219,6 +224,33 @@ impl<L: WorkerLink> Controller<L> {
         }
         self.stamps_to_echo[i] = Some(d.stamp_s);
         self.table.set_window(i, d.window);
+    }
+
+    /// Lines decided now that their neighbourhoods have their first samples: each goes on
+    /// with its next pass or is finished, and its record in the checkpoint holds the decision
+    /// (the same pass, no counters of its own: nothing was rendered).
+    fn lines_decided(&mut self, decided: Vec<Decided>) {
+        for l in decided {
+            let pass = self.table.pass(l.line);
+            if l.more {
+                self.table.another_pass(l.line);
+                if let Some(web) = self.view.web_mut() {
+                    web.refined();
+                }
+            }
+            self.writer.record(
+                proto::FinishedLine {
+                    line: l.line,
+                    pixels: Vec::new(),
+                    counters: None,
+                    pass,
+                    estimates: l.estimates,
+                },
+                !l.more,
+            );
+        }
+        let done = self.table.done();
+        self.view.set_done(done);
     }
 
     /// Node `i`'s process exited, its host was lost, or it cannot be reached. `clean`: it

@@ -324,11 +324,16 @@ impl<L: WorkerLink> Controller<L> {
             passes,
             counters,
             resumed,
+            records,
         } = resume::resumed(&cfg, workers.len(), restored.as_ref());
         let spawned = Some(cfg.clock.now());
         let timeline = cfg.timeline.clone();
         let link = Arc::new(link);
         let writer = StoreWriter::start(link.clone(), checkpointer, cfg.checkpointed.clone());
+        let unsaved = !records.is_empty();
+        for (line, finished) in records {
+            writer.record(line, finished);
+        }
         let nodes = workers
             .iter()
             .enumerate()
@@ -364,7 +369,7 @@ impl<L: WorkerLink> Controller<L> {
             nodes,
             finishing: false,
             writer,
-            unsaved: false,
+            unsaved,
             last_checkpoint: Instant::now(),
             counters,
             max_line_s: 0.0,

@@ -5,7 +5,8 @@
 use super::ControllerConfig;
 use crate::distrib::checkpoint::Restored;
 use crate::distrib::grants::GrantTable;
-use crate::distrib::line_passes::LinePasses;
+use crate::distrib::line_passes::{LinePasses, LineStage};
+use crate::distrib::messages::proto::FinishedLine;
 use crate::stats::Counters;
 
 /// What a job starts from: its grant table, its lines between passes, the counters of the
@@ -15,6 +16,9 @@ pub(super) struct Resumed {
     pub(super) passes: Option<LinePasses>,
     pub(super) counters: Counters,
     pub(super) resumed: u32,
+    /// Decisions made while the checkpoint was read, to record (each with whether it
+    /// finished its line).
+    pub(super) records: Vec<(FinishedLine, bool)>,
 }
 
 /// The job of `cfg` for `nodes` workers, going on from `restored` if there is one.
@@ -30,6 +34,9 @@ pub(super) fn resumed(
     let mut counters = Counters::default();
     // Lines whose last pass left pixels above the target: their next pass.
     let mut resume_at = Vec::new();
+    // The last pass of each line of the checkpoint, and the lines decided as they came in.
+    let mut last_pass = std::collections::BTreeMap::new();
+    let mut decided = Vec::new();
     for (r, l) in restored
         .iter()
         .flat_map(|r| r.lines.values().map(move |l| (r, l)))
@@ -39,12 +46,46 @@ pub(super) fn resumed(
         };
         counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
         match (passes.as_mut(), r.estimates(l)) {
-            (Some(p), Some(e)) => match p.pass_in(l.line, e) {
-                (_, true) => resume_at.push((l.line, l.pass + 1)),
-                (_, false) => *f = true,
-            },
+            (Some(p), Some(e)) => {
+                // Lines decided as their neighbourhoods come in: their decisions go to the
+                // checkpoint again (what the interrupted run may not have written).
+                for d in p.pass_in(l.line, e).decided {
+                    decided.push((d, l.line));
+                }
+                last_pass.insert(l.line, l.pass);
+            }
             (Some(_), None) => {}
             (None, _) => *f = true,
+        }
+    }
+    let mut records = Vec::new();
+    let mut resumed = finished.iter().filter(|f| **f).count() as u32;
+    if let Some(p) = &passes {
+        for (&line, &pass) in &last_pass {
+            match p.stage(line) {
+                LineStage::Pass => resume_at.push((line, pass + 1)),
+                LineStage::Settled => {
+                    finished[line as usize] = true;
+                    resumed += 1;
+                }
+                // Not granted until its neighbours' first samples are in (they are lines
+                // still to render, so the job cannot end before).
+                LineStage::Waiting => finished[line as usize] = true,
+            }
+        }
+        for (d, _) in decided {
+            let pass = last_pass.get(&d.line).copied().unwrap_or(0);
+            let finished = !d.more;
+            records.push((
+                FinishedLine {
+                    line: d.line,
+                    pixels: Vec::new(),
+                    counters: None,
+                    pass,
+                    estimates: d.estimates,
+                },
+                finished,
+            ));
         }
     }
     let mut table = GrantTable::new(cfg.strategy, cfg.height, nodes, &finished);
@@ -55,6 +96,7 @@ pub(super) fn resumed(
         table,
         passes,
         counters,
-        resumed: finished.iter().filter(|f| **f).count() as u32,
+        resumed,
+        records,
     }
 }

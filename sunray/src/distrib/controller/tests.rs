@@ -15,6 +15,7 @@ use std::time::Duration;
 
 mod checkpoints;
 mod crew;
+mod passes;
 mod stall;
 mod timeline;
 mod web;
@@ -26,13 +27,18 @@ const JOB: &str = "job-under-test";
 /// The job spec checkpointed for an image of `height` lines (a checkpoint is only read back
 /// with render settings that match its lines).
 fn spec(height: u32) -> proto::JobSpec {
+    spec_with(height, None)
+}
+
+/// [`spec`] of a job rendered to the error `adaptive` asks (when given).
+fn spec_with(height: u32, adaptive: Option<crate::render::adaptive::Adaptive>) -> proto::JobSpec {
     let settings = crate::render::Settings {
         render: crate::render::RenderOptions {
             width: WIDTH,
             height,
             samples: 1,
             trace: Default::default(),
-            adaptive: None,
+            adaptive,
             sampler: Default::default(),
         },
         accel: Default::default(),
@@ -187,7 +193,8 @@ impl Job {
             crew: None,
         };
         edit(&mut cfg);
-        let checkpointer = Checkpointer::new(JOB, spec(height), 7, restored.as_ref());
+        let spec = spec_with(height, cfg.adaptive);
+        let checkpointer = Checkpointer::new(JOB, spec, 7, restored.as_ref());
         let handle = spawn_with(cfg, link.clone(), workers, restored, checkpointer);
         Job {
             link,

@@ -8,27 +8,48 @@ fn adaptive(target_error: f64, min_samples: u32, max_samples: u32) -> Adaptive {
     }
 }
 
-/// Feeds `sample(k)` as the estimate asks; the estimate at the end.
-fn run(a: &Adaptive, mut sample: impl FnMut(u32) -> DVec3) -> PixelEstimate {
+/// Feeds `sample(k)` as the estimate asks, the pixel raised after its first samples (as
+/// when a pixel near it is open); the estimate at the end.
+fn run(a: &Adaptive, sample: impl FnMut(u32) -> DVec3) -> PixelEstimate {
+    run_decided(a, |_| true, sample)
+}
+
+/// [`run`], the pixel decided by `raise(its estimate after its first samples)`.
+fn run_decided(
+    a: &Adaptive,
+    raise: impl Fn(&PixelEstimate) -> bool,
+    mut sample: impl FnMut(u32) -> DVec3,
+) -> PixelEstimate {
     let mut est = PixelEstimate::default();
-    while let Some(want) = est.next_count(a) {
-        assert!(want > est.count() && want <= a.max_samples);
-        while est.count() < want {
-            est.add(sample(est.count()));
+    loop {
+        while let Some(want) = est.next_count(a) {
+            assert!(want > est.count() && want <= a.max_samples);
+            while est.count() < want {
+                est.add(sample(est.count()));
+            }
+            est.first_samples_in(a);
         }
+        if !est.awaits_decision(a) {
+            return est;
+        }
+        est.decide(raise(&est));
     }
-    est
 }
 
 #[test]
 fn a_constant_pixel_stops_at_min_samples_with_no_error() {
     let a = adaptive(1e-6, 4, 1024);
     let c = DVec3::new(0.2, 0.7, 0.123_456_789);
-    let est = run(&a, |_| c);
+    // Alone (nothing open near it): its first samples; raised: 4 times as many.
+    let est = run_decided(&a, PixelEstimate::is_open, |_| c);
     assert_eq!(est.count(), 4);
     assert_eq!(est.mean(), c, "exactly the colour");
     assert_eq!(est.standard_error(), 0.0);
-    assert_eq!(constant_pixel(c, &a), est);
+    let mut first = constant_pixel(c, &a);
+    assert!(first.awaits_decision(&a));
+    first.decide(false);
+    assert_eq!(first, est);
+    assert_eq!(run(&a, |_| c).count(), 16);
 }
 
 /// Pixels `0..pixels` rendered to the error `a` by `sample(pixel, k)`: each pixel's mean
@@ -57,7 +78,7 @@ fn over_pixels(
 #[test]
 fn a_pixel_of_known_variance_takes_the_count_the_formula_says() {
     for e in [0.1, 0.05, 0.02] {
-        let a = adaptive(e, 16, 65_536);
+        let a = adaptive(e, 4, 65_536);
         let mut state = e.to_bits();
         let (rms, count) = over_pixels(&a, 300, 0.5, |_, _| {
             f64::from(u8::from(crate::sampler::unit_f64(&mut state) < 0.5))
@@ -79,7 +100,7 @@ fn a_pixel_of_known_variance_takes_the_count_the_formula_says() {
 #[test]
 fn sobol_blocks_estimate_an_edge_honestly_with_few_samples() {
     for e in [0.01, 0.0025] {
-        let a = adaptive(e, 16, 65_536);
+        let a = adaptive(e, 4, 65_536);
         let (rms, count) = over_pixels(&a, 300, 0.3, |p, k| {
             let seed = crate::sampler::mix64(p) as u32;
             let (x, y) = (
@@ -129,16 +150,54 @@ fn blocks_hold_consecutive_samples_and_steps_end_on_whole_blocks() {
     }
     let a = adaptive(1e-3, 6, 1000);
     let mut est = PixelEstimate::default();
-    while let Some(want) = est.next_count(&a) {
-        assert!(
-            want == 6 || want == whole_blocks(want) || want == 1000,
-            "{want}"
-        );
-        while est.count() < want {
-            est.add(DVec3::splat(crate::sampler::unit_f64(&mut state)));
+    for raise in [None, Some(true)] {
+        if let Some(r) = raise {
+            est.decide(r);
+        }
+        while let Some(want) = est.next_count(&a) {
+            assert!(
+                want == 6 || want == whole_blocks(want) || want == 1000,
+                "{want}"
+            );
+            while est.count() < want {
+                est.add(DVec3::splat(crate::sampler::unit_f64(&mut state)));
+            }
+            est.first_samples_in(&a);
         }
     }
+    assert_eq!(est.count(), 1000);
+    assert!(est.is_open() && est.is_done(&a));
     assert_eq!(PixelEstimate::from_le_bytes(&est.to_le_bytes()), est);
+}
+
+/// After its first samples a pixel waits for its neighbourhood: stopped, it is done there;
+/// raised, it takes 4 x its first samples at least, even when it is flat itself.
+#[test]
+fn a_pixel_waits_for_its_decision_and_goes_on_only_when_raised() {
+    let a = adaptive(0.01, 4, 1024);
+    let flat = constant_pixel(DVec3::splat(0.3), &a);
+    assert_eq!(flat.count(), 4);
+    assert!(flat.awaits_decision(&a) && !flat.is_open() && !flat.is_done(&a));
+    assert_eq!(flat.next_count(&a), None, "no samples while it waits");
+    let (mut stopped, mut raised) = (flat, flat);
+    stopped.decide(false);
+    raised.decide(true);
+    raised.decide(false);
+    assert!(stopped.is_done(&a) && !stopped.awaits_decision(&a));
+    assert_eq!(
+        raised.next_count(&a),
+        Some(16),
+        "decided once: still raised"
+    );
+    for e in [stopped, raised] {
+        assert!(e.stage_is_valid());
+        assert_eq!(PixelEstimate::from_le_bytes(&e.to_le_bytes()), e);
+    }
+    // Open: its own first samples' spread is above the target.
+    let noisy = run_decided(&a, PixelEstimate::is_open, |k| {
+        DVec3::splat(f64::from(k % 2))
+    });
+    assert!(noisy.is_open() && noisy.count() > 16);
 }
 
 #[test]
@@ -172,9 +231,20 @@ fn the_first_samples_grow_as_the_target_falls() {
         .iter()
         .map(|&e| default_min_samples(e))
         .collect();
-    assert_eq!(firsts, [16, 16, 32, 128, 16_384, 65_536]);
+    assert_eq!(firsts, [4, 8, 16, 64, 8192, 65_536]);
     let a = Adaptive::new(0.002, None, None);
-    assert_eq!((a.min_samples, a.max_samples), (128, DEFAULT_MAX_SAMPLES));
+    assert_eq!((a.min_samples, a.max_samples), (64, DEFAULT_MAX_SAMPLES));
+    assert_eq!(
+        raised_samples(&a),
+        256,
+        "a raised pixel takes 4 x its first samples"
+    );
+    assert_eq!(raised_samples(&adaptive(0.01, 6, 1000)), 24);
+    assert_eq!(
+        raised_samples(&adaptive(0.01, 16, 40)),
+        40,
+        "at most the most"
+    );
     // Never above the most asked for, and what is given is kept.
     assert_eq!(Adaptive::new(1e-4, None, Some(64)).min_samples, 64);
     assert_eq!(Adaptive::new(1e-4, Some(4), Some(64)).min_samples, 4);

@@ -1,0 +1,188 @@
+//! A job rendered to an error: a line goes on past its first samples only once every line
+//! within two of it has its own, and only if a pixel near it was open; a checkpoint holds the
+//! decisions, and a job resumed with lines still waiting decides them as their neighbours
+//! come in.
+
+use super::{spec_with, FakeLink, Job, JOB, WIDTH};
+use crate::distrib::checkpoint::{self, Checkpointer};
+use crate::distrib::messages::{self, proto, Body};
+use crate::render::adaptive::{self, constant_pixel, Adaptive, PixelEstimate};
+use glam::DVec3;
+
+const HEIGHT: u32 = 8;
+
+fn target() -> Adaptive {
+    Adaptive::new(0.01, Some(4), Some(64))
+}
+
+/// Line `y`'s first samples: flat, but for an open pixel at (0, 0).
+fn first_samples(y: u32) -> Vec<PixelEstimate> {
+    let a = target();
+    let mut line = vec![constant_pixel(DVec3::splat(0.5), &a); WIDTH as usize];
+    if y == 0 {
+        let mut noisy = PixelEstimate::default();
+        for k in 0..4 {
+            noisy.add(DVec3::splat(f64::from(k % 2)));
+        }
+        noisy.first_samples_in(&a);
+        line[0] = noisy;
+    }
+    line
+}
+
+impl Job {
+    /// Worker `node` renders pass `grant.pass` of its line: the first samples, or the raised
+    /// pixels taken on (with samples of 0.5) as far as the pass's cap.
+    async fn pass_done(&self, node: usize, g: &proto::LineGrant) {
+        let a = target();
+        let mut est = if g.pass == 0 {
+            first_samples(g.line)
+        } else {
+            messages::estimates_from_bytes(&g.estimates, WIDTH, &a).unwrap()
+        };
+        let cap = adaptive::pass_cap(&a, g.pass);
+        for p in est.iter_mut() {
+            while let Some(want) = p.next_count(&a).filter(|&n| n <= cap) {
+                while p.count() < want {
+                    p.add(DVec3::splat(0.5));
+                }
+            }
+        }
+        let done = proto::Done {
+            line: g.line,
+            grant: g.grant,
+            pass: g.pass,
+            estimates: messages::estimates_to_bytes(&est),
+            counters: Some(proto::Counters::default()),
+            window: 8,
+            ..Default::default()
+        };
+        self.say(node, Body::Done(done)).await;
+    }
+
+    /// Worker `node` answers every grant until the job ends; the grants it answered.
+    async fn serve_passes(&self, node: usize) -> Vec<(u32, u32)> {
+        let mut answered = Vec::new();
+        for _ in 0..10_000 {
+            if self.handle.task.is_finished() {
+                break;
+            }
+            for g in self.link.take_grants(&self.procs[node]) {
+                self.pass_done(node, &g).await;
+                answered.push((g.line, g.pass));
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        }
+        answered
+    }
+}
+
+fn job(link: FakeLink, restored: Option<checkpoint::Restored>) -> Job {
+    Job::configured(link, HEIGHT, 1, restored, |cfg| {
+        cfg.adaptive = Some(target())
+    })
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_line_goes_on_once_its_neighbours_have_their_first_samples() {
+    let job = job(FakeLink::default(), None);
+    job.ready(0, 8).await;
+    let firsts = job.link.take_grants(&job.procs[0]);
+    assert_eq!(firsts.len(), 8);
+    assert!(firsts.iter().all(|g| g.pass == 0));
+    // Line 0 waits for lines 1 and 2's first samples, line 1 for 0 to 3: no pass 1 before.
+    for g in &firsts[..2] {
+        job.pass_done(0, g).await;
+    }
+    assert!(job.link.take_grants(&job.procs[0]).is_empty());
+    let mut answered = Vec::new();
+    for (g, next) in firsts[2..4].iter().zip([(0, 1), (1, 1)]) {
+        job.pass_done(0, g).await;
+        let seconds = job.link.take_grants(&job.procs[0]);
+        let got: Vec<(u32, u32)> = seconds.iter().map(|g| (g.line, g.pass)).collect();
+        // Its line goes on; the next line still waits for the line after this one.
+        assert!(got.contains(&next), "after line {}: {got:?}", g.line);
+        assert!(
+            got.iter().all(|&(line, _)| line <= next.0),
+            "after line {}: {got:?}",
+            g.line
+        );
+        for s in &seconds {
+            job.pass_done(0, s).await;
+            answered.push((s.line, s.pass));
+        }
+    }
+    for g in &firsts[4..] {
+        job.pass_done(0, g).await;
+    }
+    answered.extend(job.serve_passes(0).await);
+    answered.sort_unstable();
+    answered.dedup_by_key(|(line, _)| *line);
+    // Lines 0 to 2 (the open pixel within two) go on; 3 to 7 stop at their first samples.
+    assert_eq!(answered.iter().map(|l| l.0).collect::<Vec<_>>(), [0, 1, 2]);
+    let (r, link) = job.end().await;
+    assert!(r.finished);
+    let took: Vec<u32> = r
+        .passes
+        .unwrap()
+        .summaries()
+        .iter()
+        .map(|s| s.samples)
+        .collect();
+    assert_eq!(
+        &took[..4],
+        [64, 16, 16, 4],
+        "line 0: open, raised, raised, too far"
+    );
+    assert!(took[3 * WIDTH as usize..].iter().all(|&n| n == 4));
+    let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
+    assert_eq!(
+        reread.finished_lines(),
+        HEIGHT,
+        "the decisions are in the checkpoint"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_resumed_job_decides_its_waiting_lines_as_their_neighbours_come_in() {
+    // An earlier run had the first samples of lines 0 to 5, and no decision.
+    let link = FakeLink::default();
+    let mut earlier = Checkpointer::new(JOB, spec_with(HEIGHT, Some(target())), 7, None);
+    for y in 0..6 {
+        let line = proto::FinishedLine {
+            line: y,
+            estimates: messages::estimates_to_bytes(&first_samples(y)),
+            counters: Some(proto::Counters::default()),
+            ..Default::default()
+        };
+        earlier.record(line, false);
+    }
+    earlier.save(&link, "failed").await.unwrap();
+    let restored = checkpoint::load(&link, JOB).await.unwrap();
+    assert_eq!(restored.as_ref().unwrap().finished_lines(), 0);
+    let job = job(link, restored);
+    job.ready(0, 8).await;
+    let grants = job.link.take_grants(&job.procs[0]);
+    let mut given: Vec<(u32, u32)> = grants.iter().map(|g| (g.line, g.pass)).collect();
+    given.sort_unstable();
+    // 0 to 2 raised (pass 1), 3 finished, 4 and 5 wait for 6 and 7 (pass 0).
+    assert_eq!(given, [(0, 1), (1, 1), (2, 1), (6, 0), (7, 0)]);
+    for g in &grants {
+        job.pass_done(0, g).await;
+    }
+    let later = job.serve_passes(0).await;
+    assert!(later.iter().all(|&(line, _)| line <= 2), "{later:?}");
+    let (r, link) = job.end().await;
+    assert!(r.finished);
+    let took: Vec<u32> = r
+        .passes
+        .unwrap()
+        .summaries()
+        .iter()
+        .map(|s| s.samples)
+        .collect();
+    assert_eq!(&took[..4], [64, 16, 16, 4]);
+    assert!(took[3 * WIDTH as usize..].iter().all(|&n| n == 4));
+    let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
+    assert_eq!(reread.finished_lines(), HEIGHT);
+}
