@@ -49,9 +49,7 @@ pub(super) fn resumed(
             (Some(p), Some(e)) => {
                 // Lines decided as their neighbourhoods come in: their decisions go to the
                 // checkpoint again (what the interrupted run may not have written).
-                for d in p.pass_in(l.line, e).decided {
-                    decided.push((d, l.line));
-                }
+                decided.extend(p.pass_in(l.line, e).decided);
                 last_pass.insert(l.line, l.pass);
             }
             (Some(_), None) => {}
@@ -73,7 +71,7 @@ pub(super) fn resumed(
                 LineStage::Waiting => finished[line as usize] = true,
             }
         }
-        for (d, _) in decided {
+        for d in decided {
             let pass = last_pass.get(&d.line).copied().unwrap_or(0);
             let finished = !d.more;
             records.push((
