@@ -5,6 +5,7 @@
 
 use super::{spec_with, FakeLink, Job, JOB, WIDTH};
 use crate::distrib::checkpoint::{self, Checkpointer};
+use crate::distrib::controller::JobResult;
 use crate::distrib::messages::{self, proto, Body};
 use crate::render::adaptive::{self, constant_pixel, Adaptive, PixelEstimate};
 use glam::DVec3;
@@ -77,6 +78,25 @@ impl Job {
     }
 }
 
+/// The job `r` finished, and the pixels within two of the open one at (0, 0) went on: the
+/// open one to the most, the others raised to 4 x their first samples; the rest stopped.
+fn assert_pixels_near_the_open_one_went_on(r: JobResult) {
+    assert!(r.finished);
+    let took: Vec<u32> = r
+        .passes
+        .unwrap()
+        .summaries()
+        .iter()
+        .map(|s| s.samples)
+        .collect();
+    assert_eq!(
+        &took[..4],
+        [64, 16, 16, 4],
+        "line 0: open, raised, raised, too far"
+    );
+    assert!(took[3 * WIDTH as usize..].iter().all(|&n| n == 4));
+}
+
 fn job(link: FakeLink, restored: Option<checkpoint::Restored>) -> Job {
     Job::configured(link, HEIGHT, 1, restored, |cfg| {
         cfg.adaptive = Some(target())
@@ -121,20 +141,7 @@ async fn a_line_goes_on_once_its_neighbours_have_their_first_samples() {
     // Lines 0 to 2 (the open pixel within two) go on; 3 to 7 stop at their first samples.
     assert_eq!(answered.iter().map(|l| l.0).collect::<Vec<_>>(), [0, 1, 2]);
     let (r, link) = job.end().await;
-    assert!(r.finished);
-    let took: Vec<u32> = r
-        .passes
-        .unwrap()
-        .summaries()
-        .iter()
-        .map(|s| s.samples)
-        .collect();
-    assert_eq!(
-        &took[..4],
-        [64, 16, 16, 4],
-        "line 0: open, raised, raised, too far"
-    );
-    assert!(took[3 * WIDTH as usize..].iter().all(|&n| n == 4));
+    assert_pixels_near_the_open_one_went_on(r);
     let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
     assert_eq!(
         reread.finished_lines(),
@@ -173,16 +180,7 @@ async fn a_resumed_job_decides_its_waiting_lines_as_their_neighbours_come_in() {
     let later = job.serve_passes(0).await;
     assert!(later.iter().all(|&(line, _)| line <= 2), "{later:?}");
     let (r, link) = job.end().await;
-    assert!(r.finished);
-    let took: Vec<u32> = r
-        .passes
-        .unwrap()
-        .summaries()
-        .iter()
-        .map(|s| s.samples)
-        .collect();
-    assert_eq!(&took[..4], [64, 16, 16, 4]);
-    assert!(took[3 * WIDTH as usize..].iter().all(|&n| n == 4));
+    assert_pixels_near_the_open_one_went_on(r);
     let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
     assert_eq!(reread.finished_lines(), HEIGHT);
 }
