@@ -5,15 +5,15 @@
 //! `max_samples`.
 //!
 //! First every pixel takes `min_samples` (its first samples). Then one decision looks at
-//! the pixel's neighbourhood (the pixels within [`RADIUS`](super::neighbourhood::RADIUS) of it, across and down):
-//! when no pixel there is open (its first samples' own estimate above E), the pixel stops;
+//! the pixel's neighbourhood (the pixels within [`RADIUS`](super::neighbourhood::RADIUS) of
+//! it, across and down): when no pixel there is open (its first samples' own estimate
+//! above E), the pixel stops;
 //! else it is raised to [`raised_samples`] (4 x `min_samples`) and goes on by its own
 //! samples alone. Every other decision depends only on the pixel's own samples (their
 //! values, in the order taken), and the neighbourhood's only on the first samples of the
 //! pixels in it, so the image is the same for any thread, process or host that renders a
 //! pixel, and in any order ([`crate::render::pass`]: the farm decides a line once the lines
 //! within [`RADIUS`](super::neighbourhood::RADIUS) of it have their first samples).
-//!
 //!
 //! The estimate: a pixel's samples are one Owen-scrambled Sobol sequence (sample i is its
 //! point i, the same samples `--sampler sobol` takes, so the union of everything a pixel
@@ -60,8 +60,9 @@ pub use report::{error_stats, samples_map};
 
 /// The first samples a pixel takes with a target error E when `--min-samples` is not given:
 /// 0.08 / E rounded up to a power of two, at least 4 (4 at E >= 0.02, 8 at 0.01, 16 at
-/// 0.005; a raised pixel then takes at least 4 times as many). A thin feature (an edge across one corner, a
-/// checker seen through a lens) missed by every first sample of a whole neighbourhood stops
+/// 0.005; a raised pixel then takes at least 4 times as many). A thin feature (an edge
+/// across one corner, a checker seen through a lens) missed by every first sample of a
+/// whole neighbourhood stops
 /// its pixels with a wrong mean, and such a feature covers about 1/n of a pixel after n
 /// stratified samples: so the first samples grow as E falls. (A pixel deciding alone needed
 /// 16 at every E: with 4, on the built-in scene at 64x64 against a 4,096-sample reference,
@@ -256,8 +257,9 @@ impl PixelEstimate {
         }
     }
 
-    /// The neighbourhood's decision: `raise` when a pixel within [`RADIUS`](super::neighbourhood::RADIUS) of this
-    /// one (itself included) is open. Made once; a later call changes nothing.
+    /// The neighbourhood's decision: `raise` when a pixel within
+    /// [`RADIUS`](super::neighbourhood::RADIUS) of this one (itself included) is open. Made
+    /// once; a later call changes nothing.
     pub fn decide(&mut self, raise: bool) {
         if self.stage & DECIDED == 0 {
             self.stage |= DECIDED | if raise { RAISED } else { 0 };

@@ -4,8 +4,9 @@
 //! the lines within [`RADIUS`](super::neighbourhood::RADIUS) of it have theirs, its pixels
 //! are decided ([`super::neighbourhood`]); pass `k` takes each raised pixel not done on by
 //! whole steps of its schedule while it stays within [`pass_cap`]`(k)` samples. A pixel's
-//! steps are those [`render_image_to_error`](super::parallel::render_image_to_error) takes (all first samples, every decision, the
-//! rest in one go), so after its last pass a line is bit for bit what `sunray render` gives,
+//! steps are those [`render_image_to_error`](super::parallel::render_image_to_error) takes
+//! (all first samples, every decision, the rest in one go), so after its last pass a line
+//! is bit for bit what `sunray render` gives,
 //! wherever and in however many goes each pass ran: a pass starts from the line's
 //! [`PixelEstimate`]s as the previous one and the decision left them (exactly: they travel
 //! as bytes).
