@@ -7,7 +7,7 @@
 //! ([`neighbourhood::raised_columns`], from which pixels of those lines were open, kept here as
 //! they came in) and the line goes on with pass 1 if a pixel was raised, or is finished.
 
-use super::messages::{self, MessageError};
+use super::messages::{self, proto, MessageError};
 use crate::film::Film;
 use crate::render::adaptive::{self, Adaptive, PixelEstimate};
 use crate::render::neighbourhood::{self, RADIUS};
@@ -26,8 +26,6 @@ pub struct LinePasses {
     between: HashMap<u32, Vec<PixelEstimate>>,
     /// What each pixel took so far, row by row.
     summaries: Vec<PixelSummary>,
-    /// Which lines have their first samples.
-    first_in: Vec<bool>,
     /// Which pixels were open after their first samples, row by row.
     open: Vec<bool>,
 }
@@ -58,6 +56,20 @@ pub struct Decided {
     pub estimates: Vec<u8>,
 }
 
+impl Decided {
+    /// Its record in the checkpoint: the decision amends the line's pass `pass` (nothing was
+    /// rendered, so no pixels and no counters of its own).
+    pub fn record(self, pass: u32) -> proto::FinishedLine {
+        proto::FinishedLine {
+            line: self.line,
+            pixels: Vec::new(),
+            counters: None,
+            pass,
+            estimates: self.estimates,
+        }
+    }
+}
+
 /// Where a line stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LineStage {
@@ -78,7 +90,6 @@ impl LinePasses {
             height,
             between: HashMap::new(),
             summaries: vec![PixelSummary::default(); width as usize * height as usize],
-            first_in: vec![false; height as usize],
             open: vec![false; width as usize * height as usize],
         }
     }
@@ -107,14 +118,14 @@ impl LinePasses {
         }
         let row = line as usize * self.width as usize;
         let width = self.width as usize;
+        let was_in = self.has_first_samples(line);
         if let Some(s) = self.summaries.get_mut(row..row + estimates.len()) {
             for (s, e) in s.iter_mut().zip(&estimates) {
                 *s = e.summary();
             }
         }
         let first = estimates.iter().all(|e| e.count() >= self.a.min_samples);
-        if first && !self.first_in[line as usize] {
-            self.first_in[line as usize] = true;
+        if first && !was_in {
             for (o, e) in self.open[row..row + width].iter_mut().zip(&estimates) {
                 *o = e.is_open();
             }
@@ -145,7 +156,7 @@ impl LinePasses {
     fn decide(&mut self, line: u32) -> Option<Decided> {
         let r = RADIUS;
         let near = line.saturating_sub(r)..=(line + r).min(self.height.saturating_sub(1));
-        if !near.clone().all(|y| self.first_in[y as usize]) {
+        if !near.clone().all(|y| self.has_first_samples(y)) {
             return None;
         }
         let a = self.a;
@@ -168,6 +179,16 @@ impl LinePasses {
             more,
             estimates,
         })
+    }
+
+    /// Whether every pixel of `line` has its first samples (what each pixel took is kept in
+    /// `summaries` from the first pass in on).
+    fn has_first_samples(&self, line: u32) -> bool {
+        let width = self.width as usize;
+        let row = line as usize * width;
+        self.summaries
+            .get(row..row + width)
+            .is_some_and(|s| s.iter().all(|p| p.samples >= self.a.min_samples))
     }
 
     /// Where `line` stands.

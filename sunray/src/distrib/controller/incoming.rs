@@ -238,16 +238,8 @@ impl<L: WorkerLink> Controller<L> {
                     web.refined();
                 }
             }
-            self.writer.record(
-                proto::FinishedLine {
-                    line: l.line,
-                    pixels: Vec::new(),
-                    counters: None,
-                    pass,
-                    estimates: l.estimates,
-                },
-                !l.more,
-            );
+            let finished = !l.more;
+            self.writer.record(l.record(pass), finished);
         }
         let done = self.table.done();
         self.view.set_done(done);

@@ -74,16 +74,7 @@ pub(super) fn resumed(
         for d in decided {
             let pass = last_pass.get(&d.line).copied().unwrap_or(0);
             let finished = !d.more;
-            records.push((
-                FinishedLine {
-                    line: d.line,
-                    pixels: Vec::new(),
-                    counters: None,
-                    pass,
-                    estimates: d.estimates,
-                },
-                finished,
-            ));
+            records.push((d.record(pass), finished));
         }
     }
     let mut table = GrantTable::new(cfg.strategy, cfg.height, nodes, &finished);
