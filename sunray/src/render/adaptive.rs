@@ -289,7 +289,9 @@ impl PixelEstimate {
             return 0.0;
         }
         let n = f64::from(self.n);
-        let weight = |j: u32| f64::from(b.min(self.n - j * b)) / n;
+        // Each block's share of the samples: every block's but the last is b / n.
+        let (whole, last) = (f64::from(b) / n, f64::from(self.n - (held - 1) * b) / n);
+        let weight = |j: u32| if j + 1 < held { whole } else { last };
         let first = widen(self.blocks[0]);
         // Their weighted mean, as an offset from the first (0 exactly when all agree).
         let mean = (0..held).fold(first, |m, j| {
