@@ -20,7 +20,7 @@ use super::plot::{loglog, Labels, Series};
 use super::pov_aa;
 use crate::accel::{Accel, AccelOptions};
 use crate::geometry::Vec3;
-use crate::render::adaptive::{raised_samples, Adaptive};
+use crate::render::adaptive::{error_stats, raised_samples, Adaptive};
 use crate::render::{render_image_summarized, trace_pixel, Progress, RenderOptions};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -233,6 +233,10 @@ pub struct Point {
     /// (c) only: RMSE over the pixels the target stopped (more than their first samples,
     /// fewer than the most), less the reference's own, and how many pixels those are.
     pub stopped: Option<(f64, usize)>,
+    /// (c) only: the RMSE the render estimated for itself (the stats JSON's `error.rms`: the
+    /// root mean square of its pixels' estimated errors) and the RMSE over the whole image
+    /// less the reference's own error, to set against it.
+    pub estimated: Option<(f64, f64)>,
 }
 
 /// What one method measured: its best time, its image and the samples each pixel took.
@@ -240,10 +244,11 @@ struct Measured {
     seconds: f64,
     image: Vec<Vec3>,
     samples: Vec<u32>,
+    estimated_rms: Option<f64>,
 }
 
-/// Best-of-3 time (stopping after half a second spent), the image `opts` give and the
-/// samples each pixel took, rendered as `sunray render` renders it (line by line, the
+/// Best-of-3 time (stopping after half a second spent), the image `opts` give, the
+/// samples each pixel took and (rendering to an error) its own estimate of its RMSE, rendered as `sunray render` renders it (line by line, the
 /// background outside the scene's footprint not traced).
 fn measure(scene: &Scene, accel: &Accel, threads: usize, opts: &RenderOptions) -> Measured {
     let render = || {
@@ -261,6 +266,7 @@ fn measure(scene: &Scene, accel: &Accel, threads: usize, opts: &RenderOptions) -
         (best, spent, last) = (best.min(s), spent + s, rendered);
     }
     let (film, _, summaries) = last;
+    let estimated_rms = opts.adaptive.map(|a| error_stats(&summaries, &a).rms);
     let samples = if opts.adaptive.is_some() {
         summaries.iter().map(|p| p.samples).collect()
     } else {
@@ -274,6 +280,7 @@ fn measure(scene: &Scene, accel: &Accel, threads: usize, opts: &RenderOptions) -
             .map(|p| Vec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
             .collect(),
         samples,
+        estimated_rms,
     }
 }
 
@@ -311,6 +318,10 @@ fn sunray_curves(
                             }
                             _ => None,
                         },
+                        estimated: m.estimated_rms.map(|est| {
+                            let all = vec![true; m.image.len()];
+                            (est, reference.rmse_over(&m.image, &all))
+                        }),
                     })
                 })
                 .collect()
@@ -358,6 +369,7 @@ fn pov_curve(pov: &str, size: u32, threads: usize) -> Result<Vec<Point>, String>
                 rmse: errors(&best.image, &reference.image).0,
                 varying_rmse: None,
                 stopped: None,
+                estimated: None,
             });
         }
     }

@@ -134,9 +134,13 @@ fn points_table(scenes: &[SceneResult]) -> String {
          that carry error (those whose two reference halves differ); and over the pixels its \
          estimate stopped (more samples than their first, fewer than the most), both less \
          the reference's own error there (the reference's samples and its error over the \
-         varying pixels beside the scene's name):\n\n\
-         | scene | method | setting | seconds | RMSE | RMSE / E | varying pixels: RMSE / E | pixels stopped by E: RMSE / E (how many) |\n\
-         |---|---|---:|---:|---:|---:|---:|---:|\n",
+         varying pixels beside the scene's name). And the RMSE the render estimated for \
+         itself (the stats JSON's `error.rms`, the root mean square of its pixels' estimated \
+         errors) with the whole image's RMSE, less the reference's own, over it: flat pixels \
+         are exact and their estimate says so, so this is the estimate's honesty over the \
+         whole image where RMSE / E is not:\n\n\
+         | scene | method | setting | seconds | RMSE | RMSE / E | varying pixels: RMSE / E | pixels stopped by E: RMSE / E (how many) | estimated RMSE (error.rms) | RMSE / estimated |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for s in scenes {
         let name = format!(
@@ -152,8 +156,15 @@ fn points_table(scenes: &[SceneResult]) -> String {
                 ),
                 _ => (String::new(), String::new(), String::new()),
             };
+            let (estimated, honesty) = match p.estimated {
+                Some((est, rmse)) if est > 0.0 => {
+                    (format!("{est:.5}"), format!("{:.2}", rmse / est))
+                }
+                Some((est, _)) => (format!("{est:.5}"), String::new()),
+                None => (String::new(), String::new()),
+            };
             out += &format!(
-                "| {name} | {} | {} | {:.3} | {:.5} | {whole} | {varying} | {stopped} |\n",
+                "| {name} | {} | {} | {:.3} | {:.5} | {whole} | {varying} | {stopped} | {estimated} | {honesty} |\n",
                 p.method.name(),
                 p.method.setting_text(),
                 p.seconds,

@@ -23,6 +23,7 @@ fn the_lower_envelope_keeps_the_fastest_way_to_each_error() {
         rmse,
         varying_rmse: None,
         stopped: None,
+        estimated: None,
     };
     let kept = lower_envelope(vec![
         p(2.0, 0.01),
@@ -66,7 +67,8 @@ fn the_varying_pixels_are_those_whose_halves_differ() {
 
 /// At a tiny size every method's error falls as it is given more; the adaptive one's error
 /// over the pixels its estimate stopped (more than their first samples, fewer than the
-/// most) lies between E/4 and 2 E.
+/// most) lies between E/4 and 2 E, and its whole image's between a quarter and twice the
+/// RMSE it estimated for itself (the stats JSON's `error.rms`).
 #[test]
 fn every_method_converges_on_a_tiny_penumbra() {
     let (_, _, body) = accuracy_cases()[1];
@@ -92,6 +94,12 @@ fn every_method_converges_on_a_tiny_penumbra() {
     assert!(
         (e / 4.0..2.0 * e).contains(&rmse),
         "RMSE {rmse} for E = {e} over the {n} pixels the estimate stopped"
+    );
+    let estimated = m.estimated_rms.unwrap();
+    let whole = reference.rmse_over(&m.image, &vec![true; m.image.len()]);
+    assert!(
+        (estimated / 4.0..2.0 * estimated).contains(&whole),
+        "RMSE {whole} over the image, {estimated} estimated"
     );
 }
 
