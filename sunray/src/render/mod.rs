@@ -6,7 +6,8 @@
 //! [`adaptive`], rendering each pixel to a target error instead of a sample count,
 //! [`neighbourhood`], the one decision a pixel then takes from the pixels around it, and
 //! [`pass`], doing so a pass at a time (the farm's unit of work then).
-//! [`parallel`] runs the lines of one image on all cores.
+//! [`parallel`] runs the lines of one image on all cores, and [`window`] those of an image
+//! rendered to an error, in a sliding window.
 
 pub mod adaptive;
 pub mod footprint;
@@ -14,6 +15,7 @@ pub mod neighbourhood;
 pub mod parallel;
 pub mod pass;
 pub mod settings;
+pub mod window;
 
 use crate::accel::{Accel, Scratch};
 use crate::camera::Camera;
@@ -27,6 +29,19 @@ use footprint::Footprint;
 
 pub use parallel::{render_image, render_image_summarized, Progress};
 pub use settings::{Overrides, Settings};
+
+/// How an image's rows are shared out: the threads (at least 1), the scratch each needs (a
+/// scene of `prims` primitives, the mailbox on or off) and the progress bar to advance.
+pub struct Rows<'a> {
+    /// Threads to run.
+    pub threads: usize,
+    /// Primitives in the scene (for each thread's scratch).
+    pub prims: usize,
+    /// Whether the mailbox is on.
+    pub mailbox: bool,
+    /// The bar advanced by each row done.
+    pub bar: Option<&'a indicatif::ProgressBar>,
+}
 
 /// Everything besides the scene that decides the pixels.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -166,7 +181,7 @@ pub struct PixelSummary {
 /// for the same scene and options), returning the line's counts: a whole image is rendered
 /// in place, with no line allocated and copied and the frame made once. With a target error
 /// the line is taken to it alone, each pixel deciding by its own first samples (an image's
-/// pixels decide over their neighbourhoods: [`pass::render_image_to_error`]), and what each
+/// pixels decide over their neighbourhoods: [`window::render_image_to_error`]), and what each
 /// pixel took goes to `summaries` when given (as long as `pixels`).
 #[allow(clippy::too_many_arguments)] // the row's parts, each borrowed as the caller holds it
 pub fn render_line_into(
@@ -181,7 +196,7 @@ pub fn render_line_into(
 ) -> Counters {
     if let Some(a) = &opts.adaptive {
         // To an error: the line alone, each pixel its own neighbourhood (an image decides
-        // over neighbourhoods: `pass::render_image_to_error`).
+        // over neighbourhoods: `window::render_image_to_error`).
         let mut estimates = vec![adaptive::PixelEstimate::default(); opts.width as usize];
         let counters = pass::line_alone(scene, (accel, frame), y, opts, a, scratch, &mut estimates);
         for (x, (pixel, est)) in pixels.iter_mut().zip(&estimates).enumerate() {

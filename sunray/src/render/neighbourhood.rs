@@ -47,27 +47,22 @@ pub fn decide_line(line: &mut [PixelEstimate], raised: &[bool], a: &Adaptive) {
     }
 }
 
-/// Line `y` of an image (`line`, each pixel with its first samples) decided from `open`,
-/// which pixels of every line of the image were open ([`PixelEstimate::is_open`]): each
-/// pixel waiting for it raised when an open pixel lies within [`RADIUS`] of it, else
-/// stopped.
-pub fn decide_among(open: &[Vec<bool>], y: usize, line: &mut [PixelEstimate], a: &Adaptive) {
-    let r = RADIUS as usize;
-    let near = &open[y.saturating_sub(r).min(open.len())..(y + r + 1).min(open.len())];
-    let raised = raised_columns(near.iter().map(Vec::as_slice), line.len());
-    decide_line(line, &raised, a);
-}
-
 /// Every line of a `width`-pixel image (`estimates`, row by row, each pixel with its first
-/// samples) decided by [`decide_among`].
+/// samples) decided: each pixel waiting for it raised when an open pixel lies within
+/// [`RADIUS`] of it, else stopped.
 pub fn decide_image(estimates: &mut [PixelEstimate], width: usize, a: &Adaptive) {
     let width = width.max(1);
-    let open: Vec<Vec<bool>> = estimates
-        .chunks(width)
-        .map(|row| row.iter().map(PixelEstimate::is_open).collect())
+    let open: Vec<bool> = estimates.iter().map(PixelEstimate::is_open).collect();
+    let rows: Vec<&[bool]> = open.chunks(width).collect();
+    let r = RADIUS as usize;
+    let raised: Vec<Vec<bool>> = (0..rows.len())
+        .map(|y| {
+            let near = &rows[y.saturating_sub(r)..(y + r + 1).min(rows.len())];
+            raised_columns(near.iter().copied(), width)
+        })
         .collect();
-    for (y, row) in estimates.chunks_mut(width).enumerate() {
-        decide_among(&open, y, row, a);
+    for (row, raised) in estimates.chunks_mut(width).zip(&raised) {
+        decide_line(row, raised, a);
     }
 }
 

@@ -1,11 +1,9 @@
 //! All cores on one image: threads take the film's rows in order from a shared queue
 //! ([`each_row`]), render into them with [`super::render_line_into`] (or, to an error, take
-//! the image's estimates through [`render_image_to_error`]) and keep their own
+//! the image in a sliding window of lines, [`super::window`]) and keep their own
 //! counters, summed at the end.
 
-use super::adaptive::{self, Adaptive, PixelEstimate};
-use super::neighbourhood;
-use super::{render_line_into, Frame, PixelSummary, RenderOptions};
+use super::{render_line_into, Frame, PixelSummary, RenderOptions, Rows};
 use crate::accel::{Accel, Scratch};
 use crate::film::Film;
 use crate::scene::Scene;
@@ -73,7 +71,7 @@ pub fn render_image_summarized(
     let (counters, summaries) = match &opts.adaptive {
         Some(a) => {
             let pixels = film.pixels.chunks_mut(width);
-            render_image_to_error(scene, (accel, &frame), opts, a, &rows, pixels)
+            super::window::render_image_to_error(scene, (accel, &frame), opts, a, &rows, pixels)
         }
         None => {
             let counters = each_row(&rows, &mut film.pixels, width, |scratch, y, row| {
@@ -86,98 +84,6 @@ pub fn render_image_summarized(
         b.finish_and_clear();
     }
     (film, counters, summaries)
-}
-
-/// The whole image rendered to the error `a` into `film_rows` (the film's rows, in order):
-/// every line's first samples, then each line decided ([`neighbourhood::decide_among`], from
-/// which pixels of the lines around it are open) and its raised pixels taken to their end,
-/// each go on `rows`' threads; the counts of it all and what each pixel took (row-major).
-/// A line's estimates are made, decided, written to its film row and dropped by the threads
-/// that render it: none of it waits on one thread (a 512 x 512 image's 40 MB of estimates
-/// made and read on one thread was a fifth of the wall time of 2 threads at 4 samples a
-/// pixel).
-pub fn render_image_to_error<'f>(
-    scene: &Scene,
-    (accel, frame): (&Accel, &Frame),
-    opts: &RenderOptions,
-    a: &Adaptive,
-    rows: &Rows<'_>,
-    film_rows: impl Iterator<Item = &'f mut [[f32; 3]]>,
-) -> (Counters, Vec<PixelSummary>) {
-    let width = opts.width as usize;
-    let mut lines: Vec<ErrorLine<'f>> = film_rows
-        .map(|pixels| ErrorLine {
-            pixels,
-            estimates: Vec::new(),
-            open: Vec::new(),
-            summaries: Vec::new(),
-        })
-        .collect();
-    let mut counters = each_row(rows, &mut lines, 1, |scratch, y, line| {
-        let line = &mut line[0];
-        line.estimates = vec![PixelEstimate::default(); width];
-        let c = super::pass::advance_line(
-            scene,
-            (accel, frame),
-            y,
-            opts,
-            a,
-            scratch,
-            &mut line.estimates,
-            adaptive::pass_cap(a, 0),
-        );
-        line.open = line.estimates.iter().map(PixelEstimate::is_open).collect();
-        c
-    });
-    let open: Vec<Vec<bool>> = lines
-        .iter_mut()
-        .map(|l| std::mem::take(&mut l.open))
-        .collect();
-    counters += each_row(rows, &mut lines, 1, |scratch, y, line| {
-        let line = &mut line[0];
-        let mut estimates = std::mem::take(&mut line.estimates);
-        neighbourhood::decide_among(&open, y as usize, &mut estimates, a);
-        let c = super::pass::advance_line(
-            scene,
-            (accel, frame),
-            y,
-            opts,
-            a,
-            scratch,
-            &mut estimates,
-            u32::MAX,
-        );
-        for (px, e) in line.pixels.iter_mut().zip(&estimates) {
-            let m = e.mean();
-            *px = [m.x as f32, m.y as f32, m.z as f32];
-        }
-        line.summaries = estimates.iter().map(PixelEstimate::summary).collect();
-        c
-    });
-    let summaries = lines.into_iter().flat_map(|l| l.summaries).collect();
-    (counters, summaries)
-}
-
-/// One line of [`render_image_to_error`]: its film row, its pixels' estimates while it is
-/// rendered, which of them were open after their first samples, and what each took.
-struct ErrorLine<'f> {
-    pixels: &'f mut [[f32; 3]],
-    estimates: Vec<PixelEstimate>,
-    open: Vec<bool>,
-    summaries: Vec<PixelSummary>,
-}
-
-/// How an image's rows are shared out: the threads (at least 1), the scratch each needs (a
-/// scene of `prims` primitives, the mailbox on or off) and the progress bar to advance.
-pub struct Rows<'a> {
-    /// Threads to run.
-    pub threads: usize,
-    /// Primitives in the scene (for each thread's scratch).
-    pub prims: usize,
-    /// Whether the mailbox is on.
-    pub mailbox: bool,
-    /// The bar advanced by each row done.
-    pub bar: Option<&'a indicatif::ProgressBar>,
 }
 
 /// `f(scratch, y, row)` on every `width`-long row of `items`, threads taking the rows in

@@ -4,7 +4,7 @@
 //! the lines within [`RADIUS`](super::neighbourhood::RADIUS) of it have theirs, its pixels
 //! are decided ([`super::neighbourhood`]); pass `k` takes each raised pixel not done on by
 //! whole steps of its schedule while it stays within [`pass_cap`]`(k)` samples. A pixel's
-//! steps are those [`render_image_to_error`](super::parallel::render_image_to_error) takes
+//! steps are those [`render_image_to_error`](super::window::render_image_to_error) takes
 //! (all first samples, every decision, the rest in one go), so after its last pass a line
 //! is bit for bit what `sunray render` gives,
 //! wherever and in however many goes each pass ran: a pass starts from the line's
@@ -80,7 +80,7 @@ pub(super) fn advance_line(
 /// Line `y` rendered to the error `a` with each pixel its own neighbourhood (raised only
 /// when it is open itself): what [`render_line`](super::render_line) gives for one line
 /// alone. An image's lines decide over their neighbourhoods
-/// ([`render_image_to_error`](super::parallel::render_image_to_error)).
+/// ([`render_image_to_error`](super::window::render_image_to_error)).
 pub(super) fn line_alone(
     scene: &Scene,
     (accel, frame): (&Accel, &Frame),
