@@ -15,6 +15,8 @@ pub mod neighbourhood;
 pub mod parallel;
 pub mod pass;
 pub mod settings;
+#[cfg(test)]
+mod test_scene;
 pub mod window;
 
 use crate::accel::{Accel, Scratch};
@@ -41,6 +43,29 @@ pub struct Rows<'a> {
     pub mailbox: bool,
     /// The bar advanced by each row done.
     pub bar: Option<&'a indicatif::ProgressBar>,
+}
+
+impl Rows<'_> {
+    /// `worker` run on [`Rows::threads`] threads (on this one when 1), their counts summed;
+    /// a worker's panic is resumed here.
+    pub fn run(&self, worker: impl Fn() -> Counters + Sync) -> Counters {
+        let results: Vec<Counters> = if self.threads <= 1 {
+            vec![worker()]
+        } else {
+            std::thread::scope(|s| {
+                let handles: Vec<_> = (0..self.threads).map(|_| s.spawn(&worker)).collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            })
+        };
+        let mut total = Counters::default();
+        for c in results {
+            total += c;
+        }
+        total
+    }
 }
 
 /// Everything besides the scene that decides the pixels.
@@ -336,7 +361,6 @@ pub(crate) fn trace_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{AccelKind, AccelOptions};
 
     /// Nine small spheres in the middle of the picture, one reflecting: most pixels are
     /// outside the footprint.
@@ -358,7 +382,6 @@ end
 ";
 
     fn scene(motion: bool) -> (Scene, Accel) {
-        let table = yari::colour::ColourTable::default();
         let text = if motion {
             SPHERES.replace(
                 "  sphere(center = 0.6",
@@ -367,15 +390,7 @@ end
         } else {
             SPHERES.to_string()
         };
-        let loaded =
-            yari::load::load_str("t.yari", &text, yari::load::InputKind::Yari, &table).unwrap();
-        let mut scene = Scene::new(loaded.world);
-        let opts = AccelOptions {
-            kind: AccelKind::Bvh,
-            ..AccelOptions::default()
-        };
-        let accel = Accel::build(&mut scene.prims, &opts);
-        (scene, accel)
+        test_scene::compiled(&text)
     }
 
     /// The render loop before the footprint: every sample of every pixel traced.

@@ -110,20 +110,5 @@ pub fn each_row<T: Send>(
         }
         counters
     };
-    let results: Vec<Counters> = if rows.threads <= 1 {
-        vec![worker()]
-    } else {
-        std::thread::scope(|s| {
-            let handles: Vec<_> = (0..rows.threads).map(|_| s.spawn(worker)).collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
-        })
-    };
-    let mut total = Counters::default();
-    for counters in results {
-        total += counters;
-    }
-    total
+    rows.run(worker)
 }

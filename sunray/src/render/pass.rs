@@ -135,36 +135,15 @@ pub fn line_pixels(estimates: &[PixelEstimate]) -> Vec<[f32; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{AccelKind, AccelOptions};
     use crate::render::neighbourhood::decide_image;
     use crate::render::{adaptive::max_passes, render_image_summarized, Progress};
-
-    /// A sphere, its shadow under an area light and the background around: pixels that stop
-    /// at their first samples, and pixels that need every pass.
-    const SCENE: &str = "background(color = 0.1,0.1,0.3);
-camera(position = 0,0,-8; at = 0,0,0; up = 0,1,0; angle = 30);
-light(position = -6,6,-6; color = 1,1,1; radius = 1.5);
-begin
-  attribute(color = 1,0.6,0.4; kdr = 0.7; ka = 0.1; phong = 20);
-  sphere(center = 0,0.6,0; radius = 0.8);
-  polygon(vertices = 4; -3,-0.3,-3 -3,-0.3,3 3,-0.3,3 3,-0.3,-3);
-end
-";
 
     /// The farm's way (every line's first samples, the decisions, then pass after pass of
     /// each line) gives `sunray render`'s image bit for bit, with the same samples; the
     /// neighbourhood raises pixels that are not open themselves.
     #[test]
     fn an_image_in_passes_is_the_image_in_one_go() {
-        let table = yari::colour::ColourTable::default();
-        let loaded =
-            yari::load::load_str("t.yari", SCENE, yari::load::InputKind::Yari, &table).unwrap();
-        let mut scene = Scene::new(loaded.world);
-        let accel_opts = AccelOptions {
-            kind: AccelKind::Bvh,
-            ..AccelOptions::default()
-        };
-        let accel = Accel::build(&mut scene.prims, &accel_opts);
+        let (scene, accel) = crate::render::test_scene::shadowed_sphere();
         let a = Adaptive::new(0.01, Some(4), Some(256));
         let opts = RenderOptions {
             adaptive: Some(a),

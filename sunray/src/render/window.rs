@@ -252,21 +252,7 @@ pub fn render_image_to_error<'f>(
             changed.notify_all();
         }
     };
-    let results: Vec<Counters> = if rows.threads <= 1 {
-        vec![worker()]
-    } else {
-        std::thread::scope(|s| {
-            let handles: Vec<_> = (0..rows.threads).map(|_| s.spawn(worker)).collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
-        })
-    };
-    let mut total = Counters::default();
-    for c in results {
-        total += c;
-    }
+    let total = rows.run(worker);
     let summaries = lines
         .into_inner()
         .unwrap_or_else(|e| e.into_inner())
@@ -290,20 +276,8 @@ impl Drop for WakeOnPanic<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{AccelKind, AccelOptions};
     use crate::render::neighbourhood::decide_image;
     use crate::render::{render_image_summarized, Progress};
-
-    /// A sphere and its shadow under an area light, over a background.
-    const SCENE: &str = "background(color = 0.1,0.1,0.3);
-camera(position = 0,0,-8; at = 0,0,0; up = 0,1,0; angle = 30);
-light(position = -6,6,-6; color = 1,1,1; radius = 1.5);
-begin
-  attribute(color = 1,0.6,0.4; kdr = 0.7; ka = 0.1; phong = 20);
-  sphere(center = 0,0.6,0; radius = 0.8);
-  polygon(vertices = 4; -3,-0.3,-3 -3,-0.3,3 3,-0.3,3 3,-0.3,-3);
-end
-";
 
     /// The image the way it is defined: every line's first samples, every pixel decided
     /// from the whole image's open pixels, then every line taken to its end, one line at a
@@ -330,15 +304,7 @@ end
     /// lines than a neighbourhood), gives the image, samples and counts of the definition.
     #[test]
     fn the_window_gives_the_image_in_two_goes_on_any_threads() {
-        let table = yari::colour::ColourTable::default();
-        let loaded =
-            yari::load::load_str("t.yari", SCENE, yari::load::InputKind::Yari, &table).unwrap();
-        let mut scene = Scene::new(loaded.world);
-        let accel_opts = AccelOptions {
-            kind: AccelKind::Bvh,
-            ..AccelOptions::default()
-        };
-        let accel = Accel::build(&mut scene.prims, &accel_opts);
+        let (scene, accel) = crate::render::test_scene::shadowed_sphere();
         let a = Adaptive::new(0.01, Some(4), Some(128));
         for size in [[1, 1], [9, 1], [1, 4], [9, 2], [12, 3], [10, 9]] {
             let opts = RenderOptions {
