@@ -167,8 +167,7 @@ impl LinePasses {
         let width = self.width as usize;
         let open = &self.open;
         let rows = near.map(|y| &open[y as usize * width..(y as usize + 1) * width]);
-        let raised = neighbourhood::raised_columns(rows, width);
-        neighbourhood::decide_line(est, &raised, &a);
+        neighbourhood::decide_line(est, rows, &a);
         let more = !pass::line_done(est, &a);
         let estimates = messages::estimates_to_bytes(est);
         if !more {

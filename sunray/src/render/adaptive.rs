@@ -278,6 +278,11 @@ impl PixelEstimate {
         self.mean
     }
 
+    /// The pixel's value on the film: its mean in `f32`.
+    pub fn pixel(&self) -> [f32; 3] {
+        narrow(self.mean)
+    }
+
     /// The estimated squared standard error of the mean, the worst channel's: the spread of
     /// the blocks' means, each weighted by its share of the samples, over K (K - 1) for the
     /// K blocks that hold samples (0 with fewer than two), and never below the samples' own

@@ -225,8 +225,7 @@ pub fn render_line_into(
         let mut estimates = vec![adaptive::PixelEstimate::default(); opts.width as usize];
         let counters = pass::line_alone(scene, (accel, frame), y, opts, a, scratch, &mut estimates);
         for (x, (pixel, est)) in pixels.iter_mut().zip(&estimates).enumerate() {
-            let c = est.mean();
-            *pixel = [c.x as f32, c.y as f32, c.z as f32];
+            *pixel = est.pixel();
             if let Some(s) = summaries.as_deref_mut().and_then(|s| s.get_mut(x)) {
                 *s = est.summary();
             }

@@ -38,9 +38,16 @@ pub fn raised_columns<'a>(near: impl IntoIterator<Item = &'a [bool]>, width: usi
         .collect()
 }
 
-/// Applies [`raised_columns`]' answer to the pixels of a line that wait for their decision.
-pub fn decide_line(line: &mut [PixelEstimate], raised: &[bool], a: &Adaptive) {
-    for (e, &r) in line.iter_mut().zip(raised) {
+/// The pixels of a line that wait for their decision decided: raised when one of the lines
+/// `near` it (which pixels of the lines within [`RADIUS`] of it were open, itself among
+/// them: [`raised_columns`]) has an open pixel within [`RADIUS`] columns, else stopped.
+pub fn decide_line<'a>(
+    line: &mut [PixelEstimate],
+    near: impl IntoIterator<Item = &'a [bool]>,
+    a: &Adaptive,
+) {
+    let raised = raised_columns(near, line.len());
+    for (e, &r) in line.iter_mut().zip(&raised) {
         if e.awaits_decision(a) {
             e.decide(r);
         }
@@ -48,21 +55,15 @@ pub fn decide_line(line: &mut [PixelEstimate], raised: &[bool], a: &Adaptive) {
 }
 
 /// Every line of a `width`-pixel image (`estimates`, row by row, each pixel with its first
-/// samples) decided: each pixel waiting for it raised when an open pixel lies within
-/// [`RADIUS`] of it, else stopped.
+/// samples) decided by [`decide_line`] from the open pixels of the whole image.
 pub fn decide_image(estimates: &mut [PixelEstimate], width: usize, a: &Adaptive) {
     let width = width.max(1);
     let open: Vec<bool> = estimates.iter().map(PixelEstimate::is_open).collect();
     let rows: Vec<&[bool]> = open.chunks(width).collect();
     let r = RADIUS as usize;
-    let raised: Vec<Vec<bool>> = (0..rows.len())
-        .map(|y| {
-            let near = &rows[y.saturating_sub(r)..(y + r + 1).min(rows.len())];
-            raised_columns(near.iter().copied(), width)
-        })
-        .collect();
-    for (row, raised) in estimates.chunks_mut(width).zip(&raised) {
-        decide_line(row, raised, a);
+    for (y, row) in estimates.chunks_mut(width).enumerate() {
+        let near = &rows[y.saturating_sub(r)..(y + r + 1).min(rows.len())];
+        decide_line(row, near.iter().copied(), a);
     }
 }
 

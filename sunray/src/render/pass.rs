@@ -123,13 +123,7 @@ pub fn line_done(estimates: &[PixelEstimate], a: &Adaptive) -> bool {
 
 /// A line's pixels: the means of its estimates.
 pub fn line_pixels(estimates: &[PixelEstimate]) -> Vec<[f32; 3]> {
-    estimates
-        .iter()
-        .map(|e| {
-            let c = e.mean();
-            [c.x as f32, c.y as f32, c.z as f32]
-        })
-        .collect()
+    estimates.iter().map(PixelEstimate::pixel).collect()
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@
 //! window's lines are a few hundred kilobytes, made again from memory the last ones freed.
 
 use super::adaptive::{self, Adaptive, PixelEstimate};
-use super::neighbourhood::{decide_line, raised_columns, RADIUS};
+use super::neighbourhood::{decide_line, RADIUS};
 use super::{Frame, PixelSummary, RenderOptions, Rows};
 use crate::accel::{Accel, Scratch};
 use crate::scene::Scene;
@@ -167,12 +167,10 @@ impl Job<'_> {
         near: &[Arc<[bool]>],
         film: &mut [[f32; 3]],
     ) -> (Counters, Vec<PixelSummary>) {
-        let raised = raised_columns(near.iter().map(|o| &o[..]), estimates.len());
-        decide_line(&mut estimates, &raised, self.a);
+        decide_line(&mut estimates, near.iter().map(|o| &o[..]), self.a);
         let c = self.line(s, y, &mut estimates, u32::MAX);
         for (px, e) in film.iter_mut().zip(&estimates) {
-            let m = e.mean();
-            *px = [m.x as f32, m.y as f32, m.z as f32];
+            *px = e.pixel();
         }
         (c, estimates.iter().map(PixelEstimate::summary).collect())
     }
