@@ -1,8 +1,8 @@
 //! Rendering to an error instead of a sample count (`--target-error E`): each pixel takes
-//! samples from its own Owen-scrambled Sobol sequence ([`crate::sampler::SampleStream::sobol`]) until the
-//! estimated standard error of its mean, in linear radiance (1.0 = white), is at most E in
-//! every channel, with at least `min_samples` (by default [`default_min_samples`]) and at most
-//! `max_samples`.
+//! samples from its own Owen-scrambled Sobol sequence ([`crate::sampler::SampleStream::sobol`])
+//! until the estimated standard error of its mean, in linear radiance (1.0 = white), is at most
+//! E in every channel, with at least `min_samples` (by default [`default_min_samples`]) and at
+//! most `max_samples`.
 //!
 //! First every pixel takes `min_samples` (its first samples). Then one decision looks at
 //! the pixel's neighbourhood (the pixels within [`RADIUS`](super::neighbourhood::RADIUS) of
@@ -60,13 +60,12 @@ pub use report::{error_stats, samples_map};
 
 /// The first samples a pixel takes with a target error E when `--min-samples` is not given:
 /// 0.08 / E rounded up to a power of two, at least 4 (4 at E >= 0.02, 8 at 0.01, 16 at
-/// 0.005; a raised pixel then takes at least 4 times as many). A thin feature (an edge
-/// across one corner, a checker seen through a lens) missed by every first sample of a
-/// whole neighbourhood stops
-/// its pixels with a wrong mean, and such a feature covers about 1/n of a pixel after n
-/// stratified samples: so the first samples grow as E falls. (A pixel deciding alone needed
-/// 16 at every E: with 4, on the built-in scene at 64x64 against a 4,096-sample reference,
-/// the RMSE reached 4.9 E at E = 0.002; docs/renderer.md, "Rendering to an error".)
+/// 0.005; a raised pixel then takes at least 4 times as many). A thin feature (an edge across
+/// one corner, a checker seen through a lens) missed by every first sample of a whole
+/// neighbourhood stops its pixels with a wrong mean, and such a feature covers about 1/n of a
+/// pixel after n stratified samples: so the first samples grow as E falls. (A pixel deciding
+/// alone needed 16 at every E: with 4, on the built-in scene at 64x64 against a 4,096-sample
+/// reference, the RMSE reached 4.9 E at E = 0.002; docs/renderer.md, "Rendering to an error".)
 pub fn default_min_samples(target_error: f64) -> u32 {
     let n = (0.08 / target_error).ceil();
     // NaN (a target refused later) counts as 1; infinity (a tiny target) as the most.
@@ -82,9 +81,8 @@ pub fn default_min_samples(target_error: f64) -> u32 {
 /// The fewest first samples [`default_min_samples`] gives.
 pub const MIN_FIRST_SAMPLES: u32 = 4;
 
-/// The fewest samples a raised pixel takes: 4 x `min_samples` rounded up to whole blocks,
-/// at most `max_samples` (16 with the default first samples at E >= 0.02, what a pixel
-/// deciding alone needed at every E, 32 at E = 0.01).
+/// The fewest samples a raised pixel takes: 4 x `min_samples` rounded up to whole blocks, at
+/// most `max_samples` (16 with the default first samples at E >= 0.02, 32 at E = 0.01).
 pub fn raised_samples(a: &Adaptive) -> u32 {
     whole_blocks(a.min_samples.saturating_mul(4)).min(a.max_samples)
 }
