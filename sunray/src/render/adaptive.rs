@@ -47,7 +47,8 @@
 //! up to whole blocks ([`whole_blocks`]: 5 to 8 of them, so a step is rounded up by less
 //! than a quarter), never above `max_samples`.
 //!
-//! [`report`] makes what a render to an error reports: its error statistics and samples map.
+//! [`report`] makes what a render to an error reports: its error statistics and samples map;
+//! [`bytes`] writes a pixel's estimate exactly, for the farm's passes and checkpoints.
 
 use super::trace_sobol_sample;
 use crate::camera::Camera;
@@ -55,6 +56,7 @@ use crate::sampler::SOBOL_SAMPLES;
 use crate::shading::Tracer;
 use glam::DVec3;
 
+pub mod bytes;
 pub mod report;
 pub use report::{error_stats, samples_map};
 
@@ -95,6 +97,10 @@ pub const MAX_ADAPTIVE_SAMPLES: u32 = SOBOL_SAMPLES;
 /// How many consecutive blocks a pixel's samples are kept in: the estimate of its error
 /// has 4 to 7 degrees of freedom per channel at every count the schedule stops at.
 pub const BLOCKS: u32 = 8;
+const _: () = assert!(
+    BLOCKS.is_power_of_two(),
+    "PixelEstimate::add pairs blocks at powers of two"
+);
 
 /// The length of each block a pixel of `n` samples keeps: the least power of two that puts
 /// them in at most [`BLOCKS`] blocks (1 up to 8 samples, 2 up to 16, 4 up to 32, ...).
@@ -210,10 +216,12 @@ fn narrow(v: DVec3) -> Rgb32 {
 impl PixelEstimate {
     /// Adds one sample: the next one, which joins the last block (after the blocks pair
     /// up, when all [`BLOCKS`] are whole and the sample would start a ninth).
+    #[inline]
     pub fn add(&mut self, c: DVec3) {
         let i = self.n;
-        let b = block_len(i + 1);
-        if b > block_len(i) {
+        // The blocks pair up when the sample would start a ninth block: at i = 8 b, b the
+        // blocks' length, a power of two (so block_len(i + 1) > block_len(i) exactly then).
+        if i >= BLOCKS && i.is_power_of_two() {
             for j in 0..BLOCKS as usize / 2 {
                 let pair = widen(self.blocks[2 * j]) + widen(self.blocks[2 * j + 1]);
                 self.blocks[j] = narrow(pair * 0.5);
@@ -224,9 +232,11 @@ impl PixelEstimate {
         let delta = c - self.mean;
         self.mean += delta / f64::from(self.n);
         self.m2 += delta * (c - self.mean);
-        let m = &mut self.blocks[(i / b) as usize];
+        // block_len is a power of two: the block and the place in it by shift and mask.
+        let shift = block_len(i + 1).trailing_zeros();
+        let m = &mut self.blocks[(i >> shift) as usize];
         let w = widen(*m);
-        *m = narrow(w + (c - w) / f64::from(i % b + 1));
+        *m = narrow(w + (c - w) / f64::from((i & ((1 << shift) - 1)) + 1));
     }
 
     /// How many samples were added.
@@ -321,51 +331,11 @@ impl PixelEstimate {
         self.squared_error().sqrt()
     }
 
-    /// Bytes of [`PixelEstimate::to_le_bytes`].
-    pub const BYTES: usize = 4 + 48 + 12 * BLOCKS as usize + 1;
-
     /// True when the pixel is finished: it needs no more samples
     /// ([`PixelEstimate::next_count`] is `None`) and no decision (it has one, or it is at
     /// `max_samples`).
     pub fn is_done(&self, a: &Adaptive) -> bool {
         self.next_count(a).is_none() && (self.stage & DECIDED != 0 || self.n >= a.max_samples)
-    }
-
-    /// The estimate exactly, to go on from elsewhere (the farm's passes, its checkpoints):
-    /// the count as a little-endian `u32`, then the mean and the sum of squared deviations,
-    /// three little-endian `f64` each, each block's mean, three little-endian `f32`, and the
-    /// stage byte (1 open, 2 decided, 4 raised).
-    pub fn to_le_bytes(&self) -> [u8; Self::BYTES] {
-        let mut out = [0u8; Self::BYTES];
-        out[..4].copy_from_slice(&self.n.to_le_bytes());
-        let wide = self.mean.to_array().into_iter().chain(self.m2.to_array());
-        for (i, v) in wide.enumerate() {
-            out[4 + 8 * i..12 + 8 * i].copy_from_slice(&v.to_le_bytes());
-        }
-        for (i, v) in self.blocks.iter().flatten().enumerate() {
-            out[52 + 4 * i..56 + 4 * i].copy_from_slice(&v.to_le_bytes());
-        }
-        out[Self::BYTES - 1] = self.stage;
-        out
-    }
-
-    /// The inverse of [`PixelEstimate::to_le_bytes`] (bit for bit).
-    pub fn from_le_bytes(b: &[u8; Self::BYTES]) -> PixelEstimate {
-        let f = |i: usize| {
-            let at = 4 + 8 * i;
-            f64::from_le_bytes(b[at..at + 8].try_into().unwrap_or_default())
-        };
-        let g = |i: usize| {
-            let at = 52 + 4 * i;
-            f32::from_le_bytes(b[at..at + 4].try_into().unwrap_or_default())
-        };
-        PixelEstimate {
-            n: u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
-            mean: DVec3::new(f(0), f(1), f(2)),
-            m2: DVec3::new(f(3), f(4), f(5)),
-            blocks: std::array::from_fn(|j| [g(3 * j), g(3 * j + 1), g(3 * j + 2)]),
-            stage: b[Self::BYTES - 1],
-        }
     }
 
     /// What the pixel took: its samples and estimated error.
