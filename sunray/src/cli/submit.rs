@@ -98,6 +98,10 @@ pub struct SubmitArgs {
     /// Milliseconds between checkpoints (at least 50).
     #[arg(long, hide = true, default_value_t = 2000)]
     pub checkpoint_ms: u64,
+    /// With a target error: the in-process controller compacts its checkpoint at every save
+    /// that finds a line's record superseded (tests).
+    #[arg(long, hide = true)]
+    pub compact_every_save: bool,
     /// Milliseconds between preview rewrites (at least 100).
     #[arg(long, hide = true, default_value_t = 2000)]
     pub preview_ms: u64,
@@ -122,6 +126,7 @@ impl SubmitArgs {
             worker_program,
             worker_timeout: self.worker_timeout_ms.map(Duration::from_millis),
             checkpoint_every: Duration::from_millis(self.checkpoint_ms.max(50)),
+            compact_every_save: self.compact_every_save,
             preview: self.preview.clone(),
             preview_every: Duration::from_millis(self.preview_ms.max(100)),
             show_bar: !self.render.quiet && std::io::stderr().is_terminal(),

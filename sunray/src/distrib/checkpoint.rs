@@ -6,7 +6,9 @@
 //! [`proto::CheckpointSegment`]s, each with the lines finished since the one before (so a
 //! save costs what is new, not the whole image) and each under the relay's message limit.
 //! Segments are written before the header that names them, so a crash between the two
-//! leaves a consistent, slightly older checkpoint.
+//! leaves a consistent, slightly older checkpoint. The header names the live segments,
+//! `base` to `segments` ([`Checkpointer`] compacts a render to an error's: those before
+//! `base` hold superseded records and are emptied).
 //!
 //! With a target error a line is recorded after each of its passes, with its pixels'
 //! estimates (a resumed job goes on from the line's last pass exactly); the latest record of
@@ -27,13 +29,16 @@ use prost::Message;
 use std::collections::BTreeMap;
 use std::future::Future;
 
-/// The header format this code writes and reads. Format 3: a render to an error's pixel
-/// estimates carry their stage (open, decided, raised: the neighbourhood's decision after
-/// the first samples; [`PixelEstimate`], 149 bytes). Format 2's were 148 bytes and decided
-/// alone, format 1's were four replicates' (100 bytes, other samples), so a format 1 or 2
-/// checkpoint is read only when its job renders a fixed sample count, which the changes
-/// left as it was.
-pub const FORMAT: u32 = 3;
+/// The header format this code writes and reads. Format 4: the live segments start at the
+/// header's `base` (format 3's at 0). Format 3: a render to an error's pixel estimates carry
+/// their stage (open, decided, raised: the neighbourhood's decision after the first samples;
+/// [`PixelEstimate`], 149 bytes). Format 2's were 148 bytes and decided alone, format 1's
+/// were four replicates' (100 bytes, other samples), so a format 1 or 2 checkpoint is read
+/// only when its job renders a fixed sample count, which the changes left as it was.
+pub const FORMAT: u32 = 4;
+
+/// The first format whose estimates a render to an error reads.
+const ESTIMATES_FORMAT: u32 = 3;
 
 /// Where checkpoints are kept: REM, or a map in tests.
 pub trait Store {
@@ -227,91 +232,6 @@ impl Restored {
     }
 }
 
-/// Writes a job's checkpoint incrementally.
-#[derive(Debug)]
-pub struct Checkpointer {
-    job: String,
-    spec: JobSpec,
-    model_hash: u64,
-    segments: u32,
-    lines_done: u32,
-    pending: Vec<FinishedLine>,
-}
-
-impl Checkpointer {
-    /// A checkpointer for `job`; a resumed job continues the segments it had.
-    pub fn new(job: &str, spec: JobSpec, model_hash: u64, resumed: Option<&Restored>) -> Self {
-        Checkpointer {
-            job: job.to_string(),
-            spec,
-            model_hash,
-            segments: resumed.map_or(0, |r| r.header.segments),
-            lines_done: resumed.map_or(0, Restored::finished_lines),
-            pending: Vec::new(),
-        }
-    }
-
-    /// Notes a line in (stored by the next [`Checkpointer::save`]): `finished`, or with a
-    /// target error a pass after which the line needs another.
-    pub fn record(&mut self, line: FinishedLine, finished: bool) {
-        self.pending.push(line);
-        self.lines_done += u32::from(finished);
-    }
-
-    /// True when lines were recorded since the last save.
-    pub fn has_pending(&self) -> bool {
-        !self.pending.is_empty()
-    }
-
-    /// Lines in the checkpoint after the next save.
-    pub fn lines_done(&self) -> u32 {
-        self.lines_done
-    }
-
-    /// Stores the new lines as segments, then the header with `state`.
-    pub async fn save(&mut self, store: &impl Store, state: &str) -> Result<(), CheckpointError> {
-        let limit = store.max_bytes().saturating_sub(1024).max(1);
-        while !self.pending.is_empty() {
-            let mut bytes = 0;
-            let mut n = 0;
-            for l in &self.pending {
-                let len = l.encoded_len() + 8;
-                if len > limit {
-                    return Err(CheckpointError::TooLarge { bytes: len, limit });
-                }
-                if bytes + len > limit {
-                    break;
-                }
-                bytes += len;
-                n += 1;
-            }
-            let segment = CheckpointSegment {
-                lines: self.pending[..n].to_vec(),
-            };
-            store
-                .put(
-                    &segment_key(&self.job, self.segments),
-                    segment.encode_to_vec(),
-                )
-                .await?;
-            self.segments += 1;
-            self.pending.drain(..n);
-        }
-        let header = CheckpointHeader {
-            format: FORMAT,
-            job: self.job.clone(),
-            spec: Some(self.spec.clone()),
-            model_hash: self.model_hash,
-            segments: self.segments,
-            lines_done: self.lines_done,
-            state: state.to_string(),
-            updated_unix_ms: unix_ms(),
-        };
-        store.put(&self.job, header.encode_to_vec()).await?;
-        Ok(())
-    }
-}
-
 /// How many of a checkpoint's segments [`load`] reads at once.
 const SEGMENT_READS: usize = 8;
 
@@ -329,7 +249,7 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
         return Err(CheckpointError::Format(header.format));
     }
     let settings = header_settings(job, &header)?;
-    if header.format < FORMAT && settings.render.adaptive.is_some() {
+    if header.format < ESTIMATES_FORMAT && settings.render.adaptive.is_some() {
         return Err(CheckpointError::Format(header.format));
     }
     let (width, height) = (settings.render.width, settings.render.height);
@@ -342,8 +262,14 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
     let adaptive = settings.render.adaptive;
     // (A line's decision after its first samples is one more record.)
     let records = height.saturating_mul(adaptive.as_ref().map_or(1, |a| max_passes(a) + 1));
+    if header.base > header.segments {
+        return Err(inconsistent(
+            job,
+            format!("base = {} past segments = {}", header.base, header.segments),
+        ));
+    }
     for (what, n, most) in [
-        ("segments", header.segments, records),
+        ("segments", header.segments - header.base, records),
         ("lines_done", header.lines_done, height),
     ] {
         if n > most {
@@ -357,8 +283,9 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
     let mut lines = BTreeMap::new();
     // The segments are read SEGMENT_READS at a time, in order: one round trip each, to a
     // replica that may be another host, is a fixed cost of every image fetched.
-    let keys: Vec<String> = (0..header.segments).map(|s| segment_key(job, s)).collect();
-    let mut segments = futures_util::stream::iter(keys.into_iter().zip(0..).map(
+    let live = header.base..header.segments;
+    let keys: Vec<String> = live.clone().map(|s| segment_key(job, s)).collect();
+    let mut segments = futures_util::stream::iter(keys.into_iter().zip(live).map(
         |(key, s): (String, u32)| async move {
             let got = store.get(&key).await;
             (key, s, got)
@@ -409,7 +336,7 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
 
 /// Keeps the latest record of a line (its highest pass; the last one written of equal
 /// passes), its counters summed over the line's records.
-fn keep_latest(lines: &mut BTreeMap<u32, FinishedLine>, mut l: FinishedLine) {
+pub(crate) fn keep_latest(lines: &mut BTreeMap<u32, FinishedLine>, mut l: FinishedLine) {
     use super::messages::proto::Counters as Wire;
     use crate::stats::Counters;
     let Some(old) = lines.get_mut(&l.line) else {
@@ -456,3 +383,5 @@ pub fn unix_ms() -> u64 {
 
 #[cfg(test)]
 pub(crate) mod tests;
+mod writer;
+pub use writer::{Checkpointer, SLACK};

@@ -265,7 +265,9 @@ fn a_render_to_an_error_survives_a_worker_and_its_controller_killed_mid_pass() {
         40,
         &[
             &to_error[..],
+            // The checkpoint compacted at every save that finds a pass superseded.
             &["--in-process", "--job", id, "--checkpoint-ms", "100"],
+            &["--compact-every-save"],
         ]
         .concat(),
     ));
@@ -296,6 +298,12 @@ fn a_render_to_an_error_survives_a_worker_and_its_controller_killed_mid_pass() {
     run.child.wait().unwrap();
     assert!(stored < LINES, "the job was not stopped mid-way");
     assert!(!job.out.exists(), "no image from the killed run");
+    // The checkpoint was compacted: segments emptied to their envelope beside live ones.
+    let sizes = segment_sizes(cluster.dir.path(), id);
+    assert!(
+        sizes.iter().any(|&n| n < 512) && sizes.iter().any(|&n| n > 4096),
+        "{sizes:?}"
+    );
     assert!(run
         .seen
         .iter()
@@ -314,4 +322,20 @@ fn a_render_to_an_error_survives_a_worker_and_its_controller_killed_mid_pass() {
     let s = read_json(&job.json);
     assert!(s["lines"]["resumed"].as_u64().unwrap() >= stored);
     assert_eq!(s["totals"]["error"], want_stats["error"], "{s}");
+}
+
+/// The sizes of job `id`'s checkpoint segment files (`ID.sN.ckpt`) in every state directory
+/// under `dir`.
+fn segment_sizes(dir: &std::path::Path, id: &str) -> Vec<u64> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = e.path();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if path.is_dir() {
+            out.extend(segment_sizes(&path, id));
+        } else if name.starts_with(&format!("{id}.s")) && name.ends_with(".ckpt") {
+            out.push(e.metadata().map_or(0, |m| m.len()));
+        }
+    }
+    out
 }

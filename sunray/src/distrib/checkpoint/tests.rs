@@ -3,12 +3,16 @@ use crate::distrib::messages::proto::RenderSettings;
 use std::collections::HashMap;
 use std::sync::Mutex;
 
+mod compaction;
+
 /// A store in memory with a small limit.
 #[derive(Default)]
 pub struct MemStore {
     pub map: Mutex<HashMap<String, Vec<u8>>>,
     pub limit: usize,
     pub puts: Mutex<usize>,
+    /// Puts from this many on fail (as a store that went away would).
+    pub fail_from: Mutex<Option<usize>>,
 }
 
 impl Store for MemStore {
@@ -19,7 +23,11 @@ impl Store for MemStore {
                 limit: self.limit,
             });
         }
-        *self.puts.lock().unwrap() += 1;
+        let mut puts = self.puts.lock().unwrap();
+        if self.fail_from.lock().unwrap().is_some_and(|n| *puts >= n) {
+            return Err(rem::Error::Closed);
+        }
+        *puts += 1;
         self.map.lock().unwrap().insert(key.to_string(), data);
         Ok(())
     }
@@ -348,7 +356,7 @@ fn formats_1_and_2_are_read_only_without_a_target_error() {
         }),
         ..spec()
     };
-    for (s, format) in [(to_error.clone(), 1), (to_error, 2), (spec(), 4)] {
+    for (s, format) in [(to_error.clone(), 1), (to_error, 2), (spec(), 5)] {
         let e = load_error(&with_format(s, format));
         assert!(
             matches!(e, CheckpointError::Format(f) if f == format),

@@ -5,13 +5,15 @@
 //!
 //! Each kind has a mailbox of one: the newest request of a kind replaces the one not yet
 //! taken (a checkpoint's state, a publication), except the lines finished since the last
-//! save, which add up (each line once, so they are bounded by the image). What came of a
-//! request comes back as a [`Report`] on a small bounded channel the actor reads.
+//! save, which add up (each line once: with a target error a line's later pass replaces its
+//! earlier one, counters summed, so they are bounded by the image). What came of a request
+//! comes back as a [`Report`] on a small bounded channel the actor reads.
 
 use super::link::WorkerLink;
-use crate::distrib::checkpoint::{CheckpointError, Checkpointer};
+use crate::distrib::checkpoint::{keep_latest, CheckpointError, Checkpointer};
 use crate::distrib::messages::proto::FinishedLine;
 use crate::distrib::web_view::{Publication, WebError};
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use tokio::sync::{mpsc, Notify};
@@ -49,8 +51,10 @@ struct SaveRequest {
 /// What waits to be taken by the two tasks.
 #[derive(Default)]
 struct Mailbox {
-    /// Lines finished since the save task last took them.
-    lines: Vec<(FinishedLine, bool)>,
+    /// Lines in since the save task last took them (each line's latest record), and how
+    /// many of them are finished.
+    lines: BTreeMap<u32, FinishedLine>,
+    finished: u32,
     save: Option<SaveRequest>,
     publication: Option<Publication>,
     /// No more requests: each task ends once its mailbox is empty.
@@ -113,7 +117,9 @@ impl StoreWriter {
 
     /// A line in, for the next save: `finished`, or a pass after which it needs another.
     pub(super) fn record(&self, line: FinishedLine, finished: bool) {
-        self.shared.mailbox().lines.push((line, finished));
+        let mut m = self.shared.mailbox();
+        keep_latest(&mut m.lines, line);
+        m.finished += u32::from(finished);
     }
 
     /// Asks for a save in `state` (replacing one not yet begun); its id, for the
@@ -169,13 +175,17 @@ async fn save_task<L: WorkerLink>(
     reports: mpsc::Sender<Report>,
 ) {
     loop {
-        let (lines, save, closed) = {
+        let (lines, finished, save, closed) = {
             let mut m = shared.mailbox();
-            (std::mem::take(&mut m.lines), m.save.take(), m.closed)
+            let lines = std::mem::take(&mut m.lines);
+            (
+                lines,
+                std::mem::take(&mut m.finished),
+                m.save.take(),
+                m.closed,
+            )
         };
-        lines
-            .into_iter()
-            .for_each(|(l, finished)| checkpointer.record(l, finished));
+        checkpointer.record_lines(lines, finished);
         if let Some(SaveRequest { id, state }) = save {
             let report = match checkpointer.save(&*link, &state).await {
                 Ok(()) => {

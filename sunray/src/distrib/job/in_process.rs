@@ -221,6 +221,9 @@ async fn first_checkpoint(
         model_hash,
         plan.restored.as_ref(),
     );
+    if req.compact_every_save {
+        checkpointer = checkpointer.with_slack(None);
+    }
     checkpointer
         .save(&cluster.client, "running")
         .await

@@ -75,6 +75,9 @@ pub struct JobRequest {
     pub worker_timeout: Option<Duration>,
     /// How often the controller checkpoints.
     pub checkpoint_every: Duration,
+    /// With a target error, compact the checkpoint at every save that finds a line's record
+    /// superseded, not only once the superseded records outweigh the latest ones (tests).
+    pub compact_every_save: bool,
     /// Rewrite the partial image to this file every `preview_every`.
     pub preview: Option<PathBuf>,
     /// How often the preview is rewritten.

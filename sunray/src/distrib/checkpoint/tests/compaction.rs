@@ -1,0 +1,156 @@
+//! A render to an error's checkpoint, recorded pass after pass: lines recorded twice before
+//! a save are written once, superseded records are compacted away, and what [`load`] reads
+//! is the same as without either (each line's latest pass, its counters summed).
+
+use super::*;
+use crate::distrib::messages::proto::Counters as Wire;
+use crate::render::adaptive::PixelEstimate;
+use glam::DVec3;
+
+const JOB: &str = "jc";
+const HEIGHT: u32 = 16;
+
+fn adaptive_spec() -> JobSpec {
+    JobSpec {
+        settings: Some(RenderSettings {
+            target_error: 0.01,
+            min_samples: 4,
+            max_samples: 64,
+            ..settings(2, HEIGHT)
+        }),
+        ..spec()
+    }
+}
+
+/// Line `y` after pass `pass`: two pixels of `4 + pass` samples, one eye ray and half a
+/// second counted (sums stay exact).
+fn record(y: u32, pass: u32) -> FinishedLine {
+    let mut e = PixelEstimate::default();
+    for k in 0..4 + pass {
+        e.add(DVec3::splat(f64::from((k + y) % 3)));
+    }
+    FinishedLine {
+        line: y,
+        pass,
+        estimates: crate::distrib::messages::estimates_to_bytes(&[e, e]),
+        counters: Some(Wire {
+            eye: 1,
+            line_s: 0.5,
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+fn store() -> MemStore {
+    MemStore {
+        limit: 1024 + 2000,
+        ..Default::default()
+    }
+}
+
+/// Bytes the store holds for the job.
+fn held(store: &MemStore) -> usize {
+    let map = store.map.lock().unwrap();
+    map.iter()
+        .filter(|(k, _)| k.starts_with(JOB))
+        .map(|(_, v)| v.len())
+        .sum()
+}
+
+/// Passes 0..passes of every line, each pass saved (and line 3 recorded twice in pass 0).
+async fn passes(c: &mut Checkpointer, store: &MemStore, passes: std::ops::Range<u32>) {
+    for pass in passes {
+        for y in 0..HEIGHT {
+            c.record(record(y, pass), false);
+        }
+        if pass == 0 {
+            c.record(record(3, 0), false);
+        }
+        c.save(store, "running").await.unwrap();
+    }
+}
+
+#[test]
+fn a_render_to_an_errors_passes_are_compacted_to_the_latest() {
+    rt().block_on(async {
+        let (plain, compacted) = (store(), store());
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(Some(u64::MAX / 4));
+        passes(&mut c, &plain, 0..8).await;
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(Some(0));
+        passes(&mut c, &compacted, 0..8).await;
+
+        let (p, k) = (
+            load(&plain, JOB).await.unwrap().unwrap(),
+            load(&compacted, JOB).await.unwrap().unwrap(),
+        );
+        assert_eq!(
+            p.lines, k.lines,
+            "the same lines, passes and summed counters"
+        );
+        assert_eq!(p.lines[&5].pass, 7);
+        let c5 = p.lines[&5].counters.unwrap();
+        assert_eq!((c5.eye, c5.line_s), (8, 4.0));
+        let c3 = k.lines[&3].counters.unwrap();
+        assert_eq!(c3.eye, 9, "line 3's two records of pass 0 counted both");
+
+        assert_eq!(p.header.base, 0);
+        assert!(k.header.base > 0, "the live segments moved on");
+        let emptied = (0..k.header.base)
+            .filter(|&s| compacted.map.lock().unwrap()[&segment_key(JOB, s)].is_empty())
+            .count();
+        assert_eq!(emptied, k.header.base as usize, "every old segment emptied");
+        let latest: usize = k.lines.values().map(|l| l.encoded_len()).sum();
+        assert!(
+            held(&compacted) <= 3 * latest + 4096,
+            "{} {latest}",
+            held(&compacted)
+        );
+        assert!(held(&plain) > 6 * latest, "{} {latest}", held(&plain));
+
+        // A resumed job goes on from the compacted checkpoint.
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, Some(&k)).with_slack(Some(0));
+        passes(&mut c, &compacted, 8..10).await;
+        let r = load(&compacted, JOB).await.unwrap().unwrap();
+        assert_eq!(r.lines[&5].pass, 9);
+        assert_eq!(r.lines[&5].counters.unwrap().eye, 10);
+    });
+}
+
+#[test]
+fn lines_not_stored_wait_for_the_next_save() {
+    rt().block_on(async {
+        let s = store();
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, None);
+        passes(&mut c, &s, 0..1).await;
+        // The store goes away after one segment of pass 1: the header is not written.
+        *s.fail_from.lock().unwrap() = Some(*s.puts.lock().unwrap() + 1);
+        for y in 0..HEIGHT {
+            c.record(record(y, 1), false);
+        }
+        assert!(c.save(&s, "running").await.is_err());
+        assert_eq!(load(&s, JOB).await.unwrap().unwrap().lines[&5].pass, 0);
+        *s.fail_from.lock().unwrap() = None;
+        c.record(record(5, 2), false);
+        c.save(&s, "running").await.unwrap();
+        let r = load(&s, JOB).await.unwrap().unwrap();
+        assert!((0..HEIGHT).all(|y| r.lines[&y].pass == if y == 5 { 2 } else { 1 }));
+        assert_eq!(r.lines[&5].counters.unwrap().eye, 3);
+    });
+}
+
+/// A format 3 checkpoint (before `base`) of a render to an error is read as it was.
+#[test]
+fn format_3_is_read() {
+    let s = saved(adaptive_spec(), &[record(2, 0)]);
+    let mut map = s.map.lock().unwrap();
+    let header = CheckpointHeader::decode(map["j4"].as_slice()).unwrap();
+    let old = CheckpointHeader {
+        format: 3,
+        ..header
+    };
+    map.insert("j4".into(), old.encode_to_vec());
+    drop(map);
+    let r = rt().block_on(load(&s, "j4")).unwrap().unwrap();
+    assert_eq!(r.lines[&2].pass, 0);
+}
