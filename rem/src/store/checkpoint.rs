@@ -122,6 +122,11 @@ impl CheckpointStore {
             .sum()
     }
 
+    /// True when `bytes` more of checkpoints fit under the quota now.
+    pub fn fits(&self, bytes: u64) -> bool {
+        self.used(Path::new("")).saturating_add(bytes) <= self.quota
+    }
+
     /// A version newer than any this store has handed out (nanoseconds since the epoch).
     pub fn next_version(&self) -> u64 {
         let now = now_ns();

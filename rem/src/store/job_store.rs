@@ -14,6 +14,11 @@
 //!   `kept_jobs` per user and `kept_secs` after their last change; one that goes takes its
 //!   job's checkpoints on this host with it. Any checkpoint not written for `kept_secs` goes
 //!   too, so the state directory stays bounded without anybody's help.
+//! - **Room under the quota.** When a checkpoint does not fit under the host's checkpoint
+//!   quota, the checkpoints of ended jobs go first, every user's, the least recently
+//!   changed first ([`JobStore::make_room`]): a running job's checkpoint is what keeps its
+//!   work through a fault, an ended job's only its image for `sunray fetch`. Their records
+//!   stay. A running job's checkpoint is never removed to make room.
 
 use std::time::{Duration, SystemTime};
 
@@ -194,6 +199,37 @@ impl JobStore {
     }
 }
 
+impl JobStore {
+    /// Removes the checkpoints of ended jobs, the least recently changed first, until
+    /// `bytes` more fit under the quota (or no ended job has any left); how many jobs'
+    /// checkpoints went.
+    pub async fn make_room(&self, bytes: u64) -> Result<usize> {
+        let mut ended: Vec<JobRecord> = self
+            .list(None)
+            .await?
+            .iter()
+            .filter_map(|cp| decode(cp).ok())
+            .filter(|r| is_ended(&r.state))
+            .collect();
+        ended.sort_by_key(|r| (r.updated_unix_ms, r.user.clone(), r.id.clone()));
+        let mut jobs = 0;
+        for r in ended {
+            if self.checkpoints.fits(bytes) {
+                break;
+            }
+            let removed = self
+                .checkpoints
+                .remove_where(&r.user, |key, _| belongs_to(key, &r.id))
+                .await?;
+            if removed > 0 {
+                tracing::warn!(user = %r.user, job = %r.id, "checkpoint quota: removed an ended job's checkpoints to make room");
+                jobs += 1;
+            }
+        }
+        Ok(jobs)
+    }
+}
+
 /// True when checkpoint `key` is job `id`'s: the id itself or `ID.ANYTHING` (segments).
 pub fn belongs_to(key: &str, id: &str) -> bool {
     key == id
@@ -220,9 +256,16 @@ mod tests {
     use crate::daemon::limits::Limits;
 
     fn stores(dir: &std::path::Path) -> (JobStore, CheckpointStore) {
+        stores_with_quota(dir, Limits::default().checkpoint_quota)
+    }
+
+    fn stores_with_quota(dir: &std::path::Path, quota: u64) -> (JobStore, CheckpointStore) {
         let key =
             crate::auth::peer_auth::DaemonKey::new(&crate::Secret::new("s").unwrap(), "a").unwrap();
-        let limits = Limits::default();
+        let limits = Limits {
+            checkpoint_quota: quota,
+            ..Limits::default()
+        };
         let records = CheckpointStore::open(
             &dir.join("jobs"),
             key.clone(),
@@ -353,5 +396,58 @@ mod tests {
             .unwrap();
         assert!(cps >= 2, "{cps}");
         assert!(belongs_to("j.seg", "j") && belongs_to("j", "j") && !belongs_to("jj", "j"));
+    }
+
+    /// A checkpoint of `user`'s `key`, `bytes` long, sealed for `store`.
+    fn blob(store: &CheckpointStore, user: &str, key: &str, bytes: usize) -> Checkpoint {
+        let mut cp = Checkpoint {
+            job: key.into(),
+            data: vec![7; bytes],
+            version: store.next_version(),
+            written_by: "a".into(),
+            mac: Vec::new(),
+            user: user.into(),
+            epoch: 0,
+        };
+        store.seal(&mut cp);
+        cp
+    }
+
+    #[tokio::test]
+    async fn ended_jobs_checkpoints_make_room_oldest_first_never_a_running_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let (jobs, checkpoints) = stores_with_quota(dir.path(), 10_000);
+        for (user, id, state, updated) in [
+            ("alice", "newer", "finished", 300),
+            ("bob", "older", "failed", 100),
+            ("alice", "live", "running", 50),
+        ] {
+            let mut r = record(id, state, 1, updated);
+            r.user = user.into();
+            jobs.put(&jobs.seal(&r, "a")).await.unwrap();
+            for key in [id.to_string(), format!("{id}.s0")] {
+                checkpoints
+                    .put(&blob(&checkpoints, user, &key, 1_500))
+                    .await
+                    .unwrap();
+            }
+        }
+        // About 9,300 bytes kept: 2,000 more need one ended job's checkpoints, the oldest.
+        assert!(!checkpoints.fits(2_000));
+        assert_eq!(jobs.make_room(2_000).await.unwrap(), 1);
+        assert!(checkpoints.fits(2_000));
+        assert!(checkpoints.get("bob", "older.s0").await.unwrap().is_none());
+        assert!(checkpoints
+            .get("alice", "newer.s0")
+            .await
+            .unwrap()
+            .is_some());
+        // Records stay; a running job's checkpoints never go, so past the ended ones no
+        // room is made.
+        assert!(jobs.get("bob", "older").await.unwrap().is_some());
+        assert_eq!(jobs.make_room(9_000).await.unwrap(), 1);
+        assert_eq!(jobs.make_room(9_000).await.unwrap(), 0);
+        assert!(checkpoints.get("alice", "live.s0").await.unwrap().is_some());
+        assert!(!checkpoints.fits(9_000));
     }
 }

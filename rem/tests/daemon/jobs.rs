@@ -165,3 +165,43 @@ async fn ended_jobs_beyond_the_retention_go_with_their_checkpoints() {
     assert!(c.get_checkpoint("live.seg1").await.unwrap().is_some());
     remd.stop().await;
 }
+
+/// A checkpoint over the host's quota takes the place of ended jobs' checkpoints, oldest
+/// first, and never of a running job's: then it is refused with a clear status.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn over_the_quota_ended_jobs_checkpoints_make_room() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = rem::daemon::config::DaemonSettings::new("a", Secret::new(SECRET).unwrap());
+    s.state_dir = Some(dir.path().to_path_buf());
+    s.limits.checkpoint_quota = 100_000;
+    let remd = EmbeddedRemd::start(s).await.unwrap();
+    let c = RemClient::connect(remd.addr(), Secret::new(SECRET).unwrap())
+        .await
+        .unwrap();
+    for (id, state) in [
+        ("old", "finished"),
+        ("new", "cancelled"),
+        ("live", "running"),
+    ] {
+        c.put_job(record(id, state, 1, 0)).await.unwrap();
+        c.put_checkpoint(&format!("{id}.s0"), vec![1; 30_000])
+            .await
+            .unwrap();
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    // 90 KB kept: 30 KB more fit once the oldest ended job's checkpoint has gone.
+    c.put_checkpoint("live.s1", vec![2; 30_000]).await.unwrap();
+    assert!(c.get_checkpoint("old.s0").await.unwrap().is_none());
+    assert!(c.get_checkpoint("new.s0").await.unwrap().is_some());
+    c.put_checkpoint("live.s2", vec![3; 30_000]).await.unwrap();
+    assert!(c.get_checkpoint("new.s0").await.unwrap().is_none());
+    // Only the running job's are left: no room is made of them.
+    let err = c
+        .put_checkpoint("live.s3", vec![4; 30_000])
+        .await
+        .unwrap_err();
+    assert!(err.to_string().contains("checkpoint quota"), "{err}");
+    assert!(c.get_checkpoint("live.s0").await.unwrap().is_some());
+    assert_eq!(c.list_jobs().await.unwrap().len(), 3, "records stay");
+    remd.stop().await;
+}

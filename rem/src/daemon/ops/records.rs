@@ -3,6 +3,8 @@
 
 use std::collections::BTreeMap;
 
+use prost::Message;
+
 use super::{Daemon, Fence};
 use crate::auth::identity::Identity;
 use crate::auth::peer_auth::method;
@@ -56,7 +58,7 @@ impl Daemon {
             epoch: fence.epoch,
         };
         self.checkpoints.seal(&mut cp);
-        let here = kept_here(self.checkpoints.put(&cp).await, &cp.job)?;
+        let here = kept_here(self.keep_checkpoint(&cp).await, &cp.job)?;
         let stored = self
             .replicate(
                 &cp,
@@ -66,6 +68,20 @@ impl Daemon {
             )
             .await?;
         Ok((cp.version, stored))
+    }
+
+    /// Stores `cp` on this host; over the checkpoint quota, once more after ended jobs'
+    /// checkpoints made room ([`job_store::JobStore::make_room`]).
+    pub async fn keep_checkpoint(&self, cp: &Checkpoint) -> Result<()> {
+        match self.checkpoints.put(cp).await {
+            Err(Error::Limit(why)) => {
+                if self.job_store.make_room(cp.encoded_len() as u64).await? == 0 {
+                    return Err(Error::Limit(why));
+                }
+                self.checkpoints.put(cp).await
+            }
+            r => r,
+        }
     }
 
     /// Sends `cp` to live peers in the key's rendezvous order until two hosts hold it: one

@@ -334,7 +334,7 @@ impl Peer for Service {
         req: Request<proto::Checkpoint>,
     ) -> Result<Response<proto::StoreReplicaReply>, Status> {
         self.peer(&req, method::STORE)?;
-        self.0.checkpoints.put(req.get_ref()).await?;
+        self.0.keep_checkpoint(req.get_ref()).await?;
         Ok(self.answer(&req, method::STORE, proto::StoreReplicaReply {}))
     }
 
