@@ -162,11 +162,11 @@ impl Checkpointer {
             return written.map(|_| ());
         };
         self.base = old_end;
-        self.written = written;
         if let Err(e) = self.write_header(store, state).await {
             (self.base, self.segments) = (old_base, old_end);
             return Err(e);
         }
+        self.written = written;
         for s in old_base..old_end {
             // Emptied, not removed (REM has no removal): the file shrinks to its envelope.
             store.put(&segment_key(&self.job, s), Vec::new()).await?;
