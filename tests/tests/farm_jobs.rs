@@ -418,6 +418,40 @@ fn a_cancelled_job_ends_its_processes_and_keeps_its_checkpointed_lines() {
         said.contains(&format!("its record says finished, but after 10 s the hosts that answer hold {done} of {LINES} lines")),
         "{said}"
     );
+    // Its checkpoint gone from every host (as REM's retention or its quota removes an ended
+    // job's): fetch says why there is no image.
+    remove_checkpoints(cluster.dir.path(), &job);
+    let fetched = cluster
+        .sunray_via("b")
+        .args(["fetch", &job, "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&fetched.stderr).to_string();
+    assert!(!fetched.status.success() && !out.exists(), "{said}");
+    assert!(
+        said.contains("its record says finished, but no host keeps its image any more"),
+        "{said}"
+    );
+}
+
+/// Removes job `job`'s checkpoint files (`JOB.ckpt`, `JOB.sN.ckpt`) under `dir`.
+fn remove_checkpoints(dir: &Path, job: &str) {
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = e.path();
+        let name = e.file_name().to_string_lossy().into_owned();
+        let dot = format!("{job}.");
+        if path.is_dir() {
+            remove_checkpoints(&path, job);
+        } else if name.ends_with(".ckpt")
+            && name.starts_with(&dot)
+            && path
+                .parent()
+                .is_some_and(|p| p.ancestors().any(|a| a.ends_with("checkpoints")))
+        {
+            std::fs::remove_file(&path).unwrap();
+        }
+    }
 }
 
 #[test]

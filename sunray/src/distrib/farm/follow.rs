@@ -317,12 +317,22 @@ async fn finished_checkpoint(
     let deadline = tokio::time::Instant::now() + FETCH_CATCH_UP;
     let mut said_finished = None;
     loop {
-        let restored = checkpoint::load(client, job)
-            .await?
-            .ok_or_else(|| FarmError::Stored {
+        let Some(restored) = checkpoint::load(client, job).await? else {
+            let ended = job_record::find(client, job)
+                .await?
+                .filter(|r| is_ended(&r.state));
+            let reason = match ended {
+                Some(r) => format!(
+                    "its record says {}, but no host keeps its image any more (REM removes ended jobs' checkpoints after its retention, or sooner to make room under its checkpoint quota)",
+                    r.state
+                ),
+                None => "no host holds its image or checkpoint".into(),
+            };
+            return Err(FarmError::Stored {
                 job: job.to_string(),
-                reason: "no host holds its image or checkpoint".into(),
-            })?;
+                reason,
+            });
+        };
         let (_, height) = restored.size();
         let finished = restored.finished_lines();
         if finished >= height {
