@@ -164,12 +164,8 @@ impl JobStore {
             .unwrap_or(SystemTime::UNIX_EPOCH);
         let cutoff_ms = unix_ms(cutoff);
         let mut by_user: std::collections::BTreeMap<String, Vec<JobRecord>> = Default::default();
-        for cp in self.list(None).await? {
-            if let Ok(r) = decode(&cp) {
-                if is_ended(&r.state) {
-                    by_user.entry(r.user.clone()).or_default().push(r);
-                }
-            }
+        for r in self.ended().await? {
+            by_user.entry(r.user.clone()).or_default().push(r);
         }
         let (mut records, mut checkpoints) = (0, 0);
         for (user, mut ended) in by_user {
@@ -200,17 +196,22 @@ impl JobStore {
 }
 
 impl JobStore {
-    /// Removes the checkpoints of ended jobs, the least recently changed first, until
-    /// `bytes` more fit under the quota (or no ended job has any left); how many jobs'
-    /// checkpoints went.
-    pub async fn make_room(&self, bytes: u64) -> Result<usize> {
-        let mut ended: Vec<JobRecord> = self
+    /// The records of ended jobs kept here, every user's (those that decode).
+    async fn ended(&self) -> Result<Vec<JobRecord>> {
+        Ok(self
             .list(None)
             .await?
             .iter()
             .filter_map(|cp| decode(cp).ok())
             .filter(|r| is_ended(&r.state))
-            .collect();
+            .collect())
+    }
+
+    /// Removes the checkpoints of ended jobs, the least recently changed first, until
+    /// `bytes` more fit under the quota (or no ended job has any left); how many jobs'
+    /// checkpoints went.
+    pub async fn make_room(&self, bytes: u64) -> Result<usize> {
+        let mut ended = self.ended().await?;
         ended.sort_by_key(|r| (r.updated_unix_ms, r.user.clone(), r.id.clone()));
         let mut jobs = 0;
         for r in ended {

@@ -178,23 +178,24 @@ async fn over_the_quota_ended_jobs_checkpoints_make_room() {
     let c = RemClient::connect(remd.addr(), Secret::new(SECRET).unwrap())
         .await
         .unwrap();
+    // Written in this order: oldest first by the daemon's clock, and by id where two share
+    // a millisecond.
     for (id, state) in [
-        ("old", "finished"),
-        ("new", "cancelled"),
+        ("a-old", "finished"),
+        ("b-new", "cancelled"),
         ("live", "running"),
     ] {
         c.put_job(record(id, state, 1, 0)).await.unwrap();
         c.put_checkpoint(&format!("{id}.s0"), vec![1; 30_000])
             .await
             .unwrap();
-        tokio::time::sleep(Duration::from_millis(5)).await;
     }
     // 90 KB kept: 30 KB more fit once the oldest ended job's checkpoint has gone.
     c.put_checkpoint("live.s1", vec![2; 30_000]).await.unwrap();
-    assert!(c.get_checkpoint("old.s0").await.unwrap().is_none());
-    assert!(c.get_checkpoint("new.s0").await.unwrap().is_some());
+    assert!(c.get_checkpoint("a-old.s0").await.unwrap().is_none());
+    assert!(c.get_checkpoint("b-new.s0").await.unwrap().is_some());
     c.put_checkpoint("live.s2", vec![3; 30_000]).await.unwrap();
-    assert!(c.get_checkpoint("new.s0").await.unwrap().is_none());
+    assert!(c.get_checkpoint("b-new.s0").await.unwrap().is_none());
     // Only the running job's are left: no room is made of them.
     let err = c
         .put_checkpoint("live.s3", vec![4; 30_000])

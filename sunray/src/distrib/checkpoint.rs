@@ -287,18 +287,13 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
     let keys: Vec<String> = live.clone().map(|s| segment_key(job, s)).collect();
     let mut segments = futures_util::stream::iter(keys.into_iter().zip(live).map(
         |(key, s): (String, u32)| async move {
-            let got = store.get(&key).await;
-            (key, s, got)
+            let got = read_segment(store, job, s).await;
+            (key, got)
         },
     ))
     .buffered(SEGMENT_READS);
-    while let Some((key, s, got)) = segments.next().await {
-        let bytes = got?.ok_or_else(|| CheckpointError::MissingSegment {
-            job: job.to_string(),
-            segment: s,
-        })?;
-        let seg = CheckpointSegment::decode(bytes.as_slice()).map_err(|e| corrupt(&key, e))?;
-        for l in seg.lines {
+    while let Some((key, got)) = segments.next().await {
+        for l in got?.lines {
             if l.line >= height {
                 return Err(inconsistent(
                     &key,
@@ -332,6 +327,27 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
         lines,
         adaptive,
     }))
+}
+
+/// Segment `segment` of job `job`'s checkpoint, decoded (what it holds is checked by its
+/// reader).
+pub(crate) async fn read_segment(
+    store: &impl Store,
+    job: &str,
+    segment: u32,
+) -> Result<CheckpointSegment, CheckpointError> {
+    let key = segment_key(job, segment);
+    let bytes = store
+        .get(&key)
+        .await?
+        .ok_or_else(|| CheckpointError::MissingSegment {
+            job: job.to_string(),
+            segment,
+        })?;
+    CheckpointSegment::decode(bytes.as_slice()).map_err(|e| CheckpointError::Corrupt {
+        key,
+        reason: e.to_string(),
+    })
 }
 
 /// Keeps the latest record of a line (its highest pass; the last one written of equal

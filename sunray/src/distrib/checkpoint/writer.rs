@@ -18,8 +18,8 @@
 //! image's estimates for the rare compaction would double that.
 
 use super::{
-    keep_latest, segment_key, unix_ms, CheckpointError, CheckpointHeader, CheckpointSegment,
-    FinishedLine, JobSpec, Restored, Store, FORMAT,
+    keep_latest, read_segment, segment_key, unix_ms, CheckpointError, CheckpointHeader,
+    CheckpointSegment, FinishedLine, JobSpec, Restored, Store, FORMAT,
 };
 use prost::Message;
 use std::collections::BTreeMap;
@@ -138,21 +138,9 @@ impl Checkpointer {
         let (old_base, old_end) = (self.base, self.segments);
         let mut lines = BTreeMap::new();
         for s in old_base..old_end {
-            let key = segment_key(&self.job, s);
-            let bytes = store
-                .get(&key)
-                .await?
-                .ok_or_else(|| CheckpointError::MissingSegment {
-                    job: self.job.clone(),
-                    segment: s,
-                })?;
-            let seg = CheckpointSegment::decode(bytes.as_slice()).map_err(|e| {
-                CheckpointError::Corrupt {
-                    key,
-                    reason: e.to_string(),
-                }
-            })?;
-            seg.lines
+            let segment = read_segment(store, &self.job, s).await?;
+            segment
+                .lines
                 .into_iter()
                 .for_each(|l| keep_latest(&mut lines, l));
         }
@@ -198,16 +186,20 @@ impl Checkpointer {
                 take.push(l.line);
             }
             let segment = CheckpointSegment {
-                lines: take.iter().filter_map(|y| lines.get(y).cloned()).collect(),
+                lines: take.iter().filter_map(|y| lines.remove(y)).collect(),
+            };
+            let bytes = segment.encode_to_vec();
+            let len = bytes.len() as u64;
+            if let Err(e) = store
+                .put(&segment_key(&self.job, self.segments), bytes)
+                .await
+            {
+                // Not stored: the lines stay for the next try.
+                lines.extend(segment.lines.into_iter().map(|l| (l.line, l)));
+                return Err(e.into());
             }
-            .encode_to_vec();
-            let len = segment.len() as u64;
-            store
-                .put(&segment_key(&self.job, self.segments), segment)
-                .await?;
             written += len;
             self.segments += 1;
-            take.iter().for_each(|y| drop(lines.remove(y)));
         }
         Ok(written)
     }
