@@ -11,8 +11,9 @@
 //! `base` hold superseded records and are emptied).
 //!
 //! With a target error a line is recorded after each of its passes, with its pixels'
-//! estimates (a resumed job goes on from the line's last pass exactly); the latest record of
-//! a line is what it has, and its counters are summed over its records.
+//! estimates (a resumed job goes on from the line's last pass exactly), and once every pixel
+//! is done, settled ([`super::settled`]: its pixels and what each took); the latest record
+//! of a line is what it has, and its counters are summed over its records.
 //!
 //! A checkpoint read back is not trusted: [`load`] refuses one whose render settings are
 //! missing or out of bounds (`render::settings`), or whose segments and lines disagree with
@@ -21,6 +22,7 @@
 
 use super::messages::proto::{CheckpointHeader, CheckpointSegment, FinishedLine, JobSpec};
 use super::messages::MessageError;
+use super::settled::{self, SettledPixel};
 use crate::film::Film;
 use crate::render::adaptive::{self, max_passes, Adaptive, PixelEstimate};
 use crate::render::{pass, PixelSummary, Settings};
@@ -29,13 +31,15 @@ use prost::Message;
 use std::collections::BTreeMap;
 use std::future::Future;
 
-/// The header format this code writes and reads. Format 4: the live segments start at the
-/// header's `base` (format 3's at 0). Format 3: a render to an error's pixel estimates carry
-/// their stage (open, decided, raised: the neighbourhood's decision after the first samples;
-/// [`PixelEstimate`], 149 bytes). Format 2's were 148 bytes and decided alone, format 1's
-/// were four replicates' (100 bytes, other samples), so a format 1 or 2 checkpoint is read
-/// only when its job renders a fixed sample count, which the changes left as it was.
-pub const FORMAT: u32 = 4;
+/// The header format this code writes and reads. Format 5: a render to an error's finished
+/// lines are settled (format 4's kept their estimates). Format 4: the live segments start
+/// at the header's `base` (format 3's at 0). Format 3: a render to an error's pixel
+/// estimates carry their stage (open, decided, raised: the neighbourhood's decision after
+/// the first samples; [`PixelEstimate`], 149 bytes). Format 2's were 148 bytes and decided
+/// alone, format 1's were four replicates' (100 bytes, other samples), so a format 1 or 2
+/// checkpoint is read only when its job renders a fixed sample count, which the changes
+/// left as it was.
+pub const FORMAT: u32 = 5;
 
 /// The first format whose estimates a render to an error reads.
 const ESTIMATES_FORMAT: u32 = 3;
@@ -113,7 +117,7 @@ pub enum CheckpointError {
     },
     /// The header was written by a program with another [`FORMAT`] (or format 1 or 2 with a
     /// target error).
-    #[error("checkpoint format {0} is not supported (this program reads format {FORMAT}, and formats 1 and 2 without a target error)")]
+    #[error("checkpoint format {0} is not supported (this program reads formats 1 to {FORMAT}, 1 and 2 only without a target error)")]
     Format(u32),
     /// The header holds no render settings.
     #[error("checkpoint of job {job} holds no render settings")]
@@ -183,6 +187,7 @@ impl Restored {
         for l in self.lines.values().filter(|l| l.line < height) {
             let px = match self.estimates(l) {
                 Some(e) => Some(pass::line_pixels(&e)),
+                // A fixed sample count's line, or a settled one.
                 None => super::messages::pixels_from_bytes(&l.pixels, width).ok(),
             };
             if let Some(px) = px {
@@ -192,18 +197,40 @@ impl Restored {
         film
     }
 
-    /// The estimates of a line recorded after a pass (`None` without a target error).
+    /// The estimates of a line recorded after a pass (`None` without a target error, or
+    /// for a settled line).
     pub fn estimates(&self, l: &FinishedLine) -> Option<Vec<PixelEstimate>> {
         let a = self.adaptive.as_ref()?;
+        if l.estimates.is_empty() {
+            return None;
+        }
         super::messages::estimates_from_bytes(&l.estimates, self.size().0, a).ok()
     }
 
-    /// Whether a line recorded is finished: with a target error, whether its last pass left
-    /// every pixel done.
+    /// What each pixel of a settled line took (`None` without a target error, or for a line
+    /// recorded with its estimates).
+    pub fn settled(&self, l: &FinishedLine) -> Option<Vec<SettledPixel>> {
+        let a = self.adaptive.as_ref()?;
+        if l.settled.is_empty() {
+            return None;
+        }
+        settled::from_bytes(&l.settled, self.size().0, a).ok()
+    }
+
+    /// What each pixel of a line took so far (`None` without a target error).
+    fn summaries(&self, l: &FinishedLine) -> Option<Vec<PixelSummary>> {
+        match self.settled(l) {
+            Some(s) => Some(s.iter().map(|p| p.summary).collect()),
+            None => Some(self.estimates(l)?.iter().map(|e| e.summary()).collect()),
+        }
+    }
+
+    /// Whether a line recorded is finished: with a target error, whether it is settled or
+    /// its last pass left every pixel done.
     pub fn is_finished(&self, l: &FinishedLine) -> bool {
         match (&self.adaptive, self.estimates(l)) {
             (Some(a), Some(e)) => pass::line_done(&e, a),
-            (Some(_), None) => false,
+            (Some(_), None) => self.settled(l).is_some(),
             (None, _) => true,
         }
     }
@@ -216,11 +243,11 @@ impl Restored {
         let mut summaries = vec![PixelSummary::default(); width as usize * height as usize];
         for l in self.lines.values() {
             let row = l.line as usize * width as usize;
-            if let (Some(e), Some(s)) = (
-                self.estimates(l),
+            if let (Some(took), Some(s)) = (
+                self.summaries(l),
                 summaries.get_mut(row..row + width as usize),
             ) {
-                s.iter_mut().zip(&e).for_each(|(s, e)| *s = e.summary());
+                s.copy_from_slice(&took);
             }
         }
         Some(adaptive::samples_map(&summaries, a, width, height))
@@ -301,14 +328,8 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
                 ));
             }
             if let Some(a) = &adaptive {
-                super::messages::estimates_from_bytes(&l.estimates, width, a)
-                    .map_err(|e| inconsistent(&key, format!("line {}: {e}", l.line)))?;
-                if !l.pixels.is_empty() {
-                    return Err(inconsistent(
-                        &key,
-                        format!("line {} has pixels and estimates", l.line),
-                    ));
-                }
+                check_adaptive_line(&l, width, a)
+                    .map_err(|why| inconsistent(&key, format!("line {}: {why}", l.line)))?;
             } else if l.pixels.len() != line_bytes {
                 return Err(inconsistent(
                     &key,
@@ -327,6 +348,24 @@ pub async fn load(store: &impl Store, job: &str) -> Result<Option<Restored>, Che
         lines,
         adaptive,
     }))
+}
+
+/// Checks a line of a render to the error `a`: its estimates (and no pixels), or settled
+/// (its pixels and what each took, and no estimates).
+fn check_adaptive_line(l: &FinishedLine, width: u32, a: &Adaptive) -> Result<(), String> {
+    if l.settled.is_empty() {
+        super::messages::estimates_from_bytes(&l.estimates, width, a).map_err(|e| e.to_string())?;
+        if !l.pixels.is_empty() {
+            return Err("it has pixels and estimates".into());
+        }
+        return Ok(());
+    }
+    if !l.estimates.is_empty() {
+        return Err("it is settled and has estimates".into());
+    }
+    super::messages::pixels_from_bytes(&l.pixels, width).map_err(|e| e.to_string())?;
+    settled::from_bytes(&l.settled, width, a).map_err(|e| e.to_string())?;
+    Ok(())
 }
 
 /// Segment `segment` of job `job`'s checkpoint, decoded (what it holds is checked by its

@@ -6,14 +6,23 @@
 //! [`RADIUS`] of it has its own: then the controller decides its pixels
 //! ([`neighbourhood::raised_columns`], from which pixels of those lines were open, kept here as
 //! they came in) and the line goes on with pass 1 if a pixel was raised, or is finished.
+//! A finished line's checkpoint record is settled ([`settled`]): its pixels and what each
+//! took, not its estimates.
 
 use super::messages::{self, proto, MessageError};
+use super::settled::{self, SettledPixel};
 use crate::film::Film;
 use crate::render::adaptive::{self, Adaptive, PixelEstimate};
 use crate::render::neighbourhood::{self, RADIUS};
 use crate::render::{pass, PixelSummary};
 use crate::stats::ErrorStats;
 use std::collections::HashMap;
+
+/// The most bytes of estimates the lines between their passes hold before their next passes
+/// go ahead of the lines still on their first ([`LinePasses::next_passes_first`]): with every
+/// first pass first, a 3840 x 2160 image held all its estimates at once, 1.2 GB, in the
+/// controller and in its checkpoint (past REM's quota of 1 GiB a host).
+pub const HELD_BYTES: usize = 64 << 20;
 
 /// The lines of a job rendered to an error, between their passes.
 #[derive(Clone, Debug)]
@@ -28,6 +37,8 @@ pub struct LinePasses {
     summaries: Vec<PixelSummary>,
     /// Which pixels were open after their first samples, row by row.
     open: Vec<bool>,
+    /// [`HELD_BYTES`] (less in tests).
+    held_bytes: usize,
 }
 
 /// What a pass of a line coming in changed.
@@ -43,6 +54,9 @@ pub struct PassIn {
     /// Lines decided now that their neighbourhoods have their first samples (this one among
     /// them, perhaps).
     pub decided: Vec<Decided>,
+    /// When every pixel of the line is done: what its checkpoint record keeps of them
+    /// ([`settled`]; empty otherwise).
+    pub settled: Vec<u8>,
 }
 
 /// A line decided.
@@ -52,20 +66,25 @@ pub struct Decided {
     pub line: u32,
     /// Whether a pixel was raised and needs more: the line goes on with its next pass.
     pub more: bool,
-    /// Its estimates after the decision (what its checkpoint record holds).
+    /// Its estimates after the decision, when it goes on (what its checkpoint record holds).
     pub estimates: Vec<u8>,
+    /// When it is finished, its pixels (as bytes) and what each took ([`settled`]): what its
+    /// checkpoint record holds.
+    pub settled: Option<(Vec<u8>, Vec<u8>)>,
 }
 
 impl Decided {
     /// Its record in the checkpoint: the decision amends the line's pass `pass` (nothing was
-    /// rendered, so no pixels and no counters of its own).
+    /// rendered, so no counters of its own).
     pub fn record(self, pass: u32) -> proto::FinishedLine {
+        let (pixels, settled) = self.settled.unwrap_or_default();
         proto::FinishedLine {
             line: self.line,
-            pixels: Vec::new(),
+            pixels,
             counters: None,
             pass,
             estimates: self.estimates,
+            settled,
         }
     }
 }
@@ -91,7 +110,13 @@ impl LinePasses {
             between: HashMap::new(),
             summaries: vec![PixelSummary::default(); width as usize * height as usize],
             open: vec![false; width as usize * height as usize],
+            held_bytes: HELD_BYTES,
         }
+    }
+
+    /// The same, its next passes first past `held_bytes` of estimates between passes (tests).
+    pub fn with_held_bytes(self, held_bytes: usize) -> LinePasses {
+        LinePasses { held_bytes, ..self }
     }
 
     /// What the job asks of every pixel.
@@ -114,6 +139,7 @@ impl LinePasses {
                 more: false,
                 waiting: false,
                 decided: Vec::new(),
+                settled: Vec::new(),
             };
         }
         let row = line as usize * self.width as usize;
@@ -135,20 +161,43 @@ impl LinePasses {
         // another pass, not held for a decision its first samples would be needed for.
         let waiting = first && estimates.iter().any(|e| e.awaits_decision(&self.a));
         let more = !waiting && !pass::line_done(&estimates, &self.a);
+        let mut settled = Vec::new();
         if waiting || more {
             self.between.insert(line, estimates);
         } else {
             self.between.remove(&line);
+            settled = settled::to_bytes(estimates.iter().map(SettledPixel::of));
         }
-        let r = RADIUS;
-        let near = line.saturating_sub(r)..=(line + r).min(self.height - 1);
-        let decided = near.filter_map(|c| self.decide(c)).collect();
         PassIn {
             pixels,
             more,
             waiting,
-            decided,
+            decided: self.decide_near(line),
+            settled,
         }
+    }
+
+    /// A settled line of a checkpoint is in ([`settled::from_bytes`] checked it): what its
+    /// pixels took and which were open are noted, and the lines this decides returned.
+    pub fn settled_in(&mut self, line: u32, pixels: &[SettledPixel]) -> Vec<Decided> {
+        let width = self.width as usize;
+        let row = line as usize * width;
+        if line >= self.height || pixels.len() != width {
+            return Vec::new();
+        }
+        for (x, p) in pixels.iter().enumerate() {
+            self.summaries[row + x] = p.summary;
+            self.open[row + x] = p.open;
+        }
+        self.between.remove(&line);
+        self.decide_near(line)
+    }
+
+    /// The lines within [`RADIUS`] of `line` decided now.
+    fn decide_near(&mut self, line: u32) -> Vec<Decided> {
+        let r = RADIUS;
+        let near = line.saturating_sub(r)..=(line + r).min(self.height - 1);
+        near.filter_map(|c| self.decide(c)).collect()
     }
 
     /// Decides `line` if it waits and every line within [`RADIUS`] has its first
@@ -169,14 +218,22 @@ impl LinePasses {
         let rows = near.map(|y| &open[y as usize * width..(y as usize + 1) * width]);
         neighbourhood::decide_line(est, rows, &a);
         let more = !pass::line_done(est, &a);
-        let estimates = messages::estimates_to_bytes(est);
-        if !more {
-            self.between.remove(&line);
+        if more {
+            let estimates = messages::estimates_to_bytes(est);
+            return Some(Decided {
+                line,
+                more,
+                estimates,
+                settled: None,
+            });
         }
+        let est = self.between.remove(&line)?;
+        let pixels = messages::pixels_to_bytes(&pass::line_pixels(&est));
         Some(Decided {
             line,
             more,
-            estimates,
+            estimates: Vec::new(),
+            settled: Some((pixels, settled::to_bytes(est.iter().map(SettledPixel::of)))),
         })
     }
 
@@ -188,6 +245,13 @@ impl LinePasses {
         self.summaries
             .get(row..row + width)
             .is_some_and(|s| s.iter().all(|p| p.samples >= self.a.min_samples))
+    }
+
+    /// Whether lines going on should be handed out before the lines still on their first
+    /// pass: when the lines between passes hold more than [`HELD_BYTES`] of estimates (so a
+    /// large image is finished band by band; a smaller one is refined pass by pass).
+    pub fn next_passes_first(&self) -> bool {
+        self.between.len() * self.width as usize * PixelEstimate::BYTES > self.held_bytes
     }
 
     /// Where `line` stands.
@@ -239,168 +303,4 @@ impl LinePasses {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::DVec3;
-
-    /// The web view's live samples map of a large image picks every step-th pixel of the
-    /// whole map, without making it.
-    #[test]
-    fn the_samples_map_every_step_picks_the_whole_maps_pixels() {
-        let a = Adaptive::new(0.01, Some(4), Some(64));
-        let mut passes = LinePasses::new(a, 5, 3);
-        for (i, s) in passes.summaries.iter_mut().enumerate() {
-            s.samples = 4 << (i % 5);
-        }
-        let whole = passes.samples_map();
-        let every = passes.samples_map_every(2);
-        assert_eq!((every.width, every.height), (3, 2));
-        for y in 0..2 {
-            for x in 0..3 {
-                assert_eq!(
-                    every.pixels[(y * 3 + x) as usize],
-                    whole.pixels[(2 * y * 5 + 2 * x) as usize]
-                );
-            }
-        }
-        assert_ne!(whole.pixels[0], whole.pixels[4], "the map shows the counts");
-    }
-
-    /// Lines come in out of order; each is decided once every line within two of it has
-    /// its first samples: those near the one open pixel go on, the rest are finished.
-    #[test]
-    fn a_line_waits_for_its_neighbourhood_then_goes_on_or_is_finished() {
-        let a = Adaptive::new(0.01, Some(4), Some(64));
-        let (w, h) = (8u32, 6u32);
-        let mut passes = LinePasses::new(a, w, h);
-        let flat = adaptive::constant_pixel(DVec3::splat(0.5), &a);
-        let mut noisy = PixelEstimate::default();
-        for k in 0..4 {
-            noisy.add(DVec3::splat(f64::from(k % 2)));
-        }
-        noisy.first_samples_in(&a);
-        assert!(noisy.is_open() && noisy.awaits_decision(&a) && !flat.is_open());
-        let first = |y: u32| {
-            let mut l = vec![flat; w as usize];
-            if y == 0 {
-                l[0] = noisy;
-            }
-            passes_decode(&a, w, &l)
-        };
-        let mut decided = Vec::new();
-        for y in [5, 0, 3, 1] {
-            let got = passes.pass_in(y, first(y));
-            assert!(
-                got.waiting && !got.more && got.decided.is_empty(),
-                "line {y}"
-            );
-            assert_eq!(passes.stage(y), LineStage::Waiting);
-        }
-        let held = passes.grant_bytes(0, 1);
-        assert_eq!(
-            held,
-            messages::estimates_to_bytes(&first(0)),
-            "held exactly"
-        );
-        for y in [2, 4] {
-            decided.extend(passes.pass_in(y, first(y)).decided);
-        }
-        let order: Vec<(u32, bool)> = decided.iter().map(|d| (d.line, d.more)).collect();
-        assert_eq!(
-            order,
-            [
-                (0, true),
-                (1, true),
-                (2, true),
-                (3, false),
-                (4, false),
-                (5, false)
-            ]
-        );
-        for d in &decided {
-            let e = passes.decode(&d.estimates).unwrap();
-            for (x, p) in e.iter().enumerate() {
-                assert!(!p.awaits_decision(&a), "line {} decided", d.line);
-                // Raised: within two columns and two lines of the open pixel (0, 0).
-                let raised = d.line <= 2 && x <= 2;
-                assert_eq!(p.is_done(&a), !raised, "line {} pixel {x}", d.line);
-            }
-            let stage = if d.more {
-                LineStage::Pass
-            } else {
-                LineStage::Settled
-            };
-            assert_eq!(passes.stage(d.line), stage);
-        }
-        assert_eq!(
-            passes.grant_bytes(0, 1),
-            decided[0].estimates,
-            "handed out decided"
-        );
-        assert!(
-            passes.grant_bytes(3, 1).is_empty(),
-            "a finished line is let go"
-        );
-        // Line 0's next pass: its raised pixels go on until they are done.
-        let mut e = passes.decode(&passes.grant_bytes(0, 1)).unwrap();
-        for pass in 1.. {
-            for p in e.iter_mut() {
-                while let Some(want) = p
-                    .next_count(&a)
-                    .filter(|&n| n <= adaptive::pass_cap(&a, pass))
-                {
-                    while p.count() < want {
-                        p.add(DVec3::splat(0.5));
-                    }
-                }
-            }
-            let got = passes.pass_in(0, e.clone());
-            assert!(!got.waiting && got.decided.is_empty());
-            if !got.more {
-                break;
-            }
-            assert!(pass < adaptive::max_passes(&a), "line 0 never finished");
-        }
-        assert_eq!(passes.stage(0), LineStage::Settled);
-        assert_eq!(
-            passes.summaries()[0].samples,
-            64,
-            "the noisy pixel to the most"
-        );
-        assert_eq!(
-            passes.summaries()[1].samples,
-            16,
-            "a raised flat one to 4 x 4"
-        );
-        assert_eq!(passes.summaries()[3].samples, 4, "a pixel not raised");
-    }
-
-    /// Estimates as a worker would send them, read back as the controller reads them.
-    fn passes_decode(a: &Adaptive, width: u32, e: &[PixelEstimate]) -> Vec<PixelEstimate> {
-        messages::estimates_from_bytes(&messages::estimates_to_bytes(e), width, a).unwrap()
-    }
-
-    #[test]
-    fn estimates_that_are_not_the_lines_are_refused() {
-        let a = Adaptive::new(0.01, Some(4), Some(64));
-        let passes = LinePasses::new(a, 2, 3);
-        let one = messages::estimates_to_bytes(&[PixelEstimate::default()]);
-        assert!(passes.decode(&one).is_err(), "one pixel of two");
-        let mut many = PixelEstimate::default();
-        for _ in 0..65 {
-            many.add(DVec3::ONE);
-        }
-        let e = passes
-            .decode(&messages::estimates_to_bytes(&[many, many]))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("65 samples") && e.contains("64"), "{e}");
-        // A stage byte this program does not write: unknown bits, or raised undecided.
-        for stage in [8u8, 4] {
-            let mut bytes = messages::estimates_to_bytes(&[PixelEstimate::default(); 2]);
-            bytes[PixelEstimate::BYTES - 1] = stage;
-            let e = passes.decode(&bytes).unwrap_err().to_string();
-            assert!(e.contains("unknown stage"), "{stage}: {e}");
-        }
-    }
-}
+mod tests;

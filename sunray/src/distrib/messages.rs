@@ -45,6 +45,15 @@ pub enum MessageError {
         /// What is wrong, with the values.
         why: String,
     },
+    /// A settled line's pixels ([`super::settled`]) are not 9 bytes per pixel of the width,
+    /// or one is not a pixel a render to the job's error leaves done.
+    #[error("bad settled pixels for a line of {width} pixels: {why}")]
+    Settled {
+        /// Pixels in a line.
+        width: u32,
+        /// What is wrong, with the values.
+        why: String,
+    },
     /// The render settings are out of bounds (or name an accelerator this program does not
     /// know).
     #[error(transparent)]
@@ -218,6 +227,39 @@ impl Settings {
     }
 }
 
+/// The Assigns that hand `lines` to one worker, in order, each at most `max_bytes` encoded
+/// (the relay's message limit): with a target error a grant carries its line's estimates, 149
+/// bytes a pixel, and a worker's window of 3840-pixel lines made a 43 MB Assign, which the
+/// relay refused (the worker was taken for lost). A grant too large alone goes alone.
+pub fn assigns(lines: Vec<proto::LineGrant>, echo_s: f64, max_bytes: usize) -> Vec<Vec<u8>> {
+    use prost::encoding::encoded_len_varint;
+    // The Assign's tag and length inside the message, and its echo_s (the most either takes).
+    const FRAME: usize = 1 + 10 + 9;
+    let mut out = Vec::new();
+    let mut batch: Vec<proto::LineGrant> = Vec::new();
+    let mut bytes = FRAME;
+    let mut send = |batch: Vec<proto::LineGrant>| {
+        out.push(encode(Body::Assign(proto::Assign {
+            lines: batch,
+            echo_s,
+        })))
+    };
+    for l in lines {
+        let len = l.encoded_len();
+        let len = 1 + encoded_len_varint(len as u64) + len;
+        if !batch.is_empty() && bytes + len > max_bytes {
+            send(std::mem::take(&mut batch));
+            bytes = FRAME;
+        }
+        bytes += len;
+        batch.push(l);
+    }
+    if !batch.is_empty() {
+        send(batch);
+    }
+    out
+}
+
 /// FNV-1a, 64 bits: the model hash a resumed job is checked against.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
     yari::modelfile::fnv1a(bytes)
@@ -238,6 +280,48 @@ mod tests {
             pixels_from_bytes(&bytes, 3),
             Err(MessageError::PixelCount { got: 24, width: 3 })
         ));
+    }
+
+    /// Grants of wide lines' estimates go in as many Assigns as the limit needs, each within
+    /// it, every line once and in order.
+    #[test]
+    fn assigns_stay_within_the_message_limit() {
+        let grant = |line: u32| proto::LineGrant {
+            line,
+            grant: u64::from(line) << 40,
+            pass: 1,
+            estimates: vec![7; 3840 * 149],
+            ..Default::default()
+        };
+        let limit = 16 << 20;
+        let out = assigns((0..75).map(grant).collect(), 12.5, limit);
+        assert_eq!(out.len(), 3, "75 grants of 572 KB: 29 a message");
+        let mut lines = Vec::new();
+        for m in &out {
+            assert!(m.len() <= limit, "{} bytes", m.len());
+            let Body::Assign(a) = decode(m).unwrap() else {
+                panic!("not an Assign")
+            };
+            assert_eq!(a.echo_s, 12.5);
+            lines.extend(a.lines.iter().map(|l| l.line));
+        }
+        assert_eq!(lines, (0..75).collect::<Vec<_>>());
+        // Small grants: one message; a grant over the limit alone: a message of its own.
+        assert_eq!(
+            assigns(
+                (0..75)
+                    .map(|l| proto::LineGrant {
+                        line: l,
+                        ..Default::default()
+                    })
+                    .collect(),
+                0.0,
+                limit
+            )
+            .len(),
+            1
+        );
+        assert_eq!(assigns(vec![grant(0), grant(1)], 0.0, 1000).len(), 2);
     }
 
     #[test]

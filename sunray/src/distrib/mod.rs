@@ -17,7 +17,8 @@
 //! - [`grants`]: the grant table (assign, complete, first completion wins, faults, timeouts,
 //!   duplication of stragglers).
 //! - [`line_passes`]: a job rendered to an error, a (line, pass) at a time: the lines'
-//!   estimates between their passes.
+//!   estimates between their passes; [`settled`]: a line whose pixels are all done, as its
+//!   checkpoint keeps it.
 //! - [`checkpoint`]: the controller's progress in REM's checkpoint store.
 //! - [`job_record`]: a SunRay job as REM's job record (behind `sunray jobs`).
 //! - [`nodes`]: per-node statistics and the thesis's per-node table.
@@ -52,6 +53,7 @@ pub mod model_chunks;
 pub mod nodes;
 pub mod pool;
 pub mod progress;
+pub mod settled;
 pub mod shipped_scenes;
 pub mod strategy;
 pub mod timeline;

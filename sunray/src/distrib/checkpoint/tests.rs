@@ -1,5 +1,6 @@
 use super::*;
 use crate::distrib::messages::proto::RenderSettings;
+use crate::distrib::settled::SettledPixel;
 use std::collections::HashMap;
 use std::sync::Mutex;
 
@@ -329,8 +330,60 @@ fn a_render_to_an_error_keeps_each_lines_latest_pass() {
         pixels: vec![0; 24],
         ..record(1, 0, [done, done], 1)
     };
-    let e = load_error(&saved(to_error, &[with_pixels])).to_string();
+    let e = load_error(&saved(to_error.clone(), &[with_pixels])).to_string();
     assert!(e.contains("pixels and estimates"), "{e}");
+
+    // A settled line: its pixels and what each took, finished, read for the film and map.
+    let settled = |y: u32, samples: u32| FinishedLine {
+        line: y,
+        pass: 2,
+        pixels: crate::distrib::messages::pixels_to_bytes(&[[0.75; 3], [0.125; 3]]),
+        settled: crate::distrib::settled::to_bytes([SettledPixel::of(&done); 2].map(|p| {
+            SettledPixel {
+                summary: crate::render::PixelSummary {
+                    samples,
+                    ..p.summary
+                },
+                ..p
+            }
+        })),
+        ..Default::default()
+    };
+    let r = rt()
+        .block_on(load(
+            &saved(
+                to_error.clone(),
+                &[record(3, 0, [noisy, done], 8), settled(3, 16)],
+            ),
+            "j4",
+        ))
+        .unwrap()
+        .unwrap();
+    assert!(r.is_finished(&r.lines[&3]) && r.estimates(&r.lines[&3]).is_none());
+    assert_eq!(r.settled(&r.lines[&3]).unwrap()[1].summary.samples, 16);
+    assert_eq!(r.film(2, 16).pixels[6..8], [[0.75; 3], [0.125; 3]]);
+    let map = r.samples_map().unwrap();
+    assert_ne!(map.pixels[6], map.pixels[0], "16 samples against none");
+    for (bad, why) in [
+        (
+            FinishedLine {
+                estimates: record(3, 0, [done, done], 1).estimates,
+                ..settled(3, 16)
+            },
+            "settled and has estimates",
+        ),
+        (
+            FinishedLine {
+                pixels: vec![0; 12],
+                ..settled(3, 16)
+            },
+            "12 bytes of pixels",
+        ),
+        (settled(3, 65), "65 samples, not 4 to 64"),
+    ] {
+        let e = load_error(&saved(to_error.clone(), &[bad])).to_string();
+        assert!(e.contains("line 3") && e.contains(why), "{e}");
+    }
 }
 
 /// Formats 1 and 2 (before a render to an error's estimates changed) are read for a job of
@@ -356,7 +409,7 @@ fn formats_1_and_2_are_read_only_without_a_target_error() {
         }),
         ..spec()
     };
-    for (s, format) in [(to_error.clone(), 1), (to_error, 2), (spec(), 5)] {
+    for (s, format) in [(to_error.clone(), 1), (to_error, 2), (spec(), 6)] {
         let e = load_error(&with_format(s, format));
         assert!(
             matches!(e, CheckpointError::Format(f) if f == format),

@@ -81,7 +81,7 @@ impl Checkpointer {
     /// Notes a line in (stored by the next [`Checkpointer::save`]): `finished`, or with a
     /// target error a pass after which the line needs another.
     pub fn record(&mut self, line: FinishedLine, finished: bool) {
-        if !line.estimates.is_empty() {
+        if !line.estimates.is_empty() || !line.settled.is_empty() {
             note_latest(&mut self.latest, &line);
         }
         keep_latest(&mut self.pending, line);

@@ -212,8 +212,8 @@ impl<L: WorkerLink> Controller<L> {
         }
     }
 
-    /// Sends out whatever the table can hand out now: one Assign per node, with every line
-    /// it gets.
+    /// Sends out whatever the table can hand out now: one Assign per node with every line it
+    /// gets, or as many as the relay's message limit needs.
     pub(super) async fn dispatch(&mut self) -> Result<(), ControllerError> {
         let now = Instant::now();
         let mut out = self.table.assign(now);
@@ -235,25 +235,24 @@ impl<L: WorkerLink> Controller<L> {
                         .unwrap_or_default(),
                 })
                 .collect();
-            if lines.is_empty() {
-                continue;
-            }
-            let msg = messages::encode(Body::Assign(proto::Assign {
-                lines,
-                echo_s: self.stamps_to_echo[node].unwrap_or(0.0),
-            }));
-            let first = !self.assigned_once[node];
-            match self.link.send(&self.procs[node], msg).await {
-                Ok(()) => {
-                    self.messages_out += 1;
-                    if first {
-                        self.assigned_once[node] = true;
-                        self.view
-                            .event(json!({"event": "assign", "node": node + 1, "first": true}));
+            let echo_s = self.stamps_to_echo[node].unwrap_or(0.0);
+            for msg in messages::assigns(lines, echo_s, self.link.max_message()) {
+                let first = !self.assigned_once[node];
+                match self.link.send(&self.procs[node], msg).await {
+                    Ok(()) => {
+                        self.messages_out += 1;
+                        if first {
+                            self.assigned_once[node] = true;
+                            self.view
+                                .event(json!({"event": "assign", "node": node + 1, "first": true}));
+                        }
+                    }
+                    Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
+                    Err(e) => {
+                        self.on_gone(node, format!("cannot send: {e}"), false);
+                        break;
                     }
                 }
-                Err(rem::Error::Closed) => return Err(rem::Error::Closed.into()),
-                Err(e) => self.on_gone(node, format!("cannot send: {e}"), false),
             }
         }
         // Lines handed out later (when some came back to the queue) answer no message.

@@ -176,18 +176,19 @@ impl<L: WorkerLink> Controller<L> {
                 let proto_counters = d.counters.unwrap_or_default();
                 let c = Counters::from(&proto_counters);
                 self.max_line_s = self.max_line_s.max(proto_counters.line_s);
-                let (pixels, more, waiting, decided) = match payload {
-                    Payload::Pixels(px) => (px, false, false, Vec::new()),
+                let (pixels, more, waiting, decided, settled) = match payload {
+                    Payload::Pixels(px) => (px, false, false, Vec::new(), Vec::new()),
                     Payload::Estimates(e) => match self.passes.as_mut() {
                         Some(p) => {
                             let got = p.pass_in(d.line, e);
-                            (got.pixels, got.more, got.waiting, got.decided)
+                            (got.pixels, got.more, got.waiting, got.decided, got.settled)
                         }
-                        None => (Vec::new(), false, false, Vec::new()),
+                        None => Default::default(),
                     },
                 };
                 if more {
-                    self.table.another_pass(d.line);
+                    let first = self.passes.as_ref().is_some_and(|p| p.next_passes_first());
+                    self.table.another_pass(d.line, first);
                     if let Some(web) = self.view.web_mut() {
                         web.refined();
                     }
@@ -201,13 +202,21 @@ impl<L: WorkerLink> Controller<L> {
                 self.timeline.last_line = Some(now);
                 self.counters += c;
                 self.lines.rendered += 1;
+                // A line of a render to an error whose pixels are all done is recorded
+                // settled: its pixels and what each took, not its estimates.
+                let (pixels_bytes, estimates) = if settled.is_empty() {
+                    (d.pixels, d.estimates)
+                } else {
+                    (messages::pixels_to_bytes(&pixels), Vec::new())
+                };
                 self.writer.record(
                     proto::FinishedLine {
                         line: d.line,
-                        pixels: d.pixels,
+                        pixels: pixels_bytes,
                         counters: Some(proto_counters),
                         pass: d.pass,
-                        estimates: d.estimates,
+                        estimates,
+                        settled,
                     },
                     !more && !waiting,
                 );
@@ -233,7 +242,8 @@ impl<L: WorkerLink> Controller<L> {
         for l in decided {
             let pass = self.table.pass(l.line);
             if l.more {
-                self.table.another_pass(l.line);
+                let first = self.passes.as_ref().is_some_and(|p| p.next_passes_first());
+                self.table.another_pass(l.line, first);
                 if let Some(web) = self.view.web_mut() {
                     web.refined();
                 }

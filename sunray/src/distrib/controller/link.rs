@@ -19,6 +19,9 @@ pub trait WorkerLink: Store + Send + Sync + 'static {
 
     /// Ends a worker's process (best effort).
     fn kill(&self, proc: &ProcId) -> impl Future<Output = ()> + Send;
+
+    /// The most bytes one message may have (the relay's limit, the daemon's if lower).
+    fn max_message(&self) -> usize;
 }
 
 /// The controller's link in a real job: REM's relay and client.
@@ -58,5 +61,9 @@ impl WorkerLink for RemLink {
 
     async fn kill(&self, proc: &ProcId) {
         let _ = self.client.kill(proc).await;
+    }
+
+    fn max_message(&self) -> usize {
+        self.sender.max_message()
     }
 }

@@ -45,15 +45,19 @@ pub(super) fn resumed(
             continue;
         };
         counters += l.counters.as_ref().map(Counters::from).unwrap_or_default();
-        match (passes.as_mut(), r.estimates(l)) {
-            (Some(p), Some(e)) => {
+        match (passes.as_mut(), r.estimates(l), r.settled(l)) {
+            (Some(p), Some(e), _) => {
                 // Lines decided as their neighbourhoods come in: their decisions go to the
                 // checkpoint again (what the interrupted run may not have written).
                 decided.extend(p.pass_in(l.line, e).decided);
                 last_pass.insert(l.line, l.pass);
             }
-            (Some(_), None) => {}
-            (None, _) => *f = true,
+            (Some(p), None, Some(settled)) => {
+                decided.extend(p.settled_in(l.line, &settled));
+                last_pass.insert(l.line, l.pass);
+            }
+            (Some(_), None, None) => {}
+            (None, ..) => *f = true,
         }
     }
     let mut records = Vec::new();

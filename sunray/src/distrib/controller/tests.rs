@@ -63,6 +63,8 @@ struct Record {
     put_takes: Duration,
     /// How many of the next `put`s fail (a replica stopped or restarting refuses them).
     failing_puts: u32,
+    /// The relay's message limit, when not 1 MiB: a larger message is refused.
+    max_message: Option<usize>,
 }
 
 #[derive(Clone, Default)]
@@ -93,6 +95,11 @@ impl Store for FakeLink {
 
 impl WorkerLink for FakeLink {
     async fn send(&self, to: &ProcId, payload: Vec<u8>) -> Result<(), rem::Error> {
+        let limit = self.max_message();
+        if payload.len() > limit {
+            let size = payload.len();
+            return Err(rem::Error::TooLarge { size, limit });
+        }
         let body = messages::decode(&payload).unwrap();
         self.0.lock().unwrap().sent.push((to.to_string(), body));
         Ok(())
@@ -100,9 +107,19 @@ impl WorkerLink for FakeLink {
     async fn kill(&self, proc: &ProcId) {
         self.0.lock().unwrap().killed.push(proc.to_string());
     }
+    fn max_message(&self) -> usize {
+        self.0.lock().unwrap().max_message.unwrap_or(1 << 20)
+    }
 }
 
 impl FakeLink {
+    /// A link whose relay refuses messages over `limit` bytes.
+    fn with_max_message(limit: usize) -> FakeLink {
+        let link = FakeLink::default();
+        link.0.lock().unwrap().max_message = Some(limit);
+        link
+    }
+
     /// Takes the line grants assigned to `proc` since the last call.
     fn take_grants(&self, proc: &ProcId) -> Vec<proto::LineGrant> {
         let mut r = self.0.lock().unwrap();

@@ -21,7 +21,8 @@
 //!   pass, and a completion counts only for that pass (a late one of an earlier pass is a
 //!   duplicate). A line whose pass is in and that needs another ([`GrantTable::another_pass`])
 //!   goes to the back of the shared queue, behind the lines still on earlier passes, so the
-//!   whole image is refined pass by pass.
+//!   whole image is refined pass by pass; or, while the lines between passes hold more than
+//!   the controller allows them, to the front, so a large image is finished band by band.
 
 use super::strategy::{LineQueue, Strategy};
 use std::collections::BTreeSet;

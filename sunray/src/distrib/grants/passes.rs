@@ -17,8 +17,9 @@ impl GrantTable {
     }
 
     /// `line`'s pass is in (its completion was [`Completion::Accepted`]) and the line needs
-    /// another: it is queued again, on its next pass, behind every line waiting now.
-    pub fn another_pass(&mut self, line: u32) {
+    /// another: it is queued again, on its next pass, behind every line waiting now, or
+    /// `first`, ahead of them (when the lines between passes hold too much).
+    pub fn another_pass(&mut self, line: u32, first: bool) {
         let Some(state) = self.lines.get_mut(line as usize) else {
             return;
         };
@@ -28,6 +29,10 @@ impl GrantTable {
         *state = LineState::Queued;
         self.passes[line as usize] += 1;
         self.done -= 1;
-        self.queue.push_back(line);
+        if first {
+            self.queue.give_back(line);
+        } else {
+            self.queue.push_back(line);
+        }
     }
 }

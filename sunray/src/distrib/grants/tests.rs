@@ -333,6 +333,27 @@ fn lines_granted_by_a_previous_controller_are_kept_once() {
     assert_eq!(g.done(), 2);
 }
 
+/// A next pass queued first goes ahead of the lines still on their first pass.
+#[test]
+fn a_next_pass_queued_first_goes_ahead() {
+    let mut g = GrantTable::new(Strategy::Dynamic, 4, 1, &[]);
+    g.set_window(0, 1);
+    let a = g.assign(t(0));
+    assert_eq!(lines(&a), [0]);
+    assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Accepted);
+    g.another_pass(0, true);
+    let b = g.assign(t(1));
+    assert_eq!(
+        (lines(&b), b[0].pass),
+        (vec![0], 1),
+        "ahead of lines 1 to 3"
+    );
+    assert_eq!(g.complete(0, b[0].grant, 0, 1), Completion::Accepted);
+    g.another_pass(0, false);
+    let c = g.assign(t(2));
+    assert_eq!((lines(&c), c[0].pass), (vec![1], 0), "behind them");
+}
+
 #[test]
 fn a_line_in_passes_goes_to_the_back_and_only_its_current_pass_counts() {
     let mut g = GrantTable::new(Strategy::Blocks, 3, 2, &[]);
@@ -341,7 +362,7 @@ fn a_line_in_passes_goes_to_the_back_and_only_its_current_pass_counts() {
     let a = g.assign(t(0));
     assert_eq!((lines(&a), a[0].pass), (vec![0, 2], 0));
     assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Accepted);
-    g.another_pass(0);
+    g.another_pass(0, false);
     assert_eq!((g.done(), g.pass(0)), (0, 1));
     let b = g.assign(t(1));
     assert_eq!((lines(&b), b[0].pass), (vec![1], 0), "its own lines first");

@@ -150,10 +150,66 @@ async fn a_line_goes_on_once_its_neighbours_have_their_first_samples() {
     );
 }
 
+/// A finished line is recorded settled (its pixels and what each took, 21 bytes a pixel,
+/// not its estimates' 149), and a job resumed from settled lines decides their neighbours by
+/// them: line 0's open pixel raises lines 1 and 2.
+#[tokio::test(start_paused = true)]
+async fn finished_lines_are_settled_and_a_resumed_job_decides_by_them() {
+    let first = job(FakeLink::default(), None);
+    first.ready(0, 8).await;
+    first.serve_passes(0).await;
+    let (r, link) = first.end().await;
+    assert_pixels_near_the_open_one_went_on(r);
+    let reread = checkpoint::load(&link, JOB).await.unwrap().unwrap();
+    assert_eq!(reread.finished_lines(), HEIGHT);
+    // Every line is settled: its pixels and 9 bytes a pixel of what it took, no estimates.
+    for l in reread.lines.values() {
+        assert!(l.estimates.is_empty(), "line {}", l.line);
+        assert_eq!(l.pixels.len(), WIDTH as usize * 12, "line {}", l.line);
+        assert_eq!(l.settled.len(), WIDTH as usize * 9, "line {}", l.line);
+    }
+    let settled = reread.settled(&reread.lines[&0]).unwrap();
+    assert!(settled[0].open && settled[0].summary.samples == 64 && !settled[1].open);
+    assert_eq!(
+        reread.film(WIDTH, HEIGHT).pixels,
+        vec![[0.5; 3]; (WIDTH * HEIGHT) as usize]
+    );
+    // A job resumed from line 0 alone (settled) decides lines 1 and 2 by its open pixel.
+    let resumed = FakeLink::default();
+    let mut earlier = Checkpointer::new(JOB, spec_with(HEIGHT, Some(target())), 7, None);
+    earlier.record(reread.lines[&0].clone(), true);
+    earlier.save(&resumed, "failed").await.unwrap();
+    let restored = checkpoint::load(&resumed, JOB).await.unwrap();
+    assert_eq!(restored.as_ref().unwrap().finished_lines(), 1);
+    let second = job(resumed, restored);
+    second.ready(0, 8).await;
+    let answered = second.serve_passes(0).await;
+    assert!(!answered.iter().any(|&(line, _)| line == 0), "{answered:?}");
+    assert!(answered.contains(&(1, 1)) && answered.contains(&(2, 1)));
+    let (r, _) = second.end().await;
+    let took: Vec<u32> = r
+        .passes
+        .as_ref()
+        .unwrap()
+        .summaries()
+        .iter()
+        .map(|s| s.samples)
+        .collect();
+    assert_eq!(
+        &took[WIDTH as usize..WIDTH as usize + 4],
+        [16, 16, 16, 4],
+        "line 1"
+    );
+    assert_pixels_near_the_open_one_went_on(r);
+}
+
+/// Its relay takes two grants with estimates a message at most (a larger one fails the
+/// worker), and the resumed job's first Assign has three: it is split.
 #[tokio::test(start_paused = true)]
 async fn a_resumed_job_decides_its_waiting_lines_as_their_neighbours_come_in() {
     // An earlier run had the first samples of lines 0 to 5, and no decision.
-    let link = FakeLink::default();
+    let grant = WIDTH as usize * PixelEstimate::BYTES + 16;
+    let link = FakeLink::with_max_message(2 * grant + 32);
     let mut earlier = Checkpointer::new(JOB, spec_with(HEIGHT, Some(target())), 7, None);
     for y in 0..6 {
         let line = proto::FinishedLine {
