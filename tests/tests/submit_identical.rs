@@ -232,6 +232,31 @@ fn a_target_error_goes_through_the_farm_identical_to_sunray_render() {
             std::fs::read(&map).unwrap() == std::fs::read(&want_map).unwrap(),
             "{hosts} hosts: the samples map differs from sunray render's"
         );
+        // `sunray fetch` gives both again from the job's checkpoint, whose finished lines
+        // are settled (pixels and what each took, not the estimates).
+        let job = stats["job"].as_str().unwrap();
+        let (fetched, fetched_map) = (dir.path().join("f.png"), dir.path().join("f-map.png"));
+        let st = output(
+            cluster
+                .sunray_via("a")
+                .args(["fetch", job, "-o"])
+                .arg(&fetched)
+                .arg("--samples-map")
+                .arg(&fetched_map),
+        );
+        assert!(
+            st.status.success(),
+            "{}",
+            String::from_utf8_lossy(&st.stderr)
+        );
+        assert!(
+            std::fs::read(&fetched).unwrap() == want,
+            "{hosts} hosts: fetched"
+        );
+        assert!(
+            std::fs::read(&fetched_map).unwrap() == std::fs::read(&want_map).unwrap(),
+            "{hosts} hosts: the fetched samples map"
+        );
     }
     // A scene's own `target_error(E)` goes through the farm as the flag does.
     let scene = dir.path().join("asks.yari");

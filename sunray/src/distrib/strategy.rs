@@ -76,6 +76,9 @@ pub struct LineQueue {
     own: Vec<VecDeque<u32>>,
     /// A static strategy: lines belong to nodes.
     owned: bool,
+    /// Lines any node takes before its own set and the shared queue (a render to an error's
+    /// next passes, once the lines between passes hold too much).
+    first: VecDeque<u32>,
 }
 
 impl LineQueue {
@@ -97,12 +100,14 @@ impl LineQueue {
                     shared: keep(Strategy::Dynamic.owned_lines(height, 1, 0)),
                     own: Vec::new(),
                     owned: false,
+                    first: VecDeque::new(),
                 }
             }
             Strategy::Dynamic => LineQueue {
                 shared: keep(strategy.owned_lines(height, nodes, 0)),
                 own: vec![VecDeque::new(); nodes],
                 owned: false,
+                first: VecDeque::new(),
             },
             Strategy::Blocks | Strategy::Interleaved => LineQueue {
                 shared: VecDeque::new(),
@@ -110,12 +115,17 @@ impl LineQueue {
                     .map(|i| keep(strategy.owned_lines(height, nodes, i)))
                     .collect(),
                 owned: true,
+                first: VecDeque::new(),
             },
         }
     }
 
-    /// The next line for `node`: from its own set, else from the shared queue.
+    /// The next line for `node`: one queued first, else from its own set, else from the
+    /// shared queue.
     pub fn next_for(&mut self, node: usize) -> Option<u32> {
+        if let Some(y) = self.first.pop_front() {
+            return Some(y);
+        }
         if let Some(y) = self.own.get_mut(node).and_then(|q| q.pop_front()) {
             return Some(y);
         }
@@ -130,6 +140,12 @@ impl LineQueue {
     /// Queues a line behind every line waiting (its next pass), in the shared queue.
     pub fn push_back(&mut self, line: u32) {
         self.shared.push_back(line);
+    }
+
+    /// Queues a line ahead of every node's own set and the shared queue, behind the lines
+    /// queued first before it.
+    pub fn push_first(&mut self, line: u32) {
+        self.first.push_back(line);
     }
 
     /// `node` hands back a line it did not start: to the front of its own set under a static
@@ -157,12 +173,14 @@ impl LineQueue {
 
     /// True when `node` would get no line.
     pub fn is_empty_for(&self, node: usize) -> bool {
-        self.shared.is_empty() && self.own.get(node).is_none_or(|q| q.is_empty())
+        self.first.is_empty()
+            && self.shared.is_empty()
+            && self.own.get(node).is_none_or(|q| q.is_empty())
     }
 
     /// Lines waiting, over all sets.
     pub fn len(&self) -> usize {
-        self.shared.len() + self.own.iter().map(|q| q.len()).sum::<usize>()
+        self.first.len() + self.shared.len() + self.own.iter().map(|q| q.len()).sum::<usize>()
     }
 
     /// True when no line waits in any set.

@@ -30,7 +30,7 @@ impl GrantTable {
         self.passes[line as usize] += 1;
         self.done -= 1;
         if first {
-            self.queue.give_back(line);
+            self.queue.push_first(line);
         } else {
             self.queue.push_back(line);
         }

@@ -333,25 +333,29 @@ fn lines_granted_by_a_previous_controller_are_kept_once() {
     assert_eq!(g.done(), 2);
 }
 
-/// A next pass queued first goes ahead of the lines still on their first pass.
+/// A next pass queued first goes ahead of the lines still on their first pass, a node's
+/// own set under a static strategy included.
 #[test]
 fn a_next_pass_queued_first_goes_ahead() {
-    let mut g = GrantTable::new(Strategy::Dynamic, 4, 1, &[]);
-    g.set_window(0, 1);
-    let a = g.assign(t(0));
-    assert_eq!(lines(&a), [0]);
-    assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Accepted);
-    g.another_pass(0, true);
-    let b = g.assign(t(1));
-    assert_eq!(
-        (lines(&b), b[0].pass),
-        (vec![0], 1),
-        "ahead of lines 1 to 3"
-    );
-    assert_eq!(g.complete(0, b[0].grant, 0, 1), Completion::Accepted);
-    g.another_pass(0, false);
-    let c = g.assign(t(2));
-    assert_eq!((lines(&c), c[0].pass), (vec![1], 0), "behind them");
+    for strategy in [Strategy::Dynamic, Strategy::Blocks] {
+        let mut g = GrantTable::new(strategy, 4, 1, &[]);
+        g.set_window(0, 1);
+        let a = g.assign(t(0));
+        assert_eq!(lines(&a), [0]);
+        assert_eq!(g.complete(0, a[0].grant, 0, 0), Completion::Accepted);
+        g.another_pass(0, true);
+        let b = g.assign(t(1));
+        let ahead = format!("{strategy}: ahead of lines 1 to 3");
+        assert_eq!((lines(&b), b[0].pass), (vec![0], 1), "{ahead}");
+        assert_eq!(g.complete(0, b[0].grant, 0, 1), Completion::Accepted);
+        g.another_pass(0, false);
+        let c = g.assign(t(2));
+        assert_eq!(
+            (lines(&c), c[0].pass),
+            (vec![1], 0),
+            "{strategy}: behind them"
+        );
+    }
 }
 
 #[test]
