@@ -166,7 +166,7 @@ impl LinePasses {
             self.between.insert(line, estimates);
         } else {
             self.between.remove(&line);
-            settled = settled::to_bytes(estimates.iter().map(SettledPixel::of));
+            settled = self.settled_bytes(line);
         }
         PassIn {
             pixels,
@@ -191,6 +191,19 @@ impl LinePasses {
         }
         self.between.remove(&line);
         self.decide_near(line)
+    }
+
+    /// What a settled line's record keeps of `line`'s pixels: what each took and whether it
+    /// was open, as noted when its passes came in (not computed from its estimates again).
+    fn settled_bytes(&self, line: u32) -> Vec<u8> {
+        let width = self.width as usize;
+        let row = line as usize * width..(line as usize + 1) * width;
+        let (took, open) = (&self.summaries[row.clone()], &self.open[row]);
+        settled::to_bytes(
+            took.iter()
+                .zip(open)
+                .map(|(&summary, &open)| SettledPixel { summary, open }),
+        )
     }
 
     /// The lines within [`RADIUS`] of `line` decided now.
@@ -233,7 +246,7 @@ impl LinePasses {
             line,
             more,
             estimates: Vec::new(),
-            settled: Some((pixels, settled::to_bytes(est.iter().map(SettledPixel::of)))),
+            settled: Some((pixels, self.settled_bytes(line))),
         })
     }
 
