@@ -13,6 +13,7 @@ use super::messages::{self, proto, MessageError};
 use super::settled::{self, SettledPixel};
 use crate::film::Film;
 use crate::render::adaptive::{self, Adaptive, PixelEstimate};
+use crate::render::columns::Columns;
 use crate::render::neighbourhood::{self, RADIUS};
 use crate::render::{pass, PixelSummary};
 use crate::stats::ErrorStats;
@@ -33,6 +34,10 @@ pub struct LinePasses {
     /// Lines waiting for their decision or their next pass: their estimates as the last
     /// pass (and the decision) left them.
     between: HashMap<u32, Vec<PixelEstimate>>,
+    /// The pixels a line's pass takes, as its grants carried them: made once for the pass's
+    /// grants (copies too) and the check of its answer (each pixel's next step is its
+    /// estimated error, a tenth of the controller's time when made again for each).
+    handed: HashMap<u32, (u32, Columns)>,
     /// What each pixel took so far, row by row.
     summaries: Vec<PixelSummary>,
     /// Which pixels were open after their first samples, row by row.
@@ -108,6 +113,7 @@ impl LinePasses {
             width,
             height,
             between: HashMap::new(),
+            handed: HashMap::new(),
             summaries: vec![PixelSummary::default(); width as usize * height as usize],
             open: vec![false; width as usize * height as usize],
             held_bytes: HELD_BYTES,
@@ -144,6 +150,7 @@ impl LinePasses {
         }
         let row = line as usize * self.width as usize;
         let width = self.width as usize;
+        self.handed.remove(&line);
         let was_in = self.has_first_samples(line);
         if let Some(s) = self.summaries.get_mut(row..row + estimates.len()) {
             for (s, e) in s.iter_mut().zip(&estimates) {
@@ -190,6 +197,7 @@ impl LinePasses {
             self.open[row + x] = p.open;
         }
         self.between.remove(&line);
+        self.handed.remove(&line);
         self.decide_near(line)
     }
 
@@ -227,6 +235,7 @@ impl LinePasses {
             return None;
         }
         let width = self.width as usize;
+        self.handed.remove(&line);
         let open = &self.open;
         let rows = near.map(|y| &open[y as usize * width..(y as usize + 1) * width]);
         neighbourhood::decide_line(est, rows, &a);
@@ -276,12 +285,60 @@ impl LinePasses {
         }
     }
 
-    /// The estimates that go with a grant of `line`'s pass `pass` (none for pass 0).
-    pub fn grant_bytes(&self, line: u32, pass: u32) -> Vec<u8> {
-        match self.between.get(&line) {
-            Some(e) if pass > 0 => messages::estimates_to_bytes(e),
-            _ => Vec::new(),
+    /// The estimates that go with a grant of `line`'s pass `pass`, with their bitmap: those
+    /// of the pixels the pass takes samples for ([`Columns::taking`]; none for pass 0).
+    pub fn grant_bytes(&mut self, line: u32, pass: u32) -> (Vec<u8>, Vec<u8>) {
+        let Some(e) = self.between.get(&line).filter(|_| pass > 0) else {
+            return Default::default();
+        };
+        let columns = match self.handed.get(&line) {
+            Some((p, c)) if *p == pass => c,
+            _ => {
+                let c = Columns::taking(e, &self.a, pass);
+                &self.handed.entry(line).insert_entry((pass, c)).into_mut().1
+            }
+        };
+        (
+            messages::estimates_to_bytes(&columns.pick(e)),
+            columns.to_bytes(),
+        )
+    }
+
+    /// The pixels pass `pass` of `line` takes (as handed out with it, when it was).
+    fn taking(&self, line: u32, pass: u32, held: &[PixelEstimate]) -> Columns {
+        match self.handed.get(&line) {
+            Some((p, c)) if *p == pass => c.clone(),
+            _ => Columns::taking(held, &self.a, pass),
         }
+    }
+
+    /// Pass `pass` of `line` as a worker sent it, the estimates of the pixels its bitmap
+    /// `columns` names: the line's estimates after the pass (its other pixels' as held
+    /// here), checked: the bitmap must name the pixels the pass takes, and only those.
+    pub fn decode_picked(
+        &self,
+        line: u32,
+        pass: u32,
+        columns: &[u8],
+        bytes: &[u8],
+    ) -> Result<Vec<PixelEstimate>, MessageError> {
+        let width = self.width;
+        let bad = |why: &str| MessageError::Estimates {
+            width,
+            why: why.to_string(),
+        };
+        let held = match self.between.get(&line) {
+            Some(held) if pass > 0 => held,
+            _ => return Err(bad("no pass of the line waits for them")),
+        };
+        let got = Columns::from_bytes(columns, width).map_err(|why| bad(&why))?;
+        if got != self.taking(line, pass, held) {
+            return Err(bad("its bitmap is not the pixels the pass takes"));
+        }
+        let picked = messages::picked_estimates_from_bytes(bytes, &got, width, &self.a)?;
+        let mut after = held.clone();
+        got.put(&mut after, &picked);
+        Ok(after)
     }
 
     /// What every pixel took so far, row by row.

@@ -4,6 +4,7 @@
 
 use crate::accel::AccelOptions;
 use crate::render::adaptive::{Adaptive, PixelEstimate};
+use crate::render::columns::Columns;
 use crate::render::settings::{self, SettingsError};
 use crate::render::{RenderOptions, Settings};
 use crate::shading::TraceOptions;
@@ -112,15 +113,37 @@ pub fn estimates_from_bytes(
     width: u32,
     a: &Adaptive,
 ) -> Result<Vec<PixelEstimate>, MessageError> {
+    decode_estimates(bytes, width as usize, width, a)
+}
+
+/// The estimates of the pixels `columns` names (a line of `width` pixels), left to right, as
+/// a later pass's grant and its answer carry them ([`Columns::pick`]), checked as
+/// [`estimates_from_bytes`] checks a whole line's.
+pub fn picked_estimates_from_bytes(
+    bytes: &[u8],
+    columns: &Columns,
+    width: u32,
+    a: &Adaptive,
+) -> Result<Vec<PixelEstimate>, MessageError> {
+    decode_estimates(bytes, columns.len(), width, a)
+}
+
+/// `count` estimates of a line of `width` pixels.
+fn decode_estimates(
+    bytes: &[u8],
+    count: usize,
+    width: u32,
+    a: &Adaptive,
+) -> Result<Vec<PixelEstimate>, MessageError> {
     let bad = |why: String| MessageError::Estimates { width, why };
-    if bytes.len() != width as usize * PixelEstimate::BYTES {
+    if bytes.len() != count * PixelEstimate::BYTES {
         return Err(bad(format!(
-            "{} bytes, not {} per pixel",
+            "{} bytes, not {} per pixel for {count} pixels",
             bytes.len(),
             PixelEstimate::BYTES
         )));
     }
-    let mut out = Vec::with_capacity(width as usize);
+    let mut out = Vec::with_capacity(count);
     for b in bytes.chunks_exact(PixelEstimate::BYTES) {
         let e = PixelEstimate::from_le_bytes(b.try_into().unwrap_or(&[0; PixelEstimate::BYTES]));
         if !e.stage_is_valid() {
@@ -340,6 +363,7 @@ mod tests {
                     duplicate: true,
                     pass: 2,
                     estimates: vec![1; 52],
+                    columns: vec![0b101],
                 },
             ],
             echo_s: 1.25,

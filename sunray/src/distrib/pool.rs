@@ -4,7 +4,8 @@
 
 use crate::accel::{Accel, Scratch};
 use crate::render::adaptive::{Adaptive, PixelEstimate};
-use crate::render::pass::render_pass_into;
+use crate::render::columns::Columns;
+use crate::render::pass::{render_pass_columns, render_pass_into};
 use crate::render::{render_line, Frame, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::Counters;
@@ -23,6 +24,9 @@ pub struct LineJob {
     pub pass: u32,
     /// See `pass`.
     pub estimates: Vec<PixelEstimate>,
+    /// With a later pass, when its grant named them: the pixels `estimates` holds (those the
+    /// pass takes), left to right; else `estimates` holds the whole line's.
+    pub columns: Option<Columns>,
     /// The grant number it was handed out under, quoted back in the Done message.
     pub grant: u64,
     /// A copy of a line outstanding elsewhere, handed out at the tail of the job.
@@ -40,7 +44,8 @@ pub struct Rendered {
     /// Linear RGB, one entry per pixel of the line, left to right (empty with a target
     /// error: the pixels are the estimates' means).
     pub pixels: Vec<[f32; 3]>,
-    /// With a target error: the line's estimates after the job's pass.
+    /// With a target error: the line's estimates after the job's pass (those of the job's
+    /// `columns` alone when it has them).
     pub estimates: Vec<PixelEstimate>,
     /// The events counted while rendering it.
     pub counters: Counters,
@@ -270,9 +275,21 @@ fn render_pass(
     scratch: &mut Scratch,
     frame: &Frame,
 ) -> (Vec<[f32; 3]>, Vec<PixelEstimate>, Counters) {
-    let width = what.opts.width as usize;
     let mut estimates = std::mem::take(&mut job.estimates);
-    estimates.resize(width, PixelEstimate::default());
+    if let Some(columns) = &job.columns {
+        let counters = render_pass_columns(
+            &what.scene,
+            &what.accel,
+            (job.line, job.pass),
+            &what.opts,
+            a,
+            scratch,
+            frame,
+            (columns, &mut estimates),
+        );
+        return (Vec::new(), estimates, counters);
+    }
+    estimates.resize(what.opts.width as usize, PixelEstimate::default());
     let counters = render_pass_into(
         &what.scene,
         &what.accel,
@@ -316,6 +333,7 @@ mod tests {
             line: 0,
             pass: 0,
             estimates: Vec::new(),
+            columns: None,
             grant: 1,
             duplicate: false,
             generation: 0,
@@ -339,6 +357,7 @@ mod tests {
                 line,
                 pass: 0,
                 estimates: Vec::new(),
+                columns: None,
                 grant: u64::from(line) + 1,
                 duplicate: false,
                 generation: 0,
@@ -358,6 +377,7 @@ mod tests {
             line: 3,
             pass: 0,
             estimates: Vec::new(),
+            columns: None,
             grant: 7,
             duplicate: false,
             generation: 0,
@@ -389,6 +409,7 @@ mod tests {
                 line: y,
                 pass: 0,
                 estimates: Vec::new(),
+                columns: None,
                 grant: 100 + u64::from(y),
                 duplicate: false,
                 generation: 0,

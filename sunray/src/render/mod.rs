@@ -5,11 +5,13 @@
 //! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything;
 //! [`adaptive`], rendering each pixel to a target error instead of a sample count,
 //! [`neighbourhood`], the one decision a pixel then takes from the pixels around it, and
-//! [`pass`], doing so a pass at a time (the farm's unit of work then).
+//! [`pass`], doing so a pass at a time (the farm's unit of work then), each later pass
+//! taking only the pixels of a line that [`columns`] names.
 //! [`parallel`] runs the lines of one image on all cores, and [`window`] those of an image
 //! rendered to an error, in a sliding window.
 
 pub mod adaptive;
+pub mod columns;
 pub mod footprint;
 pub mod neighbourhood;
 pub mod parallel;

@@ -12,6 +12,7 @@
 //! as bytes).
 
 use super::adaptive::{self, pass_cap, Adaptive, PixelEstimate};
+use super::columns::Columns;
 use super::{Frame, RenderOptions};
 use crate::accel::{Accel, Scratch};
 use crate::scene::Scene;
@@ -35,6 +36,29 @@ pub fn render_pass_into(
     advance_line(scene, (accel, frame), y, opts, a, scratch, estimates, cap)
 }
 
+/// [`render_pass_into`] of the pixels `columns` names alone, `picked` their estimates (left
+/// to right) as the previous pass and the decision left them, as the farm's later passes
+/// carry them ([`Columns::taking`]: the pass changes no other pixel). The pixels' samples
+/// are those of the whole line's pass: each pixel's depend on the pixel alone.
+#[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
+pub fn render_pass_columns(
+    scene: &Scene,
+    accel: &Accel,
+    (y, pass): (u32, u32),
+    opts: &RenderOptions,
+    a: &Adaptive,
+    scratch: &mut Scratch,
+    frame: &Frame,
+    (columns, picked): (&Columns, &mut Vec<PixelEstimate>),
+) -> Counters {
+    let mut line = vec![PixelEstimate::default(); opts.width as usize];
+    columns.put(&mut line, picked);
+    let cap = (pass_cap(a, pass), Some(columns));
+    let counters = advance_pixels(scene, (accel, frame), y, opts, a, scratch, &mut line, cap);
+    *picked = columns.pick(&line);
+    counters
+}
+
 /// Line `y` taken on from `estimates` by whole schedule steps while each pixel stays within
 /// `cap` samples ([`adaptive::advance_pixel`]): a farm pass, or with no cap the whole line
 /// as `sunray render` takes it. A pixel with no samples outside the scene's footprint is
@@ -50,6 +74,31 @@ pub(super) fn advance_line(
     estimates: &mut [PixelEstimate],
     cap: u32,
 ) -> Counters {
+    advance_pixels(
+        scene,
+        (accel, frame),
+        y,
+        opts,
+        a,
+        scratch,
+        estimates,
+        (cap, None),
+    )
+}
+
+/// [`advance_line`] of the pixels `only` names (every pixel without it); the others are
+/// left as they are.
+#[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
+fn advance_pixels(
+    scene: &Scene,
+    (accel, frame): (&Accel, &Frame),
+    y: u32,
+    opts: &RenderOptions,
+    a: &Adaptive,
+    scratch: &mut Scratch,
+    estimates: &mut [PixelEstimate],
+    (cap, only): (u32, Option<&Columns>),
+) -> Counters {
     let mut counters = Counters::default();
     // A line's counts must not depend on the lines its thread rendered before.
     scratch.occluders.clear();
@@ -63,6 +112,9 @@ pub(super) fn advance_line(
     let outside_row = frame.outside_row(y, opts.width);
     let background = adaptive::constant_pixel(scene.world.background, a);
     for ((x, est), outside) in (0..opts.width).zip(estimates.iter_mut()).zip(outside_row) {
+        if only.is_some_and(|c| !c.contains(x)) {
+            continue;
+        }
         match outside {
             Some(f) if est.count() == 0 => {
                 tracer.counters.eye += u64::from(a.min_samples);
@@ -134,7 +186,8 @@ mod tests {
 
     /// The farm's way (every line's first samples, the decisions, then pass after pass of
     /// each line) gives `sunray render`'s image bit for bit, with the same samples; the
-    /// neighbourhood raises pixels that are not open themselves.
+    /// neighbourhood raises pixels that are not open themselves. A later pass of the pixels
+    /// it takes alone ([`render_pass_columns`]) gives what the whole line's pass gives.
     #[test]
     fn an_image_in_passes_is_the_image_in_one_go() {
         let (scene, accel) = crate::render::test_scene::shadowed_sphere();
@@ -147,6 +200,7 @@ mod tests {
             render_image_summarized(&scene, &accel, &opts, 2, false, Progress::Hidden);
         let frame = Frame::new(&scene, &accel, &opts);
         let mut scratch = Scratch::new(scene.prims.len(), false);
+        let mut scratch_columns = Scratch::new(scene.prims.len(), false);
         let w = opts.width as usize;
         let mut est = vec![PixelEstimate::default(); w * opts.height as usize];
         let mut eye = 0;
@@ -183,7 +237,26 @@ mod tests {
             let mut pass = 1;
             while !line_done(row, &a) {
                 assert!(pass < max_passes(&a), "line {y} still not done");
-                eye += pass_of(y, pass, row);
+                // The farm's later passes carry the pixels they take alone: the same.
+                let columns = Columns::taking(row, &a, pass);
+                let mut picked = columns.pick(row);
+                let c = render_pass_columns(
+                    &scene,
+                    &accel,
+                    (y, pass),
+                    &opts,
+                    &a,
+                    &mut scratch_columns,
+                    &frame,
+                    (&columns, &mut picked),
+                );
+                let before = row.to_vec();
+                let eye_of_pass = pass_of(y, pass, row);
+                assert_eq!(c.eye, eye_of_pass, "line {y} pass {pass}");
+                let mut by_columns = before;
+                columns.put(&mut by_columns, &picked);
+                assert_eq!(by_columns, row, "line {y} pass {pass}");
+                eye += eye_of_pass;
                 for e in row.iter() {
                     assert!(e.is_done(&a) || e.count() <= pass_cap(&a, pass));
                 }

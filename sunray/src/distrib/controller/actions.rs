@@ -223,16 +223,20 @@ impl<L: WorkerLink> Controller<L> {
             let lines: Vec<proto::LineGrant> = out
                 .iter()
                 .filter(|a| a.node == node)
-                .map(|a| proto::LineGrant {
-                    line: a.line,
-                    grant: a.grant,
-                    duplicate: a.duplicate,
-                    pass: a.pass,
-                    estimates: self
+                .map(|a| {
+                    let (estimates, columns) = self
                         .passes
-                        .as_ref()
+                        .as_mut()
                         .map(|p| p.grant_bytes(a.line, a.pass))
-                        .unwrap_or_default(),
+                        .unwrap_or_default();
+                    proto::LineGrant {
+                        line: a.line,
+                        grant: a.grant,
+                        duplicate: a.duplicate,
+                        pass: a.pass,
+                        estimates,
+                        columns,
+                    }
                 })
                 .collect();
             let echo_s = self.stamps_to_echo[node].unwrap_or(0.0);

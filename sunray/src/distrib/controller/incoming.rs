@@ -139,16 +139,31 @@ impl<L: WorkerLink> Controller<L> {
         }
     }
 
-    fn on_done(&mut self, i: usize, d: proto::Done) {
+    /// The line's pixels, or with a target error its estimates after the pass; `None` for a
+    /// copy of a later pass no longer awaited, whose pixels are not decoded (against what:
+    /// the line's estimates here have moved on). A pass carrying its pixels alone
+    /// ([`proto::Done::columns`]) is made the whole line's, which its record keeps.
+    fn payload(&self, d: &mut proto::Done) -> Result<Option<Payload>, messages::MessageError> {
+        let Some(p) = &self.passes else {
+            let px = messages::pixels_from_bytes(&d.pixels, self.cfg.width)?;
+            return Ok(Some(Payload::Pixels(px)));
+        };
+        if d.columns.is_empty() {
+            return p.decode(&d.estimates).map(|e| Some(Payload::Estimates(e)));
+        }
+        if !self.table.awaits(d.line, d.pass) {
+            return Ok(None);
+        }
+        let after = p.decode_picked(d.line, d.pass, &d.columns, &d.estimates)?;
+        d.estimates = messages::estimates_to_bytes(&after);
+        d.columns.clear();
+        Ok(Some(Payload::Estimates(after)))
+    }
+
+    fn on_done(&mut self, i: usize, mut d: proto::Done) {
         // Lines it will not render, whatever became of this one.
         self.table.release(i, &d.released);
-        let width = self.cfg.width;
-        // The line's pixels, or with a target error its estimates after the pass.
-        let payload = match &self.passes {
-            None => messages::pixels_from_bytes(&d.pixels, width).map(Payload::Pixels),
-            Some(p) => p.decode(&d.estimates).map(Payload::Estimates),
-        };
-        let payload = match payload {
+        let payload = match self.payload(&mut d) {
             Ok(p) => p,
             Err(e) => {
                 self.view.event(json!({"event": "bad-line", "node": i + 1,
@@ -171,8 +186,8 @@ impl<L: WorkerLink> Controller<L> {
         } else {
             self.table.complete(i, d.grant, d.line, d.pass)
         };
-        match completion {
-            Completion::Accepted => {
+        match (completion, payload) {
+            (Completion::Accepted, Some(payload)) => {
                 let proto_counters = d.counters.unwrap_or_default();
                 let c = Counters::from(&proto_counters);
                 self.max_line_s = self.max_line_s.max(proto_counters.line_s);
@@ -228,8 +243,9 @@ impl<L: WorkerLink> Controller<L> {
                     .event(json!({"event": "line", "node": i + 1, "line": d.line,
                     "pass": d.pass, "done": done, "total": self.cfg.height}));
             }
-            Completion::Duplicate => n.dropped += 1,
-            Completion::Unknown => {}
+            // (Accepted with no payload cannot be: a pass not awaited is not accepted.)
+            (Completion::Duplicate | Completion::Accepted, _) => n.dropped += 1,
+            (Completion::Unknown, _) => {}
         }
         self.stamps_to_echo[i] = Some(d.stamp_s);
         self.table.set_window(i, d.window);

@@ -9,6 +9,13 @@ impl GrantTable {
         self.passes.get(line as usize).copied().unwrap_or(0)
     }
 
+    /// Whether pass `pass` of `line` is still to come in: a completion of it would be
+    /// accepted (the first in of the line's current pass).
+    pub fn awaits(&self, line: u32, pass: u32) -> bool {
+        self.passes.get(line as usize) == Some(&pass)
+            && self.lines.get(line as usize) != Some(&LineState::Done)
+    }
+
     /// A resumed line not done: it goes on from pass `pass`.
     pub fn resume_at(&mut self, line: u32, pass: u32) {
         if let Some(p) = self.passes.get_mut(line as usize) {

@@ -374,7 +374,8 @@ fn a_line_in_passes_goes_to_the_back_and_only_its_current_pass_counts() {
     let c = g.assign(t(2));
     assert_eq!((lines(&c), c[0].pass), (vec![0], 1), "then the next pass");
     // The node that had pass 0 of line 0 times out, yet its copy comes in late: the line
-    // is on pass 1 now.
+    // is on pass 1 now (and only a pass still awaited would be accepted).
+    assert!(g.awaits(0, 1) && !g.awaits(0, 0) && !g.awaits(0, 2) && !g.awaits(9, 0));
     assert_eq!(
         g.complete_inherited(1, 0, 0),
         Completion::Duplicate,
@@ -389,6 +390,7 @@ fn a_line_in_passes_goes_to_the_back_and_only_its_current_pass_counts() {
     let dup = g.duplicate_stragglers(t(10), Duration::ZERO);
     assert!(dup.iter().any(|d| d.line == 0 && d.pass == 1), "{dup:?}");
     assert_eq!(g.complete(0, c[0].grant, 0, 1), Completion::Accepted);
+    assert!(!g.awaits(0, 1), "its copy would be a duplicate");
     assert_eq!(g.complete(1, a[1].grant, 2, 0), Completion::Accepted);
     assert!(g.is_finished());
     let (dropped, resumed) = (g.counts().dropped, {

@@ -54,12 +54,13 @@ fn a_line_waits_for_its_neighbourhood_then_goes_on_or_is_finished() {
         );
         assert_eq!(passes.stage(y), LineStage::Waiting);
     }
-    let held = passes.grant_bytes(0, 1);
-    assert_eq!(
-        held,
-        messages::estimates_to_bytes(&first(0)),
-        "held exactly"
+    assert_eq!(passes.between[&0], first(0), "held exactly");
+    let (picked, columns) = passes.grant_bytes(0, 1);
+    assert!(
+        picked.is_empty(),
+        "no pixel takes samples before its decision"
     );
+    assert!(Columns::from_bytes(&columns, w).unwrap().is_empty());
     for y in [2, 4] {
         decided.extend(passes.pass_in(y, first(y)).decided);
     }
@@ -100,18 +101,22 @@ fn a_line_waits_for_its_neighbourhood_then_goes_on_or_is_finished() {
         };
         assert_eq!(passes.stage(d.line), stage);
     }
+    // Handed out decided, with the raised pixels alone.
+    let decided_0 = passes.decode(&decided[0].estimates).unwrap();
+    let (picked, columns) = passes.grant_bytes(0, 1);
+    assert_eq!(columns, vec![0b0000_0111], "line 0's raised pixels");
+    assert_eq!(picked, messages::estimates_to_bytes(&decided_0[..3]));
     assert_eq!(
-        passes.grant_bytes(0, 1),
-        decided[0].estimates,
-        "handed out decided"
-    );
-    assert!(
-        passes.grant_bytes(3, 1).is_empty(),
+        passes.grant_bytes(3, 1),
+        (Vec::new(), Vec::new()),
         "a finished line is let go"
     );
-    // Line 0's next pass: its raised pixels go on until they are done.
-    let mut e = passes.decode(&passes.grant_bytes(0, 1)).unwrap();
+    // Line 0's next passes: its raised pixels go on until they are done, each pass carrying
+    // the pixels it takes alone, as a worker does.
     for pass in 1.. {
+        let (bytes, columns) = passes.grant_bytes(0, pass);
+        let taking = Columns::from_bytes(&columns, w).unwrap();
+        let mut e = messages::picked_estimates_from_bytes(&bytes, &taking, w, &a).unwrap();
         for p in e.iter_mut() {
             while let Some(want) = p
                 .next_count(&a)
@@ -122,7 +127,9 @@ fn a_line_waits_for_its_neighbourhood_then_goes_on_or_is_finished() {
                 }
             }
         }
-        let got = passes.pass_in(0, e.clone());
+        let sent = messages::estimates_to_bytes(&e);
+        let after = passes.decode_picked(0, pass, &columns, &sent).unwrap();
+        let got = passes.pass_in(0, after);
         assert!(!got.waiting && got.decided.is_empty());
         if !got.more {
             let settled = settled::from_bytes(&got.settled, w, &a).unwrap();
@@ -192,4 +199,47 @@ fn estimates_that_are_not_the_lines_are_refused() {
         let e = passes.decode(&bytes).unwrap_err().to_string();
         assert!(e.contains("unknown stage"), "{stage}: {e}");
     }
+}
+
+/// A later pass's answer must carry exactly the pixels the pass takes, for a pass that
+/// waits for it.
+#[test]
+fn a_pass_carrying_other_pixels_is_refused() {
+    let a = Adaptive::new(0.01, Some(4), Some(64));
+    let (w, h) = (10u32, 1u32);
+    let mut passes = LinePasses::new(a, w, h);
+    let mut noisy = PixelEstimate::default();
+    (0..4).for_each(|k| noisy.add(DVec3::splat(f64::from(k % 2))));
+    noisy.first_samples_in(&a);
+    let flat = adaptive::constant_pixel(DVec3::splat(0.5), &a);
+    let mut line = vec![flat; w as usize];
+    line[9] = noisy;
+    let decided = passes.pass_in(0, line).decided;
+    assert!(decided[0].more, "pixels 7 to 9 raised");
+    let (bytes, columns) = passes.grant_bytes(0, 1);
+    assert_eq!(columns, vec![0b1000_0000, 0b0000_0011]);
+    assert!(passes.decode_picked(0, 1, &columns, &bytes).is_ok());
+    let refused = |columns: &[u8], bytes: &[u8], line: u32, pass: u32| {
+        passes
+            .decode_picked(line, pass, columns, bytes)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = refused(&[0b1100_0000, 0b0000_0011], &bytes, 0, 1);
+    assert!(e.contains("not the pixels the pass takes"), "{e}");
+    let e = refused(&[0b1000_0000, 0b0000_0001], &bytes, 0, 1);
+    assert!(e.contains("not the pixels the pass takes"), "{e}");
+    let e = refused(&[0b1000_0000, 0b0000_0111], &bytes, 0, 1);
+    assert!(e.contains("past the end"), "{e}");
+    let e = refused(&[0b1000_0000], &bytes, 0, 1);
+    assert!(e.contains("bitmap of 1 bytes"), "{e}");
+    let e = refused(&columns, &bytes[1..], 0, 1);
+    assert!(e.contains("per pixel for 3 pixels"), "{e}");
+    let e = refused(&columns, &bytes, 0, 0);
+    assert!(e.contains("no pass of the line waits"), "{e}");
+    let e = LinePasses::new(a, w, h)
+        .decode_picked(0, 1, &columns, &bytes)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no pass of the line waits"), "{e}");
 }

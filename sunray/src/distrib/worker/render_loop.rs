@@ -7,6 +7,8 @@ use super::{load_average, Link, WorkerError};
 use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::pool::{LineJob, RenderPool, Rendered};
 use crate::distrib::window::{Window, MIN_COVER_S};
+use crate::render::adaptive::PixelEstimate;
+use crate::render::columns::Columns;
 use crate::stats::process_cpu_seconds;
 use rem::{Incoming, RemClient};
 use std::time::{Duration, Instant};
@@ -149,24 +151,19 @@ impl RenderLoop {
         self.pool.set_queue_target(self.window.queued(now) as usize);
         self.first_lines_at.get_or_insert_with(Instant::now);
         for l in a.lines {
-            let estimates = match (&self.pool.options().adaptive, l.pass) {
-                (Some(a), 1..) => {
-                    let width = self.pool.options().width;
-                    match messages::estimates_from_bytes(&l.estimates, width, a) {
-                        Ok(e) => e,
-                        Err(e) => {
-                            // Its grant times out at the controller, which hands it again.
-                            tracing::warn!(line = l.line, "assigned line dropped: {e}");
-                            continue;
-                        }
-                    }
+            let (estimates, columns) = match self.grant_estimates(&l) {
+                Ok(got) => got,
+                Err(e) => {
+                    // Its grant times out at the controller, which hands it again.
+                    tracing::warn!(line = l.line, "assigned line dropped: {e}");
+                    continue;
                 }
-                _ => Vec::new(),
             };
             let job = LineJob {
                 line: l.line,
                 pass: l.pass,
                 estimates,
+                columns,
                 grant: l.grant,
                 duplicate: l.duplicate,
                 generation: self.owner.generation,
@@ -175,6 +172,25 @@ impl RenderLoop {
                 self.held += 1;
             }
         }
+    }
+
+    /// The estimates a grant of a later pass carries, checked: the whole line's, or those of
+    /// the pixels its bitmap names with the bitmap (none for a first pass or a fixed count).
+    fn grant_estimates(
+        &self,
+        l: &proto::LineGrant,
+    ) -> Result<(Vec<PixelEstimate>, Option<Columns>), String> {
+        let opts = self.pool.options();
+        let (Some(a), 1..) = (&opts.adaptive, l.pass) else {
+            return Ok((Vec::new(), None));
+        };
+        if l.columns.is_empty() {
+            let e = messages::estimates_from_bytes(&l.estimates, opts.width, a);
+            return e.map(|e| (e, None)).map_err(|e| e.to_string());
+        }
+        let columns = Columns::from_bytes(&l.columns, opts.width)?;
+        let e = messages::picked_estimates_from_bytes(&l.estimates, &columns, opts.width, a);
+        e.map(|e| (e, Some(columns))).map_err(|e| e.to_string())
     }
 
     /// A claim to the job by a new controller: once REM's record confirms it, the worker
@@ -235,6 +251,12 @@ impl RenderLoop {
             pixels: messages::pixels_to_bytes(&r.pixels),
             pass: r.job.pass,
             estimates: messages::estimates_to_bytes(&r.estimates),
+            columns: r
+                .job
+                .columns
+                .as_ref()
+                .map(Columns::to_bytes)
+                .unwrap_or_default(),
             counters: Some(counters),
             window: if self.retiring {
                 0
@@ -335,6 +357,7 @@ mod tests {
                 line: 0,
                 pass: 0,
                 estimates: Vec::new(),
+                columns: None,
                 grant: 1,
                 duplicate,
                 generation: 0,

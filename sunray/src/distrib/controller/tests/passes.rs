@@ -8,6 +8,7 @@ use crate::distrib::checkpoint::{self, Checkpointer};
 use crate::distrib::controller::JobResult;
 use crate::distrib::messages::{self, proto, Body};
 use crate::render::adaptive::{self, constant_pixel, Adaptive, PixelEstimate};
+use crate::render::columns::Columns;
 use glam::DVec3;
 
 const HEIGHT: u32 = 8;
@@ -32,14 +33,16 @@ fn first_samples(y: u32) -> Vec<PixelEstimate> {
 }
 
 impl Job {
-    /// Worker `node` renders pass `grant.pass` of its line: the first samples, or the raised
-    /// pixels taken on (with samples of 0.5) as far as the pass's cap.
+    /// Worker `node` renders pass `grant.pass` of its line: the first samples, or the
+    /// pixels the grant carries taken on (with samples of 0.5) as far as the pass's cap, and
+    /// answers with those alone, as a worker does.
     async fn pass_done(&self, node: usize, g: &proto::LineGrant) {
         let a = target();
         let mut est = if g.pass == 0 {
             first_samples(g.line)
         } else {
-            messages::estimates_from_bytes(&g.estimates, WIDTH, &a).unwrap()
+            let columns = Columns::from_bytes(&g.columns, WIDTH).unwrap();
+            messages::picked_estimates_from_bytes(&g.estimates, &columns, WIDTH, &a).unwrap()
         };
         let cap = adaptive::pass_cap(&a, g.pass);
         for p in est.iter_mut() {
@@ -54,6 +57,7 @@ impl Job {
             grant: g.grant,
             pass: g.pass,
             estimates: messages::estimates_to_bytes(&est),
+            columns: g.columns.clone(),
             counters: Some(proto::Counters::default()),
             window: 8,
             ..Default::default()
