@@ -5,7 +5,7 @@
 use crate::accel::{Accel, Scratch};
 use crate::render::adaptive::{Adaptive, PixelEstimate};
 use crate::render::columns::Columns;
-use crate::render::pass::{render_pass_columns, render_pass_into};
+use crate::render::pass::render_granted_pass;
 use crate::render::{render_line, Frame, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::Counters;
@@ -276,21 +276,7 @@ fn render_pass(
     frame: &Frame,
 ) -> (Vec<[f32; 3]>, Vec<PixelEstimate>, Counters) {
     let mut estimates = std::mem::take(&mut job.estimates);
-    if let Some(columns) = &job.columns {
-        let counters = render_pass_columns(
-            &what.scene,
-            &what.accel,
-            (job.line, job.pass),
-            &what.opts,
-            a,
-            scratch,
-            frame,
-            (columns, &mut estimates),
-        );
-        return (Vec::new(), estimates, counters);
-    }
-    estimates.resize(what.opts.width as usize, PixelEstimate::default());
-    let counters = render_pass_into(
+    let counters = render_granted_pass(
         &what.scene,
         &what.accel,
         (job.line, job.pass),
@@ -298,7 +284,7 @@ fn render_pass(
         a,
         scratch,
         frame,
-        &mut estimates,
+        (job.columns.as_ref(), &mut estimates),
     );
     (Vec::new(), estimates, counters)
 }

@@ -19,10 +19,14 @@ use crate::scene::Scene;
 use crate::shading::Tracer;
 use crate::stats::Counters;
 
-/// Pass `pass` of line `y` with the target `a`, taking `estimates` (the line's pixels as
-/// the previous pass left them; all empty for pass 0) on; returns the pass's counts.
+/// Pass `pass` of line `y` with the target `a`, as a farm's grant carries it, returning the
+/// pass's counts. `carried`: with `columns`, the estimates of the pixels it names alone
+/// (left to right) as the previous pass and the decision left them (a later pass carries
+/// only those: [`Columns::taking`]; the pass changes no other pixel), else the whole line's
+/// (none for pass 0); the same pixels' estimates after the pass on return. A pixel's
+/// samples are those of the whole line's pass: they depend on the pixel alone.
 #[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
-pub fn render_pass_into(
+pub fn render_granted_pass(
     scene: &Scene,
     accel: &Accel,
     (y, pass): (u32, u32),
@@ -30,32 +34,22 @@ pub fn render_pass_into(
     a: &Adaptive,
     scratch: &mut Scratch,
     frame: &Frame,
-    estimates: &mut [PixelEstimate],
-) -> Counters {
-    let cap = pass_cap(a, pass);
-    advance_line(scene, (accel, frame), y, opts, a, scratch, estimates, cap)
-}
-
-/// [`render_pass_into`] of the pixels `columns` names alone, `picked` their estimates (left
-/// to right) as the previous pass and the decision left them, as the farm's later passes
-/// carry them ([`Columns::taking`]: the pass changes no other pixel). The pixels' samples
-/// are those of the whole line's pass: each pixel's depend on the pixel alone.
-#[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
-pub fn render_pass_columns(
-    scene: &Scene,
-    accel: &Accel,
-    (y, pass): (u32, u32),
-    opts: &RenderOptions,
-    a: &Adaptive,
-    scratch: &mut Scratch,
-    frame: &Frame,
-    (columns, picked): (&Columns, &mut Vec<PixelEstimate>),
+    (columns, carried): (Option<&Columns>, &mut Vec<PixelEstimate>),
 ) -> Counters {
     let mut line = vec![PixelEstimate::default(); opts.width as usize];
-    columns.put(&mut line, picked);
-    let cap = (pass_cap(a, pass), Some(columns));
+    match columns {
+        Some(c) => c.put(&mut line, carried),
+        None => line
+            .iter_mut()
+            .zip(carried.iter())
+            .for_each(|(l, c)| *l = *c),
+    }
+    let cap = (pass_cap(a, pass), columns);
     let counters = advance_pixels(scene, (accel, frame), y, opts, a, scratch, &mut line, cap);
-    *picked = columns.pick(&line);
+    *carried = match columns {
+        Some(c) => c.pick(&line),
+        None => line,
+    };
     counters
 }
 
@@ -187,7 +181,7 @@ mod tests {
     /// The farm's way (every line's first samples, the decisions, then pass after pass of
     /// each line) gives `sunray render`'s image bit for bit, with the same samples; the
     /// neighbourhood raises pixels that are not open themselves. A later pass of the pixels
-    /// it takes alone ([`render_pass_columns`]) gives what the whole line's pass gives.
+    /// it takes alone ([`render_granted_pass`]) gives what the whole line's pass gives.
     #[test]
     fn an_image_in_passes_is_the_image_in_one_go() {
         let (scene, accel) = crate::render::test_scene::shadowed_sphere();
@@ -205,7 +199,8 @@ mod tests {
         let mut est = vec![PixelEstimate::default(); w * opts.height as usize];
         let mut eye = 0;
         let mut pass_of = |y: u32, pass: u32, row: &mut [PixelEstimate]| {
-            let c = render_pass_into(
+            let mut whole = row.to_vec();
+            let c = render_granted_pass(
                 &scene,
                 &accel,
                 (y, pass),
@@ -213,8 +208,9 @@ mod tests {
                 &a,
                 &mut scratch,
                 &frame,
-                row,
+                (None, &mut whole),
             );
+            row.copy_from_slice(&whole);
             c.eye
         };
         for (y, row) in (0..).zip(est.chunks_mut(w)) {
@@ -240,7 +236,7 @@ mod tests {
                 // The farm's later passes carry the pixels they take alone: the same.
                 let columns = Columns::taking(row, &a, pass);
                 let mut picked = columns.pick(row);
-                let c = render_pass_columns(
+                let c = render_granted_pass(
                     &scene,
                     &accel,
                     (y, pass),
@@ -248,7 +244,7 @@ mod tests {
                     &a,
                     &mut scratch_columns,
                     &frame,
-                    (&columns, &mut picked),
+                    (Some(&columns), &mut picked),
                 );
                 let before = row.to_vec();
                 let eye_of_pass = pass_of(y, pass, row);
