@@ -45,7 +45,7 @@ pub fn render_granted_pass(
             .for_each(|(l, c)| *l = *c),
     }
     let cap = (pass_cap(a, pass), columns);
-    let counters = advance_pixels(scene, (accel, frame), y, opts, a, scratch, &mut line, cap);
+    let counters = advance_line(scene, (accel, frame), y, opts, a, scratch, &mut line, cap);
     *carried = match columns {
         Some(c) => c.pick(&line),
         None => line,
@@ -55,35 +55,11 @@ pub fn render_granted_pass(
 
 /// Line `y` taken on from `estimates` by whole schedule steps while each pixel stays within
 /// `cap` samples ([`adaptive::advance_pixel`]): a farm pass, or with no cap the whole line
-/// as `sunray render` takes it. A pixel with no samples outside the scene's footprint is
-/// the background at its first samples, counted as the eye rays they would be.
+/// as `sunray render` takes it; with `only`, the pixels it names alone (the others are left
+/// as they are). A pixel with no samples outside the scene's footprint is the background at
+/// its first samples, counted as the eye rays they would be.
 #[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
 pub(super) fn advance_line(
-    scene: &Scene,
-    (accel, frame): (&Accel, &Frame),
-    y: u32,
-    opts: &RenderOptions,
-    a: &Adaptive,
-    scratch: &mut Scratch,
-    estimates: &mut [PixelEstimate],
-    cap: u32,
-) -> Counters {
-    advance_pixels(
-        scene,
-        (accel, frame),
-        y,
-        opts,
-        a,
-        scratch,
-        estimates,
-        (cap, None),
-    )
-}
-
-/// [`advance_line`] of the pixels `only` names (every pixel without it); the others are
-/// left as they are.
-#[allow(clippy::too_many_arguments)] // the line's parts, each borrowed as the caller holds it
-fn advance_pixels(
     scene: &Scene,
     (accel, frame): (&Accel, &Frame),
     y: u32,
@@ -144,7 +120,7 @@ pub(super) fn line_alone(
         a,
         scratch,
         estimates,
-        a.min_samples,
+        (a.min_samples, None),
     );
     for e in estimates.iter_mut() {
         e.decide(e.is_open());
@@ -157,7 +133,7 @@ pub(super) fn line_alone(
         a,
         scratch,
         estimates,
-        u32::MAX,
+        (u32::MAX, None),
     );
     counters
 }
@@ -194,27 +170,34 @@ mod tests {
             render_image_summarized(&scene, &accel, &opts, 2, false, Progress::Hidden);
         let frame = Frame::new(&scene, &accel, &opts);
         let mut scratch = Scratch::new(scene.prims.len(), false);
-        let mut scratch_columns = Scratch::new(scene.prims.len(), false);
         let w = opts.width as usize;
         let mut est = vec![PixelEstimate::default(); w * opts.height as usize];
         let mut eye = 0;
-        let mut pass_of = |y: u32, pass: u32, row: &mut [PixelEstimate]| {
-            let mut whole = row.to_vec();
-            let c = render_granted_pass(
-                &scene,
-                &accel,
-                (y, pass),
-                &opts,
-                &a,
-                &mut scratch,
-                &frame,
-                (None, &mut whole),
-            );
-            row.copy_from_slice(&whole);
-            c.eye
-        };
+        // A pass as a grant carries it: the whole line, or with columns their pixels alone.
+        let mut pass_of =
+            |y: u32, pass: u32, row: &mut [PixelEstimate], columns: Option<&Columns>| {
+                let mut carried = match columns {
+                    Some(c) => c.pick(row),
+                    None => row.to_vec(),
+                };
+                let c = render_granted_pass(
+                    &scene,
+                    &accel,
+                    (y, pass),
+                    &opts,
+                    &a,
+                    &mut scratch,
+                    &frame,
+                    (columns, &mut carried),
+                );
+                match columns {
+                    Some(c) => c.put(row, &carried),
+                    None => row.copy_from_slice(&carried),
+                }
+                c.eye
+            };
         for (y, row) in (0..).zip(est.chunks_mut(w)) {
-            eye += pass_of(y, 0, row);
+            eye += pass_of(y, 0, row, None);
         }
         assert!(est.iter().all(|e| e.awaits_decision(&a) && e.count() == 4));
         decide_image(&mut est, w, &a);
@@ -235,22 +218,10 @@ mod tests {
                 assert!(pass < max_passes(&a), "line {y} still not done");
                 // The farm's later passes carry the pixels they take alone: the same.
                 let columns = Columns::taking(row, &a, pass);
-                let mut picked = columns.pick(row);
-                let c = render_granted_pass(
-                    &scene,
-                    &accel,
-                    (y, pass),
-                    &opts,
-                    &a,
-                    &mut scratch_columns,
-                    &frame,
-                    (Some(&columns), &mut picked),
-                );
-                let before = row.to_vec();
-                let eye_of_pass = pass_of(y, pass, row);
-                assert_eq!(c.eye, eye_of_pass, "line {y} pass {pass}");
-                let mut by_columns = before;
-                columns.put(&mut by_columns, &picked);
+                let mut by_columns = row.to_vec();
+                let c = pass_of(y, pass, &mut by_columns, Some(&columns));
+                let eye_of_pass = pass_of(y, pass, row, None);
+                assert_eq!(c, eye_of_pass, "line {y} pass {pass}");
                 assert_eq!(by_columns, row, "line {y} pass {pass}");
                 eye += eye_of_pass;
                 for e in row.iter() {

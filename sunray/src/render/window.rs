@@ -145,7 +145,7 @@ impl Job<'_> {
     fn line(&self, s: &mut Scratch, y: usize, est: &mut [PixelEstimate], cap: u32) -> Counters {
         let (scene, opts, a) = (self.scene, self.opts, self.a);
         let at = (self.accel, self.frame);
-        super::pass::advance_line(scene, at, y as u32, opts, a, s, est, cap)
+        super::pass::advance_line(scene, at, y as u32, opts, a, s, est, (cap, None))
     }
 
     /// Line `y`'s first samples: the counts, the estimates and which pixels are open.
@@ -292,7 +292,16 @@ mod tests {
             }
             for (y, row) in (0..).zip(est.chunks_mut(w)) {
                 let f = (accel, &frame);
-                super::super::pass::advance_line(scene, f, y, opts, &a, &mut scratch, row, cap);
+                super::super::pass::advance_line(
+                    scene,
+                    f,
+                    y,
+                    opts,
+                    &a,
+                    &mut scratch,
+                    row,
+                    (cap, None),
+                );
             }
         }
         est
