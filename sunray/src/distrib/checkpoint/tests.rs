@@ -14,6 +14,9 @@ pub struct MemStore {
     pub puts: Mutex<usize>,
     /// Puts from this many on fail (as a store that went away would).
     pub fail_from: Mutex<Option<usize>>,
+    /// The put of this number (counting from 0) is stored, yet answered with an error (as
+    /// one whose answer was lost would be).
+    pub answer_lost: Mutex<Option<usize>>,
 }
 
 impl Store for MemStore {
@@ -28,8 +31,12 @@ impl Store for MemStore {
         if self.fail_from.lock().unwrap().is_some_and(|n| *puts >= n) {
             return Err(rem::Error::Closed);
         }
+        let lost = *self.answer_lost.lock().unwrap() == Some(*puts);
         *puts += 1;
         self.map.lock().unwrap().insert(key.to_string(), data);
+        if lost {
+            return Err(rem::Error::Closed);
+        }
         Ok(())
     }
     async fn get(&self, key: &str) -> Result<Option<Vec<u8>>, rem::Error> {

@@ -23,6 +23,7 @@ use super::{
 };
 use prost::Message;
 use std::collections::BTreeMap;
+use std::ops::Range;
 
 /// Superseded records are let grow to this many bytes beyond the latest ones before a
 /// compaction (so a small job is never rewritten).
@@ -48,6 +49,9 @@ pub struct Checkpointer {
     /// Compact once the superseded records pass twice the latest ones and this ([`SLACK`]);
     /// `None` (tests): once a record is superseded.
     slack: Option<u64>,
+    /// Segments a compaction superseded, emptied once a header naming the new `base` is
+    /// stored (not before: a header put that failed may or may not have been stored).
+    stale: Option<Range<u32>>,
 }
 
 impl Checkpointer {
@@ -68,6 +72,7 @@ impl Checkpointer {
             written: latest.iter().sum(),
             latest,
             slack: Some(SLACK),
+            stale: None,
         }
     }
 
@@ -118,6 +123,7 @@ impl Checkpointer {
         }
         self.written += written?;
         self.write_header(store, state).await?;
+        self.empty_stale(store).await;
         let live: u64 = self.latest.iter().sum();
         let due = match self.slack {
             Some(slack) => live.saturating_mul(2).saturating_add(slack),
@@ -132,8 +138,12 @@ impl Checkpointer {
     }
 
     /// Rewrites the live segments' latest records as new segments, names them in the
-    /// header, then empties the old ones. On an error the header still names the old ones,
-    /// and the next segments written take the place of any new ones.
+    /// header, then empties the old ones. On an error writing the new segments the header
+    /// still names the old ones, and the next segments written take the place of any new
+    /// ones. From then on the new ones are live: a header that failed to be stored (or was
+    /// stored, its answer lost) names them at the next save, and the old ones are emptied
+    /// only once one is stored. (Going back to the old ones on that error, as before, wrote
+    /// the next lines over new segments a stored header named.)
     async fn compact(&mut self, store: &impl Store, state: &str) -> Result<(), CheckpointError> {
         let (old_base, old_end) = (self.base, self.segments);
         let mut lines = BTreeMap::new();
@@ -150,16 +160,30 @@ impl Checkpointer {
             return written.map(|_| ());
         };
         self.base = old_end;
-        if let Err(e) = self.write_header(store, state).await {
-            (self.base, self.segments) = (old_base, old_end);
-            return Err(e);
-        }
         self.written = written;
-        for s in old_base..old_end {
-            // Emptied, not removed (REM has no removal): the file shrinks to its envelope.
-            store.put(&segment_key(&self.job, s), Vec::new()).await?;
-        }
+        let below = self
+            .stale
+            .take()
+            .map_or(old_base, |r| r.start.min(old_base));
+        self.stale = Some(below..old_end);
+        self.write_header(store, state).await?;
+        self.empty_stale(store).await;
         Ok(())
+    }
+
+    /// Empties the segments a stored header no longer names (emptied, not removed: REM has
+    /// no removal; the file shrinks to its envelope). One that fails stays for the next save.
+    async fn empty_stale(&mut self, store: &impl Store) {
+        let Some(stale) = self.stale.take() else {
+            return;
+        };
+        for s in stale.clone() {
+            if let Err(e) = store.put(&segment_key(&self.job, s), Vec::new()).await {
+                tracing::warn!(job = %self.job, "emptying an old checkpoint segment: {e}");
+                self.stale = Some(s..stale.end);
+                return;
+            }
+        }
     }
 
     /// Writes `lines` as segments from `self.segments` on, each under the store's limit,

@@ -154,3 +154,75 @@ fn format_3_is_read() {
     let r = rt().block_on(load(&s, "j4")).unwrap().unwrap();
     assert_eq!(r.lines[&2].pass, 0);
 }
+
+/// The header naming a compaction's segments is stored but its answer is lost, then the next
+/// save fails after one segment: what the store holds is still a consistent checkpoint (each
+/// line at a pass it reached, its counters those of every pass to it), and the next save
+/// that goes through empties the old segments.
+#[test]
+fn a_compactions_header_stored_with_its_answer_lost_leaves_a_consistent_checkpoint() {
+    rt().block_on(async {
+        // Where the compaction's header put falls, from the same saves on a store that
+        // answers: the save whose header names a new base, less the old segments emptied.
+        let probe = store();
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(Some(0));
+        let mut base = 0;
+        let mut at = None;
+        for pass in 0..4 {
+            passes(&mut c, &probe, pass..pass + 1).await;
+            let b = load(&probe, JOB).await.unwrap().unwrap().header.base;
+            if b != base && at.is_none() {
+                let puts = *probe.puts.lock().unwrap();
+                at = Some((pass, puts - (b - base) as usize - 1));
+            }
+            base = b;
+        }
+        let (pass, header_put) = at.expect("a compaction in four passes");
+
+        let s = store();
+        *s.answer_lost.lock().unwrap() = Some(header_put);
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(Some(0));
+        for p in 0..=pass {
+            for y in 0..HEIGHT {
+                c.record(record(y, p), false);
+            }
+            if p == 0 {
+                c.record(record(3, 0), false);
+            }
+            let saved = c.save(&s, "running").await;
+            assert!(
+                saved.is_ok(),
+                "pass {p}: a compaction's error is not the save's"
+            );
+        }
+        let stored = load(&s, JOB).await.unwrap().unwrap();
+        assert!(
+            stored.header.base > 0,
+            "the lost answer's header was stored"
+        );
+        // The next save stores one segment, then the store goes away.
+        *s.fail_from.lock().unwrap() = Some(*s.puts.lock().unwrap() + 1);
+        for y in 0..HEIGHT {
+            c.record(record(y, pass + 1), false);
+        }
+        assert!(c.save(&s, "running").await.is_err());
+        let consistent = |r: &Restored| {
+            (0..HEIGHT).all(|y| {
+                let l = &r.lines[&y];
+                let eye = l.counters.unwrap().eye;
+                eye == u64::from(l.pass) + 1 + u64::from(y == 3)
+            })
+        };
+        let r = load(&s, JOB).await.unwrap().unwrap();
+        assert_eq!(r.lines.len(), HEIGHT as usize);
+        assert!(consistent(&r), "{:?}", r.lines);
+        // The store is back: the next save names the compacted segments, then empties the
+        // old ones.
+        *s.fail_from.lock().unwrap() = None;
+        c.save(&s, "running").await.unwrap();
+        let r = load(&s, JOB).await.unwrap().unwrap();
+        assert!(consistent(&r) && r.lines.values().all(|l| l.pass == pass + 1));
+        let map = s.map.lock().unwrap();
+        assert!((0..r.header.base).all(|k| map[&segment_key(JOB, k)].is_empty()));
+    });
+}
