@@ -286,11 +286,15 @@ impl LinePasses {
     }
 
     /// The estimates that go with a grant of `line`'s pass `pass`, with their bitmap: those
-    /// of the pixels the pass takes samples for ([`Columns::taking`]; none for pass 0).
-    pub fn grant_bytes(&mut self, line: u32, pass: u32) -> (Vec<u8>, Vec<u8>) {
+    /// of the pixels the pass takes samples for ([`Columns::taking`]; none for pass 0), or
+    /// unless `sparse` the whole line's and no bitmap (a worker of an earlier build).
+    pub fn grant_bytes(&mut self, line: u32, pass: u32, sparse: bool) -> (Vec<u8>, Vec<u8>) {
         let Some(e) = self.between.get(&line).filter(|_| pass > 0) else {
             return Default::default();
         };
+        if !sparse {
+            return (messages::estimates_to_bytes(e), Vec::new());
+        }
         let columns = match self.handed.get(&line) {
             Some((p, c)) if *p == pass => c,
             _ => {

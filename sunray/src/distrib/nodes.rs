@@ -68,6 +68,9 @@ pub struct NodeStats {
     pub cores: u32,
     /// Render threads the worker ran.
     pub threads: u32,
+    /// The worker reads later passes carrying only the pixels they take (its Ready says so).
+    #[serde(skip)]
+    pub sparse_passes: bool,
     /// Load per core when the job started: REM's figure (cgroup-aware) when `rem_load`, else
     /// the load average the worker reported.
     pub load_at_start: f64,

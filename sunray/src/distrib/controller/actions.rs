@@ -220,6 +220,7 @@ impl<L: WorkerLink> Controller<L> {
         let min_age = Duration::from_secs_f64(2.0 * self.max_line_s + 0.25);
         out.extend(self.table.duplicate_stragglers(now, min_age));
         for node in 0..self.procs.len() {
+            let sparse = self.nodes[node].sparse_passes;
             let lines: Vec<proto::LineGrant> = out
                 .iter()
                 .filter(|a| a.node == node)
@@ -227,7 +228,7 @@ impl<L: WorkerLink> Controller<L> {
                     let (estimates, columns) = self
                         .passes
                         .as_mut()
-                        .map(|p| p.grant_bytes(a.line, a.pass))
+                        .map(|p| p.grant_bytes(a.line, a.pass, sparse))
                         .unwrap_or_default();
                     proto::LineGrant {
                         line: a.line,

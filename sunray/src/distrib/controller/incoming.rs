@@ -91,6 +91,7 @@ impl<L: WorkerLink> Controller<L> {
                     r.host
                 };
                 (n.cores, n.threads) = (r.cores, r.threads);
+                n.sparse_passes = r.sparse_passes;
                 if !n.rem_load {
                     n.load_at_start = r.load_avg;
                 }

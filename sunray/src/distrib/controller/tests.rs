@@ -238,7 +238,20 @@ impl Job {
 
     /// Worker `node` starts: Ready, then asks for `window` lines.
     async fn ready(&self, node: usize, window: u32) {
-        self.say(node, Body::Ready(proto::Ready::default())).await;
+        self.starts(node, window, true).await;
+    }
+
+    /// The same for a worker of an earlier build, which takes later passes whole.
+    async fn ready_earlier_build(&self, node: usize, window: u32) {
+        self.starts(node, window, false).await;
+    }
+
+    async fn starts(&self, node: usize, window: u32, sparse_passes: bool) {
+        let ready = proto::Ready {
+            sparse_passes,
+            ..Default::default()
+        };
+        self.say(node, Body::Ready(ready)).await;
         let request = proto::Request {
             window,
             ..Default::default()

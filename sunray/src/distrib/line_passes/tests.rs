@@ -55,7 +55,7 @@ fn a_line_waits_for_its_neighbourhood_then_goes_on_or_is_finished() {
         assert_eq!(passes.stage(y), LineStage::Waiting);
     }
     assert_eq!(passes.between[&0], first(0), "held exactly");
-    let (picked, columns) = passes.grant_bytes(0, 1);
+    let (picked, columns) = passes.grant_bytes(0, 1, true);
     assert!(
         picked.is_empty(),
         "no pixel takes samples before its decision"
@@ -103,18 +103,23 @@ fn a_line_waits_for_its_neighbourhood_then_goes_on_or_is_finished() {
     }
     // Handed out decided, with the raised pixels alone.
     let decided_0 = passes.decode(&decided[0].estimates).unwrap();
-    let (picked, columns) = passes.grant_bytes(0, 1);
+    let (picked, columns) = passes.grant_bytes(0, 1, true);
     assert_eq!(columns, vec![0b0000_0111], "line 0's raised pixels");
     assert_eq!(picked, messages::estimates_to_bytes(&decided_0[..3]));
     assert_eq!(
-        passes.grant_bytes(3, 1),
+        passes.grant_bytes(0, 1, false),
+        (decided[0].estimates.clone(), Vec::new()),
+        "the whole line for a worker of an earlier build"
+    );
+    assert_eq!(
+        passes.grant_bytes(3, 1, true),
         (Vec::new(), Vec::new()),
         "a finished line is let go"
     );
     // Line 0's next passes: its raised pixels go on until they are done, each pass carrying
     // the pixels it takes alone, as a worker does.
     for pass in 1.. {
-        let (bytes, columns) = passes.grant_bytes(0, pass);
+        let (bytes, columns) = passes.grant_bytes(0, pass, true);
         let taking = Columns::from_bytes(&columns, w).unwrap();
         let mut e = messages::picked_estimates_from_bytes(&bytes, &taking, w, &a).unwrap();
         for p in e.iter_mut() {
@@ -216,7 +221,7 @@ fn a_pass_carrying_other_pixels_is_refused() {
     line[9] = noisy;
     let decided = passes.pass_in(0, line).decided;
     assert!(decided[0].more, "pixels 7 to 9 raised");
-    let (bytes, columns) = passes.grant_bytes(0, 1);
+    let (bytes, columns) = passes.grant_bytes(0, 1, true);
     assert_eq!(columns, vec![0b1000_0000, 0b0000_0011]);
     assert!(passes.decode_picked(0, 1, &columns, &bytes).is_ok());
     let refused = |columns: &[u8], bytes: &[u8], line: u32, pass: u32| {

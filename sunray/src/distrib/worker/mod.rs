@@ -128,6 +128,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
         load_avg: load_average(),
         pid: std::process::id(),
         threads: threads as u32,
+        sparse_passes: true,
     };
     link.send(Body::Ready(ready.clone())).await?;
 

@@ -34,12 +34,14 @@ fn first_samples(y: u32) -> Vec<PixelEstimate> {
 
 impl Job {
     /// Worker `node` renders pass `grant.pass` of its line: the first samples, or the
-    /// pixels the grant carries taken on (with samples of 0.5) as far as the pass's cap, and
-    /// answers with those alone, as a worker does.
+    /// pixels the grant carries (those the pass takes, or the whole line) taken on (with
+    /// samples of 0.5) as far as the pass's cap, and answers with them, as a worker does.
     async fn pass_done(&self, node: usize, g: &proto::LineGrant) {
         let a = target();
         let mut est = if g.pass == 0 {
             first_samples(g.line)
+        } else if g.columns.is_empty() {
+            messages::estimates_from_bytes(&g.estimates, WIDTH, &a).unwrap()
         } else {
             let columns = Columns::from_bytes(&g.columns, WIDTH).unwrap();
             messages::picked_estimates_from_bytes(&g.estimates, &columns, WIDTH, &a).unwrap()
@@ -137,6 +139,8 @@ async fn a_line_goes_on_once_its_neighbours_have_their_first_samples() {
             g.line
         );
         for s in &seconds {
+            // A current worker: a later pass carries the pixels it takes alone.
+            assert!(s.pass == 0 || !s.columns.is_empty(), "line {}", s.line);
             job.pass_done(0, s).await;
             answered.push((s.line, s.pass));
         }
@@ -200,7 +204,8 @@ async fn finished_lines_are_settled_and_a_resumed_job_decides_by_them() {
 }
 
 /// Its relay takes two grants with estimates a message at most (a larger one fails the
-/// worker), and the resumed job's first Assign has three: it is split.
+/// worker), and the resumed job's first Assign has three: it is split. Its worker is of an
+/// earlier build: its later passes carry whole lines, and its answers are read.
 #[tokio::test(start_paused = true)]
 async fn a_resumed_job_decides_its_waiting_lines_as_their_neighbours_come_in() {
     // An earlier run had the first samples of lines 0 to 5, and no decision.
@@ -220,8 +225,16 @@ async fn a_resumed_job_decides_its_waiting_lines_as_their_neighbours_come_in() {
     let restored = checkpoint::load(&link, JOB).await.unwrap();
     assert_eq!(restored.as_ref().unwrap().finished_lines(), 0);
     let job = job(link, restored);
-    job.ready(0, 8).await;
+    job.ready_earlier_build(0, 8).await;
     let grants = job.link.take_grants(&job.procs[0]);
+    let whole = WIDTH as usize * PixelEstimate::BYTES;
+    for g in grants.iter().filter(|g| g.pass > 0) {
+        assert!(
+            g.columns.is_empty() && g.estimates.len() == whole,
+            "line {}",
+            g.line
+        );
+    }
     let mut given: Vec<(u32, u32)> = grants.iter().map(|g| (g.line, g.pass)).collect();
     given.sort_unstable();
     // 0 to 2 raised (pass 1), 3 finished, 4 and 5 wait for 6 and 7 (pass 0).
