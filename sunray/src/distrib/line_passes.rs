@@ -36,7 +36,7 @@ pub struct LinePasses {
     between: HashMap<u32, Vec<PixelEstimate>>,
     /// The pixels a line's pass takes, as its grants carried them: made once for the pass's
     /// grants (copies too) and the check of its answer (each pixel's next step is its
-    /// estimated error, a tenth of the controller's time when made again for each).
+    /// estimated error: made for each, 15% of the submit process's time in a profile).
     handed: HashMap<u32, (u32, Columns)>,
     /// What each pixel took so far, row by row.
     summaries: Vec<PixelSummary>,
