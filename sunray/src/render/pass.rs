@@ -36,20 +36,17 @@ pub fn render_granted_pass(
     frame: &Frame,
     (columns, carried): (Option<&Columns>, &mut Vec<PixelEstimate>),
 ) -> Counters {
-    let mut line = vec![PixelEstimate::default(); opts.width as usize];
-    match columns {
-        Some(c) => c.put(&mut line, carried),
-        None => line
-            .iter_mut()
-            .zip(carried.iter())
-            .for_each(|(l, c)| *l = *c),
-    }
-    let cap = (pass_cap(a, pass), columns);
-    let counters = advance_line(scene, (accel, frame), y, opts, a, scratch, &mut line, cap);
-    *carried = match columns {
-        Some(c) => c.pick(&line),
-        None => line,
+    let (width, cap) = (opts.width as usize, pass_cap(a, pass));
+    let at = (accel, frame);
+    let Some(c) = columns else {
+        // The whole line: taken on where it lies.
+        carried.resize(width, PixelEstimate::default());
+        return advance_line(scene, at, y, opts, a, scratch, carried, (cap, None));
     };
+    let mut line = vec![PixelEstimate::default(); width];
+    c.put(&mut line, carried);
+    let counters = advance_line(scene, at, y, opts, a, scratch, &mut line, (cap, columns));
+    *carried = c.pick(&line);
     counters
 }
 

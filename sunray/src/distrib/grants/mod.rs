@@ -319,28 +319,20 @@ impl GrantTable {
 
     /// The line's pass is in: the first completion is kept, its other copies retired.
     fn finish(&mut self, line: u32, pass: u32) -> Completion {
-        let current = self.passes[line as usize] == pass;
-        match &mut self.lines[line as usize] {
-            _ if !current => {
-                self.counts.dropped += 1;
-                Completion::Duplicate
-            }
-            LineState::Done => {
-                self.counts.dropped += 1;
-                Completion::Duplicate
-            }
-            state => {
-                let others = match std::mem::replace(state, LineState::Done) {
-                    LineState::Out(gs) => gs,
-                    _ => Vec::new(),
-                };
-                for other in others {
-                    self.retire(other);
-                }
-                self.done += 1;
-                Completion::Accepted
-            }
+        // The rule the controller reads before decoding a pass's answer (`awaits`).
+        if !self.awaits(line, pass) {
+            self.counts.dropped += 1;
+            return Completion::Duplicate;
         }
+        let others = match std::mem::replace(&mut self.lines[line as usize], LineState::Done) {
+            LineState::Out(gs) => gs,
+            _ => Vec::new(),
+        };
+        for other in others {
+            self.retire(other);
+        }
+        self.done += 1;
+        Completion::Accepted
     }
 
     /// `node` hands back lines it did not start (given in the order it held them): they go
