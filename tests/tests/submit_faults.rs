@@ -98,6 +98,30 @@ fn a_worker_killed_mid_job_gives_its_lines_back() {
 }
 
 #[test]
+fn a_worker_of_another_image_version_gets_no_lines() {
+    let cluster = LoopbackCluster::start(3);
+    let job = job();
+    // The worker on host b says it renders other pixels (a host of another build).
+    let mut c = slow_submit(&cluster, &job, 5, &[]);
+    c.env("SUNRAY_WORKER_IMAGE_VERSION", "b:2");
+    let mut run = SubmitRun::start(c);
+    assert!(run.wait(Duration::from_secs(120)).success());
+    let s = read_json(&job.json);
+    let nodes = s["nodes"].as_array().unwrap();
+    let b = nodes.iter().position(|n| n["host"] == "b").unwrap();
+    let s = check(&job, b as u64 + 1, "fault");
+    let v = &s["nodes"][b];
+    assert!(
+        v["fault"]
+            .as_str()
+            .unwrap()
+            .contains("its sunray renders image version 2, the job's pixels are version 1"),
+        "{v}"
+    );
+    assert_eq!(v["scanlines"], 0, "{v}");
+}
+
+#[test]
 fn a_worker_host_whose_remd_is_killed_is_lost_and_its_lines_go_elsewhere() {
     let cluster = LoopbackCluster::start(3);
     let job = job();

@@ -23,10 +23,14 @@ pub mod worker;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+/// What `sunray --version` prints: the package's version and the pixels it renders
+/// ([`crate::render::image_version`]; a test holds the two numbers equal).
+pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), ", image version 1");
+
 #[derive(Parser, Debug)]
 #[command(
     name = "sunray",
-    version,
+    version = VERSION,
     about = "SunRay: a Hall-model ray tracer and its SunRay III render farm"
 )]
 /// The `sunray` command line: one subcommand.
@@ -132,6 +136,12 @@ mod tests {
     use super::{error_line, error_report};
     use crate::scene::load::SceneLoadError;
     use yari::load::LoadError;
+
+    #[test]
+    fn the_version_names_the_pixels_this_build_renders() {
+        let v = crate::render::image_version::IMAGE_VERSION;
+        assert!(super::VERSION.ends_with(&format!(", image version {v}")));
+    }
 
     #[test]
     fn a_cause_already_in_the_message_is_printed_once() {

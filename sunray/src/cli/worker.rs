@@ -13,6 +13,20 @@ pub const LINE_DELAY_ENV: &str = "SUNRAY_WORKER_LINE_DELAY_MS";
 /// hangs while starting).
 pub const READY_DELAY_ENV: &str = "SUNRAY_WORKER_READY_DELAY_MS";
 
+/// Environment variable: `N` or `HOST:N`, the image version the worker (on HOST only) says
+/// it renders in its Ready (a test hook: a host of another build, refused by the controller).
+pub const IMAGE_VERSION_ENV: &str = "SUNRAY_WORKER_IMAGE_VERSION";
+
+/// [`IMAGE_VERSION_ENV`]'s value read: the host it is for (every one when `None`) and the
+/// version; `None` when unset or unreadable.
+fn says_image_version() -> Option<(Option<String>, u32)> {
+    let v = std::env::var(IMAGE_VERSION_ENV).ok()?;
+    match v.rsplit_once(':') {
+        Some((host, n)) => Some((Some(host.to_string()), n.parse().ok()?)),
+        None => Some((None, v.parse().ok()?)),
+    }
+}
+
 fn env_ms(name: &str) -> Duration {
     std::env::var(name)
         .ok()
@@ -35,6 +49,7 @@ pub fn run(args: WorkerArgs) -> anyhow::Result<ExitCode> {
         threads: args.threads.filter(|&t| t > 0),
         line_delay: env_ms(LINE_DELAY_ENV),
         ready_delay: env_ms(READY_DELAY_ENV),
+        says_image_version: says_image_version(),
         ..WorkerConfig::default()
     };
     let runtime = tokio::runtime::Builder::new_current_thread()

@@ -5,6 +5,7 @@
 use crate::accel::AccelOptions;
 use crate::render::adaptive::{Adaptive, PixelEstimate};
 use crate::render::columns::Columns;
+use crate::render::image_version::{self, IMAGE_VERSION};
 use crate::render::settings::{self, SettingsError};
 use crate::render::{RenderOptions, Settings};
 use crate::shading::TraceOptions;
@@ -59,6 +60,15 @@ pub enum MessageError {
     /// know).
     #[error(transparent)]
     Settings(#[from] SettingsError),
+    /// The settings were sent by a build that renders other pixels
+    /// ([`crate::render::image_version`]).
+    #[error("the job's pixels are image version {theirs} and this sunray renders version {ours} (see `sunray --version`): use a sunray of image version {theirs}")]
+    ImageVersion {
+        /// The sender's version.
+        theirs: u32,
+        /// This build's.
+        ours: u32,
+    },
 }
 
 /// Encodes one message body for an envelope.
@@ -212,14 +222,22 @@ impl Settings {
             min_samples: r.adaptive.map_or(0, |a| a.min_samples),
             max_samples: r.adaptive.map_or(0, |a| a.max_samples),
             sampler: r.sampler.name().to_string(),
+            image_version: IMAGE_VERSION,
         }
     }
 
     /// The settings of a `Scene` message or a checkpoint, as they came: every field checked
     /// against its bound ([`Settings::check`]) and the accelerator name against the known
     /// ones, before anything is allocated for them. Nothing is clamped: 0 pixels, samples or
-    /// primitives per voxel are refused, as `to_proto` never sends them.
+    /// primitives per voxel are refused, as `to_proto` never sends them; so are settings sent
+    /// by a build of another image version ([`image_version`]).
     pub fn from_proto(p: &proto::RenderSettings) -> Result<Settings, MessageError> {
+        if !image_version::renders_ours(p.image_version) {
+            return Err(MessageError::ImageVersion {
+                theirs: image_version::version_said(p.image_version),
+                ours: IMAGE_VERSION,
+            });
+        }
         let s = Settings {
             render: RenderOptions {
                 width: p.width,

@@ -8,11 +8,13 @@
 //! [`pass`], doing so a pass at a time (the farm's unit of work then), each later pass
 //! taking only the pixels of a line that [`columns`] names.
 //! [`parallel`] runs the lines of one image on all cores, and [`window`] those of an image
-//! rendered to an error, in a sliding window.
+//! rendered to an error, in a sliding window. [`image_version`] names the pixels this build
+//! renders, so a farm never makes one image of two builds' lines.
 
 pub mod adaptive;
 pub mod columns;
 pub mod footprint;
+pub mod image_version;
 pub mod neighbourhood;
 pub mod parallel;
 pub mod pass;

@@ -242,6 +242,25 @@ fn a_header_without_settings_or_out_of_bounds_is_refused() {
         let text = e.to_string();
         assert!(text.contains(field) && !text.contains('\n'), "{text}");
     }
+
+    // Lines rendered by a build of another image version: this one would finish the image
+    // with other pixels.
+    let newer = crate::render::image_version::IMAGE_VERSION + 1;
+    let store = saved(
+        JobSpec {
+            settings: Some(RenderSettings {
+                image_version: newer,
+                ..settings(10, 16)
+            }),
+            ..spec()
+        },
+        &[line(0)],
+    );
+    let text = load_error(&store).to_string();
+    assert!(
+        text.contains(&format!("the job's pixels are image version {newer}")),
+        "{text}"
+    );
 }
 
 #[test]

@@ -10,6 +10,7 @@ use crate::distrib::messages::{self, proto, Body};
 use crate::distrib::nodes::{Outcome, Stage};
 use crate::distrib::timeline;
 use crate::render::adaptive::PixelEstimate;
+use crate::render::image_version;
 use crate::stats::Counters;
 use rem::{EventKind, Incoming};
 use serde_json::json;
@@ -90,6 +91,17 @@ impl<L: WorkerLink> Controller<L> {
                 } else {
                     r.host
                 };
+                if !image_version::renders_ours(r.image_version) {
+                    // Its lines would not be the bytes this build renders: none for it.
+                    let why = format!(
+                        "its sunray renders image version {}, the job's pixels are version {}",
+                        image_version::version_said(r.image_version),
+                        image_version::IMAGE_VERSION
+                    );
+                    self.on_gone(i, why, false);
+                    self.refused.push(i);
+                    return;
+                }
                 (n.cores, n.threads) = (r.cores, r.threads);
                 n.sparse_passes = r.sparse_passes;
                 if !n.rem_load {

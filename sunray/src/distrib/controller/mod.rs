@@ -305,6 +305,8 @@ struct Controller<L> {
     retiring: Vec<bool>,
     /// The farm's slots each node holds.
     slots: Vec<u32>,
+    /// Nodes refused at their Ready (another image version), to be told to stop.
+    refused: Vec<usize>,
 }
 
 impl<L: WorkerLink> Controller<L> {
@@ -387,6 +389,7 @@ impl<L: WorkerLink> Controller<L> {
             image_stored: None,
             retiring: vec![false; workers.len()],
             slots: workers.iter().map(|w| w.slots).collect(),
+            refused: Vec::new(),
         }
     }
 
@@ -461,7 +464,10 @@ impl<L: WorkerLink> Controller<L> {
     /// One item of the inbox: a relay item is handled; the relay's failure ends the job.
     async fn on_input(&mut self, input: Input) -> Result<(), ControllerError> {
         match input {
-            Input::Relay(Ok(incoming)) => self.on_incoming(incoming),
+            Input::Relay(Ok(incoming)) => {
+                self.on_incoming(incoming);
+                self.stop_refused().await;
+            }
             Input::Relay(Err(e)) => return Err(e.into()),
             Input::Workers(workers, done) => {
                 self.add_workers(workers).await;

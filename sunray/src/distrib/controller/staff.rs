@@ -3,7 +3,8 @@
 //! job's user is below their share, or a higher priority waits). A retiring worker gets no
 //! more lines and is told Retire: it hands back its queued lines unstarted, finishes and
 //! reports those it is rendering, and exits, so no rendered work is lost and the image keeps
-//! its bytes. Whatever it still holds when it exits goes back to the queue.
+//! its bytes. Whatever it still holds when it exits goes back to the queue. A worker refused
+//! at its Ready (it renders another image version) is told Retire too, holding nothing.
 
 use super::crew::to_retire;
 use super::link::WorkerLink;
@@ -62,6 +63,20 @@ impl<L: WorkerLink> Controller<L> {
             }
             self.view.event(json!({"event": "retired", "node": i + 1,
                 "host": self.nodes[i].host, "slots": self.slots[i]}));
+            if self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
+                self.messages_out += 1;
+            }
+        }
+    }
+
+    /// Tells the workers refused at their Ready ([`super::incoming`]: another image version)
+    /// to stop; they were counted as faults then, and hold no lines.
+    pub(super) async fn stop_refused(&mut self) {
+        if self.refused.is_empty() {
+            return;
+        }
+        let stop = messages::encode(Body::Retire(proto::Retire {}));
+        for i in std::mem::take(&mut self.refused) {
             if self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
                 self.messages_out += 1;
             }

@@ -450,3 +450,35 @@ async fn a_job_whose_only_worker_never_says_ready_ends_after_the_timeout() {
         "the hung worker is killed"
     );
 }
+
+#[tokio::test(start_paused = true)]
+async fn a_worker_of_another_image_version_gets_no_line_and_is_told_to_stop() {
+    use crate::render::image_version::IMAGE_VERSION;
+    let job = Job::start(6, 2, None);
+    let newer = proto::Ready {
+        image_version: IMAGE_VERSION + 1,
+        ..Default::default()
+    };
+    job.say(0, Body::Ready(newer)).await;
+    let request = proto::Request {
+        window: 3,
+        ..Default::default()
+    };
+    job.say(0, Body::Request(request)).await;
+    // A worker of a build before the field (image_version 0) renders version 1's pixels.
+    job.ready(1, 3).await;
+    assert!(job.link.take_grants(&job.procs[0]).is_empty());
+    assert!(job
+        .link
+        .got(&job.procs[0], |b| matches!(b, Body::Retire(_))));
+    job.serve_until_done(1).await;
+    let (r, _) = job.end().await;
+    assert_image_complete(&r, 6);
+    assert_eq!(r.nodes[0].outcome, Outcome::Fault);
+    let why = r.nodes[0].fault.clone().unwrap_or_default();
+    assert!(
+        why.contains(&format!("image version {}", IMAGE_VERSION + 1)),
+        "{why}"
+    );
+    assert_eq!(r.nodes[1].scanlines, 6);
+}

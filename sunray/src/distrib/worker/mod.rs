@@ -55,6 +55,9 @@ pub struct WorkerConfig {
     pub ready_delay: Duration,
     /// How long a farm job's worker whose controller is gone waits for a successor's Adopt.
     pub adopt_wait: Duration,
+    /// The image version its Ready says instead of this build's, on every host (`None`) or
+    /// on the one named (test hook: a host of another build).
+    pub says_image_version: Option<(Option<String>, u32)>,
 }
 
 impl Default for WorkerConfig {
@@ -65,6 +68,7 @@ impl Default for WorkerConfig {
             line_delay: Duration::ZERO,
             ready_delay: Duration::ZERO,
             adopt_wait: ADOPT_WAIT,
+            says_image_version: None,
         }
     }
 }
@@ -122,6 +126,10 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
     let slots = std::env::var(rem::wire::env::SLOTS).ok();
     let threads = render_threads(cfg.threads, slots.as_deref(), cores);
     tokio::time::sleep(cfg.ready_delay).await;
+    let image_version = match &cfg.says_image_version {
+        Some((only, v)) if only.as_ref().is_none_or(|h| *h == host) => *v,
+        _ => crate::render::image_version::IMAGE_VERSION,
+    };
     let ready = proto::Ready {
         host,
         cores: cores as u32,
@@ -129,6 +137,7 @@ pub async fn run(cfg: WorkerConfig) -> Result<(), WorkerError> {
         pid: std::process::id(),
         threads: threads as u32,
         sparse_passes: true,
+        image_version,
     };
     link.send(Body::Ready(ready.clone())).await?;
 
