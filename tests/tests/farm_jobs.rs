@@ -10,7 +10,8 @@
 //! keeping the copy of the job's checkpoint stopped holds up no line ([`frozen_replica`]); a
 //! full state directory on the controller's host loses nothing ([`full_disk`]). Every daemon
 //! restarted in turn on a newer protocol, the job finishes ([`rolling_upgrade`]). Users share
-//! the farm's slots by priority and fair shares, and a full farm queues ([`shared_farm`]).
+//! the farm's slots by priority and fair shares, and a full farm queues ([`shared_farm`]). A
+//! host whose sunray renders another image version gets no lines and no second worker.
 //!
 //! "Mid-job" is made deterministic by waiting for the job's record to show checkpointed
 //! lines, with every line taking at least SUNRAY_WORKER_LINE_DELAY_MS.
@@ -403,4 +404,30 @@ fn a_controller_whose_job_moved_on_stands_down_and_the_job_finishes() {
     // ... and the job, with no controller at epoch 2, is started again and finishes.
     let r = check_finished(&cluster, "b", &job, dir.path());
     assert!(r.epoch >= 3, "{r:?}");
+}
+
+#[test]
+fn a_host_of_another_image_version_gets_no_lines_and_no_second_worker() {
+    let cluster = LoopbackCluster::start(3);
+    let dir = tempfile::tempdir().unwrap();
+    // One worker a host; the one on b says it renders other pixels (a host of another build).
+    let id = succeed(
+        cluster
+            .submit()
+            .env("SUNRAY_WORKER_LINE_DELAY_MS", "30")
+            .env("SUNRAY_WORKER_IMAGE_VERSION", "b:2")
+            .args(["--detach", "--hosts", "3", "--checkpoint-ms", "200"])
+            .args(["--job", "versions"])
+            .args(FLAGS)
+            .arg(spd("mount6")),
+    );
+    assert_eq!(id.trim(), "versions");
+    check_finished(&cluster, "a", "versions", dir.path());
+    // The share keeper, a worker short, asked for none on b again: one there, refused.
+    let on_b: Vec<_> = cluster
+        .processes()
+        .into_iter()
+        .filter(|p| p.host == "b" && p.args.first().is_some_and(|a| a == "worker"))
+        .collect();
+    assert_eq!(on_b.len(), 1, "{on_b:#?}");
 }

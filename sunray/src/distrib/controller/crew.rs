@@ -6,7 +6,7 @@
 use crate::distrib::nodes::NodeStats;
 use crate::distrib::timeline::NodeTimeline;
 use rem::ProcId;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// The live workers (by node index: host and slots) and the faults so far.
@@ -16,6 +16,9 @@ pub struct CrewView {
     pub live: BTreeMap<usize, (String, u32)>,
     /// Workers that exited early or were lost (not those retired).
     pub faults: u32,
+    /// Hosts whose worker renders another image version (refused at its Ready): the site
+    /// starts none there again for this job.
+    pub refused_hosts: BTreeSet<String>,
 }
 
 impl CrewView {
@@ -28,6 +31,7 @@ impl CrewView {
                 .map(|(i, w)| (i, (w.host.clone(), w.slots)))
                 .collect(),
             faults: 0,
+            refused_hosts: BTreeSet::new(),
         }
     }
 
@@ -39,6 +43,19 @@ impl CrewView {
     /// Hosts the live workers run on.
     pub fn hosts(&self) -> Vec<String> {
         self.live.values().map(|(h, _)| h.clone()).collect()
+    }
+
+    /// Where the site starts no worker for the job: `asked` (the user's `--avoid-host`), the
+    /// refused hosts, and unless the job may share a host, the live workers' hosts; at most
+    /// [`rem::wire::MAX_AVOID_HOSTS`], in that order.
+    pub fn avoid(&self, asked: &[String], same_host: bool) -> Vec<String> {
+        let mut avoid = asked.to_vec();
+        avoid.extend(self.refused_hosts.iter().cloned());
+        if !same_host {
+            avoid.extend(self.hosts());
+        }
+        avoid.truncate(rem::wire::MAX_AVOID_HOSTS);
+        avoid
     }
 }
 
@@ -62,6 +79,11 @@ impl Crew {
         if v.live.remove(&node).is_some() && fault {
             v.faults += 1;
         }
+    }
+
+    /// The worker on `host` renders another image version: none is started there again.
+    pub(super) fn refused(&self, host: &str) {
+        self.lock().refused_hosts.insert(host.to_string());
     }
 
     fn lock(&self) -> MutexGuard<'_, CrewView> {
@@ -178,5 +200,24 @@ mod tests {
         crew.left(1, true);
         crew.left(0, false);
         assert_eq!((crew.view().slots(), crew.view().faults), (0, 1));
+    }
+
+    #[test]
+    fn no_worker_is_started_where_asked_not_to_where_one_was_refused_or_where_one_runs() {
+        let crew = Crew::default();
+        crew.joined(0, "a", 1);
+        crew.joined(1, "b", 1);
+        crew.refused("c");
+        crew.left(1, true);
+        let view = crew.view();
+        let asked = ["x".to_string()];
+        assert_eq!(view.avoid(&asked, false), ["x", "c", "a"]);
+        assert_eq!(
+            view.avoid(&asked, true),
+            ["x", "c"],
+            "a job may share its hosts"
+        );
+        let many = vec!["y".to_string(); rem::wire::MAX_AVOID_HOSTS];
+        assert_eq!(view.avoid(&many, false).len(), rem::wire::MAX_AVOID_HOSTS);
     }
 }

@@ -98,6 +98,9 @@ impl<L: WorkerLink> Controller<L> {
                         image_version::version_said(r.image_version),
                         image_version::IMAGE_VERSION
                     );
+                    if let Some(crew) = &self.cfg.crew {
+                        crew.refused(&self.nodes[i].host);
+                    }
                     self.on_gone(i, why, false);
                     self.refused.push(i);
                     return;

@@ -83,11 +83,7 @@ impl ShareKeeper {
             0 => need,
             t => t.min(need),
         };
-        let mut avoid: Vec<String> = self.spec.avoid_hosts.clone();
-        if !self.spec.same_host {
-            avoid.extend(crew.hosts());
-        }
-        avoid.truncate(rem::wire::MAX_AVOID_HOSTS);
+        let avoid = crew.avoid(&self.spec.avoid_hosts, self.spec.same_host);
         let what = (
             &self.spec,
             (self.job.as_str(), self.epoch),

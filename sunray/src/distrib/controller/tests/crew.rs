@@ -142,3 +142,24 @@ async fn with_a_crew_no_worker_left_is_a_wait_until_they_keep_failing() {
     assert!(job.handle.task.is_finished());
     assert_eq!(crew.view().faults, FAULTS_WITH_A_CREW);
 }
+
+#[tokio::test(start_paused = true)]
+async fn a_host_of_another_image_version_is_refused_and_not_asked_again() {
+    let crew = Crew::default();
+    let c = crew.clone();
+    let job = Job::configured(FakeLink::default(), 4, 2, None, |cfg| cfg.crew = Some(c));
+    let newer = proto::Ready {
+        image_version: crate::render::image_version::IMAGE_VERSION + 1,
+        ..Default::default()
+    };
+    job.say(0, Body::Ready(newer)).await;
+    job.ready(1, 2).await;
+    let view = crew.view();
+    assert_eq!(view.faults, 1);
+    assert_eq!(view.hosts(), ["h1"]);
+    assert!(view.refused_hosts.contains("h0"), "{view:?}");
+    assert_eq!(view.avoid(&[], false), ["h0", "h1"]);
+    job.serve_until_done(1).await;
+    let (r, _) = job.end().await;
+    assert_image_complete(&r, 4);
+}
