@@ -24,13 +24,16 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 /// What `sunray --version` prints: the package's version and the pixels it renders
-/// ([`crate::render::image_version`]; a test holds the two numbers equal).
-pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), ", image version 1");
+/// ([`crate::render::image_version`]).
+pub static VERSION: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    let image = crate::render::image_version::IMAGE_VERSION;
+    format!("{}, image version {image}", env!("CARGO_PKG_VERSION"))
+});
 
 #[derive(Parser, Debug)]
 #[command(
     name = "sunray",
-    version = VERSION,
+    version = VERSION.as_str(),
     about = "SunRay: a Hall-model ray tracer and its SunRay III render farm"
 )]
 /// The `sunray` command line: one subcommand.

@@ -232,9 +232,9 @@ impl Settings {
     /// primitives per voxel are refused, as `to_proto` never sends them; so are settings sent
     /// by a build of another image version ([`image_version`]).
     pub fn from_proto(p: &proto::RenderSettings) -> Result<Settings, MessageError> {
-        if !image_version::renders_ours(p.image_version) {
+        if let Some(theirs) = image_version::other_than_ours(p.image_version) {
             return Err(MessageError::ImageVersion {
-                theirs: image_version::version_said(p.image_version),
+                theirs,
                 ours: IMAGE_VERSION,
             });
         }

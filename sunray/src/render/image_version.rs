@@ -13,23 +13,21 @@
 //! The test below holds the version to the pixels: it renders small scenes that touch every
 //! sampler and the optional paths of the tracer (textures, reflection, refraction, area
 //! lights, gloss, translucency, depth of field, motion blur, quadrics, a render to an error)
-//! and compares a hash of their `f32` bytes with [`PIXELS_HASH`]. A change that moves a pixel
-//! fails it until the version is raised and the new hash recorded.
+//! and compares a hash of their `f32` bytes with the one recorded there for this version. A
+//! change that moves a pixel fails it until the version is raised and the new hash recorded.
 
 /// The version of the pixels this build renders.
 pub const IMAGE_VERSION: u32 = 1;
 
-/// SHA-256 (first 16 hex digits) of the test's images at [`IMAGE_VERSION`].
-pub const PIXELS_HASH: &str = "bbb607865196b3ec";
-
 /// The version a peer's message means: 0 (a build before the field) is version 1.
-pub fn version_said(field: u32) -> u32 {
+fn version_said(field: u32) -> u32 {
     field.max(1)
 }
 
-/// Whether a peer that said `field` renders this build's pixels.
-pub fn renders_ours(field: u32) -> bool {
-    version_said(field) == IMAGE_VERSION
+/// The version a peer that said `field` renders when it is not this build's (`None`: the
+/// same pixels); what a Ready and the render settings of a Scene or a checkpoint are read by.
+pub fn other_than_ours(field: u32) -> Option<u32> {
+    Some(version_said(field)).filter(|&v| v != IMAGE_VERSION)
 }
 
 #[cfg(test)]
@@ -43,6 +41,9 @@ mod tests {
     use crate::scene::Scene;
     use sha2::{Digest, Sha256};
     use yari::spd::Database;
+
+    /// SHA-256 (first 16 hex digits) of the test's images at [`IMAGE_VERSION`].
+    const PIXELS_HASH: &str = "bbb607865196b3ec";
 
     /// Every optional path of the tracer on a few pixels: a textured floor, a mirror, a glass
     /// sphere, a glossy and a translucent one, a clipped quadric, a moving sphere, an area
@@ -137,7 +138,7 @@ end";
     fn a_peer_that_said_nothing_is_version_1() {
         assert_eq!(version_said(0), 1);
         assert_eq!(version_said(7), 7);
-        assert!(renders_ours(IMAGE_VERSION));
-        assert!(!renders_ours(IMAGE_VERSION + 1));
+        assert_eq!(other_than_ours(IMAGE_VERSION), None);
+        assert_eq!(other_than_ours(IMAGE_VERSION + 1), Some(IMAGE_VERSION + 1));
     }
 }

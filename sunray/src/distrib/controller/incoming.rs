@@ -91,11 +91,11 @@ impl<L: WorkerLink> Controller<L> {
                 } else {
                     r.host
                 };
-                if !image_version::renders_ours(r.image_version) {
+                if let Some(theirs) = image_version::other_than_ours(r.image_version) {
                     // Its lines would not be the bytes this build renders: none for it.
                     let why = format!(
-                        "its sunray renders image version {}, the job's pixels are version {}",
-                        image_version::version_said(r.image_version),
+                        "its sunray renders image version {theirs}, the job's pixels are \
+                         version {}",
                         image_version::IMAGE_VERSION
                     );
                     if let Some(crew) = &self.cfg.crew {

@@ -54,7 +54,6 @@ impl<L: WorkerLink> Controller<L> {
             .filter(|&i| !self.exited[i] && !self.retiring[i])
             .map(|i| (i, self.slots[i]))
             .collect();
-        let stop = messages::encode(Body::Retire(proto::Retire {}));
         for i in to_retire(&live, slots, keep_one) {
             self.retiring[i] = true;
             self.table.close(i);
@@ -63,23 +62,23 @@ impl<L: WorkerLink> Controller<L> {
             }
             self.view.event(json!({"event": "retired", "node": i + 1,
                 "host": self.nodes[i].host, "slots": self.slots[i]}));
-            if self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
-                self.messages_out += 1;
-            }
+            self.tell_retire(i).await;
         }
     }
 
     /// Tells the workers refused at their Ready ([`super::incoming`]: another image version)
     /// to stop; they were counted as faults then, and hold no lines.
     pub(super) async fn stop_refused(&mut self) {
-        if self.refused.is_empty() {
-            return;
-        }
-        let stop = messages::encode(Body::Retire(proto::Retire {}));
         for i in std::mem::take(&mut self.refused) {
-            if self.link.send(&self.procs[i], stop.clone()).await.is_ok() {
-                self.messages_out += 1;
-            }
+            self.tell_retire(i).await;
+        }
+    }
+
+    /// Sends node `i` a Retire.
+    async fn tell_retire(&mut self, i: usize) {
+        let stop = messages::encode(Body::Retire(proto::Retire {}));
+        if self.link.send(&self.procs[i], stop).await.is_ok() {
+            self.messages_out += 1;
         }
     }
 }
