@@ -393,20 +393,11 @@ pub(crate) async fn read_segment(
 /// Keeps the latest record of a line (its highest pass; the last one written of equal
 /// passes), its counters summed over the line's records.
 pub(crate) fn keep_latest(lines: &mut BTreeMap<u32, FinishedLine>, mut l: FinishedLine) {
-    use super::messages::proto::Counters as Wire;
-    use crate::stats::Counters;
     let Some(old) = lines.get_mut(&l.line) else {
         lines.insert(l.line, l);
         return;
     };
-    let counted = |c: &Option<Wire>| c.as_ref().map(Counters::from).unwrap_or_default();
-    let timed = |c: &Option<Wire>| c.as_ref().map_or(0.0, |c| c.line_s);
-    let mut total = counted(&old.counters);
-    total += counted(&l.counters);
-    let counters = Wire {
-        line_s: timed(&old.counters) + timed(&l.counters),
-        ..Wire::from(&total)
-    };
+    let counters = latest_records::summed(&old.counters, &l.counters);
     if l.pass >= old.pass {
         l.counters = Some(counters);
         *old = l;
@@ -437,6 +428,7 @@ pub fn unix_ms() -> u64 {
         .map_or(0, |d| d.as_millis() as u64)
 }
 
+mod latest_records;
 #[cfg(test)]
 pub(crate) mod tests;
 mod writer;

@@ -17,6 +17,8 @@ pub struct MemStore {
     /// The put of this number (counting from 0) is stored, yet answered with an error (as
     /// one whose answer was lost would be).
     pub answer_lost: Mutex<Option<usize>>,
+    /// Gets so far.
+    pub gets: Mutex<usize>,
 }
 
 impl Store for MemStore {
@@ -40,6 +42,7 @@ impl Store for MemStore {
         Ok(())
     }
     async fn get(&self, key: &str) -> Result<Option<Vec<u8>>, rem::Error> {
+        *self.gets.lock().unwrap() += 1;
         Ok(self.map.lock().unwrap().get(key).cloned())
     }
     fn max_bytes(&self) -> usize {

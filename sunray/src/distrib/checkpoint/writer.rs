@@ -13,10 +13,13 @@
 //! ones, then the header that makes them the live ones (`base`), and only then are the old
 //! ones emptied. A crash or an error at any point leaves a consistent checkpoint: the old
 //! one until the header is written, the new one after (old segments not yet emptied are then
-//! never read, and REM's retention removes them with the job). Read back rather than kept:
-//! the controller holds the lines between their passes already, and a second copy of the
-//! image's estimates for the rare compaction would double that.
+//! never read, and REM's retention removes them with the job). Only the records the writer
+//! does not hold are read back ([`LatestRecords`]): a finished line's record is held (21
+//! bytes a pixel), an open line's estimates are not (the controller holds them between their
+//! passes already, and a second copy of the image's estimates for the rare compaction would
+//! double that), and only the segments that hold an open line's latest record are read.
 
+use super::latest_records::LatestRecords;
 use super::{
     keep_latest, read_segment, segment_key, unix_ms, CheckpointError, CheckpointHeader,
     CheckpointSegment, FinishedLine, JobSpec, Restored, Store, FORMAT,
@@ -42,8 +45,8 @@ pub struct Checkpointer {
     lines_done: u32,
     /// Lines in since the last save, each line's latest record (counters summed).
     pending: BTreeMap<u32, FinishedLine>,
-    /// With a target error: the bytes of each line's latest record (0: none yet), by line.
-    latest: Vec<u64>,
+    /// With a target error: each line's latest record, where it lies, its counters.
+    latest: LatestRecords,
     /// Bytes of the live segments.
     written: u64,
     /// Compact once the superseded records pass twice the latest ones and this ([`SLACK`]);
@@ -57,10 +60,10 @@ pub struct Checkpointer {
 impl Checkpointer {
     /// A checkpointer for `job`; a resumed job continues the segments it had.
     pub fn new(job: &str, spec: JobSpec, model_hash: u64, resumed: Option<&Restored>) -> Self {
-        let mut latest = Vec::new();
-        if let Some(r) = resumed.filter(|r| r.adaptive.is_some()) {
-            r.lines.values().for_each(|l| note_latest(&mut latest, l));
-        }
+        let latest = resumed
+            .filter(|r| r.adaptive.is_some())
+            .map(LatestRecords::restored)
+            .unwrap_or_default();
         Checkpointer {
             job: job.to_string(),
             spec,
@@ -69,7 +72,7 @@ impl Checkpointer {
             segments: resumed.map_or(0, |r| r.header.segments),
             lines_done: resumed.map_or(0, Restored::finished_lines),
             pending: BTreeMap::new(),
-            written: latest.iter().sum(),
+            written: latest.live_bytes(),
             latest,
             slack: Some(SLACK),
             stale: None,
@@ -87,7 +90,7 @@ impl Checkpointer {
     /// target error a pass after which the line needs another.
     pub fn record(&mut self, line: FinishedLine, finished: bool) {
         if !line.estimates.is_empty() || !line.settled.is_empty() {
-            note_latest(&mut self.latest, &line);
+            self.latest.record(&line);
         }
         keep_latest(&mut self.pending, line);
         self.lines_done += u32::from(finished);
@@ -116,7 +119,12 @@ impl Checkpointer {
     /// not stored (an error) stay for the next save.
     pub async fn save(&mut self, store: &impl Store, state: &str) -> Result<(), CheckpointError> {
         let mut pending = std::mem::take(&mut self.pending);
-        let written = self.write_segments(store, &mut pending).await;
+        let mut placed = Vec::new();
+        let written = self.write_segments(store, &mut pending, &mut placed).await;
+        // What was stored is live, whether or not the rest was.
+        for (line, pass, segment) in placed {
+            self.latest.placed(line, pass, segment);
+        }
         // What was not written waits for the next save, before anything recorded meanwhile.
         for (_, l) in std::mem::replace(&mut self.pending, pending) {
             keep_latest(&mut self.pending, l);
@@ -124,7 +132,7 @@ impl Checkpointer {
         self.written += written?;
         self.write_header(store, state).await?;
         self.empty_stale(store).await;
-        let live: u64 = self.latest.iter().sum();
+        let live = self.latest.live_bytes();
         let due = match self.slack {
             Some(slack) => live.saturating_mul(2).saturating_add(slack),
             None => live,
@@ -146,19 +154,27 @@ impl Checkpointer {
     /// the next lines over new segments a stored header named.)
     async fn compact(&mut self, store: &impl Store, state: &str) -> Result<(), CheckpointError> {
         let (old_base, old_end) = (self.base, self.segments);
-        let mut lines = BTreeMap::new();
-        for s in old_base..old_end {
+        let mut read = BTreeMap::new();
+        for s in self.latest.to_read(old_base..old_end) {
             let segment = read_segment(store, &self.job, s).await?;
-            segment
-                .lines
-                .into_iter()
-                .for_each(|l| keep_latest(&mut lines, l));
+            self.latest.keep_read(s, segment.lines, &mut read);
         }
-        let written = self.write_segments(store, &mut lines).await;
+        let mut lines = self
+            .latest
+            .compacted(read)
+            .ok_or_else(|| CheckpointError::Corrupt {
+                key: self.job.clone(),
+                reason: "a line's latest record is not where it was written".into(),
+            })?;
+        let mut placed = Vec::new();
+        let written = self.write_segments(store, &mut lines, &mut placed).await;
         let Ok(written) = written else {
             self.segments = old_end;
             return written.map(|_| ());
         };
+        for (line, pass, segment) in placed {
+            self.latest.placed(line, pass, segment);
+        }
         self.base = old_end;
         self.written = written;
         let below = self
@@ -187,11 +203,13 @@ impl Checkpointer {
     }
 
     /// Writes `lines` as segments from `self.segments` on, each under the store's limit,
-    /// taking out each line once its segment is stored; returns the bytes written.
+    /// taking out each line once its segment is stored (and noting it in `placed`: line,
+    /// pass, segment); returns the bytes written.
     async fn write_segments(
         &mut self,
         store: &impl Store,
         lines: &mut BTreeMap<u32, FinishedLine>,
+        placed: &mut Vec<(u32, u32, u32)>,
     ) -> Result<u64, CheckpointError> {
         let limit = store.max_bytes().saturating_sub(1024).max(1);
         let mut written = 0;
@@ -223,6 +241,12 @@ impl Checkpointer {
                 return Err(e.into());
             }
             written += len;
+            placed.extend(
+                segment
+                    .lines
+                    .iter()
+                    .map(|l| (l.line, l.pass, self.segments)),
+            );
             self.segments += 1;
         }
         Ok(written)
@@ -243,16 +267,4 @@ impl Checkpointer {
         store.put(&self.job, header.encode_to_vec()).await?;
         Ok(())
     }
-}
-
-/// Notes the size of `line`'s record in a segment (its field's tag and length included, so
-/// that the live segments hold exactly the latest records' bytes when nothing is
-/// superseded) as its line's latest.
-fn note_latest(latest: &mut Vec<u64>, line: &FinishedLine) {
-    let y = line.line as usize;
-    if latest.len() <= y {
-        latest.resize(y + 1, 0);
-    }
-    let len = line.encoded_len();
-    latest[y] = (1 + prost::encoding::encoded_len_varint(len as u64) + len) as u64;
 }

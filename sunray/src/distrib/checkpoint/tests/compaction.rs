@@ -226,3 +226,142 @@ fn a_compactions_header_stored_with_its_answer_lost_leaves_a_consistent_checkpoi
         assert!((0..r.header.base).all(|k| map[&segment_key(JOB, k)].is_empty()));
     });
 }
+
+/// Line `y` settled after pass `pass`: its two pixels done at `4 + pass` samples.
+fn settled(y: u32, pass: u32) -> FinishedLine {
+    use crate::distrib::settled::{to_bytes, SettledPixel};
+    let a = crate::render::adaptive::Adaptive::new(0.01, Some(4), Some(64));
+    let mut done = crate::render::adaptive::constant_pixel(DVec3::splat(0.25), &a);
+    done.decide(false);
+    let mut p = SettledPixel::of(&done);
+    p.summary.samples = 4 + pass;
+    FinishedLine {
+        line: y,
+        pass,
+        pixels: crate::distrib::messages::pixels_to_bytes(&[[0.25; 3], [0.5; 3]]),
+        settled: to_bytes([p; 2]),
+        counters: Some(Wire {
+            eye: 1,
+            line_s: 0.5,
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+/// The same records through a checkpointer that never compacts and one that compacts at
+/// every save: `last` is recorded, then saved as `state`; what each store holds then, and
+/// how many reads the compacting one made in that last save.
+async fn both(
+    before: std::ops::Range<u32>,
+    last: &[(FinishedLine, bool)],
+    state: &str,
+) -> (Restored, Restored, (usize, u32), MemStore) {
+    let (plain, compacted) = (store(), store());
+    let mut p = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(Some(u64::MAX / 4));
+    let mut k = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(None);
+    passes(&mut p, &plain, before.clone()).await;
+    passes(&mut k, &compacted, before).await;
+    for c in [&mut p, &mut k] {
+        for (l, finished) in last {
+            c.record(l.clone(), *finished);
+        }
+    }
+    p.save(&plain, state).await.unwrap();
+    let base = load(&compacted, JOB).await.unwrap().unwrap().header.base;
+    let gets = *compacted.gets.lock().unwrap();
+    k.save(&compacted, state).await.unwrap();
+    let read = *compacted.gets.lock().unwrap() - gets;
+    let (p, k) = (
+        load(&plain, JOB).await.unwrap().unwrap(),
+        load(&compacted, JOB).await.unwrap().unwrap(),
+    );
+    // The segments the last save's compaction found live: from the base before to the new.
+    let live = k.header.base - base;
+    (p, k, (read, live), compacted)
+}
+
+/// A job's last save, every line finished: its compaction writes the finished lines it
+/// holds and reads no segment back (it read every one, 67 MB for a 512 x 512 job).
+#[test]
+fn a_finished_jobs_last_compaction_reads_nothing_back() {
+    rt().block_on(async {
+        let last: Vec<_> = (0..HEIGHT).map(|y| (settled(y, 3), true)).collect();
+        let (p, k, (read, _), compacted) = both(0..3, &last, "finished").await;
+        assert_eq!(
+            p.lines, k.lines,
+            "the same lines, passes and summed counters"
+        );
+        assert_eq!(k.finished_lines(), HEIGHT);
+        assert_eq!(
+            k.lines[&3].counters.unwrap().eye,
+            5,
+            "line 3's five records"
+        );
+        assert!(k.header.base > 0, "compacted");
+        assert_eq!(read, 0, "nothing read back");
+        let latest: usize = k.lines.values().map(|l| l.encoded_len()).sum();
+        assert!(
+            held(&compacted) <= 2 * latest + 2048,
+            "{}",
+            held(&compacted)
+        );
+    });
+}
+
+/// Lines still open at a compaction are read back from the segments that hold their latest
+/// records, and only those; the finished ones are written from what the writer holds.
+#[test]
+fn a_compaction_reads_only_the_segments_of_open_lines() {
+    rt().block_on(async {
+        let open = HEIGHT - 2;
+        let last: Vec<_> = (0..HEIGHT)
+            .map(|y| match y < open {
+                true => (settled(y, 2), true),
+                false => (record(y, 2), false),
+            })
+            .collect();
+        let (p, k, (read, live), _) = both(0..2, &last, "running").await;
+        assert_eq!(p.lines, k.lines);
+        assert_eq!(k.finished_lines(), open);
+        assert_eq!(k.lines[&15].pass, 2);
+        assert!(read >= 1 && read < live as usize, "{read} of {live}");
+    });
+}
+
+/// A resumed job's compaction does not know where its lines' records lie: it reads its live
+/// segments (as every compaction did), the finished lines excepted, and loses nothing.
+#[test]
+fn a_resumed_jobs_compaction_reads_its_segments() {
+    rt().block_on(async {
+        let s = store();
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, None).with_slack(Some(u64::MAX / 4));
+        passes(&mut c, &s, 0..2).await;
+        for y in 0..4 {
+            c.record(settled(y, 2), true);
+        }
+        c.save(&s, "running").await.unwrap();
+        let restored = load(&s, JOB).await.unwrap().unwrap();
+        let mut c = Checkpointer::new(JOB, adaptive_spec(), 1, Some(&restored)).with_slack(None);
+        let gets = *s.gets.lock().unwrap();
+        c.record(record(9, 2), false);
+        c.save(&s, "running").await.unwrap();
+        let live = restored.header.segments - restored.header.base;
+        let read = *s.gets.lock().unwrap() - gets;
+        assert!(
+            read >= live as usize,
+            "the live segments read: {read} of {live}"
+        );
+        let r = load(&s, JOB).await.unwrap().unwrap();
+        assert!(r.header.base > restored.header.base, "compacted");
+        assert_eq!(r.finished_lines(), 4);
+        assert_eq!(r.lines[&9].pass, 2);
+        assert_eq!(r.lines[&9].counters.unwrap().eye, 3);
+        assert_eq!(
+            r.lines[&3].counters.unwrap().eye,
+            4,
+            "line 3: pass 0 twice, 1, settled"
+        );
+        assert_eq!(r.lines[&5], restored.lines[&5]);
+    });
+}
