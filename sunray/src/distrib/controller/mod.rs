@@ -279,6 +279,8 @@ struct Controller<L> {
     /// Lines finished since the last save was asked for (or one failed).
     unsaved: bool,
     last_checkpoint: Instant,
+    /// What the last save took ([`actions`]: saves go no more often than a tenth of the time).
+    save_took: Duration,
     counters: Counters,
     lines: LineCounts,
     max_line_s: f64,
@@ -373,6 +375,7 @@ impl<L: WorkerLink> Controller<L> {
             writer,
             unsaved,
             last_checkpoint: Instant::now(),
+            save_took: Duration::ZERO,
             counters,
             max_line_s: 0.0,
             started: Instant::now(),

@@ -16,14 +16,20 @@ use crate::distrib::web_view::{Publication, WebError};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, Notify};
 use tokio::task::JoinHandle;
 
 /// What came of a request.
 #[derive(Debug)]
 pub(super) enum Report {
-    /// Save `id` stored the checkpoint in `state`, with `lines` lines in it.
-    Saved { id: u64, state: String, lines: u32 },
+    /// Save `id` stored the checkpoint in `state`, with `lines` lines in it, in `took`.
+    Saved {
+        id: u64,
+        state: String,
+        lines: u32,
+        took: Duration,
+    },
     /// Save `id` failed (the next save tries its lines again).
     SaveFailed { id: u64, error: CheckpointError },
     /// A publication was stored.
@@ -187,13 +193,19 @@ async fn save_task<L: WorkerLink>(
         };
         checkpointer.record_lines(lines, finished);
         if let Some(SaveRequest { id, state }) = save {
+            let began = Instant::now();
             let report = match checkpointer.save(&*link, &state).await {
                 Ok(()) => {
                     let lines = checkpointer.lines_done();
                     if let Some(c) = &checkpointed {
                         c.store(lines, Ordering::Relaxed);
                     }
-                    Report::Saved { id, state, lines }
+                    Report::Saved {
+                        id,
+                        state,
+                        lines,
+                        took: began.elapsed(),
+                    }
                 }
                 Err(error) => Report::SaveFailed { id, error },
             };

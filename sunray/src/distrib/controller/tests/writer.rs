@@ -67,7 +67,9 @@ async fn lines_add_up_while_saves_wait_and_a_replaced_save_is_not_answered() {
     let answered: Vec<_> = reports
         .iter()
         .map(|r| match r {
-            Report::Saved { id, state, lines } => (*id, state.clone(), *lines),
+            Report::Saved {
+                id, state, lines, ..
+            } => (*id, state.clone(), *lines),
             other => panic!("{other:?}"),
         })
         .collect();
