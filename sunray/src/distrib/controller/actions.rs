@@ -31,7 +31,7 @@ pub(super) const FINAL_SAVE_PAUSE: Duration = Duration::from_millis(500);
 const SAVE_SPACING: u32 = 10;
 /// ... but never further apart than this (or `checkpoint_every`, if longer): a save slowed
 /// by a stopped replica does not leave the job without one for long after.
-const MAX_SAVE_GAP: Duration = Duration::from_secs(20);
+const MAX_SAVE_GAP: Duration = Duration::from_secs(10);
 
 /// Whether a save is due `since` the last one began, saves being asked for `every` so long
 /// and the last one having taken `took`.
@@ -392,8 +392,9 @@ mod tests {
         // A save of 0.4 s: the next after 4 s.
         assert!(!save_due(ms(3999), every, ms(400)));
         assert!(save_due(ms(4000), every, ms(400)));
-        // A save held 30 s by a stopped replica: the next 20 s after, not 300.
-        assert!(save_due(ms(20_000), every, ms(30_000)));
+        // A save held 30 s by a stopped replica: the next 10 s after, not 300.
+        assert!(!save_due(ms(9_999), every, ms(30_000)));
+        assert!(save_due(ms(10_000), every, ms(30_000)));
         // Asked for less often than the cap: as asked.
         assert!(!save_due(ms(25_000), ms(60_000), ms(30_000)));
     }
