@@ -245,6 +245,38 @@ impl Farm {
         }
     }
 
+    /// What each daemon up says of `job`'s image and has logged of it, for a fetch that
+    /// failed (seen twice in CI, never when run alone: a finished job's checkpoint read with
+    /// 60 of 64 lines).
+    fn fetch_report(&self, job: &JobPlan, dir: &Path) -> String {
+        let mut report = String::new();
+        for d in self.up() {
+            let o = self
+                .sunray_as(job.user, &d)
+                .args(["fetch", &job.id, "-o"])
+                .arg(dir.join(format!("{}-via-{d}.png", job.id)))
+                .output()
+                .unwrap();
+            let said = String::from_utf8_lossy(&o.stderr);
+            report += &format!("\nfetch via {d}: {} {said}", o.status);
+        }
+        for d in self.up() {
+            let log = self.cluster.log(&d);
+            let about: Vec<&str> = log
+                .lines()
+                .filter(|l| l.contains(&job.id) || l.contains("WARN") || l.contains("ERROR"))
+                .filter(|l| !l.contains("--run-as"))
+                .collect();
+            let tail = &about[about.len().saturating_sub(30)..];
+            report += &format!(
+                "\n--- {d}'s log, {} lines about it or warnings, the last:\n{}",
+                about.len(),
+                tail.join("\n")
+            );
+        }
+        report
+    }
+
     /// The job's image through a daemon that is up, and its statistics.
     fn fetch(&self, job: &JobPlan, dir: &Path) -> (Vec<u8>, serde_json::Value) {
         let via = &self.up()[0];
@@ -259,8 +291,9 @@ impl Farm {
             .unwrap();
         assert!(
             st.status.success(),
-            "{}",
-            String::from_utf8_lossy(&st.stderr)
+            "{}{}",
+            String::from_utf8_lossy(&st.stderr),
+            self.fetch_report(job, dir)
         );
         let key = self.keys[job.user].clone();
         let addr = self.cluster.daemon(via).addr.clone();
