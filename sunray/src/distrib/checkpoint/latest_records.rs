@@ -61,11 +61,8 @@ impl LatestRecords {
     /// summed), where they lie not known.
     pub(super) fn restored(r: &Restored) -> LatestRecords {
         let mut records = LatestRecords::default();
-        for l in r.lines.values() {
-            records.record(l);
-            let state = &mut records.lines[l.line as usize];
-            state.total = l.counters;
-        }
+        // One record a line, so each line's total is its record's (summed by `load`).
+        r.lines.values().for_each(|l| records.record(l));
         records
     }
 
@@ -90,12 +87,14 @@ impl LatestRecords {
         }
     }
 
-    /// `line`'s record of pass `pass` was written in `segment`: the line's latest lies there
-    /// when it is that record (the last written of equal passes).
-    pub(super) fn placed(&mut self, line: u32, pass: u32, segment: u32) {
-        if let Some(state) = self.lines.get_mut(line as usize) {
-            if state.bytes > 0 && state.pass == pass {
-                state.at = Some(segment);
+    /// Records written: (line, pass, segment) each. A line's latest lies in that segment when
+    /// it is that record (the last written of equal passes).
+    pub(super) fn placed(&mut self, placed: Vec<(u32, u32, u32)>) {
+        for (line, pass, segment) in placed {
+            if let Some(state) = self.lines.get_mut(line as usize) {
+                if state.bytes > 0 && state.pass == pass {
+                    state.at = Some(segment);
+                }
             }
         }
     }
@@ -106,19 +105,17 @@ impl LatestRecords {
     }
 
     /// Lines whose latest record must be read back (not a finished one held here).
-    fn unheld(&self) -> impl Iterator<Item = (u32, &LineRecords)> {
+    fn unheld(&self) -> impl Iterator<Item = &LineRecords> {
         self.lines
             .iter()
-            .enumerate()
-            .filter(|(_, s)| s.bytes > 0 && s.finished.is_none())
-            .map(|(y, s)| (y as u32, s))
+            .filter(|s| s.bytes > 0 && s.finished.is_none())
     }
 
     /// The segments of `live` a compaction reads: those that hold a latest record not held
     /// here, or all of them when one such record's segment is not known.
     pub(super) fn to_read(&self, live: Range<u32>) -> BTreeSet<u32> {
         let mut out = BTreeSet::new();
-        for (_, s) in self.unheld() {
+        for s in self.unheld() {
             match s.at {
                 Some(seg) => out.insert(seg),
                 None => return live.collect(),

@@ -122,9 +122,7 @@ impl Checkpointer {
         let mut placed = Vec::new();
         let written = self.write_segments(store, &mut pending, &mut placed).await;
         // What was stored is live, whether or not the rest was.
-        for (line, pass, segment) in placed {
-            self.latest.placed(line, pass, segment);
-        }
+        self.latest.placed(placed);
         // What was not written waits for the next save, before anything recorded meanwhile.
         for (_, l) in std::mem::replace(&mut self.pending, pending) {
             keep_latest(&mut self.pending, l);
@@ -172,9 +170,7 @@ impl Checkpointer {
             self.segments = old_end;
             return written.map(|_| ());
         };
-        for (line, pass, segment) in placed {
-            self.latest.placed(line, pass, segment);
-        }
+        self.latest.placed(placed);
         self.base = old_end;
         self.written = written;
         let below = self

@@ -33,6 +33,27 @@ const SAVE_SPACING: u32 = 10;
 /// by a stopped replica does not leave the job without one for long after.
 const MAX_SAVE_GAP: Duration = Duration::from_secs(10);
 
+/// When the controller last asked for a save, and what the last stored one took.
+#[derive(Debug)]
+pub(super) struct SaveClock {
+    asked: Instant,
+    took: Duration,
+}
+
+impl SaveClock {
+    pub(super) fn new() -> SaveClock {
+        SaveClock {
+            asked: Instant::now(),
+            took: Duration::ZERO,
+        }
+    }
+
+    /// Whether the next save is due, saves being asked for every `every`.
+    fn due(&self, every: Duration) -> bool {
+        save_due(self.asked.elapsed(), every, self.took)
+    }
+}
+
 /// Whether a save is due `since` the last one began, saves being asked for `every` so long
 /// and the last one having taken `took`.
 fn save_due(since: Duration, every: Duration, took: Duration) -> bool {
@@ -125,13 +146,8 @@ impl<L: WorkerLink> Controller<L> {
                 json!({"event": "silent", "node": i + 1, "host": n.host, "given_back": held}),
             );
         }
-        let due = save_due(
-            self.last_checkpoint.elapsed(),
-            self.cfg.checkpoint_every,
-            self.save_took,
-        );
-        if due && self.unsaved {
-            self.last_checkpoint = Instant::now();
+        if self.unsaved && self.saves.due(self.cfg.checkpoint_every) {
+            self.saves.asked = Instant::now();
             self.unsaved = false;
             self.writer.save("running");
         }
@@ -172,7 +188,7 @@ impl<L: WorkerLink> Controller<L> {
     /// Saves the checkpoint in `state` and waits for it (the end of the job: the image is
     /// the user's once stored); whether it was stored.
     pub(super) async fn save_now(&mut self, state: &str) -> bool {
-        self.last_checkpoint = Instant::now();
+        self.saves.asked = Instant::now();
         let id = self.writer.save(state);
         while let Some(report) = self.writer.reports.recv().await {
             let answers = report.save_id() == Some(id);
@@ -211,7 +227,7 @@ impl<L: WorkerLink> Controller<L> {
             Report::Saved {
                 state, lines, took, ..
             } => {
-                self.save_took = took;
+                self.saves.took = took;
                 self.view
                     .event(json!({"event": "checkpoint", "state": state, "lines": lines}));
             }

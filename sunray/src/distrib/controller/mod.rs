@@ -278,9 +278,8 @@ struct Controller<L> {
     writer: StoreWriter,
     /// Lines finished since the last save was asked for (or one failed).
     unsaved: bool,
-    last_checkpoint: Instant,
-    /// What the last save took ([`actions`]: saves go no more often than a tenth of the time).
-    save_took: Duration,
+    /// When saves are due ([`actions::SaveClock`]: no more often than a tenth of the time).
+    saves: actions::SaveClock,
     counters: Counters,
     lines: LineCounts,
     max_line_s: f64,
@@ -374,8 +373,7 @@ impl<L: WorkerLink> Controller<L> {
             finishing: false,
             writer,
             unsaved,
-            last_checkpoint: Instant::now(),
-            save_took: Duration::ZERO,
+            saves: actions::SaveClock::new(),
             counters,
             max_line_s: 0.0,
             started: Instant::now(),
