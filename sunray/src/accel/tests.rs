@@ -162,3 +162,34 @@ fn auto_picks_by_size() {
     assert_eq!(AccelKind::Auto.resolve(1000), AccelKind::Bvh);
     assert_eq!(AccelKind::Octree.resolve(3), AccelKind::Octree);
 }
+
+/// The footprint's cut through the BVH ([`bvh::Bvh::cut_boxes`]): within its bound (or the
+/// root's children when they are more), deeper as the bound grows, and every primitive with
+/// bounds inside one of its boxes, so a ray missing them all reaches no primitive.
+#[test]
+fn the_cut_through_the_bvh_holds_every_primitive_within_its_bound() {
+    let mut scene = crate::scene::Scene::new(random_world(300, 7));
+    let tree = bvh::Bvh::build(&mut scene.prims);
+    let inside = |outer: &crate::geometry::Aabb, b: &crate::geometry::Aabb| {
+        (b.min - outer.min).min_element() >= 0.0 && (outer.max - b.max).min_element() >= 0.0
+    };
+    let mut sizes = Vec::new();
+    for most in [1, 4, 16, 64, 256] {
+        let cut = tree.cut_boxes(most);
+        assert!(
+            cut.len() <= most.max(4),
+            "{} boxes for at most {most}",
+            cut.len()
+        );
+        for i in 0..scene.prims.len() as u32 {
+            if let Some(b) = scene.prims.bounds(i) {
+                assert!(
+                    cut.iter().any(|c| inside(c, &b)),
+                    "primitive {i} outside the cut of {most}"
+                );
+            }
+        }
+        sizes.push(cut.len());
+    }
+    assert!(sizes[1] <= 4 && sizes[4] > 64, "cut sizes {sizes:?}");
+}

@@ -1,16 +1,18 @@
 //! Where on the image an eye ray can meet anything: the screen rectangles of the boxes every
-//! hitting ray enters ([`Accel::outer_boxes`]). A pixel outside all of them is background
-//! without a ray being traced: on small SPD scenes most pixels are, and their eye rays were
-//! a third of the render.
+//! hitting ray enters ([`Accel::outer_boxes`]: a cut through the BVH, up to 64 boxes). A
+//! pixel outside all of them is background without a ray being traced: on small SPD scenes
+//! most pixels are, and their eye rays were a third of the render.
 //!
 //! The rectangles are conservative: each is the bounding rectangle of the projected corners of
 //! the part of a box in front of a near depth no ray through the image can meet it before (a
 //! convex solid in front of the eye projects inside the hull of its corners), grown by
 //! [`MARGIN`] pixels, far more than the rounding of a ray's set-up or slab test. A box holding
 //! the eye covers the whole image. So a pixel left out is one whose every
-//! eye ray misses every outer box: the ray the tracer would have traced visits the root, hits
+//! eye ray misses every outer box: the ray the tracer would have traced reaches no leaf, hits
 //! nothing and returns the background, which is exactly what the pixel gets, with the same
-//! counts.
+//! counts but one: its eye rays count one node each (the root's test, which the footprint
+//! stands for), where tracing them would also have counted the inner nodes above the cut
+//! whose boxes they enter (`voxels` of tetra 6 at 512x512: 956,422, not 988,585).
 
 use crate::accel::{Accel, OuterBoxes};
 use crate::camera::Camera;
@@ -179,7 +181,7 @@ mod tests {
     }
 
     /// Checks that every ray through every pixel corner and centre left out of the footprint
-    /// misses everything, visiting the root only; returns the pixels left out.
+    /// misses everything, testing no primitive; returns the pixels left out.
     fn left_out_see_nothing(prims: &Primitives, accel: &Accel, (w, h): (u32, u32)) -> u32 {
         let cam = camera(w, h);
         let fp = Footprint::new(&cam, accel).unwrap();
@@ -199,7 +201,8 @@ mod tests {
                     let pre = RayPre::new(ray);
                     let hit = accel.closest(prims, &pre, Real::INFINITY, &mut scratch, &mut c);
                     assert_eq!(hit, None, "pixel {x},{y}");
-                    assert_eq!(c.voxels, 1, "pixel {x},{y}");
+                    assert_eq!(c.intersection_tests, 0, "pixel {x},{y}");
+                    assert!(c.voxels >= 1, "pixel {x},{y}");
                 }
             }
         }

@@ -396,8 +396,16 @@ end
         test_scene::compiled(&text)
     }
 
-    /// The render loop before the footprint: every sample of every pixel traced.
-    fn trace_every_pixel(scene: &Scene, accel: &Accel, y: u32, opts: &RenderOptions) -> Line {
+    /// The render loop before the footprint: every sample of every pixel traced. A pixel
+    /// `left_out` of the footprint must test no primitive, and counts one node an eye ray,
+    /// as the footprint counts it (tracing counted the inner nodes it entered above the cut).
+    fn trace_every_pixel(
+        scene: &Scene,
+        accel: &Accel,
+        y: u32,
+        opts: &RenderOptions,
+        left_out: &dyn Fn(u32) -> bool,
+    ) -> Line {
         let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
         let mut counters = Counters::default();
         let mut scratch = Scratch::new(scene.prims.len(), false);
@@ -410,6 +418,7 @@ end
         };
         let pixels = (0..opts.width)
             .map(|x| {
+                let before = *tracer.counters;
                 let c = match &opts.adaptive {
                     Some(a) => {
                         adaptive::trace_pixel_to_error(&mut tracer, &camera, (x, y), 0, a).mean()
@@ -419,6 +428,11 @@ end
                     }
                     None => trace_pixel(&mut tracer, &camera, (x, y), 0, opts.samples),
                 };
+                if left_out(x) {
+                    let c = &mut *tracer.counters;
+                    assert_eq!(c.intersection_tests, before.intersection_tests, "{x},{y}");
+                    c.voxels = before.voxels + (c.eye - before.eye);
+                }
                 [c.x as f32, c.y as f32, c.z as f32]
             })
             .collect();
@@ -464,7 +478,9 @@ end
                     .sum();
                 left_out += opts.width - covered;
                 let got = render_line(&scene, &accel, y, &opts, &mut scratch);
-                let want = trace_every_pixel(&scene, &accel, y, &opts);
+                let row = footprint.row(y, opts.width);
+                let left_out_x = |x: u32| !row.iter().any(|r| r.contains(&x));
+                let want = trace_every_pixel(&scene, &accel, y, &opts, &left_out_x);
                 assert_eq!(got, want, "line {y}, {samples} samples, {sampler:?}");
                 if sampler == sobol {
                     let other = RenderOptions {
