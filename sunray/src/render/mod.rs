@@ -177,6 +177,17 @@ impl Frame {
         Frame { camera, footprint }
     }
 
+    /// The pixels of line `y` of a `width`-pixel image whose eye rays are traced, as sorted,
+    /// disjoint ranges: those inside the footprint ([`Footprint::row`]), or the whole line
+    /// without one.
+    fn traced_spans(&self, y: u32, width: u32) -> Vec<std::ops::Range<u32>> {
+        match &self.footprint {
+            Some(f) => f.row(y, width),
+            #[allow(clippy::single_range_in_vec_init)] // one span: the whole line
+            None => vec![0..width],
+        }
+    }
+
     /// For each pixel of line `y` of a `width`-pixel image: the footprint when the pixel lies
     /// outside it (no eye ray through it can meet anything: it is background), else `None`.
     /// (Pixel by pixel from the line's spans: no line-long list is made for each line.)
@@ -249,21 +260,33 @@ pub fn render_line_into(
         counters: &mut counters,
     };
     // Pixels outside the scene's footprint are background, counted as the eye rays the
-    // tracer would have sent (each visits the root and misses).
-    let outside_row = frame.outside_row(y, opts.width);
-    for ((x, pixel), outside) in (0..opts.width).zip(pixels.iter_mut()).zip(outside_row) {
-        let c = match outside {
-            Some(f) => {
-                tracer.counters.eye += u64::from(n);
-                tracer.counters.voxels += f.voxels_on_miss * u64::from(n);
-                mean_of(n, |_| scene.world.background)
+    // tracer would have sent (each one node: `Footprint`), a run at a time; the rest traced.
+    let background = frame.footprint.as_ref().map(|f| {
+        let c = mean_of(n, |_| scene.world.background);
+        ([c.x as f32, c.y as f32, c.z as f32], f.voxels_on_miss)
+    });
+    let mut from = 0;
+    let end = opts.width..opts.width;
+    for span in frame.traced_spans(y, opts.width).into_iter().chain([end]) {
+        if let Some((colour, voxels_on_miss)) = background {
+            let gap = from..span.start.max(from);
+            if let Some(run) = pixels.get_mut(gap.start as usize..gap.end as usize) {
+                run.fill(colour);
             }
-            None => match opts.sampler {
+            let rays = u64::from(gap.end - gap.start) * u64::from(n);
+            tracer.counters.eye += rays;
+            tracer.counters.voxels += voxels_on_miss * rays;
+        }
+        from = span.end;
+        for x in span {
+            let c = match opts.sampler {
                 Sampler::Stratified => trace_pixel(&mut tracer, camera, (x, y), 0, n),
                 Sampler::Sobol => trace_pixel_sobol(&mut tracer, camera, (x, y), 0, n),
-            },
-        };
-        *pixel = [c.x as f32, c.y as f32, c.z as f32];
+            };
+            if let Some(pixel) = pixels.get_mut(x as usize) {
+                *pixel = [c.x as f32, c.y as f32, c.z as f32];
+            }
+        }
     }
     counters
 }
