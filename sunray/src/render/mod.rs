@@ -452,9 +452,12 @@ end
                     None => trace_pixel(&mut tracer, &camera, (x, y), 0, opts.samples),
                 };
                 if left_out(x) {
-                    let c = &mut *tracer.counters;
-                    assert_eq!(c.intersection_tests, before.intersection_tests, "{x},{y}");
-                    c.voxels = before.voxels + (c.eye - before.eye);
+                    let counts = &mut *tracer.counters;
+                    assert_eq!(
+                        counts.intersection_tests, before.intersection_tests,
+                        "{x},{y}"
+                    );
+                    counts.voxels = before.voxels + (counts.eye - before.eye);
                 }
                 [c.x as f32, c.y as f32, c.z as f32]
             })
