@@ -1,12 +1,12 @@
 //! A worker's render threads: plain OS threads pulling granted lines from a local queue and
-//! rendering them with [`crate::render::render_line`], so rendering never blocks the async
+//! rendering them with [`crate::render::render_line_into`], so rendering never blocks the async
 //! runtime that talks to REM. Results go back over a tokio channel.
 
 use crate::accel::{Accel, Scratch};
 use crate::render::adaptive::{Adaptive, PixelEstimate};
 use crate::render::columns::Columns;
 use crate::render::pass::render_granted_pass;
-use crate::render::{render_line, Frame, RenderOptions};
+use crate::render::{render_line_into, Frame, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::Counters;
 use std::collections::VecDeque;
@@ -225,16 +225,26 @@ fn render_loop(
     let mut frame: Option<Frame> = None;
     while let Some((mut job, wait_s)) = queue.next() {
         let t = Instant::now();
+        // The frame (the camera and the scene's footprint, up to 64 boxes projected) is made
+        // once for every line the worker renders, not once a line.
+        let frame = frame.get_or_insert_with(|| Frame::new(&what.scene, &what.accel, &what.opts));
         let line = match &what.opts.adaptive {
-            Some(a) => {
-                let frame =
-                    frame.get_or_insert_with(|| Frame::new(&what.scene, &what.accel, &what.opts));
-                render_pass(what, a, &mut job, &mut scratch, frame)
-            }
+            Some(a) => render_pass(what, a, &mut job, &mut scratch, frame),
             None => {
-                let line =
-                    render_line(&what.scene, &what.accel, job.line, &what.opts, &mut scratch);
-                (line.pixels, Vec::new(), line.counters)
+                let mut pixels = vec![[0.0; 3]; what.opts.width as usize];
+                let (scene, accel, opts) = (&what.scene, &what.accel, &what.opts);
+                let y = job.line;
+                let counters = render_line_into(
+                    scene,
+                    accel,
+                    y,
+                    opts,
+                    &mut scratch,
+                    frame,
+                    &mut pixels,
+                    None,
+                );
+                (pixels, Vec::new(), counters)
             }
         };
         if !what.delay.is_zero() {
@@ -408,7 +418,7 @@ mod tests {
         got.sort_by_key(|r| r.job.line);
         let mut scratch = Scratch::new(scene.prims.len(), true);
         for (y, r) in got.iter().enumerate() {
-            let want = render_line(&scene, &accel, y as u32, &opts, &mut scratch);
+            let want = crate::render::render_line(&scene, &accel, y as u32, &opts, &mut scratch);
             assert_eq!(r.job.grant, 100 + y as u64);
             assert_eq!(r.pixels, want.pixels);
             assert_eq!(r.counters, want.counters);
