@@ -2,7 +2,8 @@
 //! options) -> pixels + counters ([`render_line`]); [`render_image`] runs it on all cores,
 //! each taking the film's next row, the same request-render-complete loop a SunRay III
 //! worker runs against its controller. [`settings`] holds what decides the
-//! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything;
+//! pixels besides the scene; [`footprint`], which pixels no eye ray of can meet anything,
+//! and [`frame`], what every line of an image shares (the camera, the footprint as runs);
 //! [`adaptive`], rendering each pixel to a target error instead of a sample count,
 //! [`neighbourhood`], the one decision a pixel then takes from the pixels around it, and
 //! [`pass`], doing so a pass at a time (the farm's unit of work then), each later pass
@@ -14,6 +15,7 @@
 pub mod adaptive;
 pub mod columns;
 pub mod footprint;
+mod frame;
 pub mod image_version;
 pub mod neighbourhood;
 pub mod parallel;
@@ -31,8 +33,8 @@ use crate::scene::Scene;
 use crate::shading::hall::RayKind;
 use crate::shading::{TraceOptions, Tracer};
 use crate::stats::Counters;
-use footprint::Footprint;
 
+pub use frame::Frame;
 pub use parallel::{render_image, render_image_summarized, Progress};
 pub use settings::{Overrides, Settings};
 
@@ -162,52 +164,6 @@ pub fn render_line(
     }
 }
 
-/// What every line of one image shares: the camera and the scene's footprint on the image.
-#[derive(Clone, Debug)]
-pub struct Frame {
-    camera: Camera,
-    footprint: Option<Footprint>,
-}
-
-impl Frame {
-    /// The frame of `scene` rendered with `opts`.
-    pub fn new(scene: &Scene, accel: &Accel, opts: &RenderOptions) -> Frame {
-        let camera = Camera::new(&scene.world.camera, opts.width, opts.height);
-        let footprint = Footprint::new(&camera, accel);
-        Frame { camera, footprint }
-    }
-
-    /// The pixels of line `y` of a `width`-pixel image whose eye rays are traced, as sorted,
-    /// disjoint ranges: those inside the footprint ([`Footprint::row`]), or the whole line
-    /// without one.
-    fn traced_spans(&self, y: u32, width: u32) -> Vec<std::ops::Range<u32>> {
-        match &self.footprint {
-            Some(f) => f.row(y, width),
-            #[allow(clippy::single_range_in_vec_init)] // one span: the whole line
-            None => vec![0..width],
-        }
-    }
-
-    /// For each pixel of line `y` of a `width`-pixel image: the footprint when the pixel lies
-    /// outside it (no eye ray through it can meet anything: it is background), else `None`.
-    /// (Pixel by pixel from the line's spans: no line-long list is made for each line.)
-    fn outside_row(&self, y: u32, width: u32) -> impl Iterator<Item = Option<&Footprint>> {
-        let f = self.footprint.as_ref();
-        let spans = f.map(|f| f.row(y, width)).unwrap_or_default();
-        let mut k = 0;
-        (0..width).map(move |x| {
-            let f = f?;
-            while spans.get(k).is_some_and(|s| s.end <= x) {
-                k += 1;
-            }
-            match spans.get(k) {
-                Some(s) if s.start <= x => None,
-                _ => Some(f),
-            }
-        })
-    }
-}
-
 /// What a pixel rendered to an error took: its samples and its estimated error.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelSummary {
@@ -261,24 +217,23 @@ pub fn render_line_into(
     };
     // Pixels outside the scene's footprint are background, counted as the eye rays the
     // tracer would have sent (each one node: `Footprint`), a run at a time; the rest traced.
-    let background = frame.footprint.as_ref().map(|f| {
-        let c = mean_of(n, |_| scene.world.background);
-        ([c.x as f32, c.y as f32, c.z as f32], f.voxels_on_miss)
-    });
-    let mut from = 0;
-    let end = opts.width..opts.width;
-    for span in frame.traced_spans(y, opts.width).into_iter().chain([end]) {
-        if let Some((colour, voxels_on_miss)) = background {
-            let gap = from..span.start.max(from);
-            if let Some(run) = pixels.get_mut(gap.start as usize..gap.end as usize) {
-                run.fill(colour);
+    let background = mean_of(n, |_| scene.world.background);
+    let background = [
+        background.x as f32,
+        background.y as f32,
+        background.z as f32,
+    ];
+    for (run, traced) in frame.runs(y, opts.width) {
+        if !traced {
+            if let Some(px) = pixels.get_mut(run.start as usize..run.end as usize) {
+                px.fill(background);
             }
-            let rays = u64::from(gap.end - gap.start) * u64::from(n);
+            let rays = u64::from(run.end - run.start) * u64::from(n);
             tracer.counters.eye += rays;
-            tracer.counters.voxels += voxels_on_miss * rays;
+            tracer.counters.voxels += frame.voxels_on_miss() * rays;
+            continue;
         }
-        from = span.end;
-        for x in span {
+        for x in run {
             let c = match opts.sampler {
                 Sampler::Stratified => trace_pixel(&mut tracer, camera, (x, y), 0, n),
                 Sampler::Sobol => trace_pixel_sobol(&mut tracer, camera, (x, y), 0, n),
@@ -387,6 +342,7 @@ pub(crate) fn trace_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use footprint::Footprint;
 
     /// Nine small spheres in the middle of the picture, one reflecting: most pixels are
     /// outside the footprint.

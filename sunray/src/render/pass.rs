@@ -76,19 +76,20 @@ pub(super) fn advance_line(
         scratch,
         counters: &mut counters,
     };
-    let outside_row = frame.outside_row(y, opts.width);
     let background = adaptive::constant_pixel(scene.world.background, a);
-    for ((x, est), outside) in (0..opts.width).zip(estimates.iter_mut()).zip(outside_row) {
-        if only.is_some_and(|c| !c.contains(x)) {
-            continue;
-        }
-        match outside {
-            Some(f) if est.count() == 0 => {
-                tracer.counters.eye += u64::from(a.min_samples);
-                tracer.counters.voxels += f.voxels_on_miss * u64::from(a.min_samples);
-                *est = background;
+    for (run, traced) in frame.runs(y, opts.width) {
+        for x in run {
+            let Some(est) = estimates.get_mut(x as usize) else {
+                break;
+            };
+            if only.is_some_and(|c| !c.contains(x)) {
+                continue;
             }
-            _ => {
+            if !traced && est.count() == 0 {
+                tracer.counters.eye += u64::from(a.min_samples);
+                tracer.counters.voxels += frame.voxels_on_miss() * u64::from(a.min_samples);
+                *est = background;
+            } else {
                 adaptive::advance_pixel(&mut tracer, &frame.camera, (x, y), 0, a, est, cap);
             }
         }

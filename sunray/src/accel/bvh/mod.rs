@@ -5,13 +5,15 @@
 //! A built tree can be written and read back, checked ([`file`]), or made of tables viewed
 //! in place in a prepared scene file ([`tables`]). Leaves of static triangles alone, or of
 //! static spheres alone, are also copied into groups of four tested at once ([`leaf4`]),
-//! within a memory budget.
+//! within a memory budget. [`cut`] takes the boxes of a cut through it, for the render's
+//! footprint.
 //!
 //! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
 //! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
 //! accepted hit. Ties between equal `t` go to the lower primitive index, as everywhere.
 
 pub mod binary;
+mod cut;
 pub mod file;
 pub mod items;
 pub mod leaf4;
@@ -66,42 +68,6 @@ impl Bvh {
     /// Nodes of the 4-wide tree.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
-    }
-
-    /// The boxes of a cut through the tree, at most `most` of them unless the root's children
-    /// are more: the root's children, then, level by level, each inner node's box replaced
-    /// by its children's while the count stays within `most`. Every leaf lies under one of
-    /// them, so a ray that meets none of them reaches no primitive. Empty for an empty tree.
-    pub fn cut_boxes(&self, most: usize) -> Vec<crate::geometry::Aabb> {
-        let Some(root) = self.nodes.first() else {
-            return Vec::new();
-        };
-        let slots = |n: &wide::Node| (0..WIDTH).filter(|&k| n.used(k)).collect::<Vec<_>>();
-        let mut cut: Vec<(&wide::Node, usize)> =
-            slots(root).into_iter().map(|k| (root, k)).collect();
-        loop {
-            let mut next = Vec::with_capacity(cut.len() * WIDTH);
-            let mut grew = false;
-            for (i, &(node, k)) in cut.iter().enumerate() {
-                let child = node.children[k];
-                let inner = (!child.is_leaf()).then(|| &self.nodes[child.index as usize]);
-                let below = inner.map(|n| (n, slots(n)));
-                match below {
-                    // Replaced by its children when the cut, so far and to come, stays within
-                    // `most`.
-                    Some((n, ks)) if next.len() + ks.len() + (cut.len() - i - 1) <= most => {
-                        next.extend(ks.into_iter().map(|k| (n, k)));
-                        grew = true;
-                    }
-                    _ => next.push((node, k)),
-                }
-            }
-            cut = next;
-            if !grew {
-                break;
-            }
-        }
-        cut.into_iter().map(|(n, k)| n.child_box(k)).collect()
     }
 
     /// Closest hit of `r` before `t_max`, improving on `best` (from the unbounded list); uses AVX2
