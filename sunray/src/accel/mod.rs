@@ -239,6 +239,36 @@ impl Accel {
         best
     }
 
+    /// The closest hit in `(0, t_max)` of each of up to [`bvh::packet::PACKET`] rays, as
+    /// [`Accel::closest`] finds it: the BVH walks them together ([`bvh::packet`]), the other
+    /// structures one after another.
+    pub fn closest_packet(
+        &self,
+        prims: &Primitives,
+        rays: &[RayPre],
+        t_max: Real,
+        scratch: &mut Scratch,
+        c: &mut Counters,
+    ) -> [Option<Hit>; bvh::packet::PACKET] {
+        let mut best = [None; bvh::packet::PACKET];
+        match &self.structure {
+            Structure::Bvh(b) => {
+                if !self.unbounded.is_empty() {
+                    for (k, r) in rays.iter().enumerate().take(best.len()) {
+                        best[k] = exhaustive::closest_in(prims, &self.unbounded, r, t_max, None, c);
+                    }
+                }
+                b.closest_packet(prims, rays, u32::MAX, t_max, &mut best, c);
+            }
+            _ => {
+                for (k, r) in rays.iter().enumerate().take(best.len()) {
+                    best[k] = self.closest(prims, r, t_max, scratch, c);
+                }
+            }
+        }
+        best
+    }
+
     /// Some hit in `(0, t_max)` for which `accept(prim, t)` holds, `t` where the ray meets
     /// `prim` (its nearest crossing in the interval; for shadow rays: an opaque occluder), or
     /// None.

@@ -18,6 +18,7 @@ pub mod footprint;
 mod frame;
 pub mod image_version;
 pub mod neighbourhood;
+mod packets;
 pub mod parallel;
 pub mod pass;
 pub mod settings;
@@ -25,6 +26,7 @@ pub mod settings;
 mod test_scene;
 pub mod window;
 
+use crate::accel::bvh::packet::PACKET;
 use crate::accel::{Accel, Scratch};
 use crate::camera::Camera;
 use crate::geometry::Real;
@@ -233,14 +235,18 @@ pub fn render_line_into(
             tracer.counters.voxels += frame.voxels_on_miss() * rays;
             continue;
         }
-        for x in run {
-            let c = match opts.sampler {
-                Sampler::Stratified => trace_pixel(&mut tracer, camera, (x, y), 0, n),
-                Sampler::Sobol => trace_pixel_sobol(&mut tracer, camera, (x, y), 0, n),
-            };
-            if let Some(pixel) = pixels.get_mut(x as usize) {
-                *pixel = [c.x as f32, c.y as f32, c.z as f32];
+        // Neighbours' eye rays walk the accelerator together, a packet at a time.
+        let mut x = run.start;
+        while x < run.end {
+            let xs = x..run.end.min(x + PACKET as u32);
+            let colours =
+                packets::trace_pixels(&mut tracer, camera, xs.clone(), y, n, opts.sampler);
+            for (x, c) in xs.clone().zip(colours) {
+                if let Some(pixel) = pixels.get_mut(x as usize) {
+                    *pixel = [c.x as f32, c.y as f32, c.z as f32];
+                }
             }
+            x = xs.end;
         }
     }
     counters
@@ -328,15 +334,29 @@ pub(crate) fn trace_with(
     index: u32,
     rng: &mut SampleStream,
 ) -> glam::DVec3 {
+    let ray = eye_ray(tracer.scene, camera, (x, y), count, index, rng);
+    let air = crate::shading::Media::AIR;
+    tracer.trace(ray, RayKind::Eye, 1, 1.0, air, rng)
+}
+
+/// The eye ray of sample `index` of `count` of pixel `(x, y)`, drawing its point in the
+/// pixel, its shutter time if the scene moves and its lens point if the camera has one from
+/// `rng`, which shading goes on drawing from.
+pub(crate) fn eye_ray(
+    scene: &Scene,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    count: u32,
+    index: u32,
+    rng: &mut SampleStream,
+) -> crate::geometry::Ray {
     let (dx, dy) = pixel_offset(count, index, rng);
-    let time = if tracer.scene.world.features.motion_blur {
+    let time = if scene.world.features.motion_blur {
         rng.next_real()
     } else {
         0.0
     };
-    let ray = camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut *rng));
-    let air = crate::shading::Media::AIR;
-    tracer.trace(ray, RayKind::Eye, 1, 1.0, air, rng)
+    camera.ray(x as Real + dx, y as Real + dy, time, Some(&mut *rng))
 }
 
 #[cfg(test)]
@@ -463,7 +483,28 @@ end
                 let row = footprint.row(y, opts.width);
                 let left_out_x = |x: u32| !row.iter().any(|r| r.contains(&x));
                 let want = trace_every_pixel(&scene, &accel, y, &opts, &left_out_x);
-                assert_eq!(got, want, "line {y}, {samples} samples, {sampler:?}");
+                // The rays are the same; the tests and nodes counted are not, as neighbours'
+                // eye rays walk the tree in packets (`packets`) and a pixel alone does not.
+                let rays = |l: &Line| {
+                    let c = &l.counters;
+                    [
+                        c.eye,
+                        c.eye_hits,
+                        c.shadow,
+                        c.shadow_behind,
+                        c.reflected,
+                        c.refracted,
+                    ]
+                };
+                assert_eq!(
+                    got.pixels, want.pixels,
+                    "line {y}, {samples} samples, {sampler:?}"
+                );
+                assert_eq!(
+                    rays(&got),
+                    rays(&want),
+                    "line {y}, {samples} samples, {sampler:?}"
+                );
                 if sampler == sobol {
                     let other = RenderOptions {
                         sampler: stratified,

@@ -13,7 +13,7 @@
 //! ```
 
 use super::media::{Media, Medium};
-use crate::accel::{Accel, Scratch};
+use crate::accel::{Accel, Hit, Scratch};
 use crate::geometry::smooth::SmoothHit;
 use crate::geometry::{Ray, RayPre, Real, Vec3};
 use crate::sampler::SampleStream;
@@ -116,12 +116,6 @@ impl<'a> Tracer<'a> {
         media: Media,
         rng: &mut SampleStream,
     ) -> Vec3 {
-        let ray = pre.ray;
-        match kind {
-            RayKind::Eye => self.counters.eye += 1,
-            RayKind::Reflected => self.counters.reflected += 1,
-            RayKind::Refracted => self.counters.refracted += 1,
-        }
         let hit = self.accel.closest(
             &self.scene.prims,
             &pre,
@@ -129,6 +123,51 @@ impl<'a> Tracer<'a> {
             self.scratch,
             self.counters,
         );
+        self.colour_of(&pre.ray, hit, kind, depth, weight, media, rng)
+    }
+
+    /// The colours seen along up to [`PACKET`](crate::accel::bvh::packet::PACKET) eye rays (unit directions), the rays of
+    /// neighbouring pixels, whose closest hits the accelerator finds together
+    /// ([`Accel::closest_packet`]); `rngs[k]` is ray `k`'s stream. Each colour is the one
+    /// [`Tracer::trace`] gives that ray alone, and the rays are shaded in order.
+    pub fn trace_eye_packet(
+        &mut self,
+        rays: &[RayPre],
+        rngs: &mut [SampleStream],
+        colours: &mut [Vec3],
+    ) {
+        let hits = self.accel.closest_packet(
+            &self.scene.prims,
+            rays,
+            Real::INFINITY,
+            self.scratch,
+            self.counters,
+        );
+        let air = Media::AIR;
+        for ((pre, hit), (rng, colour)) in rays.iter().zip(hits).zip(rngs.iter_mut().zip(colours)) {
+            *colour = self.colour_of(&pre.ray, hit, RayKind::Eye, 1, 1.0, air, rng);
+        }
+    }
+
+    /// The colour of `ray` of `kind`, whose closest hit is `hit` (counted as a ray of its
+    /// kind): the background or what the medium leaves of it on a miss, the hit shaded
+    /// otherwise.
+    #[allow(clippy::too_many_arguments)]
+    fn colour_of(
+        &mut self,
+        ray: &Ray,
+        hit: Option<Hit>,
+        kind: RayKind,
+        depth: u32,
+        weight: Real,
+        media: Media,
+        rng: &mut SampleStream,
+    ) -> Vec3 {
+        match kind {
+            RayKind::Eye => self.counters.eye += 1,
+            RayKind::Reflected => self.counters.reflected += 1,
+            RayKind::Refracted => self.counters.refracted += 1,
+        }
         let medium = media.transmissivity();
         let Some(hit) = hit else {
             return match medium {
@@ -139,7 +178,7 @@ impl<'a> Tracer<'a> {
         if kind == RayKind::Eye {
             self.counters.eye_hits += 1;
         }
-        let colour = self.shade(&ray, hit.t, hit.prim, depth, weight, media, rng);
+        let colour = self.shade(ray, hit.t, hit.prim, depth, weight, media, rng);
         match medium {
             Some(t) if t < 1.0 => colour * t.max(0.0).powf(hit.t),
             _ => colour,

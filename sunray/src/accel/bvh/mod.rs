@@ -8,6 +8,8 @@
 //! within a memory budget. [`cut`] takes the boxes of a cut through it, for the render's
 //! footprint.
 //!
+//! [`packet`] walks the tree with up to four neighbouring rays at once.
+//!
 //! Closest-hit queries visit the children a ray enters nearest first and skip a child whose
 //! entry lies beyond the best hit so far; any-hit queries (shadow rays) stop at the first
 //! accepted hit. Ties between equal `t` go to the lower primitive index, as everywhere.
@@ -17,6 +19,7 @@ mod cut;
 pub mod file;
 pub mod items;
 pub mod leaf4;
+pub mod packet;
 pub mod tables;
 pub mod wide;
 
@@ -440,6 +443,21 @@ mod tests {
             );
         }
         assert!(hits > 100, "{hits}");
+        // Packets of four rays from one point agree too.
+        for _ in 0..100 {
+            let o = Vec3::new(1.1f64.powi(901), rand(&mut s) - 0.5, rand(&mut s) - 0.5);
+            let rays: Vec<RayPre> = (0..packet::PACKET)
+                .map(|_| {
+                    let d = Vec3::new(-1.0, (rand(&mut s) - 0.5) * 1e-3, 0.0);
+                    RayPre::new(Ray::new(o, d))
+                })
+                .collect();
+            let mut got = [None; packet::PACKET];
+            bvh.closest_packet(&prims, &rays, u32::MAX, Real::INFINITY, &mut got, &mut c);
+            for (k, r) in rays.iter().enumerate() {
+                assert_eq!(got[k], brute_force(&prims, r, Real::INFINITY));
+            }
+        }
     }
 
     #[test]

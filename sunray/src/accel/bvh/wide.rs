@@ -92,6 +92,12 @@ const fn rows_table() -> [[usize; 6]; 8] {
 }
 
 impl BoxRay {
+    /// Where each axis's near row (`[0..3]`) and far row (`[3..6]`) lie in a node's planes,
+    /// in `Real`s from their start.
+    pub fn rows(&self) -> &'static [usize; 6] {
+        self.rows
+    }
+
     /// Prepares `r` for the box tests of every node it visits.
     #[inline(always)]
     pub fn new(r: &RayPre) -> BoxRay {

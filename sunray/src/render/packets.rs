@@ -1,0 +1,136 @@
+//! Neighbouring pixels of a line traced together: sample `k` of up to
+//! [`PACKET`] pixels side by side makes one packet of eye rays, whose closest hits the
+//! accelerator finds in one walk ([`crate::accel::bvh::packet`]); each hit is then shaded
+//! alone, in pixel order. A pixel's colour is the one [`super::trace_pixel`] (or
+//! [`super::trace_pixel_sobol`]) gives it: the same streams, the same rays, the same hits,
+//! its samples summed in the same order.
+
+use super::eye_ray;
+use crate::accel::bvh::packet::PACKET;
+use crate::camera::Camera;
+use crate::geometry::{RayPre, Real, Vec3};
+use crate::sampler::{SampleStream, Sampler};
+use crate::shading::Tracer;
+use arrayvec::ArrayVec;
+use std::ops::Range;
+
+/// The mean colours of pixels `xs` (at most [`PACKET`] of them) of line `y`, `count`
+/// samples each from `sampler`'s streams (stream `k` for sample `k`; Sobol seed 0), as the
+/// render takes them; entries past `xs`'s length are zero.
+pub(crate) fn trace_pixels(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    xs: Range<u32>,
+    y: u32,
+    count: u32,
+    sampler: Sampler,
+) -> [glam::DVec3; PACKET] {
+    let mut sums = [glam::DVec3::ZERO; PACKET];
+    for k in 0..count {
+        let mut rngs = ArrayVec::<SampleStream, PACKET>::new();
+        let mut rays = ArrayVec::<RayPre, PACKET>::new();
+        for x in xs.clone().take(PACKET) {
+            // As trace_sample and trace_sobol_sample make a sample's stream.
+            let (mut rng, n, index) = match sampler {
+                Sampler::Stratified => (SampleStream::stratified(x, y, k, k, count), count, k),
+                Sampler::Sobol => (SampleStream::sobol(x, y, 0, k), 1, 0),
+            };
+            rays.push(RayPre::new(eye_ray(
+                tracer.scene,
+                camera,
+                (x, y),
+                n,
+                index,
+                &mut rng,
+            )));
+            rngs.push(rng);
+        }
+        let mut colours = [Vec3::ZERO; PACKET];
+        tracer.trace_eye_packet(&rays, &mut rngs, &mut colours);
+        for (sum, c) in sums.iter_mut().zip(&colours[..rays.len()]) {
+            *sum += *c;
+        }
+    }
+    if count == 1 {
+        sums
+    } else {
+        sums.map(|s| s / count as Real)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::{trace_pixel, trace_pixel_sobol, Frame, RenderOptions};
+    use crate::stats::Counters;
+
+    /// Glass, gloss, an area light and a lens; then the same without the glass: every pixel of a packet, at one and at several samples, from either sampler, is the
+    /// colour the pixel gets alone, to the bit.
+    #[test]
+    fn packets_give_each_pixel_its_own_colour() {
+        const GLASS: &str = "kdr = 0.1 ; kdt = 0.1 ; refract = 1.5 ;";
+        let src = "background(color = 0.1,0.2,0.3); ambient(color = 0.2,0.2,0.2);
+camera(position = 0,1,-6 ; at = 0,0,0 ; up = 0,1,0 ; angle = 40 ; aperture = 0.05 ; focus = 6);
+light(position = -4,6,-5 ; color = 1,1,1 ; radius = 0.5);
+light(position = 5,3,-2 ; color = 0.5,0.5,0.5);
+begin
+  begin attribute(color = 0.9,0.9,0.9 ; GLASS phong = 40);
+    sphere(center = 0,0,0 ; radius = 1); end
+  begin attribute(color = 1,0.4,0.2 ; kdr = 0.5 ; gloss = 6 ; phong = 10);
+    sphere(center = 1.6,0.2,1.5 ; radius = 0.8); end
+  begin attribute(color = 0.9,0.9,0.9 ; texture = 5 0.2,0.2,0.2 0.5,0.5,0.5);
+    polygon(vertices = 4; -4,-1,-4 4,-1,-4 4,-1,6 -4,-1,6); end
+end";
+        for glass in [GLASS, "kdr = 0.6 ;"] {
+            let (scene, accel) = crate::render::test_scene::compiled(&src.replace("GLASS", glass));
+            assert_eq!(scene.world.features.transparency, glass == GLASS);
+            same_colours(&scene, &accel);
+        }
+    }
+
+    fn same_colours(scene: &crate::scene::Scene, accel: &crate::accel::Accel) {
+        let (w, h) = (23, 9);
+        let opts = RenderOptions::asked([w, h], 1);
+        let frame = Frame::new(scene, accel, &opts);
+        let mut scratch = crate::accel::Scratch::new(scene.prims.len(), false);
+        let mut counters = Counters::default();
+        let mut tracer = Tracer {
+            scene,
+            accel,
+            opts: opts.trace,
+            scratch: &mut scratch,
+            counters: &mut counters,
+        };
+        let mut hits = 0;
+        for sampler in [Sampler::Stratified, Sampler::Sobol] {
+            for count in [1, 3] {
+                for y in 0..h {
+                    let mut x = 0;
+                    while x < w {
+                        let xs = x..w.min(x + 1 + (x + y) % PACKET as u32);
+                        let got =
+                            trace_pixels(&mut tracer, &frame.camera, xs.clone(), y, count, sampler);
+                        for (j, x) in xs.clone().enumerate() {
+                            let want = match sampler {
+                                Sampler::Stratified => {
+                                    trace_pixel(&mut tracer, &frame.camera, (x, y), 0, count)
+                                }
+                                Sampler::Sobol => {
+                                    trace_pixel_sobol(&mut tracer, &frame.camera, (x, y), 0, count)
+                                }
+                            };
+                            assert_eq!(
+                                got[j].to_array().map(f64::to_bits),
+                                want.to_array().map(f64::to_bits),
+                                "{sampler:?} {count} ({x}, {y})"
+                            );
+                            hits += usize::from(want != scene.world.background);
+                        }
+                        x = xs.end;
+                    }
+                }
+            }
+        }
+        assert!(hits > 100, "{hits}");
+    }
+}
