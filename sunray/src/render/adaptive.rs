@@ -50,7 +50,8 @@
 //! [`report`] makes what a render to an error reports: its error statistics and samples map;
 //! [`bytes`] writes a pixel's estimate exactly, for the farm's passes and checkpoints.
 
-use super::trace_sobol_sample;
+use super::packets::trace_sobol_samples;
+use crate::accel::bvh::packet::PACKET;
 use crate::camera::Camera;
 use crate::sampler::SOBOL_SAMPLES;
 use crate::shading::Tracer;
@@ -420,9 +421,13 @@ pub fn advance_pixel(
         if want > cap {
             return false;
         }
+        // The step's samples traced a packet at a time, added in order.
         while est.count() < want {
-            let c = trace_sobol_sample(tracer, camera, (x, y), seed, est.count());
-            est.add(c);
+            let n = (want - est.count()).min(PACKET as u32) as usize;
+            let colours = trace_sobol_samples(tracer, camera, (x, y), seed, est.count(), n);
+            for c in &colours[..n] {
+                est.add(*c);
+            }
         }
         est.first_samples_in(a);
     }

@@ -1,9 +1,10 @@
-//! Neighbouring pixels of a line traced together: sample `k` of up to
-//! [`PACKET`] pixels side by side makes one packet of eye rays, whose closest hits the
-//! accelerator finds in one walk ([`crate::accel::bvh::packet`]); each hit is then shaded
-//! alone, in pixel order. A pixel's colour is the one [`super::trace_pixel`] (or
-//! [`super::trace_pixel_sobol`]) gives it: the same streams, the same rays, the same hits,
-//! its samples summed in the same order.
+//! Eye rays traced together: sample `k` of up to [`PACKET`] pixels side by side
+//! ([`trace_pixels`], a fixed count), or up to [`PACKET`] consecutive samples of one pixel
+//! ([`trace_sobol_samples`], a render to an error's step), makes one packet of eye rays,
+//! whose closest hits the accelerator finds in one walk ([`crate::accel::bvh::packet`]);
+//! each hit is then shaded alone, in order. A pixel's colour is the one
+//! [`super::trace_pixel`] (or [`super::trace_pixel_sobol`]) gives it, and a sample's the one
+//! [`super::trace_sobol_sample`] gives: the same streams, the same rays, the same hits.
 
 use super::eye_ray;
 use crate::accel::bvh::packet::PACKET;
@@ -58,10 +59,42 @@ pub(crate) fn trace_pixels(
     }
 }
 
+/// The colours of samples `first..first + n` (`n` at most [`PACKET`]) of pixel `(x, y)`'s
+/// Sobol sequence scrambled by `seed`, each the one [`super::trace_sobol_sample`] gives it;
+/// entries past `n` are zero. One pixel's samples are the most coherent packet there is: a
+/// pinhole's rays leave from one point into one pixel.
+pub(crate) fn trace_sobol_samples(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    seed: u32,
+    first: u32,
+    n: usize,
+) -> [Vec3; PACKET] {
+    let mut rngs = ArrayVec::<SampleStream, PACKET>::new();
+    let mut rays = ArrayVec::<RayPre, PACKET>::new();
+    for index in (first..).take(n.min(PACKET)) {
+        // As trace_sobol_sample makes the sample's stream and ray.
+        let mut rng = SampleStream::sobol(x, y, seed, index);
+        rays.push(RayPre::new(eye_ray(
+            tracer.scene,
+            camera,
+            (x, y),
+            1,
+            0,
+            &mut rng,
+        )));
+        rngs.push(rng);
+    }
+    let mut colours = [Vec3::ZERO; PACKET];
+    tracer.trace_eye_packet(&rays, &mut rngs, &mut colours);
+    colours
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::{trace_pixel, trace_pixel_sobol, Frame, RenderOptions};
+    use crate::render::{trace_pixel, trace_pixel_sobol, trace_sobol_sample, Frame, RenderOptions};
     use crate::stats::Counters;
 
     /// Glass, gloss, an area light and a lens; then the same without the glass: every pixel of a packet, at one and at several samples, from either sampler, is the
@@ -129,6 +162,22 @@ end";
                         x = xs.end;
                     }
                 }
+            }
+        }
+        // One pixel's consecutive Sobol samples as a packet: each the sample alone.
+        for y in 0..h {
+            for x in 0..w {
+                let (first, n) = ((x * 7 + y) % 13, 1 + (x + y) as usize % PACKET);
+                let got = trace_sobol_samples(&mut tracer, &frame.camera, (x, y), 0, first, n);
+                for (k, c) in (first..).zip(&got[..n]) {
+                    let want = trace_sobol_sample(&mut tracer, &frame.camera, (x, y), 0, k);
+                    assert_eq!(
+                        c.to_array().map(f64::to_bits),
+                        want.to_array().map(f64::to_bits),
+                        "sample {k} of ({x}, {y})"
+                    );
+                }
+                assert!(got[n..].iter().all(|c| *c == Vec3::ZERO));
             }
         }
         assert!(hits > 100, "{hits}");
