@@ -29,9 +29,11 @@ pub fn markdown(
     scenes: &[SceneResult],
     note: Option<&str>,
 ) -> String {
+    let (most, within) = (super::MOST_RUNS, super::RUNS_WITHIN_S);
     let mut out = format!(
-        "{size}x{size} pixels, {threads} thread(s), seconds = best of up to 3 runs (POV-Ray: \
-         its trace time, best of 3); reference {reference_samples} stratified samples per \
+        "{size}x{size} pixels, {threads} thread(s), seconds = the best of up to {most} runs, \
+         run again while they took at most {within} s in all (POV-Ray: its trace time, the \
+         same); reference {reference_samples} stratified samples per \
          pixel (the gears: at most 4096) in two halves from streams disjoint from every \
          measured one; RMSE over every \
          channel of every pixel, linear radiance (1.0 = white). (d) is measured against \
