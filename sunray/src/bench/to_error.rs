@@ -247,9 +247,8 @@ struct Measured {
     estimated_rms: Option<f64>,
 }
 
-/// A measured render runs again while the runs so far took at most this long in all (at
-/// least once, at most [`MOST_RUNS`] times): a 10 ms render (the penumbra's (c) at RMSE
-/// 0.01) is the best of 15, a 0.2 s one of 3, a second-long one of 1.
+/// A render runs again while its runs took at most this long in all: a 10 ms one (the
+/// penumbra's (c) at RMSE 0.01) is the best of 15, a 0.2 s one of 3, a 1 s one of 1.
 const RUNS_WITHIN_S: f64 = 0.5;
 /// The most runs of one measured render.
 const MOST_RUNS: usize = 15;
@@ -361,8 +360,7 @@ fn pov_curve(pov: &str, size: u32, threads: usize) -> Result<Vec<Point>, String>
     let mut all = Vec::new();
     for &depth in &pov_aa::DEPTHS {
         for &t in &pov_aa::THRESHOLDS {
-            // Best of up to MOST_RUNS trace times within RUNS_WITHIN_S, as ours; the image
-            // is the same each time.
+            // Timed as ours are (the image is the same each time).
             let mut best = run(t, depth)?;
             let mut spent = best.seconds;
             for _ in 1..MOST_RUNS {
