@@ -14,20 +14,24 @@
 //! its estimate is exact whatever the count). (c)'s RMSE over those pixels, less the
 //! reference's own error there (a quarter of the halves' squared difference), is what E
 //! promises of each pixel, and is reported beside the whole image's RMSE.
+//!
+//! [`reference`] makes that reference and measures against it; [`report`] writes the tables.
 
-use super::accuracy::{cases as accuracy_cases, errors, render_with, world, AccuracyError};
+use super::accuracy::{cases as accuracy_cases, errors, world, AccuracyError};
 use super::plot::{loglog, Labels, Series};
 use super::pov_aa;
 use crate::accel::{Accel, AccelOptions};
 use crate::geometry::Vec3;
 use crate::render::adaptive::{error_stats, raised_samples, Adaptive};
-use crate::render::{render_image_summarized, trace_pixel, Progress, RenderOptions};
+use crate::render::{render_image_summarized, Progress, RenderOptions};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
 
+mod reference;
 mod report;
+pub use reference::Reference;
 
 /// Reference streams start here (disjoint from every measured stream).
 const REFERENCE_STREAMS: u32 = 1 << 24;
@@ -146,79 +150,6 @@ fn cases(size: u32) -> Result<Vec<Case>, AccuracyError> {
     Ok(out)
 }
 
-/// The converged image a method's error is measured against.
-pub struct Reference {
-    /// The mean of the two halves.
-    pub image: Vec<Vec3>,
-    /// Pixels whose halves differ: those that carry error.
-    pub varying: Vec<bool>,
-    /// The reference's own RMSE over the varying pixels (half the halves' RMSE there).
-    pub own_rmse: f64,
-    /// Half the difference of the halves: the reference's own error, pixel by pixel, as
-    /// likely as not.
-    half_diff: Vec<Vec3>,
-}
-
-impl Reference {
-    /// Two halves of `samples` from disjoint stratified streams above every measured one.
-    fn render(scene: &Scene, accel: &Accel, threads: usize, samples: u32) -> Reference {
-        let half = (samples / 2).max(1);
-        let first = REFERENCE_STREAMS;
-        let a = render_with(scene, accel, threads, &|tr, cam, xy| {
-            trace_pixel(tr, cam, xy, first, half)
-        });
-        let b = render_with(scene, accel, threads, &|tr, cam, xy| {
-            trace_pixel(tr, cam, xy, first + half, half)
-        });
-        Reference::of_halves(&a, &b)
-    }
-
-    /// The reference made of halves `a` and `b`.
-    pub fn of_halves(a: &[Vec3], b: &[Vec3]) -> Reference {
-        let image: Vec<Vec3> = a.iter().zip(b).map(|(a, b)| (*a + *b) / 2.0).collect();
-        let varying: Vec<bool> = a.iter().zip(b).map(|(a, b)| a != b).collect();
-        let own_rmse = masked_rmse(a, b, &varying) / 2.0;
-        let half_diff = a.iter().zip(b).map(|(a, b)| (*a - *b) / 2.0).collect();
-        Reference {
-            image,
-            varying,
-            own_rmse,
-            half_diff,
-        }
-    }
-
-    /// `image`'s RMSE over the varying pixels, less the reference's own error there.
-    pub fn varying_rmse(&self, image: &[Vec3]) -> f64 {
-        self.rmse_over(image, &self.varying)
-    }
-
-    /// `image`'s RMSE over the pixels `mask` picks, less the reference's own error there.
-    pub fn rmse_over(&self, image: &[Vec3], mask: &[bool]) -> f64 {
-        let m = masked_rmse(image, &self.image, mask);
-        let own = masked_rms(self.half_diff.iter().copied(), mask);
-        (m * m - own * own).max(0.0).sqrt()
-    }
-}
-
-/// RMSE of `a` against `b` over every channel of the pixels `mask` picks (0 if none).
-fn masked_rmse(a: &[Vec3], b: &[Vec3], mask: &[bool]) -> f64 {
-    masked_rms(a.iter().zip(b).map(|(a, b)| *a - *b), mask)
-}
-
-/// The root mean square of every channel of the `values` `mask` picks (0 if none).
-fn masked_rms(values: impl Iterator<Item = Vec3>, mask: &[bool]) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (v, _) in values.zip(mask).filter(|(_, &m)| m) {
-        sum += v.length_squared();
-        n += 3;
-    }
-    if n == 0 {
-        0.0
-    } else {
-        (sum / n as f64).sqrt()
-    }
-}
-
 /// One measured point of a method.
 #[derive(Clone, Copy, Debug)]
 pub struct Point {
@@ -253,6 +184,22 @@ const RUNS_WITHIN_S: f64 = 0.5;
 /// The most runs of one measured render.
 const MOST_RUNS: usize = 15;
 
+/// The best time of up to [`MOST_RUNS`] runs of `run` (which gives its seconds and what it
+/// made), running again while they took at most [`RUNS_WITHIN_S`] in all, and what the last
+/// run made.
+fn best_of_runs<T, E>(mut run: impl FnMut() -> Result<(f64, T), E>) -> Result<(f64, T), E> {
+    let (mut best, mut last) = run()?;
+    let mut spent = best;
+    for _ in 1..MOST_RUNS {
+        if spent > RUNS_WITHIN_S {
+            break;
+        }
+        let (s, made) = run()?;
+        (best, spent, last) = (best.min(s), spent + s, made);
+    }
+    Ok((best, last))
+}
+
 /// Best time of up to [`MOST_RUNS`] runs within [`RUNS_WITHIN_S`], the image `opts` give, the
 /// samples each pixel took and (rendering to an error) its own estimate of its RMSE, rendered as `sunray render` renders it (line by line, the
 /// background outside the scene's footprint not traced).
@@ -262,16 +209,8 @@ fn measure(scene: &Scene, accel: &Accel, threads: usize, opts: &RenderOptions) -
         let rendered = render_image_summarized(scene, accel, opts, threads, true, Progress::Hidden);
         (t.elapsed().as_secs_f64(), rendered)
     };
-    let (mut best, mut last) = render();
-    let mut spent = best;
-    for _ in 1..MOST_RUNS {
-        if spent > RUNS_WITHIN_S {
-            break;
-        }
-        let (s, rendered) = render();
-        (best, spent, last) = (best.min(s), spent + s, rendered);
-    }
-    let (film, _, summaries) = last;
+    let Ok::<_, std::convert::Infallible>((best, (film, _, summaries))) =
+        best_of_runs(|| Ok(render()));
     let estimated_rms = opts.adaptive.map(|a| error_stats(&summaries, &a).rms);
     let samples = if opts.adaptive.is_some() {
         summaries.iter().map(|p| p.samples).collect()
@@ -361,15 +300,8 @@ fn pov_curve(pov: &str, size: u32, threads: usize) -> Result<Vec<Point>, String>
     for &depth in &pov_aa::DEPTHS {
         for &t in &pov_aa::THRESHOLDS {
             // Timed as ours are (the image is the same each time).
-            let mut best = run(t, depth)?;
-            let mut spent = best.seconds;
-            for _ in 1..MOST_RUNS {
-                if spent > RUNS_WITHIN_S {
-                    break;
-                }
-                let again = run(t, depth)?.seconds;
-                (best.seconds, spent) = (best.seconds.min(again), spent + again);
-            }
+            let (seconds, mut best) = best_of_runs(|| run(t, depth).map(|r| (r.seconds, r)))?;
+            best.seconds = seconds;
             all.push(Point {
                 method: Method::Pov(t, depth),
                 seconds: best.seconds.max(1e-6),

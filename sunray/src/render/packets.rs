@@ -28,27 +28,20 @@ pub(crate) fn trace_pixels(
 ) -> [glam::DVec3; PACKET] {
     let mut sums = [glam::DVec3::ZERO; PACKET];
     for k in 0..count {
-        let mut rngs = ArrayVec::<SampleStream, PACKET>::new();
-        let mut rays = ArrayVec::<RayPre, PACKET>::new();
-        for x in xs.clone().take(PACKET) {
+        let eyes = xs.clone().take(PACKET).map(|x| {
             // As trace_sample and trace_sobol_sample make a sample's stream.
-            let (mut rng, n, index) = match sampler {
-                Sampler::Stratified => (SampleStream::stratified(x, y, k, k, count), count, k),
-                Sampler::Sobol => (SampleStream::sobol(x, y, 0, k), 1, 0),
-            };
-            rays.push(RayPre::new(eye_ray(
-                tracer.scene,
-                camera,
-                (x, y),
-                n,
-                index,
-                &mut rng,
-            )));
-            rngs.push(rng);
-        }
-        let mut colours = [Vec3::ZERO; PACKET];
-        tracer.trace_eye_packet(&rays, &mut rngs, &mut colours);
-        for (sum, c) in sums.iter_mut().zip(&colours[..rays.len()]) {
+            match sampler {
+                Sampler::Stratified => (
+                    (x, y),
+                    SampleStream::stratified(x, y, k, k, count),
+                    count,
+                    k,
+                ),
+                Sampler::Sobol => ((x, y), SampleStream::sobol(x, y, 0, k), 1, 0),
+            }
+        });
+        let (colours, traced) = trace_packet(tracer, camera, eyes);
+        for (sum, c) in sums.iter_mut().zip(&colours[..traced]) {
             *sum += *c;
         }
     }
@@ -71,24 +64,31 @@ pub(crate) fn trace_sobol_samples(
     first: u32,
     n: usize,
 ) -> [Vec3; PACKET] {
+    let eyes = (first..)
+        .take(n.min(PACKET))
+        // As trace_sobol_sample makes the sample's stream.
+        .map(|index| ((x, y), SampleStream::sobol(x, y, seed, index), 1, 0));
+    trace_packet(tracer, camera, eyes).0
+}
+
+/// The colours of up to [`PACKET`] eye rays traced as one packet, each given as its pixel,
+/// its stream and the `(count, index)` that place it in the pixel ([`eye_ray`]), and how many
+/// there were; entries past that are zero.
+fn trace_packet(
+    tracer: &mut Tracer,
+    camera: &Camera,
+    eyes: impl Iterator<Item = ((u32, u32), SampleStream, u32, u32)>,
+) -> ([Vec3; PACKET], usize) {
     let mut rngs = ArrayVec::<SampleStream, PACKET>::new();
     let mut rays = ArrayVec::<RayPre, PACKET>::new();
-    for index in (first..).take(n.min(PACKET)) {
-        // As trace_sobol_sample makes the sample's stream and ray.
-        let mut rng = SampleStream::sobol(x, y, seed, index);
-        rays.push(RayPre::new(eye_ray(
-            tracer.scene,
-            camera,
-            (x, y),
-            1,
-            0,
-            &mut rng,
-        )));
+    for (pixel, mut rng, count, index) in eyes.take(PACKET) {
+        let ray = eye_ray(tracer.scene, camera, pixel, count, index, &mut rng);
+        rays.push(RayPre::new(ray));
         rngs.push(rng);
     }
     let mut colours = [Vec3::ZERO; PACKET];
     tracer.trace_eye_packet(&rays, &mut rngs, &mut colours);
-    colours
+    (colours, rays.len())
 }
 
 #[cfg(test)]
