@@ -20,6 +20,9 @@
 # With SUNRAY_OLD=path, every round also runs that SunRay binary (before the new one), and a
 # last column gives POV-Ray's faster SDL against it: two SunRays against the same POV-Ray runs,
 # so a change of a few percent can be read through this machine's drift.
+# SUNRAY=target/pgo/sunray times the profile-guided build that deploy/pgo-build.sh makes (the
+# one PGO=1 deploy/build-image.sh puts in the farm's image); SUNRAY_OLD=target/release/sunray
+# beside it gives the plain build's column in the same rounds.
 # Usage: [REPEAT=5] [RES=512] [SCENES="db:size ..."] [SUNRAY=path] [SUNRAY_OLD=path]
 #        [HAINES_POV=dir]
 #        bench/pov/run.sh [OUTDIR]   (default OUTDIR: target/pov-bench)
