@@ -23,7 +23,7 @@ case $target in /*) ;; *) target="$(pwd)/$target" ;; esac
 pgo="$target/pgo"
 cpu=${PGO_TARGET_CPU:-x86-64-v3}
 data="$pgo/profiles"
-rm -rf "$data" "$pgo/train"
+rm -rf "$data" "$pgo/train" "$pgo/sunray"
 mkdir -p "$data" "$pgo/train"
 
 profdata="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin/llvm-profdata"
