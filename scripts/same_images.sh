@@ -9,7 +9,9 @@
 # (";"-separated, default "--samples 4 --sampler sobol;--target-error 0.05") set the runs.
 # Prints one line per render and exits 1 at the end if any image differs or any render failed,
 # naming them; 0 if every image is the same. deploy/pgo-build.sh uses it to check that a
-# profile-guided build draws exactly what the plain build draws.
+# profile-guided build draws exactly what the plain build draws. (bench/ab.sh also says whether
+# two builds' images match, as a column beside its timings of the full-size scenes; this is
+# the quick check, over more options, that fails.)
 set -euo pipefail
 if [ $# -ne 2 ]; then
   echo "usage: scripts/same_images.sh REFERENCE_SUNRAY CANDIDATE_SUNRAY" >&2
