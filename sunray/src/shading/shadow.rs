@@ -15,16 +15,12 @@ use super::hall::{FlatFace, Tracer};
 use crate::accel::Accel;
 use crate::geometry::{offset_from, Primitives, Ray, RayPre, Real, Vec3, OFFSET_RELATIVE};
 use crate::scene::Scene;
-use arrayvec::ArrayVec;
 use smallvec::SmallVec;
 use std::cell::{Cell, RefCell};
 
 /// A shadow ray whose light is filtered below this (in every channel) is blocked: it could
 /// not change a pixel by more than a millionth of the light's intensity.
 pub const NEGLIGIBLE: Real = 1e-6;
-
-/// The most roots a primitive has along a line (a quadric's two; a polygon's one), with room.
-const MAX_ROOTS: usize = 4;
 
 /// Crossings a walk keeps without allocating: a shadow ray through two glass spheres
 /// crosses four surfaces; one that meets more spills to the heap.
@@ -80,7 +76,8 @@ impl<'a> Crossings<'a> {
         let mut at = self.at.borrow_mut();
         let mut filter = self.filter.get();
         let origin = self.ray.ray.origin.abs().max_element();
-        for t in roots(&self.scene.prims, i, t, self.ray, self.t_max, &self.tests) {
+        let (first, further) = roots(&self.scene.prims, i, t, self.ray, self.t_max, &self.tests);
+        for t in std::iter::once(first).chain(further) {
             let scale = origin.max(self.ray.ray.at(t).abs().max_element());
             let same_place = 4.0 * OFFSET_RELATIVE * scale;
             if at.iter().any(|&u| (u - t).abs() <= same_place) {
@@ -105,9 +102,10 @@ impl<'a> Crossings<'a> {
     }
 }
 
-/// Where primitive `i` meets `ray` in `(0, t_max)`, nearest first, `first` the nearest (found
-/// by the walk's own test): each further root is found from just past the last one (a
-/// quadric has two; a flat primitive one, so the walk's test was all).
+/// Where primitive `i` meets `ray` in `(0, t_max)`: at `first` (found by the walk's own
+/// test) and, on a quadric, at the further root if there is one, found from just past the
+/// first (a quadric meets a line at most twice, clipping only removes roots; a flat primitive
+/// once, so the walk's test was all).
 fn roots(
     prims: &Primitives,
     i: u32,
@@ -115,22 +113,15 @@ fn roots(
     ray: &RayPre,
     t_max: Real,
     tests: &Cell<u64>,
-) -> ArrayVec<Real, MAX_ROOTS> {
-    let mut found = ArrayVec::new();
-    found.push(first);
-    let most = if prims.is_planar(i) { 1 } else { MAX_ROOTS };
-    let mut t = first;
-    while found.len() < most {
-        tests.set(tests.get() + 1);
-        match prims.intersect(i, ray, t, t_max) {
-            Some(next) if next > t => {
-                found.push(next);
-                t = next;
-            }
-            _ => break,
-        }
+) -> (Real, Option<Real>) {
+    if prims.is_planar(i) {
+        return (first, None);
     }
-    found
+    tests.set(tests.get() + 1);
+    let further = prims
+        .intersect(i, ray, first, t_max)
+        .filter(|&next| next > first);
+    (first, further)
 }
 
 impl Tracer<'_> {
