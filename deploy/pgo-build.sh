@@ -7,8 +7,10 @@
 # 1. builds sunray instrumented (-Cprofile-generate) in target/pgo/generate;
 # 2. runs it on a training set it makes itself: every SPD database at a size below the
 #    benchmarks' (rendered plain, with 4 Sobol samples and to an error), and the accuracy
-#    scenes (area light, gloss, depth of field) at 32x32, so no SPD scene of bench/pov/run.sh
-#    is trained on;
+#    scenes (area light, gloss, depth of field; `sunray bench scenes`) at 32x32, stratified,
+#    Sobol and to an error, so no SPD scene of bench/pov/run.sh is trained on. Every training
+#    run is a fixed amount of work on one thread, so two trainings count the same in all a
+#    render runs per pixel (only std's randomly seeded hash tables probe differently);
 # 3. merges the counts with llvm-profdata (rustup's llvm-tools component, installed if missing)
 #    and builds again with -Cprofile-use in target/pgo/use;
 # 4. checks with scripts/same_images.sh that the guided build writes byte-identical images to
@@ -50,8 +52,13 @@ for spec in tetra:5 mount:5 balls:3 gears:3 rings:5 tree:9 teapot:4 lattice:8 sh
     "$gen" render "$train/$db.nff" --resolution 192x192 --threads 1 -q $opts -o "$train/out.png"
   done
 done
-"$gen" bench accuracy --accuracy-resolution 32 --max-samples 16 --reference-samples 64 \
-  --threads 1 --out-dir "$train/accuracy" >/dev/null
+"$gen" bench scenes --accuracy-resolution 32 --out-dir "$train/accuracy" >/dev/null
+for scene in "$train"/accuracy/*.yari; do
+  for opts in "--samples 16" "--samples 16 --sampler sobol" "--target-error 0.02 --max-samples 64"; do
+    # shellcheck disable=SC2086 # the options are words
+    "$gen" render "$scene" --threads 1 -q $opts -o "$train/out.png"
+  done
+done
 
 echo "3/4 guided build" >&2
 "$profdata" merge -o "$pgo/sunray.profdata" "$data"

@@ -272,3 +272,53 @@ fn a_target_error_reports_its_error_and_writes_a_samples_map() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn bench_scenes_writes_the_accuracy_scenes_that_render_renders() {
+    let d = tmp("bench-scenes");
+    let out = sunray()
+        .args([
+            "bench",
+            "scenes",
+            "--accuracy-resolution",
+            "24",
+            "--out-dir",
+        ])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let colours = yari::colour::ColourTable::builtin();
+    for (name, _, text) in sunray::bench::accuracy::cases() {
+        let file = d.join(format!("{name}.yari"));
+        assert!(String::from_utf8_lossy(&out.stdout).contains(&*file.to_string_lossy()));
+        let read = yari::load::load_path(&file, &colours).unwrap().world;
+        assert_eq!(
+            read,
+            sunray::bench::accuracy::world(name, text, 24).unwrap(),
+            "{name}"
+        );
+        let png = d.join(format!("{name}.png"));
+        let st = sunray()
+            .args(["render", "-q", "--samples", "2", "--threads", "1"])
+            .arg(&file)
+            .arg("-o")
+            .arg(&png)
+            .status()
+            .unwrap();
+        assert!(st.success(), "{name}");
+        let img = image::open(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (24, 24), "{name}");
+    }
+    let bad = sunray()
+        .args(["bench", "scenes", "--accuracy-resolution", "0", "--out-dir"])
+        .arg(d.join("zero"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(!d.join("zero").exists());
+}

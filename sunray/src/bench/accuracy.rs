@@ -105,12 +105,27 @@ pub fn scene(name: &'static str, text: &str, size: u32) -> Result<Scene, Accurac
     Ok(Scene::new(world(name, text, size)?))
 }
 
+/// The YARI source of the benchmark scene `text` at `size x size`: what [`world`] compiles.
+pub fn scene_source(text: &str, size: u32) -> String {
+    format!("resolution({size}, {size});\n{text}\n")
+}
+
+/// Every benchmark scene at `size x size` as a file to write: (`NAME.yari`, its YARI source).
+/// `sunray bench scenes` writes them, so a person can render what the benchmark measures, and
+/// deploy/pgo-build.sh trains on them with plain renders (the same counts every time, where
+/// the benchmark repeats its runs by the clock).
+pub fn scene_files(size: u32) -> Vec<(String, String)> {
+    cases()
+        .into_iter()
+        .map(|(name, _, text)| (format!("{name}.yari"), scene_source(text, size)))
+        .collect()
+}
+
 /// The world of [`scene`], before it becomes primitives (what `sunray convert` writes).
 pub fn world(name: &'static str, text: &str, size: u32) -> Result<World, AccuracyError> {
-    let full = format!("resolution({size}, {size});\n{text}");
     let loaded = yari::load::load_str(
         name,
-        full,
+        scene_source(text, size),
         yari::load::InputKind::Yari,
         &yari::colour::ColourTable::builtin(),
     )

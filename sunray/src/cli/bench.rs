@@ -1,7 +1,8 @@
 //! `sunray bench table41|table42|throughput|build`: the thesis's tables with our numbers;
 //! `sunray bench accuracy|precision|features`: error against time, f32 against f64, and what a
-//! scene pays for (docs/accuracy.md); `sunray bench limit`: eye + shadow rays without shading,
-//! beside Embree's single-ray kernels (bench/limit/run.sh).
+//! scene pays for (docs/accuracy.md); `sunray bench scenes`: accuracy's scenes as YARI files;
+//! `sunray bench limit`: eye + shadow rays without shading, beside Embree's single-ray kernels
+//! (bench/limit/run.sh).
 
 use crate::accel::AccelKind;
 use clap::{Args, ValueEnum};
@@ -22,6 +23,9 @@ pub enum Which {
     /// Error against time of antialiasing, penumbra, gloss and depth of field at 1, 2, 4, ...
     /// samples per pixel; writes --out-dir/accuracy.png (log-log plot).
     Accuracy,
+    /// The accuracy scenes (edges, penumbra, gloss, depth of field) as YARI at
+    /// --accuracy-resolution, written to --out-dir/NAME.yari: to render by hand.
+    Scenes,
     /// Time to reach RMSE 0.01, 0.005 and 0.002 with stratified, Sobol and adaptive
     /// sampling (and POV-Ray's +A where `povray` runs), and the RMSE of each at equal time;
     /// writes --out-dir/to_error.md and a plot per scene, --out-dir/to_error-SCENE.png.
@@ -61,8 +65,8 @@ pub struct BenchArgs {
     /// Triangles for `build`.
     #[arg(long, default_value_t = 1_000_000)]
     pub triangles: usize,
-    /// accuracy: image size (square).
-    #[arg(long, default_value_t = 128)]
+    /// accuracy, to-error, scenes: image size (square).
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..))]
     pub accuracy_resolution: u32,
     /// accuracy: the largest sample count measured (1, 2, 4, ... up to this).
     #[arg(long, default_value_t = 256)]
@@ -82,7 +86,7 @@ pub struct BenchArgs {
     /// memory: also measure tetra's triangles as smooth triangles (vertex normals).
     #[arg(long)]
     pub smooth: bool,
-    /// accuracy: where to write accuracy.png and accuracy.md.
+    /// accuracy, to-error, scenes: where to write their files.
     #[arg(long, default_value = "bench/results")]
     pub out_dir: std::path::PathBuf,
     /// limit: the scene (YARI, NFF, ...).
@@ -144,6 +148,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             )?;
             crate::cli::convert::write_output(Some(&args.out_dir.join("accuracy.md")), &text)?;
             format!("{text}\nplot: {}\n", plot.display())
+        }
+        Which::Scenes => {
+            std::fs::create_dir_all(&args.out_dir)?;
+            let mut written = String::new();
+            for (file, source) in crate::bench::accuracy::scene_files(args.accuracy_resolution) {
+                let path = args.out_dir.join(file);
+                crate::cli::convert::write_output(Some(&path), &source)?;
+                written += &format!("{}\n", path.display());
+            }
+            written
         }
         Which::ToError => {
             std::fs::create_dir_all(&args.out_dir)?;
