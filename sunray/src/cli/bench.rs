@@ -110,32 +110,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         Which::Table41 => crate::bench::table41(&args.sizes, args.resolution)?,
         Which::Table42 => crate::bench::table42(args.resolution)?,
         Which::Throughput => crate::bench::throughput(args.resolution, threads)?,
-        Which::Build => {
-            let mut s = String::new();
-            for kind in [AccelKind::Bvh, AccelKind::Octree] {
-                let (n, secs) = crate::bench::build_big(args.triangles, kind);
-                s += &format!(
-                    "{:>8}: {n} triangles, scene + accelerator built in {secs:.3} s\n",
-                    kind.name()
-                );
-            }
-            let (built, read, bytes) = crate::bench::bvh_cache_big(args.triangles)?;
-            s += &format!(
-                "     bvh: built and kept in a host cache in {built:.3} s ({:.1} MB); \
-                 read back and checked in {read:.3} s ({:.1}x faster)\n",
-                bytes as f64 / 1e6,
-                built / read.max(1e-9)
-            );
-            let (kept, decoded, mapped) = crate::bench::prepared_big(args.triangles)
-                .map_err(|e| anyhow::anyhow!("prepared scene: {e}"))?;
-            s += &format!(
-                "prepared scene: kept by a first worker in {kept:.3} s; a later worker's scene \
-                 ready: decoded + cached BVH read {decoded:.3} s, mapped {mapped:.4} s ({:.0}x faster)\n",
-                decoded / mapped.max(1e-9)
-            );
-            s += &format!("peak resident memory: {:.0} MiB\n", peak_rss_mib());
-            s
-        }
+        Which::Build => build(args.triangles)?,
         Which::Accuracy => {
             std::fs::create_dir_all(&args.out_dir)?;
             let plot = args.out_dir.join("accuracy.png");
@@ -206,6 +181,35 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     };
     print!("{text}");
     Ok(ExitCode::SUCCESS)
+}
+
+/// `sunray bench build`: the accelerators' build times for `triangles` triangles, a host
+/// cache's BVH read back, a prepared scene kept and mapped, and the peak memory.
+fn build(triangles: usize) -> anyhow::Result<String> {
+    let mut s = String::new();
+    for kind in [AccelKind::Bvh, AccelKind::Octree] {
+        let (n, secs) = crate::bench::build_big(triangles, kind);
+        s += &format!(
+            "{:>8}: {n} triangles, scene + accelerator built in {secs:.3} s\n",
+            kind.name()
+        );
+    }
+    let (built, read, bytes) = crate::bench::bvh_cache_big(triangles)?;
+    s += &format!(
+        "     bvh: built and kept in a host cache in {built:.3} s ({:.1} MB); \
+         read back and checked in {read:.3} s ({:.1}x faster)\n",
+        bytes as f64 / 1e6,
+        built / read.max(1e-9)
+    );
+    let (kept, decoded, mapped) = crate::bench::prepared_big(triangles)
+        .map_err(|e| anyhow::anyhow!("prepared scene: {e}"))?;
+    s += &format!(
+        "prepared scene: kept by a first worker in {kept:.3} s; a later worker's scene \
+         ready: decoded + cached BVH read {decoded:.3} s, mapped {mapped:.4} s ({:.0}x faster)\n",
+        decoded / mapped.max(1e-9)
+    );
+    s += &format!("peak resident memory: {:.0} MiB\n", peak_rss_mib());
+    Ok(s)
 }
 
 /// Peak resident set size of this process (getrusage's ru_maxrss, KiB on Linux).
