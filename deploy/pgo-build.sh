@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A profile-guided (PGO) build of `sunray`: the same code and the same images, about 10% fewer
-# instructions on Haines's SPD scenes (2-16%; docs/renderer.md, "A profile-guided build").
+# instructions on Haines's SPD scenes (2-15%; docs/renderer.md, "A profile-guided build").
 #
 #   deploy/pgo-build.sh        # writes target/pgo/sunray
 #

@@ -76,8 +76,8 @@ impl<'a> Crossings<'a> {
         let mut at = self.at.borrow_mut();
         let mut filter = self.filter.get();
         let origin = self.ray.ray.origin.abs().max_element();
-        let (first, further) = roots(&self.scene.prims, i, t, self.ray, self.t_max, &self.tests);
-        for t in std::iter::once(first).chain(further) {
+        let further = further_root(&self.scene.prims, i, t, self.ray, self.t_max, &self.tests);
+        for t in std::iter::once(t).chain(further) {
             let scale = origin.max(self.ray.ray.at(t).abs().max_element());
             let same_place = 4.0 * OFFSET_RELATIVE * scale;
             if at.iter().any(|&u| (u - t).abs() <= same_place) {
@@ -102,26 +102,25 @@ impl<'a> Crossings<'a> {
     }
 }
 
-/// Where primitive `i` meets `ray` in `(0, t_max)`: at `first` (found by the walk's own
-/// test) and, on a quadric, at the further root if there is one, found from just past the
-/// first (a quadric meets a line at most twice, clipping only removes roots; a flat primitive
-/// once, so the walk's test was all).
-fn roots(
+/// Where primitive `i` meets `ray` again in `(first, t_max)`, `first` its nearest crossing
+/// (found by the walk's own test): a quadric's further root, searched from just past `first`
+/// (a quadric meets a line at most twice, clipping only removes roots); never for a flat
+/// primitive, which meets it once.
+fn further_root(
     prims: &Primitives,
     i: u32,
     first: Real,
     ray: &RayPre,
     t_max: Real,
     tests: &Cell<u64>,
-) -> (Real, Option<Real>) {
+) -> Option<Real> {
     if prims.is_planar(i) {
-        return (first, None);
+        return None;
     }
     tests.set(tests.get() + 1);
-    let further = prims
+    prims
         .intersect(i, ray, first, t_max)
-        .filter(|&next| next > first);
-    (first, further)
+        .filter(|&next| next > first)
 }
 
 impl Tracer<'_> {
